@@ -1,0 +1,329 @@
+//! The platform's design: joint positions and leg stroke, validated on construction.
+
+use crate::{KinematicsError, Pose, LEG_COUNT, SINGULARITY_THRESHOLD};
+use core::f64::consts::PI;
+use nalgebra::Vector3;
+
+/// Minimum and maximum leg length (joint centre to joint centre), metres.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StrokeLimits {
+    /// Shortest allowed leg length, m.
+    pub min_length_m: f64,
+    /// Longest allowed leg length, m.
+    pub max_length_m: f64,
+}
+
+impl StrokeLimits {
+    /// Middle of the stroke, m.
+    pub fn mid_m(&self) -> f64 {
+        0.5 * (self.min_length_m + self.max_length_m)
+    }
+}
+
+/// A validated 6-6 Stewart platform design.
+///
+/// Leg i joins base joint bᵢ (in B) to plate joint pᵢ (in P). Construction refuses designs
+/// that are degenerate or singular at their home pose, so every `Geometry` can be moved.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Geometry {
+    base_joints_m: [Vector3<f64>; LEG_COUNT],
+    plate_joints_m: [Vector3<f64>; LEG_COUNT],
+    stroke: StrokeLimits,
+    /// Length that makes torque columns of the Jacobian comparable with force columns.
+    characteristic_length_m: f64,
+    home_height_m: f64,
+}
+
+/// Joints closer than this are treated as coincident, m.
+const MIN_JOINT_SPACING_M: f64 = 1e-6;
+
+impl Geometry {
+    /// The usual design: joints in three pairs on each circle (corrected Eq. 1–2, see ERRATA).
+    ///
+    /// Base pair k is centred at 120°·k, plate pair k at 120°·k + 60°; the joints of a pair are
+    /// `*_pair_separation_rad` apart. Leg 2k+1 joins the base joint at 120°k + s_b/2 to the
+    /// plate joint at 120°k + 60° − s_p/2, leg 2k the base joint at 120°k − s_b/2 to the plate
+    /// joint at 120°k − 60° + s_p/2: each leg reaches to the nearest joint of the neighbouring
+    /// plate pair, which gives the inclined legs that make the mechanism stiff in yaw.
+    pub fn from_radii(
+        base_radius_m: f64,
+        plate_radius_m: f64,
+        base_pair_separation_rad: f64,
+        plate_pair_separation_rad: f64,
+        stroke: StrokeLimits,
+    ) -> Result<Self, KinematicsError> {
+        positive("base radius must be positive and finite", base_radius_m)?;
+        positive("plate radius must be positive and finite", plate_radius_m)?;
+        separation(
+            "base pair separation must lie in (0°, 120°)",
+            base_pair_separation_rad,
+        )?;
+        separation(
+            "plate pair separation must lie in (0°, 120°)",
+            plate_pair_separation_rad,
+        )?;
+        let on_circle = |radius: f64, angle: f64| {
+            Vector3::new(radius * libm::cos(angle), radius * libm::sin(angle), 0.0)
+        };
+        let third = 2.0 * PI / 3.0;
+        let mut base = [Vector3::zeros(); LEG_COUNT];
+        let mut plate = [Vector3::zeros(); LEG_COUNT];
+        for k in 0..3 {
+            let centre = third * k as f64;
+            base[2 * k] = on_circle(base_radius_m, centre - 0.5 * base_pair_separation_rad);
+            base[2 * k + 1] = on_circle(base_radius_m, centre + 0.5 * base_pair_separation_rad);
+            plate[2 * k] = on_circle(
+                plate_radius_m,
+                centre - PI / 3.0 + 0.5 * plate_pair_separation_rad,
+            );
+            plate[2 * k + 1] = on_circle(
+                plate_radius_m,
+                centre + PI / 3.0 - 0.5 * plate_pair_separation_rad,
+            );
+        }
+        Self::from_points(base, plate, stroke)
+    }
+
+    /// A design from six explicit joint positions on each body (base joints in B, plate joints
+    /// in P), for rigs that are not perfectly symmetric.
+    pub fn from_points(
+        base_joints_m: [Vector3<f64>; LEG_COUNT],
+        plate_joints_m: [Vector3<f64>; LEG_COUNT],
+        stroke: StrokeLimits,
+    ) -> Result<Self, KinematicsError> {
+        if !all_finite(&base_joints_m) {
+            return Err(KinematicsError::NonFinite {
+                what: "base joint positions",
+            });
+        }
+        if !all_finite(&plate_joints_m) {
+            return Err(KinematicsError::NonFinite {
+                what: "plate joint positions",
+            });
+        }
+        if !(stroke.min_length_m.is_finite()
+            && stroke.max_length_m.is_finite()
+            && stroke.min_length_m > 0.0
+            && stroke.min_length_m < stroke.max_length_m)
+        {
+            return Err(KinematicsError::InvalidStroke {
+                min_length_m: stroke.min_length_m,
+                max_length_m: stroke.max_length_m,
+            });
+        }
+        distinct(&base_joints_m, true)?;
+        distinct(&plate_joints_m, false)?;
+        let characteristic_length_m =
+            plate_joints_m.iter().map(|p| p.xy().norm()).sum::<f64>() / LEG_COUNT as f64;
+        if characteristic_length_m < MIN_JOINT_SPACING_M {
+            return Err(KinematicsError::InvalidDimension {
+                what: "plate joints must not all lie on the plate's z axis",
+                value: characteristic_length_m,
+            });
+        }
+        let mut geometry = Self {
+            base_joints_m,
+            plate_joints_m,
+            stroke,
+            characteristic_length_m,
+            home_height_m: 0.0,
+        };
+        geometry.home_height_m = geometry.solve_home_height()?;
+        let inverse_condition = geometry.inverse_condition_number(&geometry.home_pose());
+        if inverse_condition.is_nan() || inverse_condition < SINGULARITY_THRESHOLD {
+            return Err(KinematicsError::ArchitecturallySingular { inverse_condition });
+        }
+        Ok(geometry)
+    }
+
+    /// Base joint positions bᵢ, in B, m.
+    pub fn base_joints_m(&self) -> &[Vector3<f64>; LEG_COUNT] {
+        &self.base_joints_m
+    }
+
+    /// Plate joint positions pᵢ, in P, m.
+    pub fn plate_joints_m(&self) -> &[Vector3<f64>; LEG_COUNT] {
+        &self.plate_joints_m
+    }
+
+    /// Leg stroke limits.
+    pub fn stroke(&self) -> StrokeLimits {
+        self.stroke
+    }
+
+    /// Length used to scale rotations against translations (mean plate joint radius), m.
+    pub fn characteristic_length_m(&self) -> f64 {
+        self.characteristic_length_m
+    }
+
+    /// The level, centred pose whose mean leg length is mid-stroke.
+    pub fn home_pose(&self) -> Pose {
+        Pose::new(
+            Vector3::new(0.0, 0.0, self.home_height_m),
+            nalgebra::Rotation3::identity(),
+        )
+    }
+
+    /// Height z of the level, centred pose whose mean leg length is the mid-stroke length.
+    ///
+    /// Mean length is monotonic in z for z above every joint, so bisection is exact and safe.
+    fn solve_home_height(&self) -> Result<f64, KinematicsError> {
+        let target = self.stroke.mid_m();
+        let mean_length = |z: f64| {
+            let offset = Vector3::new(0.0, 0.0, z);
+            let mut sum = 0.0;
+            for (b, p) in self.base_joints_m.iter().zip(self.plate_joints_m.iter()) {
+                sum += (offset + p - b).norm();
+            }
+            sum / LEG_COUNT as f64
+        };
+        let lowest = self
+            .base_joints_m
+            .iter()
+            .zip(self.plate_joints_m.iter())
+            .map(|(b, p)| b.z - p.z)
+            .fold(f64::NEG_INFINITY, f64::max);
+        let mut lo = lowest;
+        if mean_length(lo) > target {
+            return Err(KinematicsError::HomeUnreachable);
+        }
+        let mut hi = lowest + target + 1.0;
+        for _ in 0..200 {
+            let mid = 0.5 * (lo + hi);
+            if mean_length(mid) < target {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        Ok(0.5 * (lo + hi))
+    }
+}
+
+fn positive(what: &'static str, value: f64) -> Result<(), KinematicsError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(KinematicsError::InvalidDimension { what, value })
+    }
+}
+
+fn separation(what: &'static str, value: f64) -> Result<(), KinematicsError> {
+    if value.is_finite() && value > 0.0 && value < 2.0 * PI / 3.0 {
+        Ok(())
+    } else {
+        Err(KinematicsError::InvalidDimension { what, value })
+    }
+}
+
+fn all_finite(points: &[Vector3<f64>; LEG_COUNT]) -> bool {
+    points.iter().all(|p| p.iter().all(|v| v.is_finite()))
+}
+
+fn distinct(points: &[Vector3<f64>; LEG_COUNT], on_base: bool) -> Result<(), KinematicsError> {
+    for first in 0..LEG_COUNT {
+        for second in first + 1..LEG_COUNT {
+            if (points[first] - points[second]).norm() < MIN_JOINT_SPACING_M {
+                return Err(KinematicsError::CoincidentJoints {
+                    on_base,
+                    first,
+                    second,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ErrorKind;
+
+    fn stroke() -> StrokeLimits {
+        StrokeLimits {
+            min_length_m: 1.5,
+            max_length_m: 2.3,
+        }
+    }
+
+    #[test]
+    fn home_pose_puts_every_leg_at_mid_stroke() {
+        let g = Geometry::from_radii(1.5, 1.2, 0.35, 0.35, stroke()).unwrap();
+        let lengths = g.leg_lengths(&g.home_pose());
+        for l in lengths.iter() {
+            assert!((l - 1.9).abs() < 1e-12, "leg length {l}");
+        }
+    }
+
+    #[test]
+    fn paper_printed_angles_are_refused_as_singular() {
+        // Eq. 1–2 as printed: the same six angles, spread over 150°, on both circles.
+        let mut base = [Vector3::zeros(); LEG_COUNT];
+        let mut plate = [Vector3::zeros(); LEG_COUNT];
+        for i in 0..LEG_COUNT {
+            let a = i as f64 * PI / 6.0;
+            base[i] = Vector3::new(1.5 * a.cos(), 1.5 * a.sin(), 0.0);
+            plate[i] = Vector3::new(1.2 * a.cos(), 1.2 * a.sin(), 0.0);
+        }
+        let err = Geometry::from_points(base, plate, stroke()).unwrap_err();
+        assert!(
+            matches!(err, KinematicsError::ArchitecturallySingular { .. }),
+            "{err:?}"
+        );
+        assert_eq!(err.kind(), ErrorKind::InvalidGeometry);
+    }
+
+    #[test]
+    fn degenerate_designs_say_why() {
+        assert!(matches!(
+            Geometry::from_radii(-1.0, 1.2, 0.3, 0.3, stroke()),
+            Err(KinematicsError::InvalidDimension { .. })
+        ));
+        assert!(matches!(
+            Geometry::from_radii(1.5, 1.2, 0.0, 0.3, stroke()),
+            Err(KinematicsError::InvalidDimension { .. })
+        ));
+        assert!(matches!(
+            Geometry::from_radii(
+                1.5,
+                1.2,
+                0.3,
+                0.3,
+                StrokeLimits {
+                    min_length_m: 2.0,
+                    max_length_m: 1.0
+                }
+            ),
+            Err(KinematicsError::InvalidStroke { .. })
+        ));
+        assert!(matches!(
+            Geometry::from_radii(f64::NAN, 1.2, 0.3, 0.3, stroke()),
+            Err(KinematicsError::InvalidDimension { .. })
+        ));
+        // Circles far apart compared with the stroke: no pose reaches mid-stroke.
+        assert_eq!(
+            Geometry::from_radii(10.0, 1.0, 0.3, 0.3, stroke()),
+            Err(KinematicsError::HomeUnreachable)
+        );
+        let mut base = [Vector3::zeros(); LEG_COUNT];
+        for (i, b) in base.iter_mut().enumerate() {
+            *b = Vector3::new(i as f64, 0.0, 0.0);
+        }
+        let mut plate = base;
+        plate[3] = plate[1];
+        assert!(matches!(
+            Geometry::from_points(base, plate, stroke()),
+            Err(KinematicsError::CoincidentJoints {
+                on_base: false,
+                first: 1,
+                second: 3
+            })
+        ));
+        let message = format!(
+            "{}",
+            Geometry::from_points(base, plate, stroke()).unwrap_err()
+        );
+        assert!(message.contains("plate joints 2 and 4"), "{message}");
+    }
+}
