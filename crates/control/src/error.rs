@@ -1,0 +1,145 @@
+//! The crate's one error type.
+
+use core::fmt;
+
+use crate::supervisor::Fault;
+
+/// Everything that can go wrong in the control crate, flat, `Copy`, with [`ControlError::kind`]
+/// for callers that only care about the category (like `embedded-hal`'s `Error::kind`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
+pub enum ControlError {
+    /// A configuration value is out of range.
+    InvalidConfig {
+        /// Which parameter (dotted path as in the CLI's TOML where one exists).
+        parameter: &'static str,
+        /// What it must satisfy.
+        reason: &'static str,
+    },
+    /// An input value is NaN or infinite.
+    NonFinite {
+        /// Which input.
+        what: &'static str,
+        /// Leg or component index (0 when the input is a scalar).
+        index: usize,
+    },
+    /// A time step is not finite and positive.
+    InvalidTimeStep {
+        /// The offending step, seconds.
+        dt_s: f64,
+    },
+    /// More sine components than a [`Trajectory`](crate::trajectory::Trajectory) holds.
+    TooManyComponents {
+        /// The capacity, [`MAX_COMPONENTS`](crate::trajectory::MAX_COMPONENTS).
+        max: usize,
+    },
+    /// The trajectory takes a leg outside its stroke.
+    StrokeViolation {
+        /// Trajectory time of the first violation, seconds.
+        time_s: f64,
+        /// Leg index, 0-based.
+        leg: usize,
+        /// Leg length there, metres.
+        length_m: f64,
+        /// The stroke limit it crossed, metres.
+        limit_m: f64,
+    },
+    /// The trajectory drives a leg faster than allowed.
+    LegSpeedViolation {
+        /// Trajectory time of the first violation, seconds.
+        time_s: f64,
+        /// Leg index, 0-based.
+        leg: usize,
+        /// Leg speed `|J·twist|ᵢ` there, m/s.
+        speed_m_s: f64,
+        /// The configured limit, m/s.
+        limit_m_s: f64,
+    },
+    /// The trajectory passes too close to a singular pose.
+    ConditioningViolation {
+        /// Trajectory time of the first violation, seconds.
+        time_s: f64,
+        /// Inverse condition number of the Jacobian there.
+        inverse_condition: f64,
+        /// The configured threshold.
+        threshold: f64,
+    },
+    /// The supervisor latched a fault (see [`Fault`]).
+    Faulted(Fault),
+}
+
+/// Coarse category of a [`ControlError`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ErrorKind {
+    /// Bad configuration: fix the config, nothing ran.
+    InvalidConfig,
+    /// Bad input data (non-finite values, non-positive time step).
+    InvalidInput,
+    /// A trajectory would violate stroke, speed or conditioning limits: nothing moved.
+    Infeasible,
+    /// The safety supervisor stopped the platform.
+    Faulted,
+}
+
+impl ControlError {
+    /// The error's category.
+    pub fn kind(&self) -> ErrorKind {
+        match self {
+            Self::InvalidConfig { .. } | Self::TooManyComponents { .. } => ErrorKind::InvalidConfig,
+            Self::NonFinite { .. } | Self::InvalidTimeStep { .. } => ErrorKind::InvalidInput,
+            Self::StrokeViolation { .. }
+            | Self::LegSpeedViolation { .. }
+            | Self::ConditioningViolation { .. } => ErrorKind::Infeasible,
+            Self::Faulted(_) => ErrorKind::Faulted,
+        }
+    }
+}
+
+impl fmt::Display for ControlError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::InvalidConfig { parameter, reason } => {
+                write!(f, "invalid configuration: {parameter} {reason}")
+            }
+            Self::NonFinite { what, index } => write!(f, "{what} [{index}] is not finite"),
+            Self::InvalidTimeStep { dt_s } => {
+                write!(f, "time step {dt_s} s is not finite and positive")
+            }
+            Self::TooManyComponents { max } => {
+                write!(f, "a trajectory holds at most {max} sine components")
+            }
+            Self::StrokeViolation {
+                time_s,
+                leg,
+                length_m,
+                limit_m,
+            } => write!(
+                f,
+                "trajectory leaves the stroke at t = {time_s:.4} s: leg {leg} length {length_m:.5} m \
+                 beyond limit {limit_m:.5} m"
+            ),
+            Self::LegSpeedViolation {
+                time_s,
+                leg,
+                speed_m_s,
+                limit_m_s,
+            } => write!(
+                f,
+                "trajectory too fast at t = {time_s:.4} s: leg {leg} speed {speed_m_s:.4} m/s \
+                 exceeds limit {limit_m_s:.4} m/s"
+            ),
+            Self::ConditioningViolation {
+                time_s,
+                inverse_condition,
+                threshold,
+            } => write!(
+                f,
+                "trajectory too close to a singularity at t = {time_s:.4} s: inverse condition \
+                 number {inverse_condition:.3e} below threshold {threshold:.3e}"
+            ),
+            Self::Faulted(fault) => write!(f, "supervisor fault: {fault}"),
+        }
+    }
+}
+
+impl core::error::Error for ControlError {}
