@@ -1,0 +1,110 @@
+//! The optional shared key: both sides tag every frame with HMAC-SHA256 under it.
+
+use std::fmt;
+use std::path::Path;
+
+use crate::codec::key_id;
+use crate::error::RigError;
+
+/// Shortest key accepted, bytes (128 bits).
+pub const MIN_KEY_LEN: usize = 16;
+
+/// A shared secret. Its `Debug` shows only the fingerprint.
+#[derive(Clone, PartialEq, Eq)]
+pub struct Key {
+    bytes: Vec<u8>,
+}
+
+impl Key {
+    /// A key from raw bytes, at least [`MIN_KEY_LEN`] long.
+    pub fn new(bytes: &[u8]) -> Result<Self, RigError> {
+        if bytes.len() < MIN_KEY_LEN {
+            return Err(RigError::config(
+                "key",
+                format!(
+                    "a key needs at least {MIN_KEY_LEN} bytes, got {}",
+                    bytes.len()
+                ),
+            ));
+        }
+        Ok(Self {
+            bytes: bytes.to_vec(),
+        })
+    }
+
+    /// A key from hex text (whitespace ignored), e.g. the output of `openssl rand -hex 32`.
+    pub fn from_hex(text: &str) -> Result<Self, RigError> {
+        let digits: Vec<u8> = text.bytes().filter(|b| !b.is_ascii_whitespace()).collect();
+        if digits.len() % 2 != 0 {
+            return Err(RigError::config("key", "odd number of hex digits"));
+        }
+        let nibble = |d: u8| -> Result<u8, RigError> {
+            (d as char)
+                .to_digit(16)
+                .map(|v| v as u8)
+                .ok_or_else(|| RigError::config("key", format!("not a hex digit: {:?}", d as char)))
+        };
+        let bytes = digits
+            .chunks_exact(2)
+            .map(|pair| Ok(nibble(pair[0])? << 4 | nibble(pair[1])?))
+            .collect::<Result<Vec<u8>, RigError>>()?;
+        Self::new(&bytes)
+    }
+
+    /// Reads a key file: the key in hex, at least 32 hex digits; whitespace ignored.
+    pub fn from_file(path: &Path) -> Result<Self, RigError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| RigError::io(format!("reading key file {}", path.display()), e))?;
+        Self::from_hex(&text).map_err(|e| match e {
+            RigError::Config { reason, .. } => {
+                RigError::config(path.display().to_string(), format!("bad key file: {reason}"))
+            }
+            other => other,
+        })
+    }
+
+    /// The secret bytes.
+    pub fn bytes(&self) -> &[u8] {
+        &self.bytes
+    }
+
+    /// The key's fingerprint as sent in `Hello` (see [`crate::codec::key_id`]).
+    pub fn id(&self) -> u32 {
+        key_id(&self.bytes)
+    }
+}
+
+impl fmt::Debug for Key {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "Key(id {:08x})", self.id())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hex_keys_parse_and_short_or_bad_ones_are_refused() {
+        let key = Key::from_hex("00112233 44556677\n8899aabb ccddeeff\n").unwrap();
+        assert_eq!(key.bytes()[..4], [0x00, 0x11, 0x22, 0x33]);
+        assert_eq!(key.bytes().len(), 16);
+        assert!(Key::from_hex("0011").is_err());
+        assert!(Key::from_hex("zz112233445566778899aabbccddeeff").is_err());
+        assert!(Key::from_hex("0112233445566778899aabbccddeeff").is_err());
+        assert!(!format!("{key:?}").contains("0011"));
+    }
+
+    #[test]
+    fn key_files_are_read_with_a_clear_error() {
+        let dir = std::env::temp_dir().join(format!("rig-key-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let good = dir.join("good.key");
+        std::fs::write(&good, "000102030405060708090a0b0c0d0e0f\n").unwrap();
+        assert_eq!(Key::from_file(&good).unwrap().bytes().len(), 16);
+        let missing = dir.join("missing.key");
+        let err = Key::from_file(&missing).unwrap_err().to_string();
+        assert!(err.contains("missing.key"), "{err}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

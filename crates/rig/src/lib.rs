@@ -1,0 +1,45 @@
+//! Hardware I/O for the Stewart rig: the wire protocol, its transports, the host backend and a
+//! rig emulator.
+//!
+//! * [`wire`] and [`codec`] are the protocol (documented byte by byte in `docs/protocol.md`).
+//!   They build without `std` and without an allocator (`default-features = false`) so that a
+//!   rig's firmware can share them.
+//! * With the default `std` feature: [`transport`] (UDP, serial), [`host::RigBackend`] (a
+//!   `control::io::Backend` talking to a rig), and [`emulator`] (any backend, e.g. the
+//!   simulator, served behind the protocol in real time with rig-side safety).
+//!
+//! Entry points for the command line: [`host::RigBackend::connect`] for `stewart rig` and
+//! [`emulator::serve`] (or [`emulator::Emulator::bind`] + [`emulator::Emulator::run`]) for
+//! `stewart emulate`.
+#![cfg_attr(all(not(feature = "std"), not(test)), no_std)]
+#![warn(missing_docs)]
+
+pub mod codec;
+pub mod wire;
+
+#[cfg(feature = "std")]
+pub mod convert;
+#[cfg(feature = "std")]
+pub mod emulator;
+#[cfg(feature = "std")]
+mod error;
+#[cfg(feature = "std")]
+pub mod host;
+#[cfg(feature = "std")]
+pub mod key;
+#[cfg(feature = "std")]
+pub mod stats;
+#[cfg(feature = "std")]
+pub mod transport;
+
+#[cfg(feature = "std")]
+pub use error::{ErrorKind, RigError};
+#[cfg(feature = "std")]
+pub use host::{RigBackend, RigOptions};
+#[cfg(feature = "std")]
+pub use key::Key;
+#[cfg(feature = "std")]
+pub use stats::LinkStats;
+
+#[cfg(all(test, feature = "std"))]
+mod loopback_tests;
