@@ -1,0 +1,43 @@
+//! Online estimation of a payload's ten inertial parameters — mass, centre of mass and full
+//! inertia tensor — on a Stewart platform, with honest uncertainty.
+//!
+//! Data flow of one sample (`OnlineEstimator::update`):
+//! leg forces + pose → [`wrench::measured`] → with the gyro and accelerometer →
+//! [`conditioning`] (filtered derivative, one low-pass for everything, lever arm) →
+//! [`regressor`] (Newton–Euler about the P origin, linear in θ) → rows weighted by their noise →
+//! [`rls`] (U-D factorised recursive least squares) → [`uncertainty`] (block-sandwich
+//! covariance, propagated to c and J_C) → [`Estimate`].
+//!
+//! θ = [m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz] about the P origin in P axes, with
+//! h = m·c and J_O = ∫(‖r‖²𝟙 − r rᵀ) dm (tensor entries; `docs/CONTRACTS.md`). The paper's
+//! six-parameter form (tensor about a known centre of mass, torque rows only) is available as
+//! [`ParameterSet::InertiaAboutKnownCom`].
+//!
+//! `no_std`, no allocation, no panics on any input: every sample is checked before it touches
+//! any state, and a bad one is rejected with an [`EstimatorError`] and counted.
+#![cfg_attr(not(test), no_std)]
+#![warn(missing_docs)]
+
+pub mod conditioning;
+mod error;
+mod estimate;
+pub mod filter;
+mod online;
+mod params;
+pub mod regressor;
+pub mod rls;
+pub mod uncertainty;
+pub mod wrench;
+
+#[cfg(test)]
+mod testkit;
+#[cfg(test)]
+mod tests;
+
+pub use error::{ErrorKind, EstimatorError};
+pub use estimate::{ConvergenceTolerances, Counts, Estimate, ParameterCovariance};
+pub use online::{EstimatorConfig, OnlineEstimator, Outcome, ParameterSet, Sample};
+pub use params::{
+    principal_of, Consistency, Inconsistency, InertialParameters, ParameterVector, Principal,
+    PARAMETER_COUNT,
+};

@@ -1,0 +1,376 @@
+//! The online estimator: one call per sample, allocation-free, a deterministic function of the
+//! sample stream and its configuration (re-running a log reproduces it bit for bit).
+
+use crate::conditioning::{Conditioned, Conditioner, ConditioningConfig, Step, MAX_ABS_SIGNAL};
+use crate::error::EstimatorError;
+use crate::estimate::{Counts, Estimate, ParameterCovariance};
+use crate::params::{InertialParameters, ParameterVector};
+use crate::regressor::{from_signals, inertia_columns};
+use crate::rls::Rls;
+use crate::uncertainty::ScoreCovariance;
+use crate::wrench::{measured, to_vector};
+use kinematics::{Geometry, Pose, Wrench};
+use nalgebra::{SMatrix, SVector, Vector3, Vector6};
+
+/// Which parameters are estimated.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ParameterSet {
+    /// All ten: m, h = m·c and J_O (six equations per sample).
+    Full,
+    /// The paper's six: the tensor about a known centre of mass, from the three torque
+    /// equations about it (τ_C = τ_O − c × F = J_C ω̇ + ω × (J_C ω)). The mass is used only to
+    /// report J_O and the force residuals; its sigma and the centre of mass's are zero.
+    InertiaAboutKnownCom {
+        /// Known mass, kg.
+        mass_kg: f64,
+        /// Known centre of mass in P, m (the paper's case: the origin).
+        com_m: Vector3<f64>,
+    },
+}
+
+/// Estimator settings. Re-running a log with the same settings reproduces the estimate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EstimatorConfig {
+    /// Platform design, for the leg-force → wrench map.
+    pub geometry: Geometry,
+    /// Nominal sample period, s.
+    pub sample_period_s: f64,
+    /// Low-pass cut-off, Hz, applied alike to every signal; `None` for none. Keep it well above
+    /// the excitation's highest frequency and well below Nyquist.
+    pub lowpass_cutoff_hz: Option<f64>,
+    /// Forgetting factor λ ∈ (0, 1]; 1 for a constant payload.
+    pub forgetting_factor: f64,
+    /// Ten parameters or the paper's six.
+    pub parameters: ParameterSet,
+    /// Expected one-sigma noise of each equation after conditioning, [Fx, Fy, Fz] in N and
+    /// [τx, τy, τz] in N·m; rows are divided by it. Sets the relative weights and the sigmas
+    /// reported before enough residual blocks exist; afterwards the residuals decide.
+    pub equation_sigma: Vector6<f64>,
+    /// Prior one-sigma of every parameter about zero, SI units (a weak prior: large).
+    pub prior_sigma: f64,
+    /// Accelerometer mounting point in P, m.
+    pub accelerometer_position_m: Vector3<f64>,
+    /// Samples before this time only warm the conditioning, s.
+    pub window_start_s: f64,
+    /// Samples after this time are ignored, s.
+    pub window_end_s: f64,
+    /// A longer step between samples restarts the conditioning, s.
+    pub max_gap_s: f64,
+    /// Samples per residual block of the covariance estimate; blocks must be long compared
+    /// with the filter's memory (≈ 1/f_c).
+    pub covariance_block_samples: u32,
+}
+
+impl EstimatorConfig {
+    /// Defaults: low-pass at 20 Hz (at most a fifth of the sample rate), λ = 1, all ten
+    /// parameters, equation sigmas 1 N and 0.2 N·m, prior sigma 1e4, accelerometer at the P
+    /// origin, no time window, gaps of more than 10 periods restart, covariance blocks of 4/f_c
+    /// (at least 20 samples).
+    pub fn new(geometry: Geometry, sample_period_s: f64) -> Self {
+        let rate_hz = 1.0 / sample_period_s;
+        let cutoff_hz = if rate_hz.is_finite() && rate_hz > 0.0 {
+            20.0f64.min(0.2 * rate_hz)
+        } else {
+            20.0
+        };
+        let block = libm::ceil(4.0 / (cutoff_hz * sample_period_s));
+        let block = if block.is_finite() { block.clamp(20.0, 1e6) as u32 } else { 20 };
+        Self {
+            geometry,
+            sample_period_s,
+            lowpass_cutoff_hz: Some(cutoff_hz),
+            forgetting_factor: 1.0,
+            parameters: ParameterSet::Full,
+            equation_sigma: Vector6::new(1.0, 1.0, 1.0, 0.2, 0.2, 0.2),
+            prior_sigma: 1e4,
+            accelerometer_position_m: Vector3::zeros(),
+            window_start_s: f64::NEG_INFINITY,
+            window_end_s: f64::INFINITY,
+            max_gap_s: 10.0 * sample_period_s,
+            covariance_block_samples: block,
+        }
+    }
+}
+
+/// One sensor sample; every channel describes the same instant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// Time, s (strictly increasing).
+    pub time_s: f64,
+    /// Pose of P in B from forward kinematics of the measured leg lengths.
+    pub pose: Pose,
+    /// Axial leg forces, N (positive pushes the plate away from the base).
+    pub leg_forces_n: Vector6<f64>,
+    /// Gyro: ω in P, rad/s.
+    pub gyro_rad_s: Vector3<f64>,
+    /// Accelerometer: specific force a − g at its mounting point, in P, m/s².
+    pub accel_m_s2: Vector3<f64>,
+}
+
+/// What an accepted sample did.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    /// It reached the least-squares solver.
+    Used,
+    /// It only fed the conditioning (first sample after a start or a gap, or before the
+    /// window).
+    Conditioning,
+    /// It lies after the window and was ignored.
+    AfterWindow,
+}
+
+/// Least squares plus residual scores for `N` parameters and `R` equations per sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Solver<const N: usize, const R: usize> {
+    rls: Rls<N>,
+    score: ScoreCovariance<N>,
+    inv_sigma: SVector<f64, R>,
+}
+
+impl<const N: usize, const R: usize> Solver<N, R> {
+    fn new(config: &EstimatorConfig, sigma: SVector<f64, R>) -> Result<Self, EstimatorError> {
+        let p0 = config.prior_sigma * config.prior_sigma;
+        Ok(Self {
+            rls: Rls::new(SVector::zeros(), SVector::from_element(p0), config.forgetting_factor)?
+                .with_variance_cap(p0),
+            score: ScoreCovariance::new(config.covariance_block_samples, config.forgetting_factor),
+            inv_sigma: sigma.map(|s| 1.0 / s),
+        })
+    }
+
+    /// Weights the rows, updates, and records the residual scores. On a non-finite result the
+    /// solver is left as it was.
+    fn update(&mut self, rows: &SMatrix<f64, R, N>, y: &SVector<f64, R>) -> Result<(), EstimatorError> {
+        let mut wrows = *rows;
+        for r in 0..R {
+            let w = self.inv_sigma[r];
+            wrows.row_mut(r).scale_mut(w);
+        }
+        let wy = y.component_mul(&self.inv_sigma);
+        let before = self.rls;
+        self.rls.update(&wrows, &wy);
+        let residual = wy - wrows * self.rls.theta();
+        if !self.rls.is_finite() || !residual.iter().all(|v| v.is_finite()) {
+            self.rls = before;
+            return Err(EstimatorError::Overflow("least-squares update"));
+        }
+        self.score.add(&wrows, &residual);
+        Ok(())
+    }
+
+    fn covariance(&self) -> SMatrix<f64, N, N> {
+        self.score.covariance(&self.rls.covariance())
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Engine {
+    Full(Solver<10, 6>),
+    Six { solver: Solver<6, 3>, mass_kg: f64, com_m: Vector3<f64> },
+}
+
+/// The online estimator. `update` costs a few microseconds and never allocates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OnlineEstimator {
+    config: EstimatorConfig,
+    conditioner: Conditioner,
+    engine: Engine,
+    residual_sq: Vector6<f64>,
+    residual_weight: f64,
+    counts: Counts,
+}
+
+fn positive_finite(v: f64) -> bool {
+    v.is_finite() && v > 0.0
+}
+
+impl OnlineEstimator {
+    /// Checks the configuration and starts with the prior.
+    pub fn new(config: EstimatorConfig) -> Result<Self, EstimatorError> {
+        if !positive_finite(config.sample_period_s) {
+            return Err(EstimatorError::InvalidConfig("sample_period_s must be positive and finite"));
+        }
+        if !config.equation_sigma.iter().all(|s| positive_finite(*s) && *s >= 1e-12) {
+            return Err(EstimatorError::InvalidConfig(
+                "equation_sigma entries must be finite and at least 1e-12",
+            ));
+        }
+        if !(positive_finite(config.prior_sigma) && config.prior_sigma <= 1e12) {
+            return Err(EstimatorError::InvalidConfig("prior_sigma must be in (0, 1e12]"));
+        }
+        if config.window_start_s.is_nan()
+            || config.window_end_s.is_nan()
+            || config.window_start_s >= config.window_end_s
+        {
+            return Err(EstimatorError::InvalidConfig(
+                "window_start_s must be before window_end_s",
+            ));
+        }
+        if config.covariance_block_samples == 0 {
+            return Err(EstimatorError::InvalidConfig("covariance_block_samples must be at least 1"));
+        }
+        let conditioner = Conditioner::new(ConditioningConfig {
+            sample_period_s: config.sample_period_s,
+            lowpass_cutoff_hz: config.lowpass_cutoff_hz,
+            accelerometer_position_m: config.accelerometer_position_m,
+            max_gap_s: config.max_gap_s,
+        })?;
+        let engine = match config.parameters {
+            ParameterSet::Full => Engine::Full(Solver::new(&config, config.equation_sigma)?),
+            ParameterSet::InertiaAboutKnownCom { mass_kg, com_m } => {
+                if !(positive_finite(mass_kg) && mass_kg <= MAX_ABS_SIGNAL) {
+                    return Err(EstimatorError::InvalidConfig("known mass must be positive and finite"));
+                }
+                if !com_m.iter().all(|v| v.is_finite() && v.abs() <= 1e3) {
+                    return Err(EstimatorError::InvalidConfig("known centre of mass must be finite"));
+                }
+                // τ_C = τ_O − c × F: its noise adds the force noise through the lever c.
+                let sf = config.equation_sigma.fixed_rows::<3>(0).max();
+                let st = config.equation_sigma.fixed_rows::<3>(3);
+                let sigma = st.map(|s| libm::sqrt(s * s + com_m.norm_squared() * sf * sf));
+                Engine::Six { solver: Solver::new(&config, sigma)?, mass_kg, com_m }
+            }
+        };
+        Ok(Self {
+            config,
+            conditioner,
+            engine,
+            residual_sq: Vector6::zeros(),
+            residual_weight: 0.0,
+            counts: Counts::default(),
+        })
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &EstimatorConfig {
+        &self.config
+    }
+
+    /// Sample counters so far.
+    pub fn counts(&self) -> Counts {
+        let mut c = self.counts;
+        c.restarts = self.conditioner.restarts();
+        c
+    }
+
+    fn reject(&mut self, e: EstimatorError) -> Result<Outcome, EstimatorError> {
+        self.counts.rejected += 1;
+        Err(e)
+    }
+
+    /// Processes one sample: leg forces and pose → wrench, then [`Self::update_with_wrench`].
+    /// Errors mean the sample was rejected (and counted); the estimator is unchanged.
+    pub fn update(&mut self, sample: &Sample) -> Result<Outcome, EstimatorError> {
+        if !sample.time_s.is_finite() {
+            return self.reject(EstimatorError::NonFiniteSample("time"));
+        }
+        if sample.time_s > self.config.window_end_s {
+            self.counts.after_window += 1;
+            return Ok(Outcome::AfterWindow);
+        }
+        if !sample.pose.is_finite() {
+            return self.reject(EstimatorError::NonFiniteSample("pose"));
+        }
+        if !sample.leg_forces_n.iter().all(|v| v.is_finite()) {
+            return self.reject(EstimatorError::NonFiniteSample("leg forces"));
+        }
+        if !sample.leg_forces_n.iter().all(|v| v.abs() <= MAX_ABS_SIGNAL)
+            || !sample.pose.position_m.iter().all(|v| v.abs() <= MAX_ABS_SIGNAL)
+        {
+            return self.reject(EstimatorError::Overflow("leg forces or pose"));
+        }
+        let w = measured(&self.config.geometry, &sample.pose, &sample.leg_forces_n);
+        if !to_vector(&w).iter().all(|v| v.is_finite()) {
+            return self.reject(EstimatorError::Overflow("wrench"));
+        }
+        self.update_with_wrench(sample.time_s, &w, &sample.gyro_rad_s, &sample.accel_m_s2)
+    }
+
+    /// Processes one sample whose wrench on the plate (about the P origin, P axes) is already
+    /// known — for rigs with a six-axis load cell, or for tests.
+    pub fn update_with_wrench(
+        &mut self,
+        time_s: f64,
+        wrench: &Wrench,
+        gyro_rad_s: &Vector3<f64>,
+        accel_m_s2: &Vector3<f64>,
+    ) -> Result<Outcome, EstimatorError> {
+        if time_s > self.config.window_end_s {
+            self.counts.after_window += 1;
+            return Ok(Outcome::AfterWindow);
+        }
+        let step = match self.conditioner.push(time_s, gyro_rad_s, accel_m_s2, wrench) {
+            Ok(s) => s,
+            Err(e) => return self.reject(e),
+        };
+        let c = match step {
+            Step::Ready(c) if time_s >= self.config.window_start_s => c,
+            _ => {
+                self.counts.conditioning += 1;
+                return Ok(Outcome::Conditioning);
+            }
+        };
+        if let Err(e) = self.solve(&c) {
+            return self.reject(e);
+        }
+        self.counts.used += 1;
+        Ok(Outcome::Used)
+    }
+
+    fn solve(&mut self, c: &Conditioned) -> Result<(), EstimatorError> {
+        let phi = from_signals(&c.signals);
+        let y = to_vector(&c.wrench);
+        match &mut self.engine {
+            Engine::Full(solver) => solver.update(&phi, &y)?,
+            Engine::Six { solver, com_m, .. } => {
+                let yc = c.wrench.torque_nm - com_m.cross(&c.wrench.force_n);
+                solver.update(&inertia_columns(&c.signals), &yc)?;
+            }
+        }
+        let r = y - phi * self.theta();
+        let lambda = self.config.forgetting_factor;
+        self.residual_sq = self.residual_sq * lambda + r.component_mul(&r);
+        self.residual_weight = self.residual_weight * lambda + 1.0;
+        Ok(())
+    }
+
+    /// The current θ = [m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz] (cheap: for logging every
+    /// sample).
+    pub fn theta(&self) -> ParameterVector {
+        match &self.engine {
+            Engine::Full(s) => *s.rls.theta(),
+            Engine::Six { solver, mass_kg, com_m } => {
+                let mut jc = ParameterVector::zeros();
+                jc.fixed_rows_mut::<6>(4).copy_from(solver.rls.theta());
+                let base = InertialParameters::from_vector(&jc);
+                InertialParameters::from_com(*mass_kg, *com_m, base.inertia_origin_kg_m2).to_vector()
+            }
+        }
+    }
+
+    /// Covariance of θ (P and the residual scores; see [`crate::uncertainty`]).
+    pub fn covariance(&self) -> ParameterCovariance {
+        match &self.engine {
+            Engine::Full(s) => s.covariance(),
+            Engine::Six { solver, .. } => {
+                let mut c = ParameterCovariance::zeros();
+                c.fixed_view_mut::<6, 6>(4, 4).copy_from(&solver.covariance());
+                c
+            }
+        }
+    }
+
+    /// The full estimate: parameters, covariance, centre-of-mass form with sigmas, principal
+    /// axes, consistency, residual rms per equation and counts.
+    pub fn estimate(&self) -> Estimate {
+        let mut e = Estimate::from_parameters(
+            InertialParameters::from_vector(&self.theta()),
+            self.covariance(),
+        );
+        if self.residual_weight > 0.0 {
+            e.residual_rms = (self.residual_sq / self.residual_weight).map(libm::sqrt);
+        }
+        e.counts = self.counts();
+        e
+    }
+}

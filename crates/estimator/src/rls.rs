@@ -1,0 +1,283 @@
+//! Recursive least squares in Bierman's U-D factorised form, and a batch solver over the same
+//! weighted normal equations.
+//!
+//! The vector form of the paper's Eq. 16–18 with the errata (forgetting factor λ):
+//! K = P φ (λ𝟙 + φᵀ P φ)⁻¹, θ ← θ + K (y − φᵀ θ), P ← (𝟙 − K φᵀ) P / λ.
+//! With rows already divided by their noise sigma (unit noise), this equals dividing P by λ
+//! once per sample and then processing the rows one at a time as scalar updates with unit
+//! noise. Each scalar update is done on the factors P = U D Uᵀ (U unit upper triangular, D
+//! diagonal; G. J. Bierman, *Factorization Methods for Discrete Sequential Estimation*, 1977):
+//! every new dⱼ is a product of positive numbers, so P stays symmetric positive definite by
+//! construction, whatever the rounding, over any number of updates.
+
+use crate::error::EstimatorError;
+use nalgebra::{Cholesky, SMatrix, SVector};
+
+/// Recursive least squares for `N` parameters, U-D factorised.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rls<const N: usize> {
+    theta: SVector<f64, N>,
+    u: SMatrix<f64, N, N>,
+    d: SVector<f64, N>,
+    forgetting: f64,
+    max_variance: f64,
+}
+
+impl<const N: usize> Rls<N> {
+    /// Starts from `initial` with a diagonal prior covariance `prior_variance` (P₀), and
+    /// forgetting factor λ ∈ (0, 1]. No cap on the covariance (see [`Self::with_variance_cap`]).
+    pub fn new(
+        initial: SVector<f64, N>,
+        prior_variance: SVector<f64, N>,
+        forgetting: f64,
+    ) -> Result<Self, EstimatorError> {
+        if !(forgetting > 0.0 && forgetting <= 1.0) {
+            return Err(EstimatorError::InvalidConfig("forgetting_factor must be in (0, 1]"));
+        }
+        if !prior_variance.iter().all(|v| v.is_finite() && *v > 0.0) {
+            return Err(EstimatorError::InvalidConfig(
+                "prior variance must be positive and finite",
+            ));
+        }
+        if !initial.iter().all(|v| v.is_finite()) {
+            return Err(EstimatorError::InvalidConfig("initial parameters must be finite"));
+        }
+        Ok(Self {
+            theta: initial,
+            u: SMatrix::identity(),
+            d: prior_variance,
+            forgetting,
+            max_variance: f64::INFINITY,
+        })
+    }
+
+    /// Caps each dⱼ at `cap` when dividing by λ, so that with λ < 1 the covariance cannot wind
+    /// up without bound while the excitation is poor (a bounded-covariance variant; with the
+    /// cap at the prior variance the estimator is never less sure than it started).
+    pub fn with_variance_cap(mut self, cap: f64) -> Self {
+        if cap > 0.0 {
+            self.max_variance = cap;
+        }
+        self
+    }
+
+    /// The current estimate θ.
+    pub fn theta(&self) -> &SVector<f64, N> {
+        &self.theta
+    }
+
+    /// The forgetting factor λ.
+    pub fn forgetting(&self) -> f64 {
+        self.forgetting
+    }
+
+    /// The factors (U, D) of P = U D Uᵀ.
+    pub fn factors(&self) -> (&SMatrix<f64, N, N>, &SVector<f64, N>) {
+        (&self.u, &self.d)
+    }
+
+    /// P = U D Uᵀ, each entry summed in the same order for (i, j) and (j, i), so the result is
+    /// exactly symmetric.
+    pub fn covariance(&self) -> SMatrix<f64, N, N> {
+        let mut p = SMatrix::<f64, N, N>::zeros();
+        for i in 0..N {
+            for j in i..N {
+                let mut s = 0.0;
+                for k in j..N {
+                    s += self.u[(i, k)] * self.d[k] * self.u[(j, k)];
+                }
+                p[(i, j)] = s;
+                p[(j, i)] = s;
+            }
+        }
+        p
+    }
+
+    /// Starts a new sample: P ← P / λ (no-op for λ = 1).
+    pub fn begin_sample(&mut self) {
+        if self.forgetting < 1.0 {
+            let cap = self.max_variance;
+            self.d.apply(|v| *v = (*v / self.forgetting).min(cap));
+        }
+    }
+
+    /// One scalar measurement y = φᵀθ + e with unit noise variance (Bierman's update).
+    /// Returns the a-priori residual y − φᵀθ.
+    pub fn update_row(&mut self, phi: &SVector<f64, N>, y: f64) -> f64 {
+        let innovation = y - phi.dot(&self.theta);
+        // f = Uᵀ φ, v = D f.
+        let f = self.u.tr_mul(phi);
+        let mut b = SVector::<f64, N>::zeros();
+        let mut alpha = 1.0;
+        for j in 0..N {
+            let fj = f[j];
+            let vj = self.d[j] * fj;
+            let beta = alpha;
+            alpha += fj * vj;
+            // d'ⱼ = dⱼ β/α: positive whenever dⱼ is.
+            self.d[j] *= beta / alpha;
+            let lambda = -fj / beta;
+            for i in 0..j {
+                let uij = self.u[(i, j)];
+                self.u[(i, j)] = uij + lambda * b[i];
+                b[i] += uij * vj;
+            }
+            b[j] = vj;
+        }
+        self.theta += b * (innovation / alpha);
+        innovation
+    }
+
+    /// One sample of `R` weighted rows: begin_sample, then each row in turn.
+    pub fn update<const R: usize>(&mut self, rows: &SMatrix<f64, R, N>, y: &SVector<f64, R>) {
+        self.begin_sample();
+        for r in 0..R {
+            self.update_row(&rows.row(r).transpose(), y[r]);
+        }
+    }
+
+    /// True when θ and both factors are finite.
+    pub fn is_finite(&self) -> bool {
+        self.theta.iter().all(|v| v.is_finite())
+            && self.d.iter().all(|v| v.is_finite())
+            && self.u.iter().all(|v| v.is_finite())
+    }
+}
+
+/// Batch least squares over the same weighted normal equations: A = Σ λ^(n−k) φₖ φₖᵀ + λⁿ P₀⁻¹,
+/// b = Σ λ^(n−k) φₖ yₖ + λⁿ P₀⁻¹ θ₀, θ = A⁻¹ b (Cholesky). With the same prior and rows it
+/// gives the RLS estimate up to rounding; without a prior it is ordinary weighted least squares.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NormalEquations<const N: usize> {
+    a: SMatrix<f64, N, N>,
+    b: SVector<f64, N>,
+    forgetting: f64,
+    rows: u64,
+}
+
+impl<const N: usize> NormalEquations<N> {
+    /// Empty equations (no prior), forgetting factor λ ∈ (0, 1].
+    pub fn new(forgetting: f64) -> Result<Self, EstimatorError> {
+        if !(forgetting > 0.0 && forgetting <= 1.0) {
+            return Err(EstimatorError::InvalidConfig("forgetting_factor must be in (0, 1]"));
+        }
+        Ok(Self { a: SMatrix::zeros(), b: SVector::zeros(), forgetting, rows: 0 })
+    }
+
+    /// Adds the prior of an [`Rls`] started with the same `initial` and `prior_variance`.
+    pub fn add_prior(&mut self, initial: &SVector<f64, N>, prior_variance: &SVector<f64, N>) {
+        for i in 0..N {
+            let w = 1.0 / prior_variance[i];
+            self.a[(i, i)] += w;
+            self.b[i] += w * initial[i];
+        }
+    }
+
+    /// Starts a new sample: everything so far is discounted by λ.
+    pub fn begin_sample(&mut self) {
+        if self.forgetting < 1.0 {
+            self.a *= self.forgetting;
+            self.b *= self.forgetting;
+        }
+    }
+
+    /// Adds one weighted row.
+    pub fn add_row(&mut self, phi: &SVector<f64, N>, y: f64) {
+        self.a += phi * phi.transpose();
+        self.b += phi * y;
+        self.rows += 1;
+    }
+
+    /// Adds one sample of `R` weighted rows (after `begin_sample`).
+    pub fn add<const R: usize>(&mut self, rows: &SMatrix<f64, R, N>, y: &SVector<f64, R>) {
+        self.begin_sample();
+        self.a += rows.transpose() * rows;
+        self.b += rows.transpose() * y;
+        self.rows += R as u64;
+    }
+
+    /// Number of rows added.
+    pub fn rows(&self) -> u64 {
+        self.rows
+    }
+
+    /// The information matrix A.
+    pub fn information(&self) -> &SMatrix<f64, N, N> {
+        &self.a
+    }
+
+    /// θ = A⁻¹ b; [`EstimatorError::Singular`] when A is not positive definite.
+    pub fn solve(&self) -> Result<SVector<f64, N>, EstimatorError> {
+        let chol = Cholesky::new(self.a).ok_or(EstimatorError::Singular)?;
+        let x = chol.solve(&self.b);
+        if x.iter().all(|v| v.is_finite()) {
+            Ok(x)
+        } else {
+            Err(EstimatorError::Singular)
+        }
+    }
+
+    /// A⁻¹, the covariance of θ under unit-variance row noise.
+    pub fn covariance(&self) -> Result<SMatrix<f64, N, N>, EstimatorError> {
+        let chol = Cholesky::new(self.a).ok_or(EstimatorError::Singular)?;
+        Ok(chol.inverse())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{rngs::StdRng, Rng, SeedableRng};
+
+    fn random_rows(rng: &mut StdRng) -> SMatrix<f64, 6, 10> {
+        SMatrix::from_fn(|_, _| rng.random_range(-1.0..1.0))
+    }
+
+    #[test]
+    fn rls_equals_batch_with_the_same_prior() {
+        for lambda in [1.0, 0.98] {
+            let mut rng = StdRng::seed_from_u64(5);
+            let theta0 = SVector::<f64, 10>::zeros();
+            let prior = SVector::<f64, 10>::from_element(1e2);
+            let mut rls = Rls::new(theta0, prior, lambda).unwrap();
+            let mut batch = NormalEquations::new(lambda).unwrap();
+            batch.add_prior(&theta0, &prior);
+            let truth = SVector::<f64, 10>::from_fn(|i, _| i as f64 - 3.0);
+            for _ in 0..300 {
+                let rows = random_rows(&mut rng);
+                let noise = SVector::<f64, 6>::from_fn(|_, _| rng.random_range(-0.1..0.1));
+                let y = rows * truth + noise;
+                rls.update(&rows, &y);
+                batch.add(&rows, &y);
+            }
+            let b = batch.solve().unwrap();
+            assert!((rls.theta() - b).norm() < 1e-10 * b.norm(), "λ={lambda}");
+            let pb = batch.covariance().unwrap();
+            assert!((rls.covariance() - pb).norm() < 1e-10 * pb.norm());
+        }
+    }
+
+    #[test]
+    fn covariance_is_exactly_symmetric() {
+        let mut rng = StdRng::seed_from_u64(9);
+        let mut rls = Rls::<10>::new(SVector::zeros(), SVector::from_element(1e6), 1.0).unwrap();
+        for _ in 0..50 {
+            let rows = random_rows(&mut rng);
+            rls.update(&rows, &SVector::<f64, 6>::zeros());
+        }
+        let p = rls.covariance();
+        assert_eq!(p, p.transpose());
+    }
+
+    #[test]
+    fn rejects_bad_settings_and_detects_singular_batches() {
+        let z = SVector::<f64, 3>::zeros();
+        assert!(Rls::new(z, SVector::from_element(1.0), 0.0).is_err());
+        assert!(Rls::new(z, SVector::from_element(1.0), 1.5).is_err());
+        assert!(Rls::new(z, SVector::from_element(-1.0), 1.0).is_err());
+        assert!(Rls::new(z, SVector::from_element(f64::NAN), 1.0).is_err());
+        let mut n = NormalEquations::<3>::new(1.0).unwrap();
+        n.add_row(&SVector::<f64, 3>::new(1.0, 0.0, 0.0), 1.0);
+        assert_eq!(n.solve(), Err(EstimatorError::Singular));
+    }
+}

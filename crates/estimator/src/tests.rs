@@ -1,0 +1,1 @@
+//! Whole-estimator tests.
