@@ -17,6 +17,6 @@ mod error;
 pub mod io;
 pub mod pid;
 pub mod supervisor;
-//TMP pub mod trajectory;
+pub mod trajectory;
 
 pub use error::{ControlError, ErrorKind};

@@ -1,0 +1,571 @@
+//! Excitation trajectories: sums of sines on the six pose coordinates, faded in and out, around
+//! an offset pose (the platform's home pose).
+//!
+//! The coordinates are `c = [x, y, z, α, β, γ]`: a translation of the P origin in B axes (m) and
+//! roll, pitch, yaw (rad). The pose is
+//!
+//! ```text
+//! p(t) = p₀ + [x, y, z]ᵀ,      R(t) = R₀ · Rx(α) · Ry(β) · Rz(γ)
+//! c(t) = w(t) · Σₖ aₖ · sin(2π fₖ t + φₖ)     (components on their own axes)
+//! ```
+//!
+//! with `w` a C² window: the quintic smoothstep `h(s) = 10s³ − 15s⁴ + 6s⁵` over the fade-in, 1 on
+//! the plateau, `h` mirrored over the fade-out. Because `h`, `h′` and `h″` vanish at the window's
+//! ends, pose, velocity and acceleration all start and end at rest at the offset pose, so the
+//! leg forces have no step at either end.
+//!
+//! Velocity and acceleration are exact derivatives (no differencing). The angular velocity of
+//! `Rx(α)Ry(β)Rz(γ)` in the fixed frame is `ω = α̇·eₓ + β̇·Rx eᵧ + γ̇·RxRy e_z`, and its derivative
+//! `ω̇ = α̈·eₓ + β̈·Rx eᵧ + γ̈·RxRy e_z + (α̇ eₓ) × (β̇ Rx eᵧ) + (α̇ eₓ + β̇ Rx eᵧ) × (γ̇ RxRy e_z)`;
+//! both are rotated by `R₀` into B.
+//!
+//! Two builders: [`Trajectory::paper_eq8`] (the paper's Eq. 8: `α = A₁ sin ω₁t`, `β = A₂ sin ω₂t`,
+//! `γ = A₃ sin ω₃t`, no translation) and [`Trajectory::multisine`] (several harmonics of a base
+//! frequency per axis, all six axes, Schroeder phases). [`Trajectory::new`] takes any components.
+//! Check a trajectory with [`Trajectory::check_feasibility`] before moving.
+
+mod feasibility;
+mod ramp;
+
+pub use feasibility::{FeasibilityLimits, FeasibilityReport};
+pub use ramp::{coordinates_of, Ramp};
+
+use core::f64::consts::PI;
+
+use kinematics::{Pose, Rotation3, Vector3, Vector6};
+
+use crate::error::ControlError;
+
+/// Most sine components one [`Trajectory`] holds (fixed capacity: no allocation).
+pub const MAX_COMPONENTS: usize = 48;
+
+/// A pose coordinate.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Axis {
+    /// Translation along B's x, m.
+    #[default]
+    X,
+    /// Translation along B's y, m.
+    Y,
+    /// Translation along B's z, m.
+    Z,
+    /// Roll α about x, rad.
+    Roll,
+    /// Pitch β about the once-rolled y, rad.
+    Pitch,
+    /// Yaw γ about the twice-turned z, rad.
+    Yaw,
+}
+
+impl Axis {
+    /// All six, in coordinate order.
+    pub const ALL: [Axis; 6] = [
+        Axis::X,
+        Axis::Y,
+        Axis::Z,
+        Axis::Roll,
+        Axis::Pitch,
+        Axis::Yaw,
+    ];
+
+    /// Position in the coordinate vector `[x, y, z, α, β, γ]`.
+    pub const fn index(self) -> usize {
+        match self {
+            Axis::X => 0,
+            Axis::Y => 1,
+            Axis::Z => 2,
+            Axis::Roll => 3,
+            Axis::Pitch => 4,
+            Axis::Yaw => 5,
+        }
+    }
+}
+
+/// One term `amplitude · sin(2π·frequency_hz·t + phase_rad)` on one axis.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SineComponent {
+    /// The coordinate it moves.
+    pub axis: Axis,
+    /// Amplitude, m for translations, rad for rotations.
+    pub amplitude: f64,
+    /// Frequency, Hz (> 0).
+    pub frequency_hz: f64,
+    /// Phase, rad.
+    pub phase_rad: f64,
+}
+
+/// Settings of [`Trajectory::multisine`]. Plain `Copy` data.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MultiSineConfig {
+    /// Base frequency f₀, Hz; the signal repeats every 1/f₀.
+    pub base_frequency_hz: f64,
+    /// Harmonics per excited axis (≥ 1); the total over excited axes must not exceed
+    /// [`MAX_COMPONENTS`].
+    pub harmonics_per_axis: usize,
+    /// Peak excursion per axis `[x, y, z, α, β, γ]` (m, m, m, rad, rad, rad); 0 leaves the axis
+    /// still.
+    pub peak_amplitudes: [f64; 6],
+    /// Total duration including the fades, s.
+    pub duration_s: f64,
+    /// Fade-in time, s (> 0).
+    pub fade_in_s: f64,
+    /// Fade-out time, s (> 0).
+    pub fade_out_s: f64,
+    /// How the amplitude is shared among an axis's harmonics.
+    pub spectrum: Spectrum,
+}
+
+/// Relative amplitudes of the harmonics within one axis of a multi-sine.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Spectrum {
+    /// Equal amplitudes: the velocity and acceleration are dominated by the highest harmonic.
+    FlatPosition,
+    /// Amplitudes ∝ 1/frequency: every harmonic contributes the same velocity, which shares
+    /// the leg-speed budget evenly (acceleration still grows with frequency).
+    #[default]
+    FlatVelocity,
+}
+
+impl Default for MultiSineConfig {
+    /// 0.1 Hz base (10 s period), 3 harmonics on each of the six axes (so harmonics 1–18, up to
+    /// 1.8 Hz) with a flat velocity spectrum, peaks of 10 mm and 0.04 rad, 44 s with 2 s fades
+    /// (four periods on the plateau). On a rig with 1.5 m / 1.2 m joint circles this asks
+    /// at most 0.36 m/s of the legs.
+    fn default() -> Self {
+        Self {
+            base_frequency_hz: 0.1,
+            harmonics_per_axis: 3,
+            peak_amplitudes: [0.01, 0.01, 0.01, 0.04, 0.04, 0.04],
+            duration_s: 44.0,
+            fade_in_s: 2.0,
+            fade_out_s: 2.0,
+            spectrum: Spectrum::FlatVelocity,
+        }
+    }
+}
+
+/// Pose, velocity and acceleration of a trajectory at one instant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TrajectorySample {
+    /// Desired pose of P in B.
+    pub pose: Pose,
+    /// Coordinates `[x, y, z, α, β, γ]` relative to the offset pose.
+    pub coordinates: Vector6<f64>,
+    /// Their time derivatives.
+    pub coordinate_rates: Vector6<f64>,
+    /// Their second time derivatives.
+    pub coordinate_accelerations: Vector6<f64>,
+    /// Velocity of the P origin, in B, m/s.
+    pub velocity_m_s: Vector3<f64>,
+    /// Angular velocity of P, in B, rad/s.
+    pub angular_velocity_rad_s: Vector3<f64>,
+    /// Acceleration of the P origin, in B, m/s².
+    pub acceleration_m_s2: Vector3<f64>,
+    /// Angular acceleration of P, in B, rad/s².
+    pub angular_acceleration_rad_s2: Vector3<f64>,
+}
+
+impl TrajectorySample {
+    /// `[v; ω]` in B, the twist that [`kinematics::Geometry::jacobian`] maps to leg rates.
+    pub fn twist(&self) -> Vector6<f64> {
+        let (v, w) = (self.velocity_m_s, self.angular_velocity_rad_s);
+        Vector6::new(v.x, v.y, v.z, w.x, w.y, w.z)
+    }
+
+    /// The sample for coordinates `c` and their derivatives about `offset` (see the
+    /// [module docs](self) for the formulas).
+    pub fn from_coordinates(
+        offset: &Pose,
+        c: &Vector6<f64>,
+        rates: &Vector6<f64>,
+        accelerations: &Vector6<f64>,
+    ) -> Self {
+        let (roll, pitch, yaw) = (c[3], c[4], c[5]);
+        let (roll_rate, pitch_rate, yaw_rate) = (rates[3], rates[4], rates[5]);
+        let relative = Pose::from_rpy(Vector3::zeros(), roll, pitch, yaw).rotation;
+        let rx = Rotation3::from_axis_angle(&Vector3::x_axis(), roll);
+        let pitch_axis = rx * Vector3::y();
+        let yaw_axis = Vector3::new(
+            libm::sin(pitch),
+            -libm::sin(roll) * libm::cos(pitch),
+            libm::cos(roll) * libm::cos(pitch),
+        );
+        let roll_part = Vector3::x() * roll_rate;
+        let roll_pitch = roll_part + pitch_axis * pitch_rate;
+        let omega = roll_pitch + yaw_axis * yaw_rate;
+        let omega_dot = Vector3::x() * accelerations[3]
+            + pitch_axis * accelerations[4]
+            + yaw_axis * accelerations[5]
+            + roll_part.cross(&(pitch_axis * pitch_rate))
+            + roll_pitch.cross(&(yaw_axis * yaw_rate));
+        let r0 = offset.rotation;
+        Self {
+            pose: Pose::new(
+                offset.position_m + Vector3::new(c[0], c[1], c[2]),
+                r0 * relative,
+            ),
+            coordinates: *c,
+            coordinate_rates: *rates,
+            coordinate_accelerations: *accelerations,
+            velocity_m_s: Vector3::new(rates[0], rates[1], rates[2]),
+            angular_velocity_rad_s: r0 * omega,
+            acceleration_m_s2: Vector3::new(accelerations[0], accelerations[1], accelerations[2]),
+            angular_acceleration_rad_s2: r0 * omega_dot,
+        }
+    }
+}
+
+/// Quintic smoothstep `h(s) = 10s³ − 15s⁴ + 6s⁵` on [0, 1] with its first two derivatives
+/// (with respect to s); 0 below, 1 above, so that `h, h′, h″` are continuous everywhere.
+pub fn smoothstep(s: f64) -> (f64, f64, f64) {
+    if s <= 0.0 {
+        (0.0, 0.0, 0.0)
+    } else if s >= 1.0 {
+        (1.0, 0.0, 0.0)
+    } else {
+        let s2 = s * s;
+        (
+            s2 * s * (10.0 - 15.0 * s + 6.0 * s2),
+            30.0 * s2 * (1.0 - 2.0 * s + s2),
+            60.0 * s * (1.0 - 3.0 * s + 2.0 * s2),
+        )
+    }
+}
+
+/// A sum of sines per axis with a C² fade-in and fade-out around an offset pose. See the
+/// [module docs](self).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Trajectory {
+    offset: Pose,
+    components: [SineComponent; MAX_COMPONENTS],
+    count: usize,
+    duration_s: f64,
+    fade_in_s: f64,
+    fade_out_s: f64,
+}
+
+impl Trajectory {
+    /// A trajectory of the given components. Errors: more than [`MAX_COMPONENTS`], a
+    /// non-finite amplitude or phase, a non-positive frequency, a non-finite offset, fades not
+    /// positive, or fades longer together than the duration.
+    pub fn new(
+        offset: Pose,
+        components: &[SineComponent],
+        duration_s: f64,
+        fade_in_s: f64,
+        fade_out_s: f64,
+    ) -> Result<Self, ControlError> {
+        if components.len() > MAX_COMPONENTS {
+            return Err(ControlError::TooManyComponents {
+                max: MAX_COMPONENTS,
+            });
+        }
+        if !offset.is_finite() {
+            return Err(ControlError::NonFinite {
+                what: "trajectory offset pose",
+                index: 0,
+            });
+        }
+        for (index, c) in components.iter().enumerate() {
+            if !c.amplitude.is_finite() || !c.phase_rad.is_finite() {
+                return Err(ControlError::NonFinite {
+                    what: "trajectory component",
+                    index,
+                });
+            }
+            if !c.frequency_hz.is_finite() || c.frequency_hz <= 0.0 {
+                return Err(ControlError::InvalidConfig {
+                    parameter: "trajectory.frequency_hz",
+                    reason: "must be finite and > 0",
+                });
+            }
+        }
+        if !(fade_in_s.is_finite() && fade_in_s > 0.0 && fade_out_s.is_finite() && fade_out_s > 0.0)
+        {
+            return Err(ControlError::InvalidConfig {
+                parameter: "trajectory.fade_in_s/fade_out_s",
+                reason: "must be finite and > 0",
+            });
+        }
+        if !duration_s.is_finite() || fade_in_s + fade_out_s > duration_s {
+            return Err(ControlError::InvalidConfig {
+                parameter: "trajectory.duration_s",
+                reason: "must be finite and at least fade_in_s + fade_out_s",
+            });
+        }
+        let mut stored = [SineComponent::default(); MAX_COMPONENTS];
+        for (slot, c) in stored.iter_mut().zip(components) {
+            *slot = *c;
+        }
+        Ok(Self {
+            offset,
+            components: stored,
+            count: components.len(),
+            duration_s,
+            fade_in_s,
+            fade_out_s,
+        })
+    }
+
+    /// The paper's Eq. 8: `α = A₁ sin(2π f₁ t)`, `β = A₂ sin(2π f₂ t)`, `γ = A₃ sin(2π f₃ t)`,
+    /// `x = y = z = 0` (relative to `offset`), with the fades of this module.
+    pub fn paper_eq8(
+        offset: Pose,
+        amplitudes_rad: [f64; 3],
+        frequencies_hz: [f64; 3],
+        duration_s: f64,
+        fade_s: f64,
+    ) -> Result<Self, ControlError> {
+        let axes = [Axis::Roll, Axis::Pitch, Axis::Yaw];
+        let components: [SineComponent; 3] = core::array::from_fn(|i| SineComponent {
+            axis: axes[i],
+            amplitude: amplitudes_rad[i],
+            frequency_hz: frequencies_hz[i],
+            phase_rad: 0.0,
+        });
+        Self::new(offset, &components, duration_s, fade_s, fade_s)
+    }
+
+    /// A periodic multi-sine on every axis with a non-zero peak. Harmonics of f₀ are dealt out
+    /// to the excited axes in turn (axis j of n gets harmonics j+1, j+1+n, j+1+2n, …), so no two
+    /// axes share a frequency and the axes are uncorrelated over a period, which keeps the
+    /// identification regressor well conditioned. Within an axis the K harmonics get relative
+    /// amplitudes by [`Spectrum`] and Schroeder's low-crest-factor phases (Schroeder, IEEE
+    /// Trans. Inf. Theory 16, 1970; for equal amplitudes on consecutive harmonics
+    /// `φₖ = −π·k(k−1)/K`, here generalised to the axis's spaced harmonics), refined by a short
+    /// coordinate search on the grid peak (two sweeps over each phase in steps of 30°; only
+    /// accepted when the peak drops). The amplitudes are then
+    /// scaled so that the axis's peak over one period (found on a grid of 64 points per period
+    /// of its highest harmonic) equals the requested peak. The fade window only lowers the
+    /// peak (the fade adds velocity, though: check the result with
+    /// [`Trajectory::check_feasibility`]).
+    pub fn multisine(offset: Pose, config: &MultiSineConfig) -> Result<Self, ControlError> {
+        let f0 = config.base_frequency_hz;
+        if !f0.is_finite() || f0 <= 0.0 {
+            return Err(ControlError::InvalidConfig {
+                parameter: "multisine.base_frequency_hz",
+                reason: "must be finite and > 0",
+            });
+        }
+        let k_per_axis = config.harmonics_per_axis;
+        if k_per_axis == 0 {
+            return Err(ControlError::InvalidConfig {
+                parameter: "multisine.harmonics_per_axis",
+                reason: "must be >= 1",
+            });
+        }
+        for (index, &peak) in config.peak_amplitudes.iter().enumerate() {
+            if !peak.is_finite() || peak < 0.0 {
+                return Err(ControlError::NonFinite {
+                    what: "multisine peak amplitude (finite, >= 0)",
+                    index,
+                });
+            }
+        }
+        let excited = config.peak_amplitudes.iter().filter(|&&a| a > 0.0).count();
+        if excited.saturating_mul(k_per_axis) > MAX_COMPONENTS {
+            return Err(ControlError::TooManyComponents {
+                max: MAX_COMPONENTS,
+            });
+        }
+        let mut components = [SineComponent::default(); MAX_COMPONENTS];
+        let mut count = 0;
+        let excited_axes = Axis::ALL
+            .iter()
+            .zip(config.peak_amplitudes)
+            .filter(|(_, peak)| *peak > 0.0);
+        for (slot, (&axis, peak)) in excited_axes.enumerate() {
+            let first = count;
+            for k in 1..=k_per_axis {
+                let harmonic = (slot + 1 + (k - 1) * excited) as f64;
+                if let Some(c) = components.get_mut(count) {
+                    *c = SineComponent {
+                        axis,
+                        amplitude: match config.spectrum {
+                            Spectrum::FlatPosition => 1.0,
+                            Spectrum::FlatVelocity => 1.0 / harmonic,
+                        },
+                        frequency_hz: f0 * harmonic,
+                        phase_rad: 0.0,
+                    };
+                    count += 1;
+                }
+            }
+            let axis_components = components.get_mut(first..count).unwrap_or_default();
+            schroeder_phases(axis_components, f0);
+            refine_phases(axis_components, f0);
+            let unit_peak = peak_over_period(axis_components, f0);
+            let scale = if unit_peak > 0.0 {
+                peak / unit_peak
+            } else {
+                0.0
+            };
+            for c in axis_components.iter_mut() {
+                c.amplitude *= scale;
+            }
+        }
+        Self::new(
+            offset,
+            components.get(..count).unwrap_or_default(),
+            config.duration_s,
+            config.fade_in_s,
+            config.fade_out_s,
+        )
+    }
+
+    /// The offset (home) pose the motion is centred on.
+    pub fn offset(&self) -> &Pose {
+        &self.offset
+    }
+
+    /// The sine components.
+    pub fn components(&self) -> &[SineComponent] {
+        self.components.get(..self.count).unwrap_or_default()
+    }
+
+    /// Total duration including the fades, s.
+    pub fn duration_s(&self) -> f64 {
+        self.duration_s
+    }
+
+    /// Fade-in and fade-out times, s.
+    pub fn fades_s(&self) -> (f64, f64) {
+        (self.fade_in_s, self.fade_out_s)
+    }
+
+    /// Highest component frequency, Hz (0 without components).
+    pub fn max_frequency_hz(&self) -> f64 {
+        self.components().iter().fold(0.0, |m, c| {
+            if c.frequency_hz > m {
+                c.frequency_hz
+            } else {
+                m
+            }
+        })
+    }
+
+    /// The window `w(t)` and its first two time derivatives.
+    pub fn window(&self, t_s: f64) -> (f64, f64, f64) {
+        if !(t_s > 0.0 && t_s < self.duration_s) {
+            return (0.0, 0.0, 0.0);
+        }
+        let (fin, fout) = (self.fade_in_s, self.fade_out_s);
+        let (a, da, dda) = smoothstep(t_s / fin);
+        let (b, db, ddb) = smoothstep((self.duration_s - t_s) / fout);
+        // Both factors are 1 on the plateau and the fades do not overlap, so the product is the
+        // window and its derivatives follow by the product rule.
+        let (da, dda) = (da / fin, dda / (fin * fin));
+        let (db, ddb) = (-db / fout, ddb / (fout * fout));
+        (a * b, da * b + a * db, dda * b + 2.0 * da * db + a * ddb)
+    }
+
+    /// Coordinates relative to the offset and their first two derivatives at `t_s` (0 outside
+    /// `[0, duration]`).
+    pub fn coordinates(&self, t_s: f64) -> (Vector6<f64>, Vector6<f64>, Vector6<f64>) {
+        let mut g = Vector6::zeros();
+        let mut dg = Vector6::zeros();
+        let mut ddg = Vector6::zeros();
+        let (w, dw, ddw) = self.window(t_s);
+        if w == 0.0 && dw == 0.0 && ddw == 0.0 {
+            return (g, dg, ddg);
+        }
+        for c in self.components() {
+            let omega = 2.0 * PI * c.frequency_hz;
+            let angle = omega * t_s + c.phase_rad;
+            let (s, co) = (libm::sin(angle), libm::cos(angle));
+            let i = c.axis.index();
+            g[i] += c.amplitude * s;
+            dg[i] += c.amplitude * omega * co;
+            ddg[i] -= c.amplitude * omega * omega * s;
+        }
+        (w * g, dw * g + w * dg, ddw * g + 2.0 * dw * dg + w * ddg)
+    }
+
+    /// Pose, velocity and acceleration at trajectory time `t_s` (the offset pose at rest
+    /// outside `[0, duration]`).
+    pub fn sample(&self, t_s: f64) -> TrajectorySample {
+        let (c, dc, ddc) = self.coordinates(t_s);
+        TrajectorySample::from_coordinates(&self.offset, &c, &dc, &ddc)
+    }
+}
+
+/// Schroeder's phases for components in increasing frequency: each harmonic is placed where a
+/// chirp sweeping the band once per period, spending time in proportion to power, passes its
+/// frequency. With power shares `p_l = a_l²/Σa²` and harmonic numbers `m_k = f_k/f₀`:
+/// `φ₁ = 0`, `φ_{k+1} = φ_k − 2π·(m_{k+1} − m_k)·Σ_{l≤k} p_l`, which for consecutive harmonics is
+/// Schroeder's `φₖ = −2π·Σ_{l<k} (k − l)·p_l`.
+fn schroeder_phases(components: &mut [SineComponent], f0: f64) {
+    let total: f64 = components.iter().map(|c| c.amplitude * c.amplitude).sum();
+    if total <= 0.0 {
+        return;
+    }
+    let mut share_sum = 0.0;
+    let mut phase = 0.0;
+    let mut previous_hz: Option<f64> = None;
+    for c in components.iter_mut() {
+        if let Some(f) = previous_hz {
+            let spacing = (c.frequency_hz - f) / f0;
+            phase = libm::remainder(phase - 2.0 * PI * spacing * share_sum, 2.0 * PI);
+        }
+        c.phase_rad = phase;
+        share_sum += c.amplitude * c.amplitude / total;
+        previous_hz = Some(c.frequency_hz);
+    }
+}
+
+/// Lowers the crest factor from Schroeder's start: for each phase but the first (a common
+/// phase shift only moves the signal in time), try the other eleven multiples of 30° added to
+/// it and keep any that lowers the grid peak; two sweeps. Deterministic, construction time only.
+fn refine_phases(components: &mut [SineComponent], f0: f64) {
+    let mut best = peak_over_period(components, f0);
+    for _sweep in 0..2 {
+        for index in 1..components.len() {
+            let Some(original) = components.get(index).map(|c| c.phase_rad) else {
+                continue;
+            };
+            let mut chosen = original;
+            for step in 1..12 {
+                let candidate = original + PI * step as f64 / 6.0;
+                if let Some(c) = components.get_mut(index) {
+                    c.phase_rad = candidate;
+                }
+                let peak = peak_over_period(components, f0);
+                if peak < best {
+                    best = peak;
+                    chosen = candidate;
+                }
+            }
+            if let Some(c) = components.get_mut(index) {
+                c.phase_rad = libm::remainder(chosen, 2.0 * PI);
+            }
+        }
+    }
+}
+
+/// Largest |Σ aₖ sin(2π fₖ t + φₖ)| over one period 1/f₀, on a grid of 64 points per period of
+/// the highest harmonic (at most 64·[`MAX_COMPONENTS`]·… points; bounded by the harmonic
+/// numbers, which are at most [`MAX_COMPONENTS`]).
+fn peak_over_period(components: &[SineComponent], f0: f64) -> f64 {
+    let f_max = components.iter().fold(f0, |m, c| {
+        if c.frequency_hz > m {
+            c.frequency_hz
+        } else {
+            m
+        }
+    });
+    let steps = 64 * libm::ceil(f_max / f0) as usize;
+    let period = 1.0 / f0;
+    let mut peak: f64 = 0.0;
+    for n in 0..steps {
+        let t = period * n as f64 / steps as f64;
+        let value: f64 = components
+            .iter()
+            .map(|c| c.amplitude * libm::sin(2.0 * PI * c.frequency_hz * t + c.phase_rad))
+            .sum();
+        peak = peak.max(value.abs());
+    }
+    peak
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,193 @@
+//! The check, before any motion, that a trajectory stays within stroke, leg speed and
+//! conditioning limits everywhere.
+
+use kinematics::{Geometry, LEG_COUNT};
+
+use super::{Ramp, Trajectory, TrajectorySample};
+use crate::error::ControlError;
+
+/// Limits for [`Trajectory::check_feasibility`]. Plain `Copy` data.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FeasibilityLimits {
+    /// Every leg must stay this far inside its stroke, m (≥ 0): room for tracking error.
+    pub stroke_margin_m: f64,
+    /// Largest allowed |leg speed| `|J·twist|ᵢ`, m/s (> 0). Keep it below the supervisor's
+    /// limit so that tracking overshoot does not trip it.
+    pub max_leg_speed_m_s: f64,
+    /// Smallest allowed inverse condition number of the scaled Jacobian
+    /// ([`Geometry::inverse_condition_number`]), ≥ 0.
+    pub min_inverse_condition: f64,
+    /// Largest sampling step, s (> 0). The check also takes at least 50 samples per period
+    /// of the highest frequency.
+    pub step_s: f64,
+}
+
+impl Default for FeasibilityLimits {
+    /// 5 mm stroke margin, 0.4 m/s, inverse condition number ≥ 10 ×
+    /// [`kinematics::SINGULARITY_THRESHOLD`], 1 ms steps.
+    fn default() -> Self {
+        Self {
+            stroke_margin_m: 0.005,
+            max_leg_speed_m_s: 0.4,
+            min_inverse_condition: 10.0 * kinematics::SINGULARITY_THRESHOLD,
+            step_s: 1e-3,
+        }
+    }
+}
+
+impl FeasibilityLimits {
+    /// Checks every field's range (see the field docs).
+    pub fn validate(&self) -> Result<(), ControlError> {
+        let ok = self.stroke_margin_m.is_finite()
+            && self.stroke_margin_m >= 0.0
+            && self.max_leg_speed_m_s.is_finite()
+            && self.max_leg_speed_m_s > 0.0
+            && self.min_inverse_condition.is_finite()
+            && self.min_inverse_condition >= 0.0
+            && self.step_s.is_finite()
+            && self.step_s > 0.0;
+        if ok {
+            Ok(())
+        } else {
+            Err(ControlError::InvalidConfig {
+                parameter: "feasibility",
+                reason: "margin >= 0, speed > 0, inverse condition >= 0, step > 0, all finite",
+            })
+        }
+    }
+}
+
+/// What a passed check saw: the extremes over the whole trajectory.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FeasibilityReport {
+    /// Samples evaluated.
+    pub samples: u64,
+    /// Sampling step used, s.
+    pub step_s: f64,
+    /// Shortest length of each leg, m.
+    pub min_length_m: [f64; LEG_COUNT],
+    /// Longest length of each leg, m.
+    pub max_length_m: [f64; LEG_COUNT],
+    /// Largest |speed| of each leg, m/s.
+    pub max_speed_m_s: [f64; LEG_COUNT],
+    /// Smallest inverse condition number seen.
+    pub min_inverse_condition: f64,
+    /// When it was seen, s.
+    pub min_inverse_condition_time_s: f64,
+}
+
+/// More samples than this is a configuration mistake (a duration of days), not a trajectory.
+const MAX_SAMPLES: f64 = 1e8;
+
+impl Trajectory {
+    /// Samples the whole trajectory (fades included) every `step` seconds — `limits.step_s`,
+    /// or less so that each period of the highest frequency gets 50 samples — and checks at
+    /// each sample every leg's length against the stroke less the margin, every leg's speed
+    /// `|J·[v; ω]|ᵢ` against the limit, and the inverse condition number against its
+    /// threshold. The first violation is returned with its time, leg and limit.
+    pub fn check_feasibility(
+        &self,
+        geometry: &Geometry,
+        limits: &FeasibilityLimits,
+    ) -> Result<FeasibilityReport, ControlError> {
+        let f_max = self.max_frequency_hz();
+        let step = if f_max > 0.0 {
+            limits.step_s.min(1.0 / (50.0 * f_max))
+        } else {
+            limits.step_s
+        };
+        check_motion(geometry, limits, self.duration_s, step, |t| self.sample(t))
+    }
+}
+
+impl Ramp {
+    /// The same check as [`Trajectory::check_feasibility`] for this move.
+    pub fn check_feasibility(
+        &self,
+        geometry: &Geometry,
+        limits: &FeasibilityLimits,
+    ) -> Result<FeasibilityReport, ControlError> {
+        check_motion(geometry, limits, self.duration_s(), limits.step_s, |t| {
+            self.sample(t)
+        })
+    }
+}
+
+fn check_motion(
+    geometry: &Geometry,
+    limits: &FeasibilityLimits,
+    duration_s: f64,
+    step_s: f64,
+    sample: impl Fn(f64) -> TrajectorySample,
+) -> Result<FeasibilityReport, ControlError> {
+    limits.validate()?;
+    let intervals = libm::ceil(duration_s / step_s);
+    if intervals.is_nan() || intervals > MAX_SAMPLES {
+        return Err(ControlError::InvalidConfig {
+            parameter: "feasibility.step_s",
+            reason: "gives more than 1e8 samples for this duration",
+        });
+    }
+    let intervals = intervals as u64;
+    let stroke = geometry.stroke();
+    let low = stroke.min_length_m + limits.stroke_margin_m;
+    let high = stroke.max_length_m - limits.stroke_margin_m;
+    let mut report = FeasibilityReport {
+        samples: 0,
+        step_s,
+        min_length_m: [f64::INFINITY; LEG_COUNT],
+        max_length_m: [f64::NEG_INFINITY; LEG_COUNT],
+        max_speed_m_s: [0.0; LEG_COUNT],
+        min_inverse_condition: f64::INFINITY,
+        min_inverse_condition_time_s: 0.0,
+    };
+    for k in 0..=intervals {
+        let time_s = (k as f64 * step_s).min(duration_s);
+        let s = sample(time_s);
+        if !s.pose.is_finite() {
+            return Err(ControlError::NonFinite {
+                what: "trajectory pose",
+                index: 0,
+            });
+        }
+        let lengths = geometry.leg_lengths(&s.pose);
+        let speeds = geometry.jacobian(&s.pose) * s.twist();
+        for leg in 0..LEG_COUNT {
+            let (length_m, speed_m_s) = (lengths[leg], speeds[leg]);
+            if length_m < low || length_m > high {
+                let limit_m = if length_m < low { low } else { high };
+                return Err(ControlError::StrokeViolation {
+                    time_s,
+                    leg,
+                    length_m,
+                    limit_m,
+                });
+            }
+            if speed_m_s.abs() > limits.max_leg_speed_m_s {
+                return Err(ControlError::LegSpeedViolation {
+                    time_s,
+                    leg,
+                    speed_m_s,
+                    limit_m_s: limits.max_leg_speed_m_s,
+                });
+            }
+            report.min_length_m[leg] = report.min_length_m[leg].min(length_m);
+            report.max_length_m[leg] = report.max_length_m[leg].max(length_m);
+            report.max_speed_m_s[leg] = report.max_speed_m_s[leg].max(speed_m_s.abs());
+        }
+        let inverse_condition = geometry.inverse_condition_number(&s.pose);
+        if inverse_condition.is_nan() || inverse_condition < limits.min_inverse_condition {
+            return Err(ControlError::ConditioningViolation {
+                time_s,
+                inverse_condition,
+                threshold: limits.min_inverse_condition,
+            });
+        }
+        if inverse_condition < report.min_inverse_condition {
+            report.min_inverse_condition = inverse_condition;
+            report.min_inverse_condition_time_s = time_s;
+        }
+        report.samples += 1;
+    }
+    Ok(report)
+}

@@ -1,0 +1,121 @@
+//! Smooth moves to the offset pose (settle from wherever the platform rests, park after the
+//! excitation or an abort).
+
+use kinematics::{Pose, Vector3, Vector6};
+
+use super::TrajectorySample;
+use crate::error::ControlError;
+
+/// A minimum-jerk (quintic) move of the coordinates `[x, y, z, α, β, γ]` from a start state
+/// `(c₀, ċ₀, c̈₀)` to rest at the offset pose (all zero) in `T` seconds:
+///
+/// ```text
+/// c(s) = c₀ + d₁ s + d₂/2 s² + a₃ s³ + a₄ s⁴ + a₅ s⁵,   s = t/T,  d₁ = ċ₀T,  d₂ = c̈₀T²
+/// a₃ = −10c₀ − 6d₁ − 3/2·d₂,  a₄ = 15c₀ + 8d₁ + 3/2·d₂,  a₅ = −6c₀ − 3d₁ − 1/2·d₂
+/// ```
+///
+/// which matches position, velocity and acceleration at both ends (for a start at rest it is
+/// `c₀·(1 − h(s))` with the quintic smoothstep `h`). After `T` it holds the offset pose.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ramp {
+    offset: Pose,
+    /// Polynomial coefficients in s, lowest order first.
+    coefficients: [Vector6<f64>; 6],
+    duration_s: f64,
+}
+
+impl Ramp {
+    /// From the state `(c₀, ċ₀, c̈₀)`, given as coordinates relative to `offset`, to rest at
+    /// `offset` in `duration_s` (> 0).
+    pub fn from_state(
+        offset: Pose,
+        start: &Vector6<f64>,
+        rate: &Vector6<f64>,
+        acceleration: &Vector6<f64>,
+        duration_s: f64,
+    ) -> Result<Self, ControlError> {
+        if !duration_s.is_finite() || duration_s <= 0.0 {
+            return Err(ControlError::InvalidConfig {
+                parameter: "ramp duration",
+                reason: "must be finite and > 0",
+            });
+        }
+        let all_finite = start.iter().chain(rate.iter()).chain(acceleration.iter());
+        if let Some(index) = all_finite.clone().position(|v| !v.is_finite()) {
+            return Err(ControlError::NonFinite {
+                what: "ramp start state",
+                index,
+            });
+        }
+        if !offset.is_finite() {
+            return Err(ControlError::NonFinite {
+                what: "ramp offset pose",
+                index: 0,
+            });
+        }
+        let c0 = *start;
+        let d1 = rate * duration_s;
+        let d2 = acceleration * (duration_s * duration_s);
+        Ok(Self {
+            offset,
+            coefficients: [
+                c0,
+                d1,
+                d2 * 0.5,
+                c0 * -10.0 - d1 * 6.0 - d2 * 1.5,
+                c0 * 15.0 + d1 * 8.0 + d2 * 1.5,
+                c0 * -6.0 - d1 * 3.0 - d2 * 0.5,
+            ],
+            duration_s,
+        })
+    }
+
+    /// From `pose`, at rest, to rest at `offset`. The start coordinates are the translation
+    /// `p − p₀` and the roll, pitch, yaw of `R₀ᵀR`.
+    pub fn from_pose(offset: Pose, pose: &Pose, duration_s: f64) -> Result<Self, ControlError> {
+        let zero = Vector6::zeros();
+        Self::from_state(
+            offset,
+            &coordinates_of(&offset, pose),
+            &zero,
+            &zero,
+            duration_s,
+        )
+    }
+
+    /// Length of the move, s.
+    pub fn duration_s(&self) -> f64 {
+        self.duration_s
+    }
+
+    /// Pose, velocity and acceleration at `t_s` after the start (the start state before 0,
+    /// the offset at rest after the end).
+    pub fn sample(&self, t_s: f64) -> TrajectorySample {
+        let s = (t_s / self.duration_s).clamp(0.0, 1.0);
+        let [a0, a1, a2, a3, a4, a5] = &self.coefficients;
+        let c = a0 + (a1 + (a2 + (a3 + (a4 + a5 * s) * s) * s) * s) * s;
+        let (dc, ddc) = if s >= 1.0 {
+            (Vector6::zeros(), Vector6::zeros())
+        } else {
+            let ds = a1 + (a2 * 2.0 + (a3 * 3.0 + (a4 * 4.0 + a5 * (5.0 * s)) * s) * s) * s;
+            let dds = a2 * 2.0 + (a3 * 6.0 + (a4 * 12.0 + a5 * (20.0 * s)) * s) * s;
+            let t = self.duration_s;
+            (ds / t, dds / (t * t))
+        };
+        // At s = 1 the polynomial is zero up to rounding; return the offset exactly.
+        let c = if s >= 1.0 { Vector6::zeros() } else { c };
+        TrajectorySample::from_coordinates(&self.offset, &c, &dc, &ddc)
+    }
+}
+
+/// Coordinates `[x, y, z, α, β, γ]` of `pose` relative to `offset`: `p − p₀` and the roll,
+/// pitch, yaw of `R₀ᵀR` (so that [`TrajectorySample::from_coordinates`] gives `pose` back).
+pub fn coordinates_of(offset: &Pose, pose: &Pose) -> Vector6<f64> {
+    let d: Vector3<f64> = pose.position_m - offset.position_m;
+    let relative = Pose::new(
+        Vector3::zeros(),
+        offset.rotation.transpose() * pose.rotation,
+    );
+    let (roll, pitch, yaw) = relative.rpy();
+    Vector6::new(d.x, d.y, d.z, roll, pitch, yaw)
+}
