@@ -185,9 +185,13 @@ pub fn encode(
 ) -> Result<usize, CodecError> {
     let flags = if auth.is_some() { FLAG_TAGGED } else { 0 };
     let header = [MAGIC, PROTOCOL_VERSION, flags];
-    let head = out.get_mut(..HEADER_LEN).ok_or(CodecError::BufferTooSmall)?;
+    let head = out
+        .get_mut(..HEADER_LEN)
+        .ok_or(CodecError::BufferTooSmall)?;
     head.copy_from_slice(&header);
-    let body_space = out.get_mut(HEADER_LEN..).ok_or(CodecError::BufferTooSmall)?;
+    let body_space = out
+        .get_mut(HEADER_LEN..)
+        .ok_or(CodecError::BufferTooSmall)?;
     let body_len = postcard::to_slice(message, body_space)
         .map_err(|_| CodecError::BufferTooSmall)?
         .len();

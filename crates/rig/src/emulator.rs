@@ -228,7 +228,9 @@ where
             }
         }
         let l = config.limits;
-        if !(l.stroke_min_m < l.stroke_max_m && l.force_min_n < l.force_max_n && l.speed_max_m_s > 0.0)
+        if !(l.stroke_min_m < l.stroke_max_m
+            && l.force_min_n < l.force_max_n
+            && l.speed_max_m_s > 0.0)
         {
             return Err(RigError::config(format!("{l:?}"), "unusable limits"));
         }
@@ -471,7 +473,8 @@ where
             self.stats.corrupted_injected += 1;
         }
         if faults.delay_fraction > 0.0 && self.rng.random::<f64>() < faults.delay_fraction {
-            self.delayed.push_back((now + faults.delay, peer, frame.to_vec()));
+            self.delayed
+                .push_back((now + faults.delay, peer, frame.to_vec()));
             self.stats.delayed_injected += 1;
             return Ok(());
         }
@@ -539,7 +542,11 @@ where
             Err(CodecError::VersionMismatch(_)) => {
                 self.stats.version_mismatch += 1;
                 // Answer in our own version: the host names both versions in its error.
-                self.refuse(from, FaultCode::VERSION_MISMATCH, f64::from(PROTOCOL_VERSION));
+                self.refuse(
+                    from,
+                    FaultCode::VERSION_MISMATCH,
+                    f64::from(PROTOCOL_VERSION),
+                );
                 return;
             }
             Err(e) => {
@@ -570,7 +577,14 @@ where
         }
     }
 
-    fn handle_hello(&mut self, hello: &Hello, frame: &[u8], tagged: bool, from: Peer, now: Instant) {
+    fn handle_hello(
+        &mut self,
+        hello: &Hello,
+        frame: &[u8],
+        tagged: bool,
+        from: Peer,
+        now: Instant,
+    ) {
         match &self.config.key {
             Some(key) => {
                 let refusal = match hello.key_id {

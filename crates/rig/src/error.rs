@@ -55,7 +55,9 @@ pub enum RigError {
         waited: Duration,
     },
     /// The rig speaks another protocol version.
-    #[error("protocol version mismatch: the rig speaks v{rig}, this host v{host}; refusing the session")]
+    #[error(
+        "protocol version mismatch: the rig speaks v{rig}, this host v{host}; refusing the session"
+    )]
     VersionMismatch {
         /// The rig's version.
         rig: u8,

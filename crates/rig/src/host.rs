@@ -29,7 +29,8 @@ const MAX_DRAIN: usize = 64;
 pub struct RigOptions {
     /// Longest time without a valid sensor frame before [`Backend::read`] fails (50 ms).
     pub link_silence: Duration,
-    /// How long to wait for the rig's answer to `Hello` (2 s).
+    /// How long to wait for the rig's answer to `Hello` (2 s); a rig busy with another
+    /// session is asked again until then.
     pub handshake_timeout: Duration,
     /// `Hello` is repeated at this interval until answered (100 ms).
     pub hello_interval: Duration,
@@ -139,7 +140,14 @@ impl RigBackend {
     ) -> Result<Self, RigError> {
         let mut stats = LinkStats::default();
         let mut buf = [0u8; MAX_FRAME_LEN + 1];
-        let ack = exchange_hello(transport.as_mut(), &peer, &address, &options, &mut stats, &mut buf)?;
+        let ack = exchange_hello(
+            transport.as_mut(),
+            &peer,
+            &address,
+            &options,
+            &mut stats,
+            &mut buf,
+        )?;
         let info = validate_ack(&ack, &address, &options)?;
         let (mut force_min_n, mut force_max_n) = (info.limits.force_min_n, info.limits.force_max_n);
         if let Some(cap) = options.force_limit_n {
@@ -164,6 +172,16 @@ impl RigBackend {
     /// What the rig said in the handshake.
     pub fn info(&self) -> &RigInfo {
         &self.info
+    }
+
+    /// The host's local socket address (UDP), e.g. to aim test traffic at it.
+    pub fn local_addr(&self) -> Option<std::net::SocketAddr> {
+        self.transport.local_addr()
+    }
+
+    /// Sequence of the last sensor frame seen from the rig (0: none yet).
+    pub fn last_sequence(&self) -> u64 {
+        self.last_sequence
     }
 
     /// The link counters so far.
@@ -432,9 +450,15 @@ fn exchange_hello(
     let start = Instant::now();
     let give_up = start + options.handshake_timeout;
     let mut next_hello = start;
+    // A rig busy with another session frees it when that host goes quiet (its session
+    // timeout), so "busy" is retried until the handshake time is up.
+    let mut busy: Option<Fault> = None;
     loop {
         let now = Instant::now();
         if now >= give_up {
+            if let Some(fault) = busy {
+                return Err(refused(&fault));
+            }
             return Err(RigError::HandshakeTimeout {
                 peer: address.to_string(),
                 waited: options.handshake_timeout,
@@ -473,6 +497,10 @@ fn exchange_hello(
             Err(e) if e.kind() == codec::CodecErrorKind::Auth => {
                 // The rig answers a Hello it cannot authenticate with an untagged refusal.
                 if let Ok((Message::Fault(fault), _)) = codec::decode_unverified(frame) {
+                    if fault.code == FaultCode::BUSY {
+                        busy = Some(fault);
+                        continue;
+                    }
                     return Err(refused(&fault));
                 }
                 stats.auth_failed += 1;
@@ -485,6 +513,7 @@ fn exchange_hello(
         };
         match message {
             Message::HelloAck(ack) if ack.host_nonce == host_nonce => return Ok(ack),
+            Message::Fault(fault) if fault.code == FaultCode::BUSY => busy = Some(fault),
             Message::Fault(fault) => return Err(refused(&fault)),
             // Frames of an earlier session, or an answer to someone else's Hello.
             _ => stats.unexpected += 1,
@@ -508,7 +537,9 @@ fn validate_ack(ack: &HelloAck, address: &str, options: &RigOptions) -> Result<R
         ));
     }
     if !layout.accel_position_m.iter().all(|v| v.is_finite()) {
-        return Err(mismatch("the rig's accelerometer position is not finite".into()));
+        return Err(mismatch(
+            "the rig's accelerometer position is not finite".into(),
+        ));
     }
     if let Some(expected) = options.accel_position_m {
         let distance = expected
@@ -517,7 +548,7 @@ fn validate_ack(ack: &HelloAck, address: &str, options: &RigOptions) -> Result<R
             .map(|(a, b)| (a - b) * (a - b))
             .sum::<f64>()
             .sqrt();
-        if !(distance <= options.accel_position_tolerance_m) {
+        if distance.is_nan() || distance > options.accel_position_tolerance_m {
             return Err(mismatch(format!(
                 "accelerometer at {:?} m on the rig but {:?} m in the host's configuration",
                 layout.accel_position_m, expected
@@ -536,9 +567,15 @@ fn validate_ack(ack: &HelloAck, address: &str, options: &RigOptions) -> Result<R
         }
     }
     let l = ack.limits;
-    let sane = [l.stroke_min_m, l.stroke_max_m, l.speed_max_m_s, l.force_min_n, l.force_max_n]
-        .iter()
-        .all(|v| v.is_finite())
+    let sane = [
+        l.stroke_min_m,
+        l.stroke_max_m,
+        l.speed_max_m_s,
+        l.force_min_n,
+        l.force_max_n,
+    ]
+    .iter()
+    .all(|v| v.is_finite())
         && l.stroke_min_m < l.stroke_max_m
         && l.speed_max_m_s > 0.0
         && l.force_min_n < l.force_max_n;

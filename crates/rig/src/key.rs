@@ -56,9 +56,10 @@ impl Key {
         let text = std::fs::read_to_string(path)
             .map_err(|e| RigError::io(format!("reading key file {}", path.display()), e))?;
         Self::from_hex(&text).map_err(|e| match e {
-            RigError::Config { reason, .. } => {
-                RigError::config(path.display().to_string(), format!("bad key file: {reason}"))
-            }
+            RigError::Config { reason, .. } => RigError::config(
+                path.display().to_string(),
+                format!("bad key file: {reason}"),
+            ),
             other => other,
         })
     }

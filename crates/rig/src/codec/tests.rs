@@ -81,10 +81,7 @@ fn every_message_round_trips_with_and_without_key() {
         let n = encode(&message, None, &mut buf).unwrap();
         assert_eq!(decode(&buf[..n], None), Ok(message));
 
-        let auth = Auth {
-            key,
-            session_id: 5,
-        };
+        let auth = Auth { key, session_id: 5 };
         let m = encode(&message, Some(&auth), &mut buf).unwrap();
         assert_eq!(m, n + TAG_LEN);
         assert_eq!(decode(&buf[..m], Some(&auth)), Ok(message));
@@ -187,7 +184,10 @@ fn tags_bind_key_and_session() {
         ..good
     };
     assert_eq!(decode(&buf[..n], Some(&wrong_key)), Err(CodecError::BadTag));
-    assert_eq!(decode(&buf[..n], Some(&old_session)), Err(CodecError::BadTag));
+    assert_eq!(
+        decode(&buf[..n], Some(&old_session)),
+        Err(CodecError::BadTag)
+    );
     assert_eq!(decode(&buf[..n], None), Err(CodecError::UnexpectedTag));
 
     let m = encode(&message, None, &mut buf).unwrap();
@@ -228,7 +228,10 @@ fn trailing_bytes_and_bad_bodies_are_refused() {
 fn cobs_round_trip_has_no_zero_but_the_delimiter() {
     let mut buf = [0u8; MAX_FRAME_LEN];
     let n = encode(&Message::Sensor(example_sensor()), None, &mut buf).unwrap();
-    assert!(buf[..n].contains(&0), "the example should exercise zero bytes");
+    assert!(
+        buf[..n].contains(&0),
+        "the example should exercise zero bytes"
+    );
     let mut wire = [0u8; MAX_COBS_LEN];
     let c = cobs_encode(&buf[..n], &mut wire).unwrap();
     assert_eq!(wire[c - 1], 0);
@@ -282,13 +285,8 @@ fn protocol_doc_examples_match_the_codec() {
 }
 
 fn any_sensor() -> impl Strategy<Value = Sensor> {
-    (
-        any::<u64>(),
-        any::<u64>(),
-        any::<[u64; 18]>(),
-        any::<u32>(),
-    )
-        .prop_map(|(sequence, time_ns, bits, status)| {
+    (any::<u64>(), any::<u64>(), any::<[u64; 18]>(), any::<u32>()).prop_map(
+        |(sequence, time_ns, bits, status)| {
             let f = |i: usize| f64::from_bits(bits[i]);
             Sensor {
                 sequence,
@@ -299,7 +297,8 @@ fn any_sensor() -> impl Strategy<Value = Sensor> {
                 accel_m_s2: core::array::from_fn(|i| f(15 + i)),
                 status,
             }
-        })
+        },
+    )
 }
 
 fn bits(s: &Sensor) -> Vec<u64> {

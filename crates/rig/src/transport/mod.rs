@@ -120,7 +120,11 @@ impl FromStr for Address {
                             .filter(|&b: &u32| b > 0)
                             .ok_or_else(|| bad("baud must be a positive whole number"))?;
                     }
-                    _ => return Err(bad(&format!("unknown serial option `{pair}` (only baud=N)"))),
+                    _ => {
+                        return Err(bad(&format!(
+                            "unknown serial option `{pair}` (only baud=N)"
+                        )))
+                    }
                 }
             }
             Ok(Address::Serial {
@@ -181,7 +185,9 @@ mod tests {
             Address::Udp(a) if a.ip().is_loopback() && a.port() == 9000
         ));
         assert_eq!(
-            "serial:///dev/ttyUSB0?baud=115200".parse::<Address>().unwrap(),
+            "serial:///dev/ttyUSB0?baud=115200"
+                .parse::<Address>()
+                .unwrap(),
             Address::Serial {
                 path: "/dev/ttyUSB0".into(),
                 baud: 115_200
