@@ -2,6 +2,8 @@
 
 use core::fmt;
 
+use kinematics::KinematicsError;
+
 use crate::supervisor::Fault;
 
 /// Everything that can go wrong in the control crate, flat, `Copy`, with [`ControlError::kind`]
@@ -64,6 +66,8 @@ pub enum ControlError {
         /// The configured threshold.
         threshold: f64,
     },
+    /// A kinematics computation failed (e.g. a singular pose where a force had to be solved).
+    Kinematics(KinematicsError),
     /// The supervisor latched a fault (see [`Fault`]).
     Faulted(Fault),
 }
@@ -77,6 +81,8 @@ pub enum ErrorKind {
     InvalidInput,
     /// A trajectory would violate stroke, speed or conditioning limits: nothing moved.
     Infeasible,
+    /// A kinematics computation failed.
+    Kinematics,
     /// The safety supervisor stopped the platform.
     Faulted,
 }
@@ -90,6 +96,7 @@ impl ControlError {
             Self::StrokeViolation { .. }
             | Self::LegSpeedViolation { .. }
             | Self::ConditioningViolation { .. } => ErrorKind::Infeasible,
+            Self::Kinematics(_) => ErrorKind::Kinematics,
             Self::Faulted(_) => ErrorKind::Faulted,
         }
     }
@@ -137,6 +144,7 @@ impl fmt::Display for ControlError {
                 "trajectory too close to a singularity at t = {time_s:.4} s: inverse condition \
                  number {inverse_condition:.3e} below threshold {threshold:.3e}"
             ),
+            Self::Kinematics(e) => write!(f, "kinematics: {e}"),
             Self::Faulted(fault) => write!(f, "supervisor fault: {fault}"),
         }
     }

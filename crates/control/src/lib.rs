@@ -12,7 +12,7 @@
 #![cfg_attr(not(test), no_std)]
 #![warn(missing_docs)]
 
-//TMP pub mod controller;
+pub mod controller;
 mod error;
 pub mod io;
 pub mod pid;

@@ -1,0 +1,537 @@
+//! The per-tick pipeline that the CLI and the rig run:
+//!
+//! ```text
+//! sensors ─► supervisor watchdog ─► FK (warm start: last pose) ─► phase ─► desired pose
+//!         ─► IK ─► six PIDs (+ feed-forward) ─► supervisor gate ─► CommandFrame
+//! ```
+//!
+//! The procedure: [`Phase::Idle`] until the first good frame; [`Phase::Settle`]: a quintic ramp
+//! from the measured pose to the trajectory's offset (home) pose, then a hold for `settle_s`;
+//! [`Phase::Excite`]: the trajectory; [`Phase::Park`]: a quintic ramp from wherever the
+//! set-point is back to home at rest, a hold for `park_hold_s`; [`Phase::Done`]: brakes on.
+//! Any fault (sensor watchdog, limits, forward kinematics failing, a desired leg length outside
+//! the stroke) latches [`Phase::Fault`] and the safe stop.
+//!
+//! Nothing allocates and nothing panics. Every tick yields a command to send, even on a fault
+//! (then it is the safe stop), so [`Controller::tick`] returns a [`TickOutput`] rather than a
+//! `Result`: a caller cannot skip writing the safe stop by propagating an error. Use
+//! [`TickOutput::result`] where an error is wanted.
+
+use kinematics::{FkOptions, Geometry, KinematicsError, Pose, Vector3, Vector6};
+
+use crate::error::ControlError;
+use crate::io::{CommandFrame, SensorFrame, LEG_COUNT};
+use crate::pid::{PidBank, PidConfig, PidOutput};
+use crate::supervisor::{Fault, Phase, Supervisor, SupervisorConfig};
+use crate::trajectory::{FeasibilityLimits, FeasibilityReport, Ramp, Trajectory, TrajectorySample};
+
+/// Standard gravity, m/s² (DESIGN.md: gravity is (0, 0, −9.80665) in B).
+pub const GRAVITY_M_S2: f64 = 9.80665;
+
+/// Everything the controller needs besides the geometry and the trajectory. Plain `Copy` data;
+/// the CLI maps its TOML onto it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ControllerConfig {
+    /// Nominal time between sensor frames, s (> 0). Used as the PID step on the first tick.
+    pub sample_period_s: f64,
+    /// Shortest settle ramp from the initial pose to home, s (> 0). Lengthened when needed so
+    /// that no leg moves faster than half the feasibility speed limit on average × 1.875 peak.
+    pub settle_ramp_s: f64,
+    /// Hold at home after the settle ramp, s (≥ 0): lets transients die out and the
+    /// integrators find the static load.
+    pub settle_s: f64,
+    /// Park ramp back to home, s (> 0).
+    pub park_s: f64,
+    /// Hold at home after the park ramp before braking, s (≥ 0).
+    pub park_hold_s: f64,
+    /// Leg PID gains and limits (the same on every leg).
+    pub pid: PidConfig,
+    /// Constant per-leg feed-forward force added to each PID output, N (e.g. the static
+    /// gravity load from [`gravity_feedforward`]), so that the integrators need not build it up.
+    pub feedforward_n: [f64; LEG_COUNT],
+    /// Safety limits.
+    pub supervisor: SupervisorConfig,
+    /// Limits the trajectory must meet before any motion.
+    pub feasibility: FeasibilityLimits,
+    /// Forward-kinematics tolerance, iteration cap and jump limits.
+    pub fk: FkOptions,
+}
+
+impl Default for ControllerConfig {
+    /// 1 kHz, settle ramp ≥ 1 s then 2 s hold, 2 s park ramp and 0.5 s hold, default PID,
+    /// supervisor, feasibility and FK settings, no feed-forward.
+    fn default() -> Self {
+        Self {
+            sample_period_s: 1e-3,
+            settle_ramp_s: 1.0,
+            settle_s: 2.0,
+            park_s: 2.0,
+            park_hold_s: 0.5,
+            pid: PidConfig::default(),
+            feedforward_n: [0.0; LEG_COUNT],
+            supervisor: SupervisorConfig::default(),
+            feasibility: FeasibilityLimits::default(),
+            fk: FkOptions::default(),
+        }
+    }
+}
+
+impl ControllerConfig {
+    /// Checks every field (and the nested configs).
+    pub fn validate(&self) -> Result<(), ControlError> {
+        self.pid.validate()?;
+        self.supervisor.validate()?;
+        self.feasibility.validate()?;
+        let positive = [
+            ("controller.sample_period_s", self.sample_period_s),
+            ("controller.settle_ramp_s", self.settle_ramp_s),
+            ("controller.park_s", self.park_s),
+        ];
+        for (parameter, value) in positive {
+            if !value.is_finite() || value <= 0.0 {
+                return Err(ControlError::InvalidConfig {
+                    parameter,
+                    reason: "must be finite and > 0",
+                });
+            }
+        }
+        let non_negative = [
+            ("controller.settle_s", self.settle_s),
+            ("controller.park_hold_s", self.park_hold_s),
+        ];
+        for (parameter, value) in non_negative {
+            if !value.is_finite() || value < 0.0 {
+                return Err(ControlError::InvalidConfig {
+                    parameter,
+                    reason: "must be finite and >= 0",
+                });
+            }
+        }
+        if let Some(index) = self.feedforward_n.iter().position(|f| !f.is_finite()) {
+            return Err(ControlError::NonFinite {
+                what: "controller.feedforward_n",
+                index,
+            });
+        }
+        if !(self.fk.tolerance_m.is_finite() && self.fk.tolerance_m > 0.0) {
+            return Err(ControlError::InvalidConfig {
+                parameter: "controller.fk.tolerance_m",
+                reason: "must be finite and > 0",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Everything one tick computed, for the backend and the log.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TickOutput {
+    /// What to write to the backend (the safe stop outside Settle/Excite/Park and on a fault).
+    pub command: CommandFrame,
+    /// Phase after this tick.
+    pub phase: Phase,
+    /// Time since that phase began, s (trajectory time during Excite).
+    pub phase_time_s: f64,
+    /// The latched fault, if any.
+    pub fault: Option<Fault>,
+    /// PID step used, s (0 when the PIDs did not run).
+    pub dt_s: f64,
+    /// Desired pose, twist and acceleration (home at rest outside the active phases).
+    pub desired: TrajectorySample,
+    /// Desired leg lengths (IK of the desired pose), m.
+    pub desired_leg_lengths_m: [f64; LEG_COUNT],
+    /// Desired leg speeds `J·[v; ω]`, m/s.
+    pub desired_leg_speeds_m_s: [f64; LEG_COUNT],
+    /// Measured leg lengths, m.
+    pub measured_leg_lengths_m: [f64; LEG_COUNT],
+    /// The supervisor's filtered leg-speed estimates, m/s.
+    pub measured_leg_speeds_m_s: [f64; LEG_COUNT],
+    /// Pose from forward kinematics (None when the sensors were rejected or FK failed).
+    pub measured_pose: Option<Pose>,
+    /// Newton iterations FK used (0 when it did not run).
+    pub fk_iterations: u32,
+    /// FK's largest leg-length residual, m (NaN when it did not run).
+    pub fk_residual_m: f64,
+    /// Each leg's PID terms (zeros when the PIDs did not run).
+    pub pid: [PidOutput; LEG_COUNT],
+    /// True when the supervisor clamped a force to its limit.
+    pub clamped: bool,
+}
+
+impl TickOutput {
+    /// `Err(ControlError::Faulted(fault))` when a fault is latched, else `Ok(())`. The command
+    /// must be written either way.
+    pub fn result(&self) -> Result<(), ControlError> {
+        match self.fault {
+            Some(fault) => Err(ControlError::Faulted(fault)),
+            None => Ok(()),
+        }
+    }
+}
+
+/// The set-point generator of the current phase.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Motion {
+    /// Hold home at rest (Idle, Done, Fault).
+    Hold,
+    /// Ramp to home, then hold until `hold_until_s` (phase time).
+    Settle { ramp: Ramp, hold_until_s: f64 },
+    /// The trajectory.
+    Excite,
+    /// Ramp to home, then hold until `hold_until_s` (phase time).
+    Park { ramp: Ramp, hold_until_s: f64 },
+}
+
+/// The measurement procedure's controller. See the [module docs](self).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Controller {
+    geometry: Geometry,
+    trajectory: Trajectory,
+    config: ControllerConfig,
+    feasibility: FeasibilityReport,
+    pids: PidBank,
+    supervisor: Supervisor,
+    motion: Motion,
+    phase_start_s: f64,
+    last_time_s: Option<f64>,
+    /// Warm start for FK: the last measured pose.
+    last_pose: Pose,
+    last_desired: TrajectorySample,
+    park_requested: bool,
+}
+
+impl Controller {
+    /// Validates the configuration and checks the whole trajectory against the stroke, leg
+    /// speed and conditioning limits (see [`Trajectory::check_feasibility`]) before anything
+    /// can move. The FK warm start is the trajectory's offset pose until
+    /// [`Controller::set_pose_guess`] says otherwise.
+    pub fn new(
+        geometry: Geometry,
+        trajectory: Trajectory,
+        config: ControllerConfig,
+    ) -> Result<Self, ControlError> {
+        config.validate()?;
+        let feasibility = trajectory.check_feasibility(&geometry, &config.feasibility)?;
+        let home = *trajectory.offset();
+        Ok(Self {
+            geometry,
+            trajectory,
+            config,
+            feasibility,
+            pids: PidBank::uniform(config.pid)?,
+            supervisor: Supervisor::new(config.supervisor, geometry.stroke())?,
+            motion: Motion::Hold,
+            phase_start_s: 0.0,
+            last_time_s: None,
+            last_pose: home,
+            last_desired: rest_at(&home),
+            park_requested: false,
+        })
+    }
+
+    /// What the pre-motion feasibility check saw.
+    pub fn feasibility(&self) -> &FeasibilityReport {
+        &self.feasibility
+    }
+
+    /// The configuration in use.
+    pub fn config(&self) -> &ControllerConfig {
+        &self.config
+    }
+
+    /// The geometry in use.
+    pub fn geometry(&self) -> &Geometry {
+        &self.geometry
+    }
+
+    /// The excitation trajectory.
+    pub fn trajectory(&self) -> &Trajectory {
+        &self.trajectory
+    }
+
+    /// The current phase.
+    pub fn phase(&self) -> Phase {
+        self.supervisor.phase()
+    }
+
+    /// The latched fault, if any.
+    pub fn fault(&self) -> Option<Fault> {
+        self.supervisor.fault()
+    }
+
+    /// Sets the FK warm start (e.g. the platform's resting pose before the first tick).
+    /// Ignored unless finite.
+    pub fn set_pose_guess(&mut self, pose: Pose) {
+        if pose.is_finite() {
+            self.last_pose = pose;
+        }
+    }
+
+    /// Asks for a controlled stop: from Settle or Excite the next tick starts the park ramp
+    /// from the current set-point; from Idle the controller goes straight to Done.
+    pub fn request_park(&mut self) {
+        self.park_requested = true;
+    }
+
+    /// Operator reset after a fault: clears it and returns to Idle; the next good frame starts
+    /// a new settle from the measured pose.
+    pub fn clear_fault(&mut self) {
+        self.supervisor.clear_fault();
+        self.pids.reset();
+        self.motion = Motion::Hold;
+        self.last_time_s = None;
+        self.park_requested = false;
+    }
+
+    /// One control tick. See the [module docs](self).
+    pub fn tick(&mut self, frame: &SensorFrame) -> TickOutput {
+        self.tick_inner(frame, None)
+    }
+
+    /// [`Controller::tick`] plus the host-clock watchdog: `age_s` is how old `frame` is on
+    /// the host clock (see [`Supervisor::check_age`]).
+    pub fn tick_with_age(&mut self, frame: &SensorFrame, age_s: f64) -> TickOutput {
+        self.tick_inner(frame, Some(age_s))
+    }
+
+    fn tick_inner(&mut self, frame: &SensorFrame, age_s: Option<f64>) -> TickOutput {
+        let home = *self.trajectory.offset();
+        let mut out = TickOutput {
+            command: CommandFrame::default(),
+            phase: self.supervisor.phase(),
+            phase_time_s: 0.0,
+            fault: None,
+            dt_s: 0.0,
+            desired: rest_at(&home),
+            desired_leg_lengths_m: [0.0; LEG_COUNT],
+            desired_leg_speeds_m_s: [0.0; LEG_COUNT],
+            measured_leg_lengths_m: frame.leg_lengths_m,
+            measured_leg_speeds_m_s: [0.0; LEG_COUNT],
+            measured_pose: None,
+            fk_iterations: 0,
+            fk_residual_m: f64::NAN,
+            pid: [PidOutput::default(); LEG_COUNT],
+            clamped: false,
+        };
+
+        let mut sensors_ok = self.supervisor.check_sensors(frame).is_ok();
+        if let Some(age) = age_s {
+            sensors_ok &= self.supervisor.check_age(age).is_ok();
+        }
+        out.measured_leg_speeds_m_s = *self.supervisor.leg_speeds_m_s();
+        if sensors_ok {
+            let lengths = Vector6::from(frame.leg_lengths_m);
+            match self
+                .geometry
+                .forward_kinematics(&lengths, &self.last_pose, &self.config.fk)
+            {
+                Ok(solution) => {
+                    self.last_pose = solution.pose;
+                    out.measured_pose = Some(solution.pose);
+                    out.fk_iterations = solution.iterations;
+                    out.fk_residual_m = solution.residual_m;
+                }
+                Err(error) => self.supervisor.trip(Fault::ForwardKinematics(error)),
+            }
+        }
+
+        let now = frame.time_s;
+        let dt_s = match self.last_time_s {
+            Some(last) if now > last => now - last,
+            _ => self.config.sample_period_s,
+        };
+        if sensors_ok {
+            self.last_time_s = Some(now);
+        }
+        if let Some(pose) = out.measured_pose {
+            self.advance_phase(now, &pose);
+        }
+
+        let phase = self.supervisor.phase();
+        out.phase_time_s = now - self.phase_start_s;
+        let mut forces = [0.0; LEG_COUNT];
+        if phase.is_active() {
+            let desired = self.setpoint(out.phase_time_s);
+            self.last_desired = desired;
+            out.desired = desired;
+            let legs = self.geometry.legs(&desired.pose);
+            let speeds = self.geometry.jacobian(&desired.pose) * desired.twist();
+            for leg in 0..LEG_COUNT {
+                out.desired_leg_lengths_m[leg] = legs.lengths_m[leg];
+                out.desired_leg_speeds_m_s[leg] = speeds[leg];
+            }
+            if let Err(fault) = self.check_desired(&out.desired_leg_lengths_m) {
+                self.supervisor.trip(fault);
+            } else {
+                match self.pids.update(
+                    &out.desired_leg_lengths_m,
+                    &frame.leg_lengths_m,
+                    &self.config.feedforward_n,
+                    dt_s,
+                ) {
+                    Ok(terms) => {
+                        out.pid = terms;
+                        out.dt_s = dt_s;
+                        forces = terms.map(|t| t.output);
+                    }
+                    Err(ControlError::NonFinite { index, .. }) => {
+                        self.supervisor.trip(Fault::CommandNotFinite { leg: index });
+                    }
+                    Err(_) => self.supervisor.trip(Fault::CommandNotFinite { leg: 0 }),
+                }
+            }
+        } else {
+            out.desired_leg_lengths_m = self.geometry.leg_lengths(&home).into();
+        }
+
+        let gated = self.supervisor.gate(&forces, frame.sequence);
+        if !self.supervisor.phase().is_active() {
+            self.pids.reset();
+        }
+        out.command = gated.command;
+        out.clamped = gated.clamped;
+        out.phase = self.supervisor.phase();
+        out.fault = self.supervisor.fault();
+        out
+    }
+
+    /// Phase transitions at time `now` (several may happen in one tick, e.g. a zero hold).
+    fn advance_phase(&mut self, now: f64, measured: &Pose) {
+        let home = *self.trajectory.offset();
+        for _ in 0..4 {
+            let t = now - self.phase_start_s;
+            match (self.supervisor.phase(), self.motion) {
+                (Phase::Idle, _) if self.park_requested => {
+                    self.park_requested = false;
+                    self.enter(Phase::Done, Motion::Hold, now);
+                }
+                (Phase::Idle, _) => {
+                    let duration = self.settle_duration(measured);
+                    let Ok(ramp) = Ramp::from_pose(home, measured, duration) else {
+                        return;
+                    };
+                    self.pids.reset();
+                    let hold_until_s = duration + self.config.settle_s;
+                    self.enter(Phase::Settle, Motion::Settle { ramp, hold_until_s }, now);
+                    return;
+                }
+                (Phase::Settle | Phase::Excite, _) if self.park_requested => {
+                    self.park_requested = false;
+                    self.start_park(now);
+                    return;
+                }
+                (Phase::Settle, Motion::Settle { hold_until_s, .. }) if t >= hold_until_s => {
+                    self.enter(Phase::Excite, Motion::Excite, now);
+                }
+                (Phase::Excite, _) if t >= self.trajectory.duration_s() => self.start_park(now),
+                (Phase::Park, Motion::Park { hold_until_s, .. }) if t >= hold_until_s => {
+                    self.enter(Phase::Done, Motion::Hold, now);
+                }
+                _ => return,
+            }
+        }
+    }
+
+    fn enter(&mut self, phase: Phase, motion: Motion, now: f64) {
+        if self.supervisor.set_phase(phase) == phase {
+            self.motion = motion;
+            self.phase_start_s = now;
+        }
+    }
+
+    /// Park from the last set-point (position, rate and acceleration), so the set-point stays
+    /// C² even when the excitation is cut short.
+    fn start_park(&mut self, now: f64) {
+        let d = self.last_desired;
+        let home = *self.trajectory.offset();
+        let ramp = Ramp::from_state(
+            home,
+            &d.coordinates,
+            &d.coordinate_rates,
+            &d.coordinate_accelerations,
+            self.config.park_s,
+        );
+        let motion = match ramp {
+            Ok(ramp) => Motion::Park {
+                ramp,
+                hold_until_s: self.config.park_s + self.config.park_hold_s,
+            },
+            // Unreachable with a validated config and finite set-points; holding home is the
+            // conservative fallback.
+            Err(_) => Motion::Hold,
+        };
+        self.enter(Phase::Park, motion, now);
+    }
+
+    /// The settle ramp's length: at least `settle_ramp_s`, and long enough that the ramp's
+    /// peak speed (1.875 × the mean for a quintic rest-to-rest move) needs at most half the
+    /// feasibility speed limit on the leg that moves furthest.
+    fn settle_duration(&self, measured: &Pose) -> f64 {
+        let from = self.geometry.leg_lengths(measured);
+        let to = self.geometry.leg_lengths(self.trajectory.offset());
+        let furthest = (from - to).amax();
+        let needed = 1.875 * furthest / (0.5 * self.config.feasibility.max_leg_speed_m_s);
+        if needed.is_finite() {
+            needed.max(self.config.settle_ramp_s)
+        } else {
+            self.config.settle_ramp_s
+        }
+    }
+
+    fn setpoint(&self, phase_time_s: f64) -> TrajectorySample {
+        match self.motion {
+            Motion::Settle { ramp, .. } | Motion::Park { ramp, .. } => ramp.sample(phase_time_s),
+            Motion::Excite => self.trajectory.sample(phase_time_s),
+            Motion::Hold => rest_at(self.trajectory.offset()),
+        }
+    }
+
+    fn check_desired(&self, lengths_m: &[f64; LEG_COUNT]) -> Result<(), Fault> {
+        let stroke = self.geometry.stroke();
+        for (leg, &length_m) in lengths_m.iter().enumerate() {
+            if length_m.is_nan() || length_m < stroke.min_length_m || length_m > stroke.max_length_m
+            {
+                return Err(Fault::DesiredOutOfStroke { leg, length_m });
+            }
+        }
+        Ok(())
+    }
+}
+
+fn rest_at(pose: &Pose) -> TrajectorySample {
+    let zero = Vector6::zeros();
+    TrajectorySample::from_coordinates(pose, &zero, &zero, &zero)
+}
+
+/// Leg forces that hold a body of `mass_kg` with its centre of mass at `com_in_p_m` (in P)
+/// still at `pose` against gravity: the solution of `Jᵀ f = [m g ẑ; (R c) × m g ẑ]` (force up
+/// in B, torque about the P origin in B axes; [`Geometry::wrench_in_base`] is `Jᵀ f`). Use it
+/// for [`ControllerConfig::feedforward_n`] with the payload plus the plate's own mass.
+pub fn gravity_feedforward(
+    geometry: &Geometry,
+    pose: &Pose,
+    mass_kg: f64,
+    com_in_p_m: &Vector3<f64>,
+) -> Result<[f64; LEG_COUNT], ControlError> {
+    if !mass_kg.is_finite() || !com_in_p_m.iter().all(|v| v.is_finite()) || !pose.is_finite() {
+        return Err(ControlError::NonFinite {
+            what: "gravity feed-forward input",
+            index: 0,
+        });
+    }
+    let force = Vector3::new(0.0, 0.0, mass_kg * GRAVITY_M_S2);
+    let torque = (pose.rotation * com_in_p_m).cross(&force);
+    let wrench = Vector6::new(force.x, force.y, force.z, torque.x, torque.y, torque.z);
+    let jt = geometry.jacobian(pose).transpose();
+    let singular = ControlError::Kinematics(KinematicsError::SingularPose {
+        inverse_condition: geometry.inverse_condition_number(pose),
+    });
+    let forces = jt.lu().solve(&wrench).ok_or(singular)?;
+    if !forces.iter().all(|f| f.is_finite()) {
+        return Err(singular);
+    }
+    Ok(forces.into())
+}
+
+#[cfg(test)]
+mod tests;
