@@ -1,0 +1,431 @@
+//! Reading a scenario file: TOML text → [`Config`], refusing anything wrong with the file, the
+//! dotted key and what is wrong.
+//!
+//! A scenario file is laid over the embedded default (`configs/default.toml`): tables merge key
+//! by key, any other value (numbers, strings, arrays) replaces the default's. So a scenario need
+//! only state what differs from the default car, and `stewart simulate` needs no file at all.
+//! Unknown keys are refused, not ignored: units live in the key names (`mass_kg`), so a key with
+//! the wrong unit (`mass_lb`) is an unknown key, and we name the known key it was probably meant
+//! to be.
+
+use std::fmt;
+use std::path::Path;
+
+use crate::config::Config;
+
+/// The default scenario, compiled in so that `stewart simulate` needs no arguments.
+pub const DEFAULT_CONFIG_TOML: &str = include_str!("../../../configs/default.toml");
+
+/// Name used for the embedded default in messages.
+pub const DEFAULT_CONFIG_NAME: &str = "<embedded configs/default.toml>";
+
+/// One thing wrong with a configuration: where (file, line when known, dotted key) and what.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ConfigIssue {
+    /// The file as the user named it (or [`DEFAULT_CONFIG_NAME`]).
+    pub file: String,
+    /// 1-based line of the key in that file, when the key is in the file.
+    pub line: Option<usize>,
+    /// Dotted key path, e.g. `payload.inertia_com_kg_m2[0][1]`; empty for a file-level problem.
+    pub key: String,
+    /// What is wrong, in words a user can act on.
+    pub problem: String,
+}
+
+impl fmt::Display for ConfigIssue {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.file)?;
+        if let Some(line) = self.line {
+            write!(f, ":{line}")?;
+        }
+        if self.key.is_empty() {
+            write!(f, ": {}", self.problem)
+        } else {
+            write!(f, ": `{}`: {}", self.key, self.problem)
+        }
+    }
+}
+
+/// Every problem found in a configuration (never empty).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ConfigError {
+    /// The problems, in file order where known.
+    pub issues: Vec<ConfigIssue>,
+}
+
+impl fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let n = self.issues.len();
+        write!(
+            f,
+            "invalid configuration ({n} problem{})",
+            if n == 1 { "" } else { "s" }
+        )?;
+        for issue in &self.issues {
+            write!(f, "\n  {issue}")?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+impl ConfigError {
+    /// One issue.
+    pub fn single(issue: ConfigIssue) -> Self {
+        Self {
+            issues: vec![issue],
+        }
+    }
+}
+
+/// A configuration together with where it came from.
+#[derive(Clone, Debug)]
+pub struct LoadedConfig {
+    /// The merged, validated configuration.
+    pub config: Config,
+    /// The file name for messages ([`DEFAULT_CONFIG_NAME`] for the embedded default).
+    pub source: String,
+    /// The user's file text as read (the default's text when no file was given).
+    pub text: String,
+}
+
+impl LoadedConfig {
+    /// The effective configuration (default merged with the file) as TOML, for logs.
+    pub fn effective_toml(&self) -> String {
+        toml::to_string(&self.config).unwrap_or_default()
+    }
+
+    /// Locates `key` in the user's file (1-based line), for messages about values checked after
+    /// loading (trajectory, geometry).
+    pub fn issue(&self, key: &str, problem: impl Into<String>) -> ConfigIssue {
+        ConfigIssue {
+            file: self.source.clone(),
+            line: locate_key(&self.text, key),
+            key: key.to_string(),
+            problem: problem.into(),
+        }
+    }
+}
+
+/// Loads the embedded default, or `path` laid over it, and validates the ranges.
+pub fn load(path: Option<&Path>) -> Result<LoadedConfig, ConfigError> {
+    match path {
+        None => load_str(DEFAULT_CONFIG_TOML, DEFAULT_CONFIG_NAME),
+        Some(path) => {
+            let name = path.display().to_string();
+            let text = std::fs::read_to_string(path).map_err(|e| {
+                ConfigError::single(ConfigIssue {
+                    file: name.clone(),
+                    line: None,
+                    key: String::new(),
+                    problem: format!("cannot read the file: {e}"),
+                })
+            })?;
+            load_str(&text, &name)
+        }
+    }
+}
+
+/// Loads scenario `text` (named `source` in messages) laid over the embedded default.
+pub fn load_str(text: &str, source: &str) -> Result<LoadedConfig, ConfigError> {
+    let issue = |line: Option<usize>, key: String, problem: String| ConfigIssue {
+        file: source.to_string(),
+        line,
+        key,
+        problem,
+    };
+    let user: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+        let line = e.span().map(|s| line_of(text, s.start));
+        ConfigError::single(issue(
+            line,
+            String::new(),
+            format!("not valid TOML: {}", e.message()),
+        ))
+    })?;
+    let mut merged: toml::Table = DEFAULT_CONFIG_TOML.parse().map_err(|e: toml::de::Error| {
+        ConfigError::single(ConfigIssue {
+            file: DEFAULT_CONFIG_NAME.into(),
+            line: e.span().map(|s| line_of(DEFAULT_CONFIG_TOML, s.start)),
+            key: String::new(),
+            problem: format!("embedded default is not valid TOML: {}", e.message()),
+        })
+    })?;
+    merge(&mut merged, user);
+    let config: Config = serde_path_to_error::deserialize(merged).map_err(|e| {
+        let key = e.path().to_string();
+        let key = if key == "." { String::new() } else { key };
+        let message = e.inner().message().trim().to_string();
+        let (key, problem) = explain_serde_error(&key, &message);
+        ConfigError::single(issue(locate_key(text, &key), key, problem))
+    })?;
+    let problems = crate::validate::validate(&config);
+    if !problems.is_empty() {
+        return Err(ConfigError {
+            issues: problems
+                .into_iter()
+                .map(|(key, problem)| issue(locate_key(text, &key), key, problem))
+                .collect(),
+        });
+    }
+    Ok(LoadedConfig {
+        config,
+        source: source.to_string(),
+        text: text.to_string(),
+    })
+}
+
+/// Lays `over` onto `base`: tables merge recursively, anything else replaces.
+fn merge(base: &mut toml::Table, over: toml::Table) {
+    for (key, value) in over {
+        match (base.get_mut(&key), value) {
+            (Some(toml::Value::Table(b)), toml::Value::Table(o)) => merge(b, o),
+            (_, value) => {
+                base.insert(key, value);
+            }
+        }
+    }
+}
+
+/// Rewrites serde's messages into what a user can act on, and for an unknown key returns the
+/// key itself (serde's path stops at its table) with a hint at the known key it resembles.
+fn explain_serde_error(path: &str, message: &str) -> (String, String) {
+    if let Some(rest) = message.strip_prefix("unknown field `") {
+        let (field, expected) = rest.split_once('`').unwrap_or((rest, ""));
+        let known: Vec<&str> = expected
+            .split('`')
+            .enumerate()
+            .filter(|(i, _)| i % 2 == 1)
+            .map(|(_, s)| s)
+            .collect();
+        // serde_path_to_error already ends the path with the unknown key.
+        let key = if path.ends_with(field) {
+            path.to_string()
+        } else if path.is_empty() {
+            field.to_string()
+        } else {
+            format!("{path}.{field}")
+        };
+        let mut problem = "unknown key".to_string();
+        if let Some(suggestion) = suggest(field, &known) {
+            if stem(suggestion) == stem(field) && suggestion != field {
+                problem.push_str(&format!(
+                    "; the unit is part of the key's name: did you mean `{suggestion}`?"
+                ));
+            } else {
+                problem.push_str(&format!("; did you mean `{suggestion}`?"));
+            }
+        }
+        if !known.is_empty() {
+            problem.push_str(&format!(" (known keys here: {})", known.join(", ")));
+        }
+        return (key, problem);
+    }
+    if let Some(rest) = message.strip_prefix("missing field `") {
+        let field = rest.split('`').next().unwrap_or(rest);
+        let key = if path.is_empty() {
+            field.to_string()
+        } else {
+            format!("{path}.{field}")
+        };
+        return (key, "missing (required key)".to_string());
+    }
+    if message.starts_with("invalid type") || message.starts_with("invalid length") {
+        return (path.to_string(), format!("wrong type: {message}"));
+    }
+    (path.to_string(), message.to_string())
+}
+
+/// The part of a key before its unit suffix: `mass_kg` → `mass`, `com_m` → `com`.
+fn stem(key: &str) -> &str {
+    const UNITS: [&str; 21] = [
+        "_kg_m2",
+        "_n_s_per_m",
+        "_n_per_m_s",
+        "_n_per_m",
+        "_rad_s",
+        "_m_s2",
+        "_m_s",
+        "_deg",
+        "_rad",
+        "_hz",
+        "_kg",
+        "_m",
+        "_s",
+        "_n",
+        "_nm",
+        "_lb",
+        "_in",
+        "_mm",
+        "_ms",
+        "_g",
+        "_ft",
+    ];
+    UNITS
+        .iter()
+        .find_map(|u| key.strip_suffix(u))
+        .unwrap_or(key)
+}
+
+/// The known key closest to `field`: same stem first (a wrong unit), else smallest edit distance
+/// if it is small.
+fn suggest<'a>(field: &str, known: &[&'a str]) -> Option<&'a str> {
+    if let Some(k) = known.iter().find(|k| stem(k) == stem(field)) {
+        return Some(k);
+    }
+    known
+        .iter()
+        .map(|k| (edit_distance(field, k), *k))
+        .filter(|(d, _)| *d <= 3)
+        .min_by_key(|(d, _)| *d)
+        .map(|(_, k)| k)
+}
+
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut prev = row[0];
+        row[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let cur = row[j + 1];
+            row[j + 1] = (prev + usize::from(ca != *cb)).min(row[j] + 1).min(cur + 1);
+            prev = cur;
+        }
+    }
+    row[b.len()]
+}
+
+/// 1-based line of byte offset `pos` in `text`.
+fn line_of(text: &str, pos: usize) -> usize {
+    text.as_bytes()
+        .iter()
+        .take(pos)
+        .filter(|b| **b == b'\n')
+        .count()
+        + 1
+}
+
+/// 1-based line where dotted `key` (e.g. `payload.com_m[2]`) is written in `text`, if it is.
+pub fn locate_key(text: &str, key: &str) -> Option<usize> {
+    if key.is_empty() {
+        return None;
+    }
+    let root = toml::de::DeTable::parse(text).ok()?;
+    let mut table = Some(root.get_ref());
+    let mut span = None;
+    for part in key.split('.') {
+        let (name, indices) = match part.find('[') {
+            Some(i) => (&part[..i], &part[i..]),
+            None => (part, ""),
+        };
+        let (k, mut value) = table?.iter().find(|(k, _)| k.get_ref() == name)?;
+        span = Some(k.span());
+        for index in indices
+            .split(['[', ']'])
+            .filter(|s| !s.is_empty())
+            .filter_map(|s| s.parse::<usize>().ok())
+        {
+            match value.get_ref() {
+                toml::de::DeValue::Array(a) => {
+                    value = a.get(index)?;
+                    span = Some(value.span());
+                }
+                _ => break,
+            }
+        }
+        table = match value.get_ref() {
+            toml::de::DeValue::Table(t) => Some(t),
+            _ => None,
+        };
+    }
+    span.map(|s| line_of(text, s.start))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn embedded_default_loads() {
+        let loaded = load(None).expect("default config must be valid");
+        assert_eq!(loaded.source, DEFAULT_CONFIG_NAME);
+        assert!(loaded.config.payload.mass_kg > 0.0);
+    }
+
+    #[test]
+    fn partial_file_inherits_the_default() {
+        let loaded = load_str("[payload]\nmass_kg = 900.0\n", "x.toml").unwrap();
+        let default = load(None).unwrap();
+        assert_eq!(loaded.config.payload.mass_kg, 900.0);
+        assert_eq!(loaded.config.payload.com_m, default.config.payload.com_m);
+        assert_eq!(loaded.config.platform, default.config.platform);
+    }
+
+    #[test]
+    fn unknown_key_names_file_line_key_and_the_right_unit() {
+        let err = load_str("[payload]\n\nmass_lb = 3300.0\n", "car.toml").unwrap_err();
+        let issue = &err.issues[0];
+        assert_eq!(issue.file, "car.toml");
+        assert_eq!(issue.key, "payload.mass_lb");
+        assert_eq!(issue.line, Some(3));
+        assert!(issue.problem.contains("unknown key"), "{issue}");
+        assert!(issue.problem.contains("mass_kg"), "{issue}");
+    }
+
+    #[test]
+    fn unknown_section_is_refused() {
+        let err = load_str("[payloda]\nmass_kg = 1.0\n", "car.toml").unwrap_err();
+        assert_eq!(err.issues[0].key, "payloda");
+        assert!(err.issues[0].problem.contains("payload"), "{}", err);
+    }
+
+    #[test]
+    fn wrong_type_names_the_key() {
+        let err = load_str("[payload]\nmass_kg = \"1500 kg\"\n", "car.toml").unwrap_err();
+        let issue = &err.issues[0];
+        assert_eq!(issue.key, "payload.mass_kg");
+        assert_eq!(issue.line, Some(2));
+        assert!(issue.problem.contains("wrong type"), "{issue}");
+    }
+
+    #[test]
+    fn wrong_array_length_names_the_key() {
+        let err = load_str("[payload]\ncom_m = [0.1, 0.2]\n", "car.toml").unwrap_err();
+        assert_eq!(err.issues[0].key, "payload.com_m");
+    }
+
+    #[test]
+    fn syntax_error_gives_the_line() {
+        let err = load_str("[payload]\nmass_kg = = 3\n", "car.toml").unwrap_err();
+        assert_eq!(err.issues[0].line, Some(2));
+        assert!(err.to_string().contains("car.toml:2"), "{err}");
+    }
+
+    #[test]
+    fn out_of_range_value_is_refused_with_its_line() {
+        let err = load_str("[payload]\n\nmass_kg = -1500.0\n", "car.toml").unwrap_err();
+        let issue = err
+            .issues
+            .iter()
+            .find(|i| i.key == "payload.mass_kg")
+            .expect("mass issue");
+        assert_eq!(issue.line, Some(3));
+        assert!(issue.problem.contains("positive"), "{issue}");
+    }
+
+    #[test]
+    fn locate_finds_array_elements() {
+        let text = "[a]\nb = [\n  [1, 2],\n  [3, 4],\n]\n";
+        assert_eq!(locate_key(text, "a.b[1][0]"), Some(4));
+        assert_eq!(locate_key(text, "a.b"), Some(2));
+        assert_eq!(locate_key(text, "a.c"), None);
+    }
+
+    #[test]
+    fn stems_strip_units() {
+        assert_eq!(stem("mass_kg"), "mass");
+        assert_eq!(stem("inertia_com_kg_m2"), "inertia_com");
+        assert_eq!(edit_distance("payloda", "payload"), 2);
+    }
+}

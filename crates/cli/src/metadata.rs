@@ -1,0 +1,317 @@
+//! The log's run-level messages: what was run (`/run/metadata`), the estimator's exact settings
+//! for each measurement (`/run/estimator`, enough to re-run it offline from `/sensors`), and the
+//! simulator's ground truth (`/run/truth`, never read by the estimator).
+
+use anyhow::{bail, Result};
+use nalgebra::{Vector3, Vector6};
+use serde::{Deserialize, Serialize};
+
+use crate::schema::{array, int, nullable, num, numbers, object, string, Schema};
+
+/// `stewart.RunMetadata` on `/run/metadata`, written once at the start.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunMetadata {
+    /// `stewart-cli` version.
+    pub tool_version: String,
+    /// `simulate` or `rig`.
+    pub command: String,
+    /// `sim` or `rig`.
+    pub backend: String,
+    /// Scenario file as named by the user, or the embedded default.
+    pub config_source: String,
+    /// The scenario file's text as read.
+    pub config_text: String,
+    /// The effective configuration (default merged with the file and the command line) as TOML.
+    pub config_toml: String,
+    /// Random seed.
+    pub seed: u64,
+    /// Noise preset.
+    pub noise: String,
+    /// 10 or 6.
+    pub params: u8,
+    /// Nominal sample period, s.
+    pub sample_period_s: f64,
+    /// Unix time of the first sample, ns; MCAP log times are this plus the sample clock.
+    pub start_unix_ns: u64,
+    /// Measurements planned, in order (`tare`, `loaded`).
+    pub runs: Vec<String>,
+    /// Tare file used instead of a tare run, if any.
+    pub tare_file: Option<String>,
+    /// Base joints in B, m.
+    pub base_joints_m: [[f64; 3]; 6],
+    /// Plate joints in P, m.
+    pub plate_joints_m: [[f64; 3]; 6],
+    /// Shortest and longest leg, m.
+    pub stroke_m: [f64; 2],
+}
+
+fn joints(d: &'static str) -> Schema {
+    array(numbers(3, ""), Some(6), d)
+}
+
+impl RunMetadata {
+    /// JSON schema.
+    pub fn schema() -> Schema {
+        object(
+            vec![
+                ("tool_version", string("stewart-cli version")),
+                ("command", string("simulate or rig")),
+                ("backend", string("sim or rig")),
+                (
+                    "config_source",
+                    string("scenario file, or the embedded default"),
+                ),
+                ("config_text", string("the scenario file's text as read")),
+                (
+                    "config_toml",
+                    string("effective configuration (default + file + command line), TOML"),
+                ),
+                ("seed", int("random seed")),
+                ("noise", string("none, realistic or harsh")),
+                ("params", int("10 or 6")),
+                ("sample_period_s", num("nominal sample period, s")),
+                (
+                    "start_unix_ns",
+                    int("Unix time of the first sample, ns; log time = this + sample clock"),
+                ),
+                (
+                    "runs",
+                    array(string(""), None, "measurements planned, in order"),
+                ),
+                (
+                    "tare_file",
+                    nullable(string("tare file used instead of a tare run")),
+                ),
+                ("base_joints_m", joints("base joints in B, m")),
+                ("plate_joints_m", joints("plate joints in P, m")),
+                ("stroke_m", numbers(2, "shortest and longest leg, m")),
+            ],
+            "What was run, with the configuration needed to run it again",
+        )
+    }
+}
+
+/// The estimator's settings for one measurement: every field of `estimator::EstimatorConfig`
+/// except the geometry (in [`RunMetadata`]), plus how the pose fed to it was obtained.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EstimatorSettings {
+    /// Measurement (`tare` or `loaded`).
+    pub run: String,
+    /// `full` (10) or `inertia_about_known_com` (the paper's 6).
+    pub parameters: String,
+    /// Known mass for the 6-parameter model, kg.
+    pub known_mass_kg: Option<f64>,
+    /// Known centre of mass for the 6-parameter model, in P, m.
+    pub known_com_m: Option<[f64; 3]>,
+    /// Nominal sample period, s.
+    pub sample_period_s: f64,
+    /// Low-pass cut-off, Hz (`null`: none).
+    pub lowpass_cutoff_hz: Option<f64>,
+    /// RLS forgetting factor.
+    pub forgetting_factor: f64,
+    /// Expected noise of each equation, [Fx, Fy, Fz] N, [τx, τy, τz] N·m.
+    pub equation_sigma: [f64; 6],
+    /// Prior one-sigma of every parameter.
+    pub prior_sigma: f64,
+    /// Accelerometer mounting point in P, m.
+    pub accelerometer_position_m: [f64; 3],
+    /// Samples before this backend time only warm the conditioning, s (`null`: −∞).
+    pub window_start_s: Option<f64>,
+    /// Samples after this backend time are ignored, s (`null`: +∞).
+    pub window_end_s: Option<f64>,
+    /// A longer step between samples restarts the conditioning, s.
+    pub max_gap_s: f64,
+    /// Samples per residual block of the covariance estimate.
+    pub covariance_block_samples: u32,
+    /// Forward kinematics tolerance, m. The pose of each sample is the FK of its measured leg
+    /// lengths, warm-started from the previous sample's solution, the first sample of the run
+    /// from the geometry's home pose.
+    pub fk_tolerance_m: f64,
+    /// Forward kinematics iteration limit.
+    pub fk_max_iterations: u32,
+    /// Forward kinematics: largest accepted jump from the warm start, m.
+    pub fk_max_jump_m: f64,
+    /// Forward kinematics: largest accepted rotation from the warm start, rad.
+    pub fk_max_jump_rad: f64,
+}
+
+impl EstimatorSettings {
+    /// JSON schema (`stewart.EstimatorSettings` on `/run/estimator`).
+    pub fn schema() -> Schema {
+        object(
+            vec![
+                ("run", string("tare or loaded")),
+                ("parameters", string("full or inertia_about_known_com")),
+                (
+                    "known_mass_kg",
+                    nullable(num("known mass (6-parameter model), kg")),
+                ),
+                (
+                    "known_com_m",
+                    nullable(numbers(3, "known centre of mass (6-parameter model), P, m")),
+                ),
+                ("sample_period_s", num("s")),
+                ("lowpass_cutoff_hz", nullable(num("Hz; null = no filter"))),
+                ("forgetting_factor", num("RLS lambda")),
+                (
+                    "equation_sigma",
+                    numbers(6, "Fx, Fy, Fz (N), τx, τy, τz (N·m)"),
+                ),
+                ("prior_sigma", num("prior sigma of every parameter, SI")),
+                ("accelerometer_position_m", numbers(3, "P, m")),
+                (
+                    "window_start_s",
+                    nullable(num("backend time, s; null = -inf")),
+                ),
+                (
+                    "window_end_s",
+                    nullable(num("backend time, s; null = +inf")),
+                ),
+                ("max_gap_s", num("s")),
+                ("covariance_block_samples", int("")),
+                ("fk_tolerance_m", num("forward kinematics tolerance, m")),
+                (
+                    "fk_max_iterations",
+                    int("forward kinematics iteration limit"),
+                ),
+                (
+                    "fk_max_jump_m",
+                    num("largest accepted FK jump from the warm start, m"),
+                ),
+                (
+                    "fk_max_jump_rad",
+                    num("largest accepted FK rotation from the warm start, rad"),
+                ),
+            ],
+            "Estimator settings of one measurement: enough to re-run it from /sensors",
+        )
+    }
+
+    /// Captures `config` (and the FK options) for measurement `run`.
+    pub fn from_config(
+        run: &str,
+        c: &estimator::EstimatorConfig,
+        fk: &kinematics::FkOptions,
+    ) -> Self {
+        let (parameters, known_mass_kg, known_com_m) = match c.parameters {
+            estimator::ParameterSet::Full => ("full", None, None),
+            estimator::ParameterSet::InertiaAboutKnownCom { mass_kg, com_m } => (
+                "inertia_about_known_com",
+                Some(mass_kg),
+                Some([com_m.x, com_m.y, com_m.z]),
+            ),
+        };
+        let finite = |v: f64| v.is_finite().then_some(v);
+        Self {
+            run: run.into(),
+            parameters: parameters.into(),
+            known_mass_kg,
+            known_com_m,
+            sample_period_s: c.sample_period_s,
+            lowpass_cutoff_hz: c.lowpass_cutoff_hz,
+            forgetting_factor: c.forgetting_factor,
+            equation_sigma: c.equation_sigma.into(),
+            prior_sigma: c.prior_sigma,
+            accelerometer_position_m: c.accelerometer_position_m.into(),
+            window_start_s: finite(c.window_start_s),
+            window_end_s: finite(c.window_end_s),
+            max_gap_s: c.max_gap_s,
+            covariance_block_samples: c.covariance_block_samples,
+            fk_tolerance_m: fk.tolerance_m,
+            fk_max_iterations: fk.max_iterations,
+            fk_max_jump_m: fk.max_jump_m,
+            fk_max_jump_rad: fk.max_jump_rad,
+        }
+    }
+
+    /// Rebuilds the estimator configuration for `geometry` (inverse of [`Self::from_config`]).
+    pub fn to_config(
+        &self,
+        geometry: kinematics::Geometry,
+    ) -> Result<(estimator::EstimatorConfig, kinematics::FkOptions)> {
+        let parameters = match (&self.parameters[..], self.known_mass_kg, self.known_com_m) {
+            ("full", _, _) => estimator::ParameterSet::Full,
+            ("inertia_about_known_com", Some(m), Some(c)) => {
+                estimator::ParameterSet::InertiaAboutKnownCom {
+                    mass_kg: m,
+                    com_m: Vector3::from(c),
+                }
+            }
+            (other, _, _) => bail!("unknown or incomplete parameter set `{other}`"),
+        };
+        let mut c = estimator::EstimatorConfig::new(geometry, self.sample_period_s);
+        c.lowpass_cutoff_hz = self.lowpass_cutoff_hz;
+        c.forgetting_factor = self.forgetting_factor;
+        c.parameters = parameters;
+        c.equation_sigma = Vector6::from(self.equation_sigma);
+        c.prior_sigma = self.prior_sigma;
+        c.accelerometer_position_m = Vector3::from(self.accelerometer_position_m);
+        c.window_start_s = self.window_start_s.unwrap_or(f64::NEG_INFINITY);
+        c.window_end_s = self.window_end_s.unwrap_or(f64::INFINITY);
+        c.max_gap_s = self.max_gap_s;
+        c.covariance_block_samples = self.covariance_block_samples;
+        let fk = kinematics::FkOptions {
+            tolerance_m: self.fk_tolerance_m,
+            max_iterations: self.fk_max_iterations,
+            max_jump_m: self.fk_max_jump_m,
+            max_jump_rad: self.fk_max_jump_rad,
+        };
+        Ok((c, fk))
+    }
+}
+
+/// A body's true properties, both ways.
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodyTruth {
+    /// kg.
+    pub mass_kg: f64,
+    /// Centre of mass in P, m.
+    pub com_m: [f64; 3],
+    /// J_C, P axes, kg·m².
+    pub inertia_com_kg_m2: [[f64; 3]; 3],
+    /// θ about the P origin.
+    pub theta: [f64; 10],
+}
+
+impl BodyTruth {
+    fn schema(d: &'static str) -> Schema {
+        object(
+            vec![
+                ("mass_kg", num("kg")),
+                ("com_m", numbers(3, "P, m")),
+                (
+                    "inertia_com_kg_m2",
+                    array(numbers(3, ""), Some(3), "J_C, P axes, kg·m²"),
+                ),
+                ("theta", numbers(10, "about the P origin, P axes")),
+            ],
+            d,
+        )
+    }
+}
+
+/// `stewart.Truth` on `/run/truth` (simulation only).
+#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TruthMsg {
+    /// The plate and fixture.
+    pub fixture: BodyTruth,
+    /// The payload.
+    pub payload: BodyTruth,
+}
+
+impl TruthMsg {
+    /// JSON schema.
+    pub fn schema() -> Schema {
+        object(
+            vec![
+                ("fixture", BodyTruth::schema("plate and fixture")),
+                ("payload", BodyTruth::schema("the payload")),
+            ],
+            "The simulator's ground truth; never read by the estimator",
+        )
+    }
+}

@@ -1,0 +1,220 @@
+//! The tare: the empty fixture's inertial parameters, measured once and subtracted from every
+//! loaded measurement on the same rig. Saved and loaded as JSON (`--tare FILE`), and logged on
+//! `/run/tare`.
+
+use std::path::Path;
+
+use anyhow::{bail, Context, Result};
+use serde::{Deserialize, Serialize};
+
+use crate::schema::{array, int, numbers, object, string, Schema};
+
+/// Format tag of a tare file.
+pub const TARE_FORMAT: &str = "stewart-tare/1";
+
+/// A saved tare.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TareFile {
+    /// Always [`TARE_FORMAT`].
+    pub format: String,
+    /// θ = [m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz] of the empty fixture (and plate), about
+    /// the P origin in P axes.
+    pub theta: [f64; 10],
+    /// Covariance of θ (symmetric).
+    pub covariance: [[f64; 10]; 10],
+    /// Samples the estimate used.
+    pub samples: u64,
+    /// RMS residual per equation [Fx, Fy, Fz, τx, τy, τz] of the tare run.
+    pub residual_rms: [f64; 6],
+    /// Base joints of the rig it was measured on, in B, m (a tare only fits the same rig).
+    pub base_joints_m: [[f64; 3]; 6],
+    /// Plate joints of that rig, in P, m.
+    pub plate_joints_m: [[f64; 3]; 6],
+    /// Scenario it was measured with.
+    pub config: String,
+    /// Where it came from (`"sim"`, `"rig"`).
+    pub backend: String,
+}
+
+impl TareFile {
+    /// JSON schema (also of the `/run/tare` channel).
+    pub fn schema() -> Schema {
+        object(
+            vec![
+                ("format", string("\"stewart-tare/1\"")),
+                (
+                    "theta",
+                    numbers(10, "[m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz] of the empty fixture about the P origin, P axes"),
+                ),
+                ("covariance", array(numbers(10, ""), Some(10), "covariance of theta")),
+                ("samples", int("samples the estimate used")),
+                ("residual_rms", numbers(6, "RMS residual of Fx, Fy, Fz (N), τx, τy, τz (N·m)")),
+                ("base_joints_m", array(numbers(3, ""), Some(6), "base joints in B, m")),
+                ("plate_joints_m", array(numbers(3, ""), Some(6), "plate joints in P, m")),
+                ("config", string("scenario file")),
+                ("backend", string("sim or rig")),
+            ],
+            "The empty fixture's inertial parameters, subtracted from loaded runs",
+        )
+    }
+
+    /// Pretty JSON.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).unwrap_or_default()
+    }
+
+    /// Writes the file.
+    pub fn save(&self, path: &Path) -> Result<()> {
+        std::fs::write(path, self.to_json())
+            .with_context(|| format!("cannot write the tare file {}", path.display()))
+    }
+
+    /// Reads and checks a tare file against the rig's joints.
+    pub fn load(
+        path: &Path,
+        base_joints_m: &[[f64; 3]; 6],
+        plate_joints_m: &[[f64; 3]; 6],
+    ) -> Result<Self> {
+        let name = path.display();
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read the tare file {name}"))?;
+        let tare: TareFile = serde_json::from_str(&text)
+            .with_context(|| format!("{name}: not a tare file ({TARE_FORMAT})"))?;
+        if tare.format != TARE_FORMAT {
+            bail!(
+                "{name}: `format` is {:?}, expected {TARE_FORMAT:?}",
+                tare.format
+            );
+        }
+        tare.check(base_joints_m, plate_joints_m)
+            .with_context(|| format!("{name}: refused"))?;
+        Ok(tare)
+    }
+
+    /// Finite values, a symmetric positive semi-definite covariance, a positive mass, and the
+    /// same joints (within 1 mm) as the rig in use.
+    pub fn check(
+        &self,
+        base_joints_m: &[[f64; 3]; 6],
+        plate_joints_m: &[[f64; 3]; 6],
+    ) -> Result<()> {
+        if !self.theta.iter().all(|v| v.is_finite()) {
+            bail!("`theta` has a non-finite entry");
+        }
+        if !(self.theta[0] > 0.0) {
+            bail!("`theta[0]` (mass) must be positive, got {}", self.theta[0]);
+        }
+        for r in 0..10 {
+            for c in 0..10 {
+                let (a, b) = (self.covariance[r][c], self.covariance[c][r]);
+                if !a.is_finite() {
+                    bail!("`covariance[{r}][{c}]` is not finite");
+                }
+                if (a - b).abs() > 1e-9 * (a.abs() + b.abs()).max(1e-300) {
+                    bail!("`covariance` is not symmetric at [{r}][{c}]");
+                }
+            }
+            if self.covariance[r][r] < 0.0 {
+                bail!("`covariance[{r}][{r}]` is negative");
+            }
+        }
+        let far = |a: &[[f64; 3]; 6], b: &[[f64; 3]; 6]| {
+            a.iter()
+                .zip(b)
+                .any(|(x, y)| x.iter().zip(y).any(|(p, q)| (p - q).abs() > 1e-3))
+        };
+        if far(&self.base_joints_m, base_joints_m) || far(&self.plate_joints_m, plate_joints_m) {
+            bail!(
+                "it was measured on a rig with other joint positions (`base_joints_m`/`plate_joints_m` differ by more than 1 mm from this configuration's platform)"
+            );
+        }
+        Ok(())
+    }
+
+    /// θ as nalgebra.
+    pub fn parameters(&self) -> estimator::InertialParameters {
+        estimator::InertialParameters::from_vector(&estimator::ParameterVector::from_row_slice(
+            &self.theta,
+        ))
+    }
+
+    /// The covariance as nalgebra.
+    pub fn covariance_matrix(&self) -> estimator::ParameterCovariance {
+        estimator::ParameterCovariance::from_fn(|r, c| self.covariance[r][c])
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn joints() -> ([[f64; 3]; 6], [[f64; 3]; 6]) {
+        let b = core::array::from_fn(|i| [i as f64, 1.0, 0.0]);
+        let p = core::array::from_fn(|i| [0.5 * i as f64, -1.0, 0.0]);
+        (b, p)
+    }
+
+    fn tare() -> TareFile {
+        let (b, p) = joints();
+        let mut cov = [[0.0; 10]; 10];
+        for (i, row) in cov.iter_mut().enumerate() {
+            row[i] = 1e-4 * (i + 1) as f64;
+        }
+        cov[0][1] = 1e-6;
+        cov[1][0] = 1e-6;
+        TareFile {
+            format: TARE_FORMAT.into(),
+            theta: [400.0, 0.0, 0.0, 20.0, 300.0, 300.0, 450.0, 0.0, 0.0, 0.0],
+            covariance: cov,
+            samples: 1000,
+            residual_rms: [1.0; 6],
+            base_joints_m: b,
+            plate_joints_m: p,
+            config: "x.toml".into(),
+            backend: "sim".into(),
+        }
+    }
+
+    #[test]
+    fn round_trip_through_a_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("tare.json");
+        let t = tare();
+        t.save(&path).unwrap();
+        let (b, p) = joints();
+        assert_eq!(TareFile::load(&path, &b, &p).unwrap(), t);
+        assert_eq!(t.parameters().mass_kg, 400.0);
+        assert_eq!(t.covariance_matrix()[(0, 1)], 1e-6);
+    }
+
+    #[test]
+    fn refuses_another_rig_and_bad_numbers() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("tare.json");
+        tare().save(&path).unwrap();
+        let (mut b, p) = joints();
+        b[3][0] += 0.01;
+        let err = TareFile::load(&path, &b, &p).unwrap_err();
+        assert!(
+            format!("{err:#}").contains("other joint positions"),
+            "{err:#}"
+        );
+
+        let (b, p) = joints();
+        let mut t = tare();
+        t.theta[0] = -1.0;
+        assert!(t.check(&b, &p).is_err());
+        let mut t = tare();
+        t.covariance[0][1] = 1.0;
+        assert!(t.check(&b, &p).is_err());
+        std::fs::write(&path, "{\"format\": \"x\"}").unwrap();
+        assert!(TareFile::load(&path, &b, &p).is_err());
+    }
+
+    #[test]
+    fn matches_its_schema() {
+        let v = serde_json::to_value(tare()).unwrap();
+        TareFile::schema().check(&v).unwrap();
+    }
+}
