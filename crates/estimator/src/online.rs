@@ -149,12 +149,11 @@ impl<const N: usize, const R: usize> Solver<N, R> {
         let wy = y.component_mul(&self.inv_sigma);
         let before = self.rls;
         self.rls.update(&wrows, &wy);
-        let residual = wy - wrows * self.rls.theta();
-        if !self.rls.is_finite() || !residual.iter().all(|v| v.is_finite()) {
+        if !self.rls.is_finite() {
             self.rls = before;
             return Err(EstimatorError::Overflow("least-squares update"));
         }
-        self.score.add(&wrows, &residual);
+        self.score.add(&wrows, &wy, self.rls.theta());
         Ok(())
     }
 

@@ -1,1 +1,265 @@
-//! Whole-estimator tests.
+//! Whole-estimator tests against an independent rigid-body model (`testkit`).
+
+use crate::online::{EstimatorConfig, OnlineEstimator, ParameterSet};
+use crate::params::ParameterVector;
+use crate::regressor::rigid_body;
+use crate::rls::{NormalEquations, Rls};
+use crate::testkit::{
+    random_body, synthetic_sample, test_geometry, Motion, PointBody, SensorNoise,
+};
+use nalgebra::{SMatrix, SVector, Vector3, Vector6};
+use rand::{rngs::StdRng, Rng, SeedableRng};
+use std::vec::Vec;
+
+/// Scale of each parameter's group (mass; first moment; tensor), so that a tiny product of
+/// inertia is judged against the size of the tensor rather than against itself.
+fn group_scales(theta: &ParameterVector) -> ParameterVector {
+    let h = theta.fixed_rows::<3>(1).norm();
+    let j = (theta[4] + theta[5] + theta[6]) / 3.0;
+    ParameterVector::from_fn(|i, _| match i {
+        0 => theta[0].abs(),
+        1..=3 => h.max(theta[i].abs()),
+        _ => j.max(theta[i].abs()),
+    })
+}
+
+fn worst_relative(estimate: &ParameterVector, truth: &ParameterVector) -> f64 {
+    let s = group_scales(truth);
+    (0..10).map(|i| (estimate[i] - truth[i]).abs() / s[i]).fold(0.0, f64::max)
+}
+
+fn random_motion(rng: &mut StdRng) -> Motion {
+    let mut m = Motion::rich();
+    for axis in m.translation.iter_mut().chain(m.rotation.iter_mut()) {
+        for term in axis.terms.iter_mut() {
+            term.0 *= rng.random_range(0.5..1.5);
+            term.1 *= rng.random_range(0.8..1.25);
+            term.2 = rng.random_range(0.0..6.28);
+        }
+    }
+    m
+}
+
+/// Exact recovery: ten parameters of random point-mass bodies along random rich motions,
+/// from exact states (ω, ω̇, f) and the wrench of the independent model, through the regressor
+/// and the U-D RLS with the online estimator's weak prior; and the batch solver over the same
+/// rows. All ten parameters to 1e-9 of their group's scale.
+#[test]
+fn exact_recovery_of_random_bodies() {
+    let mut rng = StdRng::seed_from_u64(2024);
+    let mut worst: f64 = 0.0;
+    for _ in 0..20 {
+        let body = random_body(&mut rng);
+        let truth = body.parameters().to_vector();
+        let motion = random_motion(&mut rng);
+        let sigma = Vector6::new(1.0, 1.0, 1.0, 0.2, 0.2, 0.2);
+        let w = sigma.map(|s| 1.0 / s);
+        let mut rls = Rls::<10>::new(SVector::zeros(), SVector::from_element(1e8), 1.0).unwrap();
+        let mut batch = NormalEquations::<10>::new(1.0).unwrap();
+        for k in 0..600 {
+            let s = motion.state(0.01 * k as f64);
+            let phi = rigid_body(&s.omega, &s.omega_dot, &s.specific_force);
+            let y = body.wrench(&s.omega, &s.omega_dot, &s.specific_force);
+            let rows = SMatrix::<f64, 6, 10>::from_fn(|r, c| phi[(r, c)] * w[r]);
+            let wy = y.component_mul(&w);
+            rls.update(&rows, &wy);
+            batch.add(&rows, &wy);
+        }
+        worst = worst.max(worst_relative(rls.theta(), &truth));
+        worst = worst.max(worst_relative(&batch.solve().unwrap(), &truth));
+    }
+    std::eprintln!("exact recovery: worst relative error {worst:.2e}");
+    assert!(worst < 1e-9, "worst relative error {worst:e}");
+}
+
+fn config(cutoff: Option<f64>, period: f64) -> EstimatorConfig {
+    let mut c = EstimatorConfig::new(test_geometry(), period);
+    c.lowpass_cutoff_hz = cutoff;
+    c
+}
+
+fn run(
+    estimator: &mut OnlineEstimator,
+    body: &PointBody,
+    motion: &Motion,
+    samples: usize,
+    period: f64,
+    accel_at: &Vector3<f64>,
+    noise: &SensorNoise,
+    rng: &mut StdRng,
+) {
+    let g = estimator.config().geometry;
+    for k in 0..samples {
+        let s = synthetic_sample(&g, body, motion, k as f64 * period, accel_at, noise, rng);
+        estimator.update(&s).unwrap();
+    }
+}
+
+/// The whole pipeline on noiseless data at 1 kHz: leg forces through the kinematics, gyro and
+/// an accelerometer off the P origin, derivative and 20 Hz low-pass. What is left is the
+/// O((ωΔt)⁴) error of the interpolation stencils.
+#[test]
+fn pipeline_recovers_a_vehicle_from_leg_forces_and_imu() {
+    let body = PointBody::vehicle_like();
+    let truth = body.parameters();
+    let accel_at = Vector3::new(0.4, -0.3, 0.08);
+    let mut c = config(Some(20.0), 1e-3);
+    c.accelerometer_position_m = accel_at;
+    let mut est = OnlineEstimator::new(c).unwrap();
+    let mut rng = StdRng::seed_from_u64(1);
+    run(&mut est, &body, &Motion::rich(), 8000, 1e-3, &accel_at, &SensorNoise::default(), &mut rng);
+    let e = est.estimate();
+    let err = worst_relative(&e.parameters.to_vector(), &truth.to_vector());
+    std::eprintln!("pipeline: worst relative error {err:.2e}, residual rms {:.2e}", e.residual_rms.max());
+    assert!(err < 1e-8, "worst relative error {err:e}");
+    assert!((e.com_m - truth.com_m().unwrap()).norm() < 1e-5);
+    assert!(e.consistency.is_consistent());
+    assert_eq!(e.counts.used, 7997);
+    assert_eq!(e.counts.conditioning, 3);
+    // Residual rms is tiny compared with the wrench (≈ 1.2e4 N, ≈ 5e3 N·m).
+    assert!(e.residual_rms.max() < 1.0, "{}", e.residual_rms);
+}
+
+/// The paper's case: noiseless, centre of mass at the P origin, the three sines of Eq. 8, the
+/// six-parameter form. Every entry must stay within 1 % from fewer than 100 samples on.
+#[test]
+fn paper_case_converges_within_100_samples() {
+    let pairs = [
+        (40.0, Vector3::new(0.9, 0.35, 0.25)),
+        (30.0, Vector3::new(-0.4, 0.6, 0.15)),
+        (25.0, Vector3::new(0.2, -0.3, 0.5)),
+        (20.0, Vector3::new(0.6, 0.1, -0.3)),
+    ];
+    let mut body = PointBody { masses_kg: Vec::new(), positions_m: Vec::new() };
+    for (m, r) in pairs {
+        body.masses_kg.extend([m, m]);
+        body.positions_m.extend([r, -r]);
+    }
+    let truth = body.parameters();
+    assert!(truth.first_moment_kg_m.norm() < 1e-12);
+    let jc = truth.inertia_com_kg_m2().unwrap();
+    let truth6 = [jc[(0, 0)], jc[(1, 1)], jc[(2, 2)], jc[(0, 1)], jc[(0, 2)], jc[(1, 2)]];
+    let scale = (truth6[0] + truth6[1] + truth6[2]) / 3.0;
+
+    let period = 0.01;
+    let mut c = config(None, period);
+    c.parameters = ParameterSet::InertiaAboutKnownCom { mass_kg: truth.mass_kg, com_m: Vector3::zeros() };
+    let mut est = OnlineEstimator::new(c).unwrap();
+    let motion = Motion::paper(test_geometry().home_pose().position_m);
+    let mut rng = StdRng::seed_from_u64(0);
+    let g = test_geometry();
+    let mut last_outside = 0;
+    for k in 0..400 {
+        let s = synthetic_sample(&g, &body, &motion, k as f64 * period, &Vector3::zeros(), &SensorNoise::default(), &mut rng);
+        est.update(&s).unwrap();
+        let e = est.estimate();
+        let j = e.inertia_com_kg_m2;
+        let got = [j[(0, 0)], j[(1, 1)], j[(2, 2)], j[(0, 1)], j[(0, 2)], j[(1, 2)]];
+        // "Within 1 %" of each entry, products of inertia judged against the tensor's scale.
+        let ok = (0..6).all(|i| (got[i] - truth6[i]).abs() <= 0.01 * truth6[i].abs().max(0.1 * scale));
+        if !ok {
+            last_outside = k + 1;
+        }
+    }
+    std::eprintln!("paper case: every entry within 1 % from sample {last_outside}");
+    assert!(last_outside < 100, "entries within 1 % only from sample {last_outside}");
+    assert_eq!(est.estimate().mass_sigma_kg, 0.0);
+}
+
+/// Tare: the fixture (a sixth of the payload's mass, centre of mass elsewhere) measured alone,
+/// then fixture plus payload; loaded − tare recovers the payload, while ignoring the tare would
+/// be far off.
+#[test]
+fn tare_subtraction_recovers_the_payload() {
+    let payload = PointBody::vehicle_like();
+    let fixture = PointBody {
+        masses_kg: std::vec![90.0, 60.0, 45.0, 35.0],
+        positions_m: std::vec![
+            Vector3::new(-0.6, 0.5, 0.05),
+            Vector3::new(0.7, 0.4, 0.1),
+            Vector3::new(0.1, -0.8, 0.02),
+            Vector3::new(-0.3, -0.2, 0.3),
+        ],
+    };
+    let truth = payload.parameters();
+    let tare_truth = fixture.parameters();
+    assert!(tare_truth.mass_kg >= truth.mass_kg / 6.0);
+    let mut loaded = fixture.clone();
+    loaded.masses_kg.extend(payload.masses_kg.iter().copied());
+    loaded.positions_m.extend(payload.positions_m.iter().copied());
+
+    let mut rng = StdRng::seed_from_u64(4);
+    let noise = SensorNoise::default();
+    let mut tare_est = OnlineEstimator::new(config(Some(20.0), 1e-3)).unwrap();
+    run(&mut tare_est, &fixture, &Motion::rich(), 6000, 1e-3, &Vector3::zeros(), &noise, &mut rng);
+    let mut loaded_est = OnlineEstimator::new(config(Some(20.0), 1e-3)).unwrap();
+    run(&mut loaded_est, &loaded, &Motion::rich(), 6000, 1e-3, &Vector3::zeros(), &noise, &mut rng);
+    let tare = tare_est.estimate();
+    let e = loaded_est.estimate().without_tare(&tare.parameters, &tare.covariance);
+
+    let err = worst_relative(&e.parameters.to_vector(), &truth.to_vector());
+    std::eprintln!("tare: payload worst relative error {err:.2e}");
+    assert!(err < 1e-8, "payload worst relative error {err:e}");
+    assert!((e.com_m - truth.com_m().unwrap()).norm() < 1e-4);
+    let jc = truth.inertia_com_kg_m2().unwrap();
+    assert!((e.inertia_com_kg_m2 - jc).norm() < 1e-4 * jc.norm());
+    // Without the tare the centre of mass is off by centimetres and the mass by 18 %.
+    let raw = loaded_est.estimate();
+    assert!((raw.com_m - truth.com_m().unwrap()).norm() > 0.01);
+    assert!((raw.mass_kg() - truth.mass_kg).abs() > 0.1 * truth.mass_kg);
+}
+
+/// Noise: Gaussian noise on the six leg forces, the gyro and the accelerometer; over many seeds
+/// the errors must match the reported sigmas: mean z² in [0.5, 2] for every parameter (θ and
+/// the derived c and J_C).
+#[test]
+#[ignore = "work in progress: sigmas not yet honest for the first moment"]
+fn reported_sigmas_match_the_spread_over_seeds() {
+    let body = PointBody::vehicle_like();
+    let truth = body.parameters();
+    let t = truth.to_vector();
+    let c_true = truth.com_m().unwrap();
+    let jc_true = truth.inertia_com_kg_m2().unwrap();
+    let noise = SensorNoise { leg_force_n: 5.0, gyro_rad_s: 2e-3, accel_m_s2: 0.02 };
+    let seeds = 48;
+    let period = 1e-3;
+    let mut z2 = ParameterVector::zeros();
+    let mut z2_derived = ParameterVector::zeros();
+    let mut rel = ParameterVector::zeros();
+    for seed in 0..seeds {
+        let mut c = config(Some(20.0), period);
+        c.equation_sigma = Vector6::new(26.0, 26.0, 26.0, 10.0, 10.0, 10.0);
+        let mut est = OnlineEstimator::new(c).unwrap();
+        let mut rng = StdRng::seed_from_u64(1000 + seed);
+        run(&mut est, &body, &Motion::rich(), 6000, period, &Vector3::zeros(), &noise, &mut rng);
+        let e = est.estimate();
+        let theta = e.parameters.to_vector();
+        for i in 0..10 {
+            let z = (theta[i] - t[i]) / e.parameter_sigma[i];
+            z2[i] += z * z / seeds as f64;
+            rel[i] = rel[i].max(e.parameter_sigma[i] / group_scales(&t)[i]);
+        }
+        let mut d = ParameterVector::zeros();
+        let mut ds = ParameterVector::zeros();
+        d[0] = e.mass_kg() - truth.mass_kg;
+        ds[0] = e.mass_sigma_kg;
+        for k in 0..3 {
+            d[1 + k] = e.com_m[k] - c_true[k];
+            ds[1 + k] = e.com_sigma_m[k];
+        }
+        for (k, r, col) in crate::params::TENSOR_ENTRIES {
+            d[k] = e.inertia_com_kg_m2[(r, col)] - jc_true[(r, col)];
+            ds[k] = e.inertia_com_sigma_kg_m2[(r, col)];
+        }
+        for i in 0..10 {
+            z2_derived[i] += (d[i] / ds[i]).powi(2) / seeds as f64;
+        }
+    }
+    std::eprintln!("noise: mean z² of θ {:.2?}", z2.as_slice());
+    std::eprintln!("noise: mean z² of m, c, J_C {:.2?}", z2_derived.as_slice());
+    std::eprintln!("noise: largest sigma / scale {:.1e}", rel.max());
+    for i in 0..10 {
+        assert!((0.5..=2.0).contains(&z2[i]), "θ[{i}]: mean z² {}", z2[i]);
+        assert!((0.5..=2.0).contains(&z2_derived[i]), "derived[{i}]: mean z² {}", z2_derived[i]);
+    }
+}
