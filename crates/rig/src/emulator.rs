@@ -29,7 +29,7 @@ use crate::key::Key;
 use crate::transport::{self, Address, Peer, Recv, Transport};
 use crate::wire::{
     identity_from_str, Command, Fault, FaultCode, Hello, HelloAck, Limits, Message, Sensor,
-    SensorLayout, NO_LEG, PROTOCOL_VERSION,
+    SensorLayout, FAULT_REPEAT_FRAMES, NO_LEG, PROTOCOL_VERSION,
 };
 
 /// Deliberate damage to the link, for tests. All fractions are probabilities per sensor frame.
@@ -342,6 +342,15 @@ where
             return Ok(());
         };
         session.sensor_sequence += 1;
+        if let Some(fault) = session.fault {
+            if session.sensor_sequence % FAULT_REPEAT_FRAMES == 0 {
+                let (peer, id) = (session.peer, session.id);
+                self.send_message(&Message::Fault(fault), peer, Some(id));
+            }
+        }
+        let Some(session) = self.session.as_ref() else {
+            return Ok(());
+        };
         let sensor = Sensor {
             sequence: session.sensor_sequence,
             status,

@@ -8,7 +8,7 @@
 
 use std::time::{Duration, Instant};
 
-use control::io::{Backend, CommandFrame, SensorFrame, LEG_COUNT};
+use control::io::{Backend, CommandFrame, SensorFrame, Status, LEG_COUNT};
 
 use crate::codec::{self, Auth, CodecError, MAX_FRAME_LEN};
 use crate::error::RigError;
@@ -17,7 +17,7 @@ use crate::stats::LinkStats;
 use crate::transport::{self, Address, Peer, Recv, Transport};
 use crate::wire::{
     identity_str, Command, Fault, FaultCode, Hello, HelloAck, Limits, Message, Sensor,
-    SensorLayout, PROTOCOL_VERSION,
+    SensorLayout, NO_LEG, PROTOCOL_VERSION,
 };
 
 /// Most frames looked at in one read while skipping to the newest: bounds the work a flood of
@@ -286,6 +286,21 @@ impl RigBackend {
             if let Some(i) = values.iter().position(|v| !v.is_finite()) {
                 return Err(invalid(format!("{name} [{i}] is {}", values[i])));
             }
+        }
+        // Backstop for a lost fault report: the status bits say it too.
+        let status = Status(s.status);
+        if status.has(Status::ESTOP) || status.has(Status::FAULT) {
+            let code = if status.has(Status::ESTOP) {
+                FaultCode::ESTOP
+            } else {
+                FaultCode(0)
+            };
+            return Err(RigError::RigFault {
+                code,
+                leg: NO_LEG,
+                value: 0.0,
+                command_sequence: 0,
+            });
         }
         let limits = &self.info.limits;
         let tol = self.options.stroke_tolerance_m;

@@ -616,11 +616,25 @@ fn a_command_beyond_the_limits_brakes_and_latches() {
     assert_eq!(fault.code, FaultCode::FORCE_LIMIT);
     assert_eq!(fault.value, 501.0);
     assert_eq!(fault.command_sequence, 2);
-    // Later valid commands do not release the brakes: the fault holds until a new session.
-    for sequence in 3..10 {
+    // Later valid commands do not release the brakes: the fault holds until a new session,
+    // and its report is repeated in case a datagram was lost.
+    let mut repeats = 0;
+    let mut faulted_frames = 0;
+    for sequence in 3..60 {
         host.send(rig_addr, &command(sequence, 50.0), None);
+        match host.recv(None) {
+            Some((Message::Fault(again), _)) => {
+                assert_eq!(again, fault);
+                repeats += 1;
+            }
+            Some((Message::Sensor(s), _)) if Status(s.status).has(Status::FAULT) => {
+                faulted_frames += 1
+            }
+            _ => {}
+        }
     }
-    std::thread::sleep(Duration::from_millis(5));
+    assert!(repeats >= 1, "{repeats}");
+    assert!(faulted_frames >= 40, "{faulted_frames}");
     let emulator = rig.finish();
     let applied = &emulator.inner().applied;
     assert_eq!(emulator.inner().max_enabled_force(), 100.0);
@@ -816,6 +830,13 @@ fn invalid_sensor_values_fail_the_read_by_name() {
         bad.gyro_rad_s[1] = 0.0;
         bad.leg_lengths_m[4] = 0.9;
         send_to(socket, host, &Message::Sensor(bad), None);
+        bad.sequence = 4;
+        bad.leg_lengths_m[4] = LENGTH_M;
+        bad.status = Status::FAULT | Status::BRAKED;
+        send_to(socket, host, &Message::Sensor(bad), None);
+        bad.sequence = 5;
+        bad.status = Status::ESTOP;
+        send_to(socket, host, &Message::Sensor(bad), None);
         std::thread::sleep(Duration::from_millis(100));
     });
     let options = RigOptions {
@@ -829,6 +850,10 @@ fn invalid_sensor_values_fail_the_read_by_name() {
     assert!(err.to_string().contains("gyro [1] is NaN"), "{err}");
     let err = host.read().unwrap_err();
     assert!(err.to_string().contains("leg 4 length"), "{err}");
+    let err = host.read().unwrap_err();
+    assert!(err.to_string().contains("FAULT status bit"), "{err}");
+    let err = host.read().unwrap_err();
+    assert!(err.to_string().contains("emergency stop"), "{err}");
     rig.join().unwrap();
 }
 
@@ -856,4 +881,34 @@ fn random_datagrams_at_both_sockets_are_counted_and_harmless() {
     assert_eq!(stats.foreign_sender, 100, "{stats}");
     assert!(emulator.stats().corrupt + emulator.stats().foreign_sender >= 100);
     assert_eq!(emulator.inner().max_enabled_force(), 2.0);
+}
+
+#[cfg(unix)]
+#[test]
+fn a_session_runs_over_a_serial_line() {
+    use crate::transport::{Peer, SerialTransport};
+    let (a, b) = serialport::TTYPort::pair().expect("pseudo-terminal pair");
+    let rig_side = SerialTransport::from_port(Box::new(a), "pty-rig");
+    let host_side = SerialTransport::from_port(Box::new(b), "pty-host");
+    let mut emulator = Emulator::new(FakeBackend::default(), Box::new(rig_side), config()).unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    let thread = std::thread::spawn(move || {
+        emulator.run(&flag).expect("emulator run");
+        emulator
+    });
+    let mut host =
+        RigBackend::handshake(Box::new(host_side), Peer::Serial, "pty".into(), host_options())
+            .unwrap();
+    let frames = drive(&mut host, 200, 25.0).unwrap();
+    let stats = *host.stats();
+    // Stop the rig before the host closes its end: a closed pseudo-terminal reads as an
+    // error on the other end, unlike a real serial line.
+    stop.store(true, Ordering::Relaxed);
+    let emulator = thread.join().unwrap();
+    drop(host);
+    assert_eq!(stats.corrupt + stats.auth_failed + stats.unexpected, 0, "{stats}");
+    assert_eq!(stats.accepted + stats.lost + stats.late, frames.last().unwrap().sequence);
+    assert_eq!(emulator.inner().max_enabled_force(), 25.0);
+    assert!(emulator.faults().is_empty(), "{:?}", emulator.faults());
 }

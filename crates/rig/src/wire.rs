@@ -144,6 +144,7 @@ impl FaultCode {
     /// A short human name for the code.
     pub const fn name(self) -> &'static str {
         match self.0 {
+            0 => "fault latched (shown by the FAULT status bit; its report was lost)",
             1 => "command watchdog expired",
             2 => "command force beyond limit",
             3 => "leg stroke limit",
@@ -159,11 +160,15 @@ impl FaultCode {
     }
 }
 
+/// A latched fault is reported again after this many sensor frames.
+pub const FAULT_REPEAT_FRAMES: u64 = 20;
+
 /// Leg index meaning "no particular leg" in [`Fault::leg`].
 pub const NO_LEG: u8 = 0xFF;
 
-/// A fault report from the rig. Sent once when the fault trips; the rig stays braked until the
-/// host opens a new session.
+/// A fault report from the rig. Sent when the fault trips and repeated every
+/// [`FAULT_REPEAT_FRAMES`] sensor frames while it is latched (a datagram may be lost); the rig
+/// stays braked until the host opens a new session.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Fault {
     /// What happened.

@@ -38,12 +38,18 @@ impl SerialTransport {
                     std::io::Error::from(e),
                 )
             })?;
-        Ok(Self {
+        Ok(Self::from_port(port, path))
+    }
+
+    /// Wraps an already opened port (e.g. one end of a pseudo-terminal pair in tests);
+    /// `name` appears in error messages.
+    pub fn from_port(port: Box<dyn SerialPort>, name: &str) -> Self {
+        Self {
             port,
-            path: path.to_string(),
+            path: name.to_string(),
             pending: Vec::with_capacity(MAX_COBS_LEN),
             overflowed: false,
-        })
+        }
     }
 
     /// Takes one delimited frame out of `pending`, if there is one.
@@ -120,5 +126,56 @@ impl Transport for SerialTransport {
 
     fn local_addr(&self) -> Option<SocketAddr> {
         None
+    }
+}
+
+#[cfg(all(test, unix))]
+mod tests {
+    use super::*;
+    use crate::codec::{self, MAX_FRAME_LEN};
+    use crate::wire::{Command, Message};
+
+    fn pty_pair() -> (SerialTransport, SerialTransport) {
+        let (a, b) = serialport::TTYPort::pair().expect("pseudo-terminal pair");
+        (
+            SerialTransport::from_port(Box::new(a), "pty-a"),
+            SerialTransport::from_port(Box::new(b), "pty-b"),
+        )
+    }
+
+    #[test]
+    fn frames_cross_a_serial_line_and_garbage_is_skipped() {
+        let (mut a, mut b) = pty_pair();
+        let message = Message::Command(Command {
+            sequence: 7,
+            sensor_sequence: 6,
+            leg_forces_n: [0.0, 1.0, -2.0, 0.0, 0.0, 3.5],
+            enable: true,
+        });
+        let mut frame = [0u8; MAX_FRAME_LEN];
+        let n = codec::encode(&message, None, &mut frame).unwrap();
+        // Line noise before the frame: a run without delimiter that overflows, then a
+        // delimiter, then a lone delimiter (ignored), then a broken COBS block.
+        a.port.write_all(&[0x55; MAX_COBS_LEN + 10]).unwrap();
+        a.port.write_all(&[0x00, 0x00, 0x05, 0x01, 0x00]).unwrap();
+        a.send(&frame[..n], &Peer::Serial).unwrap();
+        a.send(&frame[..n], &Peer::Serial).unwrap();
+
+        let mut buf = [0u8; MAX_FRAME_LEN + 1];
+        let mut garbled = 0;
+        let mut got = Vec::new();
+        while got.len() < 2 {
+            match b.recv(&mut buf, Duration::from_secs(2)).unwrap() {
+                Recv::Frame { len, from } => {
+                    assert_eq!(from, Peer::Serial);
+                    got.push(codec::decode(&buf[..len], None).unwrap());
+                }
+                Recv::Garbled => garbled += 1,
+                Recv::Timeout => panic!("timed out after {got:?}"),
+            }
+        }
+        assert_eq!(got, [message, message]);
+        assert_eq!(garbled, 2);
+        assert_eq!(b.recv(&mut buf, Duration::ZERO).unwrap(), Recv::Timeout);
     }
 }
