@@ -63,7 +63,7 @@ pub struct EmulatorConfig {
     pub session_timeout: Duration,
     /// Shared key: accept only frames tagged with it, tag every frame sent.
     pub key: Option<Key>,
-    /// Brake on measured stroke and speed violations (true).
+    /// Brake on measured stroke and speed violations while the actuators are driven (true).
     pub enforce_motion_limits: bool,
     /// Leg speed is the length change over this many samples, to keep sensor noise from
     /// tripping the speed limit (10).
@@ -327,7 +327,13 @@ where
         if !command.enable {
             self.stats.braked_ticks += 1;
         }
-        self.check_motion(&frame);
+        if command.enable {
+            self.check_motion(&frame);
+        } else {
+            // Braked legs hold still; a stale window would turn the next enabled sample's
+            // length change into a bogus speed.
+            self.recent_lengths.clear();
+        }
         let mut status = frame.status.0;
         status |= if command.enable {
             Status::ENABLED

@@ -331,10 +331,12 @@ impl Backend for RigBackend {
                 };
                 return Err(self.fail(error));
             }
-            let (len, from) = match self.transport.recv(&mut self.buf, deadline - now)? {
-                Recv::Frame { len, from } => (len, from),
-                Recv::Timeout => continue,
-                Recv::Garbled => {
+            let received = self.transport.recv(&mut self.buf, deadline - now);
+            let (len, from) = match received {
+                Err(e) => return Err(self.fail(e)),
+                Ok(Recv::Frame { len, from }) => (len, from),
+                Ok(Recv::Timeout) => continue,
+                Ok(Recv::Garbled) => {
                     self.stats.received += 1;
                     self.stats.corrupt += 1;
                     continue;
@@ -349,13 +351,15 @@ impl Backend for RigBackend {
         self.last_valid_at = Instant::now();
         if self.options.skip_stale {
             for _ in 0..MAX_DRAIN {
-                match self.transport.recv(&mut self.buf, Duration::ZERO)? {
-                    Recv::Timeout => break,
-                    Recv::Garbled => {
+                let received = self.transport.recv(&mut self.buf, Duration::ZERO);
+                match received {
+                    Err(e) => return Err(self.fail(e)),
+                    Ok(Recv::Timeout) => break,
+                    Ok(Recv::Garbled) => {
                         self.stats.received += 1;
                         self.stats.corrupt += 1;
                     }
-                    Recv::Frame { len, from } => match self.classify(len, from) {
+                    Ok(Recv::Frame { len, from }) => match self.classify(len, from) {
                         Class::Sensor(sensor) => {
                             self.stats.late += 1;
                             newest = sensor;

@@ -25,6 +25,9 @@ struct FakeBackend {
     time_s: f64,
     sequence: u64,
     applied: Vec<CommandFrame>,
+    /// Legs extend at this speed while the actuators are enabled, m/s.
+    rate_m_s: f64,
+    enabled_ticks: u64,
 }
 
 impl FakeBackend {
@@ -46,7 +49,8 @@ impl Backend for FakeBackend {
         Ok(SensorFrame {
             sequence: self.sequence,
             time_s: self.time_s,
-            leg_lengths_m: [LENGTH_M; LEG_COUNT],
+            leg_lengths_m: [LENGTH_M + self.rate_m_s * self.enabled_ticks as f64 * PERIOD_S;
+                LEG_COUNT],
             leg_forces_n: if last.enable {
                 last.leg_forces_n
             } else {
@@ -60,6 +64,7 @@ impl Backend for FakeBackend {
 
     fn write(&mut self, command: &CommandFrame) -> Result<(), String> {
         self.applied.push(*command);
+        self.enabled_ticks += u64::from(command.enable);
         self.sequence += 1;
         self.time_s = self.sequence as f64 * PERIOD_S;
         Ok(())
@@ -111,8 +116,11 @@ impl Running {
 }
 
 fn start(config: EmulatorConfig) -> Running {
-    let mut emulator =
-        Emulator::bind("udp://127.0.0.1:0", FakeBackend::default(), config).expect("bind");
+    start_with(FakeBackend::default(), config)
+}
+
+fn start_with(inner: FakeBackend, config: EmulatorConfig) -> Running {
+    let mut emulator = Emulator::bind("udp://127.0.0.1:0", inner, config).expect("bind");
     let address = format!("udp://{}", emulator.local_addr().expect("local address"));
     let stop = Arc::new(AtomicBool::new(false));
     let flag = Arc::clone(&stop);
@@ -897,9 +905,13 @@ fn a_session_runs_over_a_serial_line() {
         emulator.run(&flag).expect("emulator run");
         emulator
     });
-    let mut host =
-        RigBackend::handshake(Box::new(host_side), Peer::Serial, "pty".into(), host_options())
-            .unwrap();
+    let mut host = RigBackend::handshake(
+        Box::new(host_side),
+        Peer::Serial,
+        "pty".into(),
+        host_options(),
+    )
+    .unwrap();
     let frames = drive(&mut host, 200, 25.0).unwrap();
     let stats = *host.stats();
     // Stop the rig before the host closes its end: a closed pseudo-terminal reads as an
@@ -907,8 +919,74 @@ fn a_session_runs_over_a_serial_line() {
     stop.store(true, Ordering::Relaxed);
     let emulator = thread.join().unwrap();
     drop(host);
-    assert_eq!(stats.corrupt + stats.auth_failed + stats.unexpected, 0, "{stats}");
-    assert_eq!(stats.accepted + stats.lost + stats.late, frames.last().unwrap().sequence);
+    assert_eq!(
+        stats.corrupt + stats.auth_failed + stats.unexpected,
+        0,
+        "{stats}"
+    );
+    assert_eq!(
+        stats.accepted + stats.lost + stats.late,
+        frames.last().unwrap().sequence
+    );
     assert_eq!(emulator.inner().max_enabled_force(), 25.0);
     assert!(emulator.faults().is_empty(), "{:?}", emulator.faults());
+}
+
+/// Drives until the rig reports a fault; returns it.
+fn drive_until_fault(rig: &Running) -> RigError {
+    let mut host = RigBackend::connect(&rig.address, host_options()).unwrap();
+    for _ in 0..2000 {
+        if let Err(e) = drive(&mut host, 1, 1.0) {
+            return e;
+        }
+    }
+    panic!("no fault after 2000 ticks");
+}
+
+#[test]
+fn the_rig_brakes_on_leg_speed() {
+    let fast = FakeBackend {
+        rate_m_s: 1.0,
+        ..FakeBackend::default()
+    };
+    let rig = start_with(fast, config());
+    let err = drive_until_fault(&rig);
+    let emulator = rig.finish();
+    let RigError::RigFault {
+        code, leg, value, ..
+    } = err
+    else {
+        panic!("{err}");
+    };
+    assert_eq!((code, leg), (FaultCode::SPEED_LIMIT, 0));
+    assert!((value - 1.0).abs() < 1e-9, "{value}");
+    // Tripped on the first full 10-sample window: the legs moved 10 samples' worth at most.
+    assert!(
+        emulator.inner().enabled_ticks <= 11,
+        "{}",
+        emulator.inner().enabled_ticks
+    );
+    assert!(!emulator.inner().applied.last().unwrap().enable);
+}
+
+#[test]
+fn the_rig_brakes_at_the_end_of_the_stroke() {
+    let creeping = FakeBackend {
+        rate_m_s: 0.45,
+        ..FakeBackend::default()
+    };
+    let rig = start_with(creeping, config());
+    let err = drive_until_fault(&rig);
+    let emulator = rig.finish();
+    let RigError::RigFault { code, value, .. } = err else {
+        panic!("{err}");
+    };
+    assert_eq!(code, FaultCode::STROKE_LIMIT);
+    assert!(
+        value > 0.7 && value < 0.7 + 0.45 * PERIOD_S * 1.5,
+        "{value}"
+    );
+    let fake = emulator.inner();
+    let last_length = LENGTH_M + 0.45 * fake.enabled_ticks as f64 * PERIOD_S;
+    assert!(last_length < 0.7 + 0.45 * PERIOD_S * 1.5, "{last_length}");
 }

@@ -94,10 +94,17 @@ impl FromStr for Address {
                 .map_err(|_| bad("the port must be a number from 0 to 65535"))?;
             let host = host.trim_start_matches('[').trim_end_matches(']');
             use std::net::ToSocketAddrs;
-            let addr = (host, port)
+            let addrs: Vec<SocketAddr> = (host, port)
                 .to_socket_addrs()
                 .map_err(|e| bad(&format!("cannot resolve host `{host}`: {e}")))?
-                .next()
+                .collect();
+            // Prefer IPv4 when a name has both ("localhost"): emulators listen on 127.0.0.1 by
+            // default, and a host aiming at ::1 would wait for an answer that never comes.
+            let addr = addrs
+                .iter()
+                .find(|a| a.is_ipv4())
+                .or(addrs.first())
+                .copied()
                 .ok_or_else(|| bad(&format!("host `{host}` has no address")))?;
             Ok(Address::Udp(addr))
         } else if let Some(rest) = input.strip_prefix("serial://") {
