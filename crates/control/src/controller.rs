@@ -2,7 +2,7 @@
 //!
 //! ```text
 //! sensors ─► supervisor watchdog ─► FK (warm start: last pose) ─► phase ─► desired pose
-//!         ─► IK ─► six PIDs (+ feed-forward) ─► supervisor gate ─► CommandFrame
+//!         ─► IK ─► six PIDs (+ constant and rate feed-forward) ─► supervisor gate ─► CommandFrame
 //! ```
 //!
 //! The procedure: [`Phase::Idle`] until the first good frame; [`Phase::Settle`]: a quintic ramp
@@ -49,6 +49,11 @@ pub struct ControllerConfig {
     /// Constant per-leg feed-forward force added to each PID output, N (e.g. the static
     /// gravity load from [`gravity_feedforward`]), so that the integrators need not build it up.
     pub feedforward_n: [f64; LEG_COUNT],
+    /// Add `kd·l̇_d` (the desired leg speed from `J·[v; ω]` of the set-point, analytic and
+    /// smooth) to each leg's feed-forward. The PID differentiates the measurement only (no
+    /// set-point kick), which on a moving set-point leaves a lag; this term restores the
+    /// missing `kd·ṙ` without differentiating anything.
+    pub rate_feedforward: bool,
     /// Safety limits.
     pub supervisor: SupervisorConfig,
     /// Limits the trajectory must meet before any motion.
@@ -59,7 +64,7 @@ pub struct ControllerConfig {
 
 impl Default for ControllerConfig {
     /// 1 kHz, settle ramp ≥ 1 s then 2 s hold, 2 s park ramp and 0.5 s hold, default PID,
-    /// supervisor, feasibility and FK settings, no feed-forward.
+    /// supervisor, feasibility and FK settings, no constant feed-forward, rate feed-forward on.
     fn default() -> Self {
         Self {
             sample_period_s: 1e-3,
@@ -69,6 +74,7 @@ impl Default for ControllerConfig {
             park_hold_s: 0.5,
             pid: PidConfig::default(),
             feedforward_n: [0.0; LEG_COUNT],
+            rate_feedforward: true,
             supervisor: SupervisorConfig::default(),
             feasibility: FeasibilityLimits::default(),
             fk: FkOptions::default(),
@@ -363,10 +369,16 @@ impl Controller {
             if let Err(fault) = self.check_desired(&out.desired_leg_lengths_m) {
                 self.supervisor.trip(fault);
             } else {
+                let mut feedforward = self.config.feedforward_n;
+                if self.config.rate_feedforward {
+                    for (f, speed) in feedforward.iter_mut().zip(out.desired_leg_speeds_m_s) {
+                        *f += self.config.pid.kd * speed;
+                    }
+                }
                 match self.pids.update(
                     &out.desired_leg_lengths_m,
                     &frame.leg_lengths_m,
-                    &self.config.feedforward_n,
+                    &feedforward,
                     dt_s,
                 ) {
                     Ok(terms) => {
