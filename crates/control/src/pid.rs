@@ -264,6 +264,9 @@ impl Pid {
                     c.output_max_n - feedforward_n,
                 )
             }
+            // Without integral action there is no integrator to track the output; the
+            // tracking term alone would invent one.
+            AntiWindup::BackCalculation { .. } if c.ki == 0.0 => i,
             AntiWindup::BackCalculation { tracking_time_s } => {
                 let gain = (dt_s / tracking_time_s).min(1.0);
                 i + increment + gain * (output - unsaturated)

@@ -234,6 +234,21 @@ fn anti_windup_bounds_the_integrator_and_the_recovery() {
 }
 
 #[test]
+fn back_calculation_without_integral_action_adds_no_integral() {
+    let mut cfg = config(10.0, 0.0, 0.0);
+    cfg.output_max_n = 1.0;
+    cfg.anti_windup = AntiWindup::BackCalculation {
+        tracking_time_s: 0.01,
+    };
+    let mut pid = Pid::new(cfg).unwrap();
+    for _ in 0..100 {
+        let out = pid.update(1.0, 0.0, 0.0, 1e-3).unwrap();
+        assert!(out.saturated);
+        assert_eq!(out.i, 0.0);
+    }
+}
+
+#[test]
 fn invalid_inputs_are_refused_and_leave_state_unchanged() {
     let mut pid = Pid::new(config(1.0, 1.0, 1.0)).unwrap();
     pid.update(1.0, 0.0, 0.0, 1e-3).unwrap();
