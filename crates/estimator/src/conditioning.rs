@@ -42,6 +42,9 @@ pub struct ConditioningConfig {
     pub accelerometer_position_m: Vector3<f64>,
     /// A step longer than this restarts the conditioning (s).
     pub max_gap_s: f64,
+    /// One-sigma white noise of each gyro axis per sample, rad/s (0 if unknown). Its square is
+    /// the mean that noise adds to each ωᵢ², removed from the conditioned products.
+    pub gyro_noise_rad_s: f64,
 }
 
 /// One conditioned sample: the regressor's signals at the P origin and the measured wrench,
@@ -138,6 +141,11 @@ impl Conditioner {
                 "max_gap_s must be finite and at least the sample period",
             ));
         }
+        if !(config.gyro_noise_rad_s.is_finite() && config.gyro_noise_rad_s >= 0.0) {
+            return Err(EstimatorError::InvalidConfig(
+                "gyro_noise_rad_s must be finite and not negative",
+            ));
+        }
         if !config.accelerometer_position_m.iter().all(|v| v.is_finite()) {
             return Err(EstimatorError::InvalidConfig(
                 "accelerometer_position_m must be finite",
@@ -166,6 +174,31 @@ impl Conditioner {
     /// How many times a gap restarted the conditioning.
     pub fn restarts(&self) -> u64 {
         self.restarts
+    }
+
+    /// White-noise gains of the conditioning at the nominal period: Σ cₖ² for the impulse
+    /// response c of (low-pass ∘ derivative stencil) and of (low-pass ∘ value stencil). A white
+    /// input of variance σ² comes out with variance σ²·gain.
+    pub fn noise_gains(&self) -> (f64, f64) {
+        let t = self.config.sample_period_s;
+        let times = [0.0, t, 2.0 * t, 3.0 * t];
+        let (value, slope) = midpoint_weights(&times);
+        let gain = |taps: &[f64; STENCIL]| {
+            let mut f = self.filter;
+            f.reset_to(&SVector::zeros());
+            let mut sum = 0.0;
+            // An impulse at one sample meets the stencil's taps newest first.
+            for n in 0..200_000usize {
+                let x = if n < STENCIL { taps[STENCIL - 1 - n] } else { 0.0 };
+                let y = f.step(&SVector::from_element(x))[0];
+                sum += y * y;
+                if n > 1000 && y.abs() < 1e-18 * (1.0 + libm::sqrt(sum)) {
+                    break;
+                }
+            }
+            sum
+        };
+        (gain(&slope), gain(&value))
     }
 
     /// Forgets the history: the next sample starts afresh.
@@ -263,6 +296,10 @@ impl Conditioner {
             rate_products_rad2_s2: Vector6::from(y.fixed_rows::<6>(3).into_owned()),
             specific_force_m_s2: y.fixed_rows::<3>(9).into_owned(),
         };
+        let offset = self.config.gyro_noise_rad_s * self.config.gyro_noise_rad_s;
+        for i in 0..3 {
+            signals.rate_products_rad2_s2[i] -= offset;
+        }
         let r = self.config.accelerometer_position_m;
         signals.specific_force_m_s2 -=
             signals.angular_acceleration_rad_s2.cross(&r) + signals.centripetal(&r);
@@ -288,6 +325,7 @@ mod tests {
             lowpass_cutoff_hz: cutoff,
             accelerometer_position_m: r,
             max_gap_s: 0.01,
+            gyro_noise_rad_s: 0.0,
         }
     }
 
@@ -362,6 +400,31 @@ mod tests {
         // A long gap restarts.
         assert_eq!(c.push(1.0, &one, &one, &w), Ok(Step::Started));
         assert_eq!(c.restarts(), 1);
+    }
+
+    /// The noise gains against the spread of conditioned white noise.
+    #[test]
+    fn noise_gains_match_conditioned_white_noise() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let mut c = Conditioner::new(config(Some(20.0), Vector3::zeros())).unwrap();
+        let (dg, vg) = c.noise_gains();
+        let mut rng = rand::rngs::StdRng::seed_from_u64(8);
+        let n = Normal::new(0.0, 1.0).unwrap();
+        let (mut sd, mut sv, mut count) = (0.0, 0.0, 0.0);
+        for k in 0..200_000 {
+            let g = Vector3::new(n.sample(&mut rng), 0.0, 0.0);
+            let a = Vector3::new(n.sample(&mut rng), 0.0, 0.0);
+            if let Step::Ready(out) = c.push(k as f64 * 1e-3, &g, &a, &Wrench::default()).unwrap() {
+                if k > 1000 {
+                    sd += out.signals.angular_acceleration_rad_s2.x.powi(2);
+                    sv += out.signals.specific_force_m_s2.x.powi(2);
+                    count += 1.0;
+                }
+            }
+        }
+        assert!((sd / count / dg - 1.0).abs() < 0.02, "{} vs {dg}", sd / count);
+        assert!((sv / count / vg - 1.0).abs() < 0.02, "{} vs {vg}", sv / count);
     }
 
     #[test]

@@ -5,7 +5,7 @@ use crate::conditioning::{Conditioned, Conditioner, ConditioningConfig, Step, MA
 use crate::error::EstimatorError;
 use crate::estimate::{Counts, Estimate, ParameterCovariance};
 use crate::params::{InertialParameters, ParameterVector};
-use crate::regressor::{from_signals, inertia_columns};
+use crate::regressor::{from_signals, inertia_columns, RegressorSignals};
 use crate::rls::Rls;
 use crate::uncertainty::ScoreCovariance;
 use crate::wrench::{measured, to_vector};
@@ -56,15 +56,24 @@ pub struct EstimatorConfig {
     pub window_end_s: f64,
     /// A longer step between samples restarts the conditioning, s.
     pub max_gap_s: f64,
+    /// One-sigma white noise of each gyro axis per sample, rad/s; 0 if unknown. When given, the
+    /// bias that this noise causes by entering the regressor (through ω̇ and ωᵢ²) is removed:
+    /// the estimate solves (A − n·C) θ = b instead of A θ = b, with C the second moment the
+    /// conditioned noise adds to each weighted regressor row (errors-in-variables correction).
+    pub gyro_noise_rad_s: f64,
+    /// One-sigma white noise of each accelerometer axis per sample, m/s²; 0 if unknown. Used as
+    /// `gyro_noise_rad_s` (its bias is usually negligible beside gravity).
+    pub accel_noise_m_s2: f64,
     /// Samples per residual block of the covariance estimate; blocks must be long compared
-    /// with the filter's memory (≈ 1/f_c).
+    /// with the filter's memory (≈ 1/f_c), and a run needs some tens of them for a steady
+    /// sigma.
     pub covariance_block_samples: u32,
 }
 
 impl EstimatorConfig {
     /// Defaults: low-pass at 20 Hz (at most a fifth of the sample rate), λ = 1, all ten
     /// parameters, equation sigmas 1 N and 0.2 N·m, prior sigma 1e4, accelerometer at the P
-    /// origin, no time window, gaps of more than 10 periods restart, covariance blocks of 4/f_c
+    /// origin, no time window, gaps of more than 10 periods restart, covariance blocks of 8/f_c
     /// (at least 20 samples).
     pub fn new(geometry: Geometry, sample_period_s: f64) -> Self {
         let rate_hz = 1.0 / sample_period_s;
@@ -73,7 +82,7 @@ impl EstimatorConfig {
         } else {
             20.0
         };
-        let block = libm::ceil(4.0 / (cutoff_hz * sample_period_s));
+        let block = libm::ceil(8.0 / (cutoff_hz * sample_period_s));
         let block = if block.is_finite() { block.clamp(20.0, 1e6) as u32 } else { 20 };
         Self {
             geometry,
@@ -87,6 +96,8 @@ impl EstimatorConfig {
             window_start_s: f64::NEG_INFINITY,
             window_end_s: f64::INFINITY,
             max_gap_s: 10.0 * sample_period_s,
+            gyro_noise_rad_s: 0.0,
+            accel_noise_m_s2: 0.0,
             covariance_block_samples: block,
         }
     }
@@ -125,27 +136,41 @@ struct Solver<const N: usize, const R: usize> {
     rls: Rls<N>,
     score: ScoreCovariance<N>,
     inv_sigma: SVector<f64, R>,
+    /// Second moment the regressor noise adds per sample, C (weighted rows).
+    noise_moment: SMatrix<f64, N, N>,
+    /// Effective number of samples, Σ λ^(age).
+    samples: f64,
 }
 
 impl<const N: usize, const R: usize> Solver<N, R> {
-    fn new(config: &EstimatorConfig, sigma: SVector<f64, R>) -> Result<Self, EstimatorError> {
+    fn new(
+        config: &EstimatorConfig,
+        sigma: SVector<f64, R>,
+        noise_moment: SMatrix<f64, N, N>,
+    ) -> Result<Self, EstimatorError> {
         let p0 = config.prior_sigma * config.prior_sigma;
         Ok(Self {
             rls: Rls::new(SVector::zeros(), SVector::from_element(p0), config.forgetting_factor)?
                 .with_variance_cap(p0),
             score: ScoreCovariance::new(config.covariance_block_samples, config.forgetting_factor),
             inv_sigma: sigma.map(|s| 1.0 / s),
+            noise_moment,
+            samples: 0.0,
         })
+    }
+
+    fn weigh(&self, rows: &SMatrix<f64, R, N>) -> SMatrix<f64, R, N> {
+        let mut w = *rows;
+        for r in 0..R {
+            w.row_mut(r).scale_mut(self.inv_sigma[r]);
+        }
+        w
     }
 
     /// Weights the rows, updates, and records the residual scores. On a non-finite result the
     /// solver is left as it was.
     fn update(&mut self, rows: &SMatrix<f64, R, N>, y: &SVector<f64, R>) -> Result<(), EstimatorError> {
-        let mut wrows = *rows;
-        for r in 0..R {
-            let w = self.inv_sigma[r];
-            wrows.row_mut(r).scale_mut(w);
-        }
+        let wrows = self.weigh(rows);
         let wy = y.component_mul(&self.inv_sigma);
         let before = self.rls;
         self.rls.update(&wrows, &wy);
@@ -154,12 +179,85 @@ impl<const N: usize, const R: usize> Solver<N, R> {
             return Err(EstimatorError::Overflow("least-squares update"));
         }
         self.score.add(&wrows, &wy, self.rls.theta());
+        self.samples = self.samples * self.rls.forgetting() + 1.0;
         Ok(())
     }
 
-    fn covariance(&self) -> SMatrix<f64, N, N> {
-        self.score.covariance(&self.rls.covariance())
+    /// θ and P corrected for regressor noise: with A = P⁻¹ and b = A θ, the corrected normal
+    /// equations (A − nC) θ' = b give θ' = (𝟙 − nPC)⁻¹ θ and P' = (𝟙 − nPC)⁻¹ P. Uncorrected
+    /// when no noise is configured or the correction would not leave a definite system.
+    fn corrected(&self) -> (SVector<f64, N>, SMatrix<f64, N, N>) {
+        let theta = *self.rls.theta();
+        let p = self.rls.covariance();
+        if self.samples <= 0.0 || self.noise_moment.iter().all(|v| *v == 0.0) {
+            return (theta, p);
+        }
+        let m = SMatrix::<f64, N, N>::identity() - p * self.noise_moment * self.samples;
+        let Some(inv) = m.try_inverse() else {
+            return (theta, p);
+        };
+        let pc = inv * p;
+        let pc = (pc + pc.transpose()) * 0.5;
+        let t = inv * theta;
+        let definite = (0..N).all(|i| pc[(i, i)] > 0.0);
+        if definite && t.iter().all(|v| v.is_finite()) && pc.iter().all(|v| v.is_finite()) {
+            (t, pc)
+        } else {
+            (theta, p)
+        }
     }
+
+    fn theta(&self) -> SVector<f64, N> {
+        self.corrected().0
+    }
+
+    fn covariance(&self) -> SMatrix<f64, N, N> {
+        self.score.covariance(&self.corrected().1)
+    }
+}
+
+/// C = Σ_sources σ² BᵀB over the conditioned noise sources, B the weighted regressor of one
+/// unit source: each gyro axis reaches ω̇ (and, through the lever arm, f_O = f_r − ω̇ × r);
+/// each accelerometer axis reaches f.
+fn noise_moment<const N: usize, const R: usize>(
+    derivative_variance: f64,
+    accel_variance: f64,
+    lever_m: &Vector3<f64>,
+    inv_sigma: &SVector<f64, R>,
+    regressor: impl Fn(&RegressorSignals) -> SMatrix<f64, R, N>,
+) -> SMatrix<f64, N, N> {
+    let mut c = SMatrix::<f64, N, N>::zeros();
+    for axis in 0..3 {
+        let e = Vector3::ith(axis, 1.0);
+        let sources = [
+            (
+                derivative_variance,
+                RegressorSignals {
+                    angular_acceleration_rad_s2: e,
+                    rate_products_rad2_s2: Vector6::zeros(),
+                    specific_force_m_s2: -e.cross(lever_m),
+                },
+            ),
+            (
+                accel_variance,
+                RegressorSignals {
+                    angular_acceleration_rad_s2: Vector3::zeros(),
+                    rate_products_rad2_s2: Vector6::zeros(),
+                    specific_force_m_s2: e,
+                },
+            ),
+        ];
+        for (variance, signals) in sources {
+            if variance > 0.0 {
+                let mut b = regressor(&signals);
+                for r in 0..R {
+                    b.row_mut(r).scale_mut(inv_sigma[r]);
+                }
+                c += b.tr_mul(&b) * variance;
+            }
+        }
+    }
+    c
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -213,9 +311,27 @@ impl OnlineEstimator {
             lowpass_cutoff_hz: config.lowpass_cutoff_hz,
             accelerometer_position_m: config.accelerometer_position_m,
             max_gap_s: config.max_gap_s,
+            gyro_noise_rad_s: config.gyro_noise_rad_s,
         })?;
+        if !(config.accel_noise_m_s2.is_finite() && config.accel_noise_m_s2 >= 0.0) {
+            return Err(EstimatorError::InvalidConfig(
+                "accel_noise_m_s2 must be finite and not negative",
+            ));
+        }
+        let (derivative_gain, value_gain) = if config.gyro_noise_rad_s > 0.0 || config.accel_noise_m_s2 > 0.0 {
+            conditioner.noise_gains()
+        } else {
+            (0.0, 0.0)
+        };
+        let derivative_variance = config.gyro_noise_rad_s * config.gyro_noise_rad_s * derivative_gain;
+        let accel_variance = config.accel_noise_m_s2 * config.accel_noise_m_s2 * value_gain;
+        let lever = config.accelerometer_position_m;
         let engine = match config.parameters {
-            ParameterSet::Full => Engine::Full(Solver::new(&config, config.equation_sigma)?),
+            ParameterSet::Full => {
+                let sigma = config.equation_sigma;
+                let c = noise_moment(derivative_variance, accel_variance, &lever, &sigma.map(|s| 1.0 / s), from_signals);
+                Engine::Full(Solver::new(&config, sigma, c)?)
+            }
             ParameterSet::InertiaAboutKnownCom { mass_kg, com_m } => {
                 if !(positive_finite(mass_kg) && mass_kg <= MAX_ABS_SIGNAL) {
                     return Err(EstimatorError::InvalidConfig("known mass must be positive and finite"));
@@ -226,8 +342,9 @@ impl OnlineEstimator {
                 // τ_C = τ_O − c × F: its noise adds the force noise through the lever c.
                 let sf = config.equation_sigma.fixed_rows::<3>(0).max();
                 let st = config.equation_sigma.fixed_rows::<3>(3);
-                let sigma = st.map(|s| libm::sqrt(s * s + com_m.norm_squared() * sf * sf));
-                Engine::Six { solver: Solver::new(&config, sigma)?, mass_kg, com_m }
+                let sigma: SVector<f64, 3> = st.map(|s| libm::sqrt(s * s + com_m.norm_squared() * sf * sf));
+                let c = noise_moment(derivative_variance, 0.0, &lever, &sigma.map(|s| 1.0 / s), inertia_columns);
+                Engine::Six { solver: Solver::new(&config, sigma, c)?, mass_kg, com_m }
             }
         };
         Ok(Self {
@@ -326,25 +443,37 @@ impl OnlineEstimator {
                 solver.update(&inertia_columns(&c.signals), &yc)?;
             }
         }
-        let r = y - phi * self.theta();
+        let r = y - phi * self.assemble(false);
         let lambda = self.config.forgetting_factor;
         self.residual_sq = self.residual_sq * lambda + r.component_mul(&r);
         self.residual_weight = self.residual_weight * lambda + 1.0;
         Ok(())
     }
 
-    /// The current θ = [m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz] (cheap: for logging every
-    /// sample).
-    pub fn theta(&self) -> ParameterVector {
+    /// θ of all ten parameters from the solver's, corrected for regressor noise or not.
+    fn assemble(&self, corrected: bool) -> ParameterVector {
         match &self.engine {
-            Engine::Full(s) => *s.rls.theta(),
+            Engine::Full(s) => {
+                if corrected {
+                    s.theta()
+                } else {
+                    *s.rls.theta()
+                }
+            }
             Engine::Six { solver, mass_kg, com_m } => {
+                let j = if corrected { solver.theta() } else { *solver.rls.theta() };
                 let mut jc = ParameterVector::zeros();
-                jc.fixed_rows_mut::<6>(4).copy_from(solver.rls.theta());
+                jc.fixed_rows_mut::<6>(4).copy_from(&j);
                 let base = InertialParameters::from_vector(&jc);
                 InertialParameters::from_com(*mass_kg, *com_m, base.inertia_origin_kg_m2).to_vector()
             }
         }
+    }
+
+    /// The current θ = [m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz] (cheap unless a sensor
+    /// noise is configured, when the errors-in-variables correction costs a 10×10 solve).
+    pub fn theta(&self) -> ParameterVector {
+        self.assemble(true)
     }
 
     /// Covariance of θ (P and the residual scores; see [`crate::uncertainty`]).
