@@ -1,0 +1,598 @@
+//! The simulated rig as a [`control::io::Backend`].
+//!
+//! # What instant a sample describes
+//!
+//! Sample `k` describes the instant `t_k = k T` (`T` the sample period, an integer number `N`
+//! of physics substeps `h`), and every channel is evaluated *at that instant*:
+//!
+//! - **pose, leg lengths**: rapier's pose after `kN` steps (positions live on step boundaries).
+//! - **load cells**: the axial force each actuator applies at `t_k`, i.e. the force rapier
+//!   integrates over the next substep. It depends only on the actuator state at `t_k` (the lag
+//!   applies its state, then advances), never on the command written after the read, so it is
+//!   known when the sample is taken.
+//! - **gyro**: rapier's stored velocity is that of the half step *before* `t_k` (symplectic
+//!   Euler read as leapfrog: `v_{n+½} = v_{n−½} + h a(x_n)`). We report
+//!   `ω(t_k) = ω_{k−½} + (h/2) ω̇(t_k)`, i.e. the mean of the velocities on either side, which
+//!   is what rapier's trajectory passes through at `t_k` to second order.
+//! - **accelerometer**: the specific force `f = a_O − g` and `ω̇` that the wrench of those leg
+//!   forces produces on the body at `t_k` by Newton–Euler with the true (rapier's own) inertial
+//!   parameters and `ω(t_k)` — the same acceleration rapier's next kick applies, up to its
+//!   explicit gyroscopic approximation — moved to the mounting point:
+//!   `f_a = f + ω̇ × r_a + ω × (ω × r_a)`.
+//!
+//! So the load cells, the pose, the gyro and the accelerometer of one frame satisfy the rigid
+//! body's equations at one instant, and the central difference of the gyro over neighbouring
+//! samples gives `ω̇(t_k)` to `O(T²)`. A half-step skew between channels (a force held over
+//! a step against a centrally differenced rate) leaves the fitted parameters nearly intact but
+//! raises the fit residual by orders of magnitude (DESIGN.md, "Things we measured").
+//!
+//! Exception: a brake engaging or releasing takes effect from the next substep, so the force of
+//! the sample taken just before such a command differs by the brake's damping term.
+
+use control::io::{Backend, CommandFrame, SensorFrame, Status, LEG_COUNT};
+use kinematics::{Geometry, Pose};
+use nalgebra::{Matrix3, Matrix6, SymmetricEigen, Vector3, Vector6};
+
+use crate::actuator::Actuators;
+use crate::body::{BodyProperties, InertialParameters};
+use crate::config::{GyroscopicModel, SimConfig};
+use crate::dynamics::{Acceleration, RigidBodyModel};
+use crate::error::SimError;
+use crate::sensors::SensorModel;
+use crate::world::{PlateWorld, GRAVITY_M_S2};
+
+/// Velocity of the plate at the current sample instant.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlateVelocity {
+    /// Velocity of the P origin, in B, m/s.
+    pub linear_m_s: Vector3<f64>,
+    /// Angular velocity, in B, rad/s.
+    pub angular_rad_s: Vector3<f64>,
+}
+
+/// Legs at one pose, in B.
+#[derive(Clone, Copy, Debug)]
+struct LegState {
+    lengths_m: [f64; 6],
+    units: [Vector3<f64>; 6],
+    /// Plate joints relative to the P origin, `R pᵢ`.
+    arms_m: [Vector3<f64>; 6],
+    /// Extension rates from rapier's stored velocities, m/s.
+    rates_m_s: [f64; 6],
+}
+
+/// Forces and motion at one instant.
+#[derive(Clone, Copy, Debug)]
+struct Evaluation {
+    forces_n: [f64; 6],
+    omega_p: Vector3<f64>,
+    acceleration: Acceleration,
+}
+
+/// Everything true about the current sample instant.
+#[derive(Clone, Copy, Debug)]
+struct Instant {
+    pose: Pose,
+    forces_n: [f64; 6],
+    velocity: PlateVelocity,
+    acceleration: Acceleration,
+    clean: SensorFrame,
+}
+
+/// The simulated Stewart platform: rapier physics, actuators and sensors.
+pub struct Simulator {
+    geometry: Geometry,
+    config: SimConfig,
+    fixture: BodyProperties,
+    payload: Option<BodyProperties>,
+    model: RigidBodyModel,
+    /// Tensor of fixture + payload about their joint centre of mass, in P.
+    inertia_com: Matrix3<f64>,
+    world: PlateWorld,
+    actuators: Actuators,
+    sensors: SensorModel,
+    substep_s: f64,
+    sample: u64,
+    now: Instant,
+    frame: SensorFrame,
+}
+
+impl core::fmt::Debug for Simulator {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        f.debug_struct("Simulator")
+            .field("time_s", &self.time_s())
+            .field("payload", &self.payload.is_some())
+            .finish_non_exhaustive()
+    }
+}
+
+fn total_model(
+    fixture: &BodyProperties,
+    payload: Option<&BodyProperties>,
+) -> Result<RigidBodyModel, SimError> {
+    let mut p = InertialParameters::from_body(fixture);
+    if let Some(b) = payload {
+        p = p.plus(&InertialParameters::from_body(b));
+    }
+    RigidBodyModel::new(p).ok_or(SimError::InvalidBody {
+        body: "plate + payload",
+        reason: "spatial inertia is not positive definite",
+    })
+}
+
+impl Simulator {
+    /// A rig of `geometry` carrying `fixture` and, unless this is a tare world, `payload`,
+    /// at the geometry's home pose, at rest, with the brakes holding the static load.
+    ///
+    /// Refuses invalid configs and bodies, an unreachable home pose, a singular geometry, and a
+    /// brake or actuator friction too stiff for the physics substep (see [`Self::set_payload`]).
+    pub fn new(
+        geometry: Geometry,
+        fixture: BodyProperties,
+        payload: Option<BodyProperties>,
+        config: &SimConfig,
+        seed: u64,
+    ) -> Result<Self, SimError> {
+        config.validate()?;
+        fixture.validate("fixture")?;
+        if let Some(p) = &payload {
+            p.validate("payload")?;
+        }
+        let model = total_model(&fixture, payload.as_ref())?;
+        let pose = geometry.home_pose();
+        let substep_s = config.substep_s();
+        let world = PlateWorld::new(
+            &fixture,
+            payload.as_ref(),
+            &pose,
+            substep_s,
+            config.gyroscopic == GyroscopicModel::Rapier,
+        );
+        let placeholder = Actuators::new_braked(config.actuator, substep_s, &[0.0; 6], &[0.0; 6]);
+        let mut sim = Self {
+            geometry,
+            config: *config,
+            fixture,
+            payload,
+            inertia_com: model.params().to_body().inertia_com(),
+            model,
+            world,
+            actuators: placeholder,
+            sensors: SensorModel::new(config.sensors, config.sample_rate_hz, seed),
+            substep_s,
+            sample: 0,
+            now: Instant {
+                pose,
+                forces_n: [0.0; 6],
+                velocity: PlateVelocity {
+                    linear_m_s: Vector3::zeros(),
+                    angular_rad_s: Vector3::zeros(),
+                },
+                acceleration: Acceleration {
+                    specific_force_m_s2: Vector3::zeros(),
+                    angular_rad_s2: Vector3::zeros(),
+                },
+                clean: SensorFrame::default(),
+            },
+            frame: SensorFrame::default(),
+        };
+        sim.check_stability()?;
+        sim.set_state(&pose, &Vector3::zeros(), &Vector3::zeros())?;
+        Ok(sim)
+    }
+
+    /// Moves the plate to `pose` with the given velocity of the P origin and angular velocity
+    /// (both in B), and engages the brakes holding the static load at that pose (so at zero
+    /// velocity the plate stays at rest). The sample counter and the noise stream continue.
+    pub fn set_state(
+        &mut self,
+        pose: &Pose,
+        linear_m_s: &Vector3<f64>,
+        angular_rad_s: &Vector3<f64>,
+    ) -> Result<(), SimError> {
+        let finite = pose.position_m.iter().all(|v| v.is_finite())
+            && pose.rotation.matrix().iter().all(|v| v.is_finite())
+            && linear_m_s.iter().all(|v| v.is_finite())
+            && angular_rad_s.iter().all(|v| v.is_finite());
+        if !finite {
+            return Err(SimError::InvalidConfig {
+                field: "initial state",
+                value: f64::NAN,
+                reason: "pose and velocities must be finite",
+            });
+        }
+        self.geometry
+            .check_reachable(pose)
+            .map_err(SimError::Unreachable)?;
+        let legs = self.legs(pose);
+        let hold = self.static_forces(pose, &legs)?;
+        self.world.set_state(pose, linear_m_s, angular_rad_s);
+        self.actuators =
+            Actuators::new_braked(self.config.actuator, self.substep_s, &legs.lengths_m, &hold);
+        self.refresh()
+    }
+
+    /// Puts a payload on the plate or takes it off (`None`: the tare world), keeping the
+    /// current motion and actuator state. Also re-checks brake and friction stability, which
+    /// is worst for the lightest body.
+    pub fn set_payload(&mut self, payload: Option<BodyProperties>) -> Result<(), SimError> {
+        if let Some(p) = &payload {
+            p.validate("payload")?;
+        }
+        let model = total_model(&self.fixture, payload.as_ref())?;
+        let old = core::mem::replace(&mut self.model, model);
+        if let Err(e) = self.check_stability() {
+            self.model = old;
+            return Err(e);
+        }
+        self.inertia_com = self.model.params().to_body().inertia_com();
+        self.payload = payload;
+        self.world.set_payload(self.payload.as_ref());
+        self.refresh()
+    }
+
+    /// Explicit integration of the brake's spring and of the actuators' viscous and smoothed
+    /// Coulomb friction is stable when, for the lightest mode of the plate on its legs,
+    /// `h² k μ ≤ 2` and `2 h c μ ≤ 2` (half the bounds of symplectic Euler), where
+    /// `μ = λ_max(M⁻¹ Jᵀ J)` at the home pose, `M` the spatial inertia about the P origin and
+    /// `J` the leg Jacobian in P. (The brake's damper is implicit and needs no check.)
+    fn check_stability(&self) -> Result<(), SimError> {
+        let pose = self.geometry.home_pose();
+        let legs = self.legs(&pose);
+        let rt = pose.rotation.inverse();
+        let mut j = Matrix6::zeros();
+        for i in 0..LEG_COUNT {
+            let u = rt * legs.units[i];
+            let m = self.geometry.plate_joints_m()[i].cross(&u);
+            for c in 0..3 {
+                j[(i, c)] = u[c];
+                j[(i, c + 3)] = m[c];
+            }
+        }
+        let mass = RigidBodyModel::spatial_inertia(self.model.params());
+        let Some(chol) = mass.cholesky() else {
+            return Err(SimError::InvalidBody {
+                body: "plate + payload",
+                reason: "spatial inertia is not positive definite",
+            });
+        };
+        let l_inv = chol.l().try_inverse().unwrap_or_else(Matrix6::zeros);
+        let a = l_inv * j.transpose() * j * l_inv.transpose();
+        let mu = SymmetricEigen::new(0.5 * (a + a.transpose()))
+            .eigenvalues
+            .max();
+        let h = self.substep_s;
+        let act = &self.config.actuator;
+        if h * h * act.brake_stiffness_n_m * mu > 2.0 {
+            return Err(SimError::InvalidConfig {
+                field: "actuator.brake_stiffness_n_m",
+                value: act.brake_stiffness_n_m,
+                reason: "brake stiffness too high for the physics substep and the lightest \
+                         mode of the plate (lower it or raise substeps)",
+            });
+        }
+        let friction =
+            act.viscous_friction_n_s_m + act.coulomb_friction_n / act.coulomb_velocity_scale_m_s;
+        if 2.0 * h * friction * mu > 2.0 {
+            return Err(SimError::InvalidConfig {
+                field: "actuator.coulomb_velocity_scale_m_s",
+                value: act.coulomb_velocity_scale_m_s,
+                reason: "actuator friction slope (viscous + coulomb / velocity scale) too steep \
+                         for the physics substep (raise the velocity scale or substeps)",
+            });
+        }
+        Ok(())
+    }
+
+    /// Leg forces that hold the plate at rest at `pose` against gravity: `Jᵀ f = −W_gravity`.
+    fn static_forces(&self, pose: &Pose, legs: &LegState) -> Result<[f64; 6], SimError> {
+        let p = self.model.params();
+        let weight = p.mass_kg * GRAVITY_M_S2;
+        let com_b = pose.rotation * (p.first_moment_kg_m / p.mass_kg);
+        let need_force = -weight;
+        let need_torque = -com_b.cross(&weight);
+        let mut jt = Matrix6::zeros();
+        for i in 0..LEG_COUNT {
+            let m = legs.arms_m[i].cross(&legs.units[i]);
+            for c in 0..3 {
+                jt[(c, i)] = legs.units[i][c];
+                jt[(c + 3, i)] = m[c];
+            }
+        }
+        let rhs = Vector6::new(
+            need_force.x,
+            need_force.y,
+            need_force.z,
+            need_torque.x,
+            need_torque.y,
+            need_torque.z,
+        );
+        let f = jt
+            .lu()
+            .solve(&rhs)
+            .filter(|f| f.iter().all(|v| v.is_finite()))
+            .ok_or(SimError::InvalidConfig {
+                field: "geometry",
+                value: f64::NAN,
+                reason: "the leg Jacobian is singular at the pose",
+            })?;
+        Ok(core::array::from_fn(|i| f[i]))
+    }
+
+    /// Leg lengths, unit vectors, arms and extension rates at `pose` with rapier's velocities.
+    fn legs(&self, pose: &Pose) -> LegState {
+        let (v_com, omega) = self.world.raw_velocities();
+        let com_b =
+            pose.rotation * (self.model.params().first_moment_kg_m / self.model.params().mass_kg);
+        let v_origin = v_com - omega.cross(&com_b);
+        let base = self.geometry.base_joints_m();
+        let plate = self.geometry.plate_joints_m();
+        let mut s = LegState {
+            lengths_m: [0.0; 6],
+            units: [Vector3::zeros(); 6],
+            arms_m: [Vector3::zeros(); 6],
+            rates_m_s: [0.0; 6],
+        };
+        for i in 0..LEG_COUNT {
+            let arm = pose.rotation * plate[i];
+            let l = pose.position_m + arm - base[i];
+            let len = l.norm();
+            let u = if len > 0.0 { l / len } else { Vector3::z() };
+            s.lengths_m[i] = len;
+            s.units[i] = u;
+            s.arms_m[i] = arm;
+            s.rates_m_s[i] = u.dot(&(v_origin + omega.cross(&arm)));
+        }
+        s
+    }
+
+    /// The state of the instant at the start of the next substep: the leg forces the actuators
+    /// apply, their wrench about the P origin in P, the angular velocity at the instant
+    /// (`ω_{n−½} + (h/2) ω̇`, see the module docs) and the Newton–Euler acceleration there.
+    fn evaluate(&self, pose: &Pose, legs: &LegState) -> Evaluation {
+        let forces = if self.actuators.braked() {
+            let rates = self.implicit_brake_rates(pose, legs);
+            self.actuators.output(&legs.lengths_m, &rates)
+        } else {
+            self.actuators.output(&legs.lengths_m, &legs.rates_m_s)
+        };
+        let rt = pose.rotation.inverse();
+        let mut force_p = Vector3::zeros();
+        let mut torque_p = Vector3::zeros();
+        let joints = self.geometry.plate_joints_m().iter();
+        for ((force, unit), joint) in forces.iter().zip(&legs.units).zip(joints) {
+            let f = rt * (unit * *force);
+            force_p += f;
+            torque_p += joint.cross(&f);
+        }
+        let (_, omega_b) = self.world.raw_velocities();
+        let omega_raw = rt * omega_b;
+        let first = self.model.acceleration(&force_p, &torque_p, &omega_raw);
+        let omega = omega_raw + 0.5 * self.substep_s * first.angular_rad_s2;
+        let acceleration = self.model.acceleration(&force_p, &torque_p, &omega);
+        Evaluation {
+            forces_n: forces,
+            omega_p: omega,
+            acceleration,
+        }
+    }
+
+    /// Leg rates at the end of the coming substep when the brake's damper acts with them
+    /// (backward Euler for the damping, so any damping is stable).
+    ///
+    /// With `q̇ = [v_C; ω]` (in B), `M = diag(m𝟙, I_B)`, leg rates `l̇ = G q̇` (row i
+    /// `[uᵢᵀ, ((R pᵢ + p − C) × uᵢ)ᵀ]`) and the brake force `F = F_s − c G q̇⁺`, rapier's step
+    /// `q̇⁺ = q̇ + h M⁻¹(Gᵀ F + Q)` gives `(M + h c GᵀG) q̇⁺ = M q̇ + h (Gᵀ F_s + Q)`, with `Q`
+    /// gravity and the gyroscopic torque.
+    fn implicit_brake_rates(&self, pose: &Pose, legs: &LegState) -> [f64; 6] {
+        let spring = self.actuators.output(&legs.lengths_m, &[0.0; 6]);
+        let c = self.actuators.config().brake_damping_n_s_m;
+        let p = self.model.params();
+        let com_b = pose.rotation * (p.first_moment_kg_m / p.mass_kg);
+        let inertia_b =
+            pose.rotation.matrix() * self.inertia_com * pose.rotation.matrix().transpose();
+        let (v_com, omega) = self.world.raw_velocities();
+        let mut g = Matrix6::zeros();
+        for i in 0..LEG_COUNT {
+            let m = (legs.arms_m[i] - com_b).cross(&legs.units[i]);
+            for k in 0..3 {
+                g[(i, k)] = legs.units[i][k];
+                g[(i, k + 3)] = m[k];
+            }
+        }
+        let mut mass = Matrix6::zeros();
+        mass.fixed_view_mut::<3, 3>(0, 0)
+            .copy_from(&(Matrix3::identity() * p.mass_kg));
+        mass.fixed_view_mut::<3, 3>(3, 3).copy_from(&inertia_b);
+        let qd = Vector6::new(v_com.x, v_com.y, v_com.z, omega.x, omega.y, omega.z);
+        let gyro = match self.config.gyroscopic {
+            GyroscopicModel::Midpoint => -omega.cross(&(inertia_b * omega)),
+            GyroscopicModel::Rapier => Vector3::zeros(),
+        };
+        let weight = p.mass_kg * GRAVITY_M_S2;
+        let q = Vector6::new(weight.x, weight.y, weight.z, gyro.x, gyro.y, gyro.z);
+        let h = self.substep_s;
+        let a = mass + h * c * g.transpose() * g;
+        let b = mass * qd + h * (g.transpose() * Vector6::from(spring) + q);
+        match a.cholesky() {
+            Some(chol) => {
+                let rates = g * chol.solve(&b);
+                core::array::from_fn(|i| rates[i])
+            }
+            None => legs.rates_m_s,
+        }
+    }
+
+    /// One physics substep: forces along the current leg lines at the plate joints, plus the
+    /// gyroscopic torque at the instant when we integrate it ([`GyroscopicModel::Midpoint`]).
+    fn substep(&mut self) {
+        let pose = self.world.pose();
+        let legs = self.legs(&pose);
+        let e = self.evaluate(&pose, &legs);
+        let applied = core::array::from_fn(|i| {
+            (
+                e.forces_n[i] * legs.units[i],
+                pose.position_m + legs.arms_m[i],
+            )
+        });
+        let gyroscopic = match self.config.gyroscopic {
+            GyroscopicModel::Midpoint => {
+                let w = &e.omega_p;
+                pose.rotation * -w.cross(&(self.inertia_com * w))
+            }
+            GyroscopicModel::Rapier => Vector3::zeros(),
+        };
+        self.world.step(&applied, &gyroscopic);
+        self.actuators.advance(&e.forces_n);
+    }
+
+    /// Evaluates every channel at the current instant (see the module docs) and samples the
+    /// sensors.
+    fn refresh(&mut self) -> Result<(), SimError> {
+        let pose = self.world.pose();
+        let legs = self.legs(&pose);
+        let e = self.evaluate(&pose, &legs);
+        let (omega, acc) = (e.omega_p, e.acceleration);
+        // Velocity of the P origin: rapier's is the centre of mass's, half a step old.
+        let (v_com, omega_b) = self.world.raw_velocities();
+        let p = self.model.params();
+        let com_b = pose.rotation * (p.first_moment_kg_m / p.mass_kg);
+        let v_origin_raw = v_com - omega_b.cross(&com_b);
+        let a_origin_b = pose.rotation * acc.specific_force_m_s2 + GRAVITY_M_S2;
+        let velocity = PlateVelocity {
+            linear_m_s: v_origin_raw + 0.5 * self.substep_s * a_origin_b,
+            angular_rad_s: pose.rotation * omega,
+        };
+        let r = Vector3::from(self.config.sensors.accelerometer.mount_m);
+        let accel =
+            acc.specific_force_m_s2 + acc.angular_rad_s2.cross(&r) + omega.cross(&omega.cross(&r));
+        let status = if self.actuators.braked() {
+            Status::BRAKED
+        } else {
+            Status::ENABLED
+        };
+        let clean = SensorFrame {
+            sequence: self.sample,
+            time_s: self.time_s(),
+            leg_lengths_m: legs.lengths_m,
+            leg_forces_n: e.forces_n,
+            gyro_rad_s: [omega.x, omega.y, omega.z],
+            accel_m_s2: [accel.x, accel.y, accel.z],
+            status: Status(status),
+        };
+        if !clean.is_finite() {
+            return Err(SimError::Diverged {
+                time_s: self.time_s(),
+            });
+        }
+        self.now = Instant {
+            pose,
+            forces_n: e.forces_n,
+            velocity,
+            acceleration: acc,
+            clean,
+        };
+        self.frame = self.sensors.measure(&clean);
+        Ok(())
+    }
+
+    /// Simulated time of the current sample, s.
+    pub fn time_s(&self) -> f64 {
+        self.sample as f64 * self.config.sample_period_s()
+    }
+
+    /// The rig's geometry.
+    pub fn geometry(&self) -> &Geometry {
+        &self.geometry
+    }
+
+    /// The configuration the simulator was built with.
+    pub fn config(&self) -> &SimConfig {
+        &self.config
+    }
+
+    /// Ground truth (reports and tests only): pose of P in B at the current sample.
+    pub fn true_pose(&self) -> Pose {
+        self.now.pose
+    }
+
+    /// Ground truth: velocity of the plate at the current sample.
+    pub fn true_velocity(&self) -> PlateVelocity {
+        self.now.velocity
+    }
+
+    /// Ground truth: specific force of the P origin and angular acceleration, in P.
+    pub fn true_acceleration(&self) -> Acceleration {
+        self.now.acceleration
+    }
+
+    /// Ground truth: the axial force each leg applies to the plate at the current sample, N.
+    pub fn true_leg_forces_n(&self) -> [f64; 6] {
+        self.now.forces_n
+    }
+
+    /// Ground truth: every channel of the current sample without noise, bias or quantization.
+    pub fn clean_frame(&self) -> SensorFrame {
+        self.now.clean
+    }
+
+    /// Ground truth: the payload's properties (`None` in the tare world).
+    pub fn true_payload(&self) -> Option<BodyProperties> {
+        self.payload
+    }
+
+    /// Ground truth: the fixture plate's properties.
+    pub fn true_fixture(&self) -> BodyProperties {
+        self.fixture
+    }
+
+    /// Ground truth: parameters of everything on the legs (fixture + payload) about the P origin.
+    pub fn true_parameters(&self) -> InertialParameters {
+        *self.model.params()
+    }
+
+    /// Rapier's own view of the moving body (mass, centre of mass in P, tensor about the centre
+    /// of mass in P axes), to check that it matches [`Self::true_parameters`].
+    pub fn rapier_body(&self) -> BodyProperties {
+        let (m, c, j) = self.world.body_mass_properties();
+        BodyProperties {
+            mass_kg: m,
+            com_m: [c.x, c.y, c.z],
+            inertia_com_kg_m2: crate::body::matrix_to_rows(&j),
+        }
+    }
+}
+
+impl Backend for Simulator {
+    type Error = SimError;
+
+    /// The sample at the current instant (the same frame until the next `write`).
+    fn read(&mut self) -> Result<SensorFrame, SimError> {
+        Ok(self.frame)
+    }
+
+    /// Applies `command` and advances the physics by one sample period.
+    fn write(&mut self, command: &CommandFrame) -> Result<(), SimError> {
+        if let Some(leg) = command.leg_forces_n.iter().position(|f| !f.is_finite()) {
+            return Err(SimError::InvalidCommand { leg });
+        }
+        self.actuators.command(
+            &command.leg_forces_n,
+            command.enable,
+            &self.now.clean.leg_lengths_m,
+            &self.now.forces_n,
+        );
+        for _ in 0..self.config.substeps {
+            self.substep();
+        }
+        self.sample += 1;
+        self.refresh()
+    }
+
+    fn sample_period_s(&self) -> f64 {
+        self.config.sample_period_s()
+    }
+}
+
+#[cfg(test)]
+mod tests;
