@@ -324,12 +324,10 @@ where
         if self.session.is_none() {
             return Ok(());
         }
-        if !command.enable {
-            self.stats.braked_ticks += 1;
-        }
         if command.enable {
             self.check_motion(&frame);
         } else {
+            self.stats.braked_ticks += 1;
             // Braked legs hold still; a stale window would turn the next enabled sample's
             // length change into a bogus speed.
             self.recent_lengths.clear();

@@ -128,11 +128,11 @@ impl RigBackend {
     pub fn connect(address: &str, options: RigOptions) -> Result<Self, RigError> {
         let parsed: Address = address.parse()?;
         let (transport, peer) = transport::open_client(&parsed)?;
-        Self::handshake(transport, peer, address.to_string(), options)
+        Self::connect_over(transport, peer, address.to_string(), options)
     }
 
     /// Like [`connect`](Self::connect) over an already opened transport.
-    pub fn handshake(
+    pub fn connect_over(
         mut transport: Box<dyn Transport>,
         peer: Peer,
         address: String,
