@@ -1,26 +1,84 @@
-//! Links the cores into a `no_std` static library without an allocator (see Cargo.toml).
+//! Links the three cores into a `no_std` static library without an allocator (see Cargo.toml)
+//! and calls their per-tick functions, so that the linker sees every path a tick can take.
 #![no_std]
 
-use kinematics::{FkOptions, Geometry, Pose, StrokeLimits, Vector6};
+use control::controller::{Controller, ControllerConfig};
+use control::io::SensorFrame;
+use control::trajectory::{MultiSineConfig, Trajectory};
+use estimator::{EstimatorConfig, OnlineEstimator, Sample};
+use kinematics::{FkOptions, Geometry, StrokeLimits, Vector3, Vector6};
 
 #[panic_handler]
 fn panic(_: &core::panic::PanicInfo) -> ! {
     loop {}
 }
 
-/// One kinematics tick: geometry, IK, FK from the lengths, wrench. Returns the residual.
+fn geometry() -> Option<Geometry> {
+    let stroke = StrokeLimits {
+        min_length_m: 1.5,
+        max_length_m: 2.3,
+    };
+    Geometry::from_radii(1.5, 1.2, 0.35, 0.35, stroke).ok()
+}
+
+/// Kinematics: IK, FK from the lengths, wrench. Returns the FK residual (negative on error).
 #[no_mangle]
 pub extern "C" fn proof_kinematics_tick(z_offset_m: f64) -> f64 {
-    let stroke = StrokeLimits { min_length_m: 1.5, max_length_m: 2.3 };
-    let Ok(geometry) = Geometry::from_radii(1.5, 1.2, 0.35, 0.35, stroke) else {
+    let Some(geometry) = geometry() else {
         return -1.0;
     };
-    let mut pose: Pose = geometry.home_pose();
+    let mut pose = geometry.home_pose();
     pose.position_m.z += z_offset_m;
     let lengths = geometry.leg_lengths(&pose);
-    let wrench = geometry.wrench_in_platform(&pose, &Vector6::repeat(1000.0));
+    let _ = geometry.wrench_in_platform(&pose, &Vector6::repeat(1000.0));
     match geometry.forward_kinematics(&lengths, &geometry.home_pose(), &FkOptions::default()) {
-        Ok(solution) => solution.residual_m + wrench.force_n.z * 0.0,
+        Ok(solution) => solution.residual_m,
         Err(_) => -2.0,
     }
+}
+
+/// A full control-and-estimation tick on `ticks` synthetic frames at rest: controller (FK,
+/// trajectory, IK, PIDs, supervisor) and estimator (wrench, conditioning, regressor, RLS).
+/// Returns the estimated mass (NaN on any error).
+#[no_mangle]
+pub extern "C" fn proof_full_ticks(ticks: u32, leg_force_n: f64) -> f64 {
+    let Some(geometry) = geometry() else {
+        return f64::NAN;
+    };
+    let Ok(trajectory) = Trajectory::multisine(geometry.home_pose(), &MultiSineConfig::default())
+    else {
+        return f64::NAN;
+    };
+    let config = ControllerConfig::default();
+    let Ok(mut controller) = Controller::new(geometry, trajectory, config) else {
+        return f64::NAN;
+    };
+    let Ok(mut estimator) =
+        OnlineEstimator::new(EstimatorConfig::new(geometry, config.sample_period_s))
+    else {
+        return f64::NAN;
+    };
+    let home = geometry.home_pose();
+    let lengths = geometry.leg_lengths(&home);
+    for k in 0..ticks {
+        let frame = SensorFrame {
+            sequence: u64::from(k),
+            time_s: f64::from(k) * config.sample_period_s,
+            leg_lengths_m: lengths.into(),
+            leg_forces_n: [leg_force_n; 6],
+            gyro_rad_s: [0.0; 3],
+            accel_m_s2: [0.0, 0.0, 9.80665],
+            ..SensorFrame::default()
+        };
+        let out = controller.tick(&frame);
+        let sample = Sample {
+            time_s: frame.time_s,
+            pose: out.measured_pose.unwrap_or(home),
+            leg_forces_n: Vector6::from(frame.leg_forces_n),
+            gyro_rad_s: Vector3::from(frame.gyro_rad_s),
+            accel_m_s2: Vector3::from(frame.accel_m_s2),
+        };
+        let _ = estimator.update(&sample);
+    }
+    estimator.estimate().parameters.mass_kg
 }
