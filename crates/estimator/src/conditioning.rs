@@ -146,7 +146,11 @@ impl Conditioner {
                 "gyro_noise_rad_s must be finite and not negative",
             ));
         }
-        if !config.accelerometer_position_m.iter().all(|v| v.is_finite()) {
+        if !config
+            .accelerometer_position_m
+            .iter()
+            .all(|v| v.is_finite())
+        {
             return Err(EstimatorError::InvalidConfig(
                 "accelerometer_position_m must be finite",
             ));
@@ -155,7 +159,11 @@ impl Conditioner {
             Some(fc) => Biquad::butterworth(fc, t)?,
             None => Biquad::identity(),
         };
-        let empty = Raw { time_s: 0.0, omega: Vector3::zeros(), rest: SVector::zeros() };
+        let empty = Raw {
+            time_s: 0.0,
+            omega: Vector3::zeros(),
+            rest: SVector::zeros(),
+        };
         Ok(Self {
             config,
             filter: LowPass::new(biquad),
@@ -189,7 +197,11 @@ impl Conditioner {
             let mut sum = 0.0;
             // An impulse at one sample meets the stencil's taps newest first.
             for n in 0..200_000usize {
-                let x = if n < STENCIL { taps[STENCIL - 1 - n] } else { 0.0 };
+                let x = if n < STENCIL {
+                    taps[STENCIL - 1 - n]
+                } else {
+                    0.0
+                };
                 let y = f.step(&SVector::from_element(x))[0];
                 sum += y * y;
                 if n > 1000 && y.abs() < 1e-18 * (1.0 + libm::sqrt(sum)) {
@@ -250,7 +262,11 @@ impl Conditioner {
         if !all_bounded(&rest) || !all_bounded(gyro_rad_s) {
             return Err(EstimatorError::Overflow("sample magnitude"));
         }
-        let raw = Raw { time_s, omega: *gyro_rad_s, rest };
+        let raw = Raw {
+            time_s,
+            omega: *gyro_rad_s,
+            rest,
+        };
 
         if self.held > 0 {
             let dt = time_s - self.history[STENCIL - 1].time_s;
@@ -346,7 +362,8 @@ mod tests {
                 let t = k as f64 * 1e-3;
                 let s = motion.state(t);
                 let w = body.wrench(&s.omega, &s.omega_dot, &s.specific_force);
-                let accel = s.specific_force + s.omega_dot.cross(&r) + s.omega.cross(&s.omega.cross(&r));
+                let accel =
+                    s.specific_force + s.omega_dot.cross(&r) + s.omega.cross(&s.omega.cross(&r));
                 let wrench = Wrench {
                     force_n: w.fixed_rows::<3>(0).into_owned(),
                     torque_nm: w.fixed_rows::<3>(3).into_owned(),
@@ -380,13 +397,22 @@ mod tests {
         assert_eq!(c.push(0.0, &one, &one, &w), Ok(Step::Started));
         let before = c;
         let nan = Vector3::new(f64::NAN, 0.0, 0.0);
-        assert_eq!(c.push(0.001, &nan, &one, &w), Err(EstimatorError::NonFiniteSample("gyro")));
+        assert_eq!(
+            c.push(0.001, &nan, &one, &w),
+            Err(EstimatorError::NonFiniteSample("gyro"))
+        );
         assert_eq!(
             c.push(0.001, &one, &Vector3::new(0.0, f64::INFINITY, 0.0), &w),
             Err(EstimatorError::NonFiniteSample("accelerometer"))
         );
-        assert_eq!(c.push(f64::NAN, &one, &one, &w), Err(EstimatorError::NonFiniteSample("time")));
-        assert_eq!(c.push(0.0, &one, &one, &w), Err(EstimatorError::TimeNotIncreasing));
+        assert_eq!(
+            c.push(f64::NAN, &one, &one, &w),
+            Err(EstimatorError::NonFiniteSample("time"))
+        );
+        assert_eq!(
+            c.push(0.0, &one, &one, &w),
+            Err(EstimatorError::TimeNotIncreasing)
+        );
         assert_eq!(
             c.push(0.001, &Vector3::new(1e200, 0.0, 0.0), &one, &w),
             Err(EstimatorError::Overflow("sample magnitude"))
@@ -423,8 +449,16 @@ mod tests {
                 }
             }
         }
-        assert!((sd / count / dg - 1.0).abs() < 0.02, "{} vs {dg}", sd / count);
-        assert!((sv / count / vg - 1.0).abs() < 0.02, "{} vs {vg}", sv / count);
+        assert!(
+            (sd / count / dg - 1.0).abs() < 0.02,
+            "{} vs {dg}",
+            sd / count
+        );
+        assert!(
+            (sv / count / vg - 1.0).abs() < 0.02,
+            "{} vs {vg}",
+            sv / count
+        );
     }
 
     #[test]

@@ -48,7 +48,9 @@ impl EstimatorError {
 impl fmt::Display for EstimatorError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            EstimatorError::InvalidConfig(what) => write!(f, "invalid estimator configuration: {what}"),
+            EstimatorError::InvalidConfig(what) => {
+                write!(f, "invalid estimator configuration: {what}")
+            }
             EstimatorError::NonFiniteSample(channel) => {
                 write!(f, "sample rejected: non-finite value in {channel}")
             }
@@ -57,7 +59,10 @@ impl fmt::Display for EstimatorError {
             }
             EstimatorError::Overflow(what) => write!(f, "sample rejected: {what} overflowed"),
             EstimatorError::Singular => {
-                write!(f, "normal equations are singular: the data do not identify every parameter")
+                write!(
+                    f,
+                    "normal equations are singular: the data do not identify every parameter"
+                )
             }
         }
     }

@@ -1,7 +1,9 @@
 //! What the estimator reports: parameters, their covariance, the centre-of-mass form with
 //! one-sigma uncertainties, principal moments and axes, consistency, residuals and counts.
 
-use crate::params::{principal_of, Consistency, InertialParameters, ParameterVector, PARAMETER_COUNT};
+use crate::params::{
+    principal_of, Consistency, InertialParameters, ParameterVector, PARAMETER_COUNT,
+};
 use crate::uncertainty::{derive, principal_sigma};
 use nalgebra::{Matrix3, SMatrix, Vector3, Vector6};
 
@@ -76,7 +78,10 @@ pub struct Estimate {
 
 impl Estimate {
     /// All derived fields from θ and its covariance; residuals zero and counts empty.
-    pub fn from_parameters(parameters: InertialParameters, covariance: ParameterCovariance) -> Self {
+    pub fn from_parameters(
+        parameters: InertialParameters,
+        covariance: ParameterCovariance,
+    ) -> Self {
         let theta = parameters.to_vector();
         let covariance = (covariance + covariance.transpose()) * 0.5;
         let parameter_sigma = covariance.diagonal().map(|v| libm::sqrt(v.max(0.0)));
@@ -129,10 +134,8 @@ impl Estimate {
         tare: &InertialParameters,
         tare_covariance: &ParameterCovariance,
     ) -> Estimate {
-        let mut e = Estimate::from_parameters(
-            self.parameters - *tare,
-            self.covariance + tare_covariance,
-        );
+        let mut e =
+            Estimate::from_parameters(self.parameters - *tare, self.covariance + tare_covariance);
         e.residual_rms = self.residual_rms;
         e.counts = self.counts;
         e
@@ -170,8 +173,15 @@ mod tests {
         // σ(cx)² = σ(hx)²/m² + (hx/m²)² σ(m)² with hx = 0.2.
         let expect = libm::sqrt(1e-6 / 4.0 + (0.2f64 / 4.0).powi(2) * 1e-6);
         assert!((e.com_sigma_m.x - expect).abs() < 1e-15);
-        let loose = ConvergenceTolerances { mass_kg: 1e-2, com_m: 1e-2, inertia_kg_m2: 1e-2 };
-        let tight = ConvergenceTolerances { mass_kg: 1e-4, ..loose };
+        let loose = ConvergenceTolerances {
+            mass_kg: 1e-2,
+            com_m: 1e-2,
+            inertia_kg_m2: 1e-2,
+        };
+        let tight = ConvergenceTolerances {
+            mass_kg: 1e-4,
+            ..loose
+        };
         assert!(e.converged(&loose));
         assert!(!e.converged(&tight));
         // A non-positive mass has no centre of mass and never converges.

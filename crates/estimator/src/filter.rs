@@ -45,7 +45,13 @@ impl Biquad {
 
     /// The identity filter (y = x): used when no low-pass is configured.
     pub fn identity() -> Self {
-        Self { b0: 1.0, b1: 0.0, b2: 0.0, a1: 0.0, a2: 0.0 }
+        Self {
+            b0: 1.0,
+            b1: 0.0,
+            b2: 0.0,
+            a1: 0.0,
+            a2: 0.0,
+        }
     }
 }
 
@@ -60,7 +66,11 @@ pub struct LowPass<const C: usize> {
 impl<const C: usize> LowPass<C> {
     /// A filter with zero state.
     pub fn new(coefficients: Biquad) -> Self {
-        Self { coefficients, s1: SVector::zeros(), s2: SVector::zeros() }
+        Self {
+            coefficients,
+            s1: SVector::zeros(),
+            s2: SVector::zeros(),
+        }
     }
 
     /// Sets the state as if `x` had been the input forever (output = x, no start transient).
@@ -108,7 +118,10 @@ mod tests {
                 peak = peak.max(y.abs());
             }
         }
-        assert!((peak - core::f64::consts::FRAC_1_SQRT_2).abs() < 2e-3, "{peak}");
+        assert!(
+            (peak - core::f64::consts::FRAC_1_SQRT_2).abs() < 2e-3,
+            "{peak}"
+        );
     }
 
     #[test]

@@ -83,7 +83,11 @@ impl EstimatorConfig {
             20.0
         };
         let block = libm::ceil(8.0 / (cutoff_hz * sample_period_s));
-        let block = if block.is_finite() { block.clamp(20.0, 1e6) as u32 } else { 20 };
+        let block = if block.is_finite() {
+            block.clamp(20.0, 1e6) as u32
+        } else {
+            20
+        };
         Self {
             geometry,
             sample_period_s,
@@ -150,8 +154,12 @@ impl<const N: usize, const R: usize> Solver<N, R> {
     ) -> Result<Self, EstimatorError> {
         let p0 = config.prior_sigma * config.prior_sigma;
         Ok(Self {
-            rls: Rls::new(SVector::zeros(), SVector::from_element(p0), config.forgetting_factor)?
-                .with_variance_cap(p0),
+            rls: Rls::new(
+                SVector::zeros(),
+                SVector::from_element(p0),
+                config.forgetting_factor,
+            )?
+            .with_variance_cap(p0),
             score: ScoreCovariance::new(config.covariance_block_samples, config.forgetting_factor),
             inv_sigma: sigma.map(|s| 1.0 / s),
             noise_moment,
@@ -169,7 +177,11 @@ impl<const N: usize, const R: usize> Solver<N, R> {
 
     /// Weights the rows, updates, and records the residual scores. On a non-finite result the
     /// solver is left as it was.
-    fn update(&mut self, rows: &SMatrix<f64, R, N>, y: &SVector<f64, R>) -> Result<(), EstimatorError> {
+    fn update(
+        &mut self,
+        rows: &SMatrix<f64, R, N>,
+        y: &SVector<f64, R>,
+    ) -> Result<(), EstimatorError> {
         let wrows = self.weigh(rows);
         let wy = y.component_mul(&self.inv_sigma);
         let before = self.rls;
@@ -260,10 +272,16 @@ fn noise_moment<const N: usize, const R: usize>(
     c
 }
 
+// Both variants live inline: no heap, so no boxing; the size is that of the ten-parameter one.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Engine {
     Full(Solver<10, 6>),
-    Six { solver: Solver<6, 3>, mass_kg: f64, com_m: Vector3<f64> },
+    Six {
+        solver: Solver<6, 3>,
+        mass_kg: f64,
+        com_m: Vector3<f64>,
+    },
 }
 
 /// The online estimator. `update` costs a few microseconds and never allocates.
@@ -285,15 +303,23 @@ impl OnlineEstimator {
     /// Checks the configuration and starts with the prior.
     pub fn new(config: EstimatorConfig) -> Result<Self, EstimatorError> {
         if !positive_finite(config.sample_period_s) {
-            return Err(EstimatorError::InvalidConfig("sample_period_s must be positive and finite"));
+            return Err(EstimatorError::InvalidConfig(
+                "sample_period_s must be positive and finite",
+            ));
         }
-        if !config.equation_sigma.iter().all(|s| positive_finite(*s) && *s >= 1e-12) {
+        if !config
+            .equation_sigma
+            .iter()
+            .all(|s| positive_finite(*s) && *s >= 1e-12)
+        {
             return Err(EstimatorError::InvalidConfig(
                 "equation_sigma entries must be finite and at least 1e-12",
             ));
         }
         if !(positive_finite(config.prior_sigma) && config.prior_sigma <= 1e12) {
-            return Err(EstimatorError::InvalidConfig("prior_sigma must be in (0, 1e12]"));
+            return Err(EstimatorError::InvalidConfig(
+                "prior_sigma must be in (0, 1e12]",
+            ));
         }
         if config.window_start_s.is_nan()
             || config.window_end_s.is_nan()
@@ -304,7 +330,9 @@ impl OnlineEstimator {
             ));
         }
         if config.covariance_block_samples == 0 {
-            return Err(EstimatorError::InvalidConfig("covariance_block_samples must be at least 1"));
+            return Err(EstimatorError::InvalidConfig(
+                "covariance_block_samples must be at least 1",
+            ));
         }
         let conditioner = Conditioner::new(ConditioningConfig {
             sample_period_s: config.sample_period_s,
@@ -318,33 +346,56 @@ impl OnlineEstimator {
                 "accel_noise_m_s2 must be finite and not negative",
             ));
         }
-        let (derivative_gain, value_gain) = if config.gyro_noise_rad_s > 0.0 || config.accel_noise_m_s2 > 0.0 {
-            conditioner.noise_gains()
-        } else {
-            (0.0, 0.0)
-        };
-        let derivative_variance = config.gyro_noise_rad_s * config.gyro_noise_rad_s * derivative_gain;
+        let (derivative_gain, value_gain) =
+            if config.gyro_noise_rad_s > 0.0 || config.accel_noise_m_s2 > 0.0 {
+                conditioner.noise_gains()
+            } else {
+                (0.0, 0.0)
+            };
+        let derivative_variance =
+            config.gyro_noise_rad_s * config.gyro_noise_rad_s * derivative_gain;
         let accel_variance = config.accel_noise_m_s2 * config.accel_noise_m_s2 * value_gain;
         let lever = config.accelerometer_position_m;
         let engine = match config.parameters {
             ParameterSet::Full => {
                 let sigma = config.equation_sigma;
-                let c = noise_moment(derivative_variance, accel_variance, &lever, &sigma.map(|s| 1.0 / s), from_signals);
+                let c = noise_moment(
+                    derivative_variance,
+                    accel_variance,
+                    &lever,
+                    &sigma.map(|s| 1.0 / s),
+                    from_signals,
+                );
                 Engine::Full(Solver::new(&config, sigma, c)?)
             }
             ParameterSet::InertiaAboutKnownCom { mass_kg, com_m } => {
                 if !(positive_finite(mass_kg) && mass_kg <= MAX_ABS_SIGNAL) {
-                    return Err(EstimatorError::InvalidConfig("known mass must be positive and finite"));
+                    return Err(EstimatorError::InvalidConfig(
+                        "known mass must be positive and finite",
+                    ));
                 }
                 if !com_m.iter().all(|v| v.is_finite() && v.abs() <= 1e3) {
-                    return Err(EstimatorError::InvalidConfig("known centre of mass must be finite"));
+                    return Err(EstimatorError::InvalidConfig(
+                        "known centre of mass must be finite",
+                    ));
                 }
                 // τ_C = τ_O − c × F: its noise adds the force noise through the lever c.
                 let sf = config.equation_sigma.fixed_rows::<3>(0).max();
                 let st = config.equation_sigma.fixed_rows::<3>(3);
-                let sigma: SVector<f64, 3> = st.map(|s| libm::sqrt(s * s + com_m.norm_squared() * sf * sf));
-                let c = noise_moment(derivative_variance, 0.0, &lever, &sigma.map(|s| 1.0 / s), inertia_columns);
-                Engine::Six { solver: Solver::new(&config, sigma, c)?, mass_kg, com_m }
+                let sigma: SVector<f64, 3> =
+                    st.map(|s| libm::sqrt(s * s + com_m.norm_squared() * sf * sf));
+                let c = noise_moment(
+                    derivative_variance,
+                    0.0,
+                    &lever,
+                    &sigma.map(|s| 1.0 / s),
+                    inertia_columns,
+                );
+                Engine::Six {
+                    solver: Solver::new(&config, sigma, c)?,
+                    mass_kg,
+                    com_m,
+                }
             }
         };
         Ok(Self {
@@ -390,8 +441,15 @@ impl OnlineEstimator {
         if !sample.leg_forces_n.iter().all(|v| v.is_finite()) {
             return self.reject(EstimatorError::NonFiniteSample("leg forces"));
         }
-        if !sample.leg_forces_n.iter().all(|v| v.abs() <= MAX_ABS_SIGNAL)
-            || !sample.pose.position_m.iter().all(|v| v.abs() <= MAX_ABS_SIGNAL)
+        if !sample
+            .leg_forces_n
+            .iter()
+            .all(|v| v.abs() <= MAX_ABS_SIGNAL)
+            || !sample
+                .pose
+                .position_m
+                .iter()
+                .all(|v| v.abs() <= MAX_ABS_SIGNAL)
         {
             return self.reject(EstimatorError::Overflow("leg forces or pose"));
         }
@@ -415,7 +473,10 @@ impl OnlineEstimator {
             self.counts.after_window += 1;
             return Ok(Outcome::AfterWindow);
         }
-        let step = match self.conditioner.push(time_s, gyro_rad_s, accel_m_s2, wrench) {
+        let step = match self
+            .conditioner
+            .push(time_s, gyro_rad_s, accel_m_s2, wrench)
+        {
             Ok(s) => s,
             Err(e) => return self.reject(e),
         };
@@ -460,12 +521,21 @@ impl OnlineEstimator {
                     *s.rls.theta()
                 }
             }
-            Engine::Six { solver, mass_kg, com_m } => {
-                let j = if corrected { solver.theta() } else { *solver.rls.theta() };
+            Engine::Six {
+                solver,
+                mass_kg,
+                com_m,
+            } => {
+                let j = if corrected {
+                    solver.theta()
+                } else {
+                    *solver.rls.theta()
+                };
                 let mut jc = ParameterVector::zeros();
                 jc.fixed_rows_mut::<6>(4).copy_from(&j);
                 let base = InertialParameters::from_vector(&jc);
-                InertialParameters::from_com(*mass_kg, *com_m, base.inertia_origin_kg_m2).to_vector()
+                InertialParameters::from_com(*mass_kg, *com_m, base.inertia_origin_kg_m2)
+                    .to_vector()
             }
         }
     }
@@ -482,7 +552,8 @@ impl OnlineEstimator {
             Engine::Full(s) => s.covariance(),
             Engine::Six { solver, .. } => {
                 let mut c = ParameterCovariance::zeros();
-                c.fixed_view_mut::<6, 6>(4, 4).copy_from(&solver.covariance());
+                c.fixed_view_mut::<6, 6>(4, 4)
+                    .copy_from(&solver.covariance());
                 c
             }
         }

@@ -12,8 +12,14 @@ pub const PARAMETER_COUNT: usize = 10;
 pub type ParameterVector = SVector<f64, PARAMETER_COUNT>;
 
 /// Positions of the tensor entries in θ, as (θ index, row, column).
-pub(crate) const TENSOR_ENTRIES: [(usize, usize, usize); 6] =
-    [(4, 0, 0), (5, 1, 1), (6, 2, 2), (7, 0, 1), (8, 0, 2), (9, 1, 2)];
+pub(crate) const TENSOR_ENTRIES: [(usize, usize, usize); 6] = [
+    (4, 0, 0),
+    (5, 1, 1),
+    (6, 2, 2),
+    (7, 0, 1),
+    (8, 0, 2),
+    (9, 1, 2),
+];
 
 /// Mass, first moment h = m·c and inertia tensor J_O = ∫(‖r‖²𝟙 − r rᵀ) dm of a body, all about
 /// the P origin and in P axes. J_O's off-diagonal entries are the tensor's (minus the products
@@ -227,7 +233,11 @@ impl InertialParameters {
     /// Physical-consistency verdict (m > 0, J_C positive definite, triangle inequality).
     pub fn consistency(&self) -> Consistency {
         let mass_positive = self.mass_kg > 0.0 && self.is_finite();
-        let principal = if mass_positive { self.principal() } else { None };
+        let principal = if mass_positive {
+            self.principal()
+        } else {
+            None
+        };
         let (pd, tri) = match principal {
             Some(p) => {
                 let m = p.moments_kg_m2;
@@ -261,6 +271,7 @@ impl Sub for InertialParameters {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
 
@@ -315,18 +326,24 @@ mod tests {
         let y = r.matrix().column(1).into_owned();
         assert!((p.axes.column(0).dot(&y).abs() - 1.0).abs() < 1e-12);
         assert!((p.axes.determinant() - 1.0).abs() < 1e-12);
-        let recomposed =
-            p.axes * Matrix3::from_diagonal(&p.moments_kg_m2) * p.axes.transpose();
+        let recomposed = p.axes * Matrix3::from_diagonal(&p.moments_kg_m2) * p.axes.transpose();
         assert!((recomposed - rotated).norm() < 1e-14);
     }
 
     #[test]
     fn consistency_names_the_failing_rule() {
-        let good = InertialParameters::from_com(2.0, Vector3::new(0.1, 0.2, 0.3), cuboid(2.0, 1.0, 1.0, 1.0));
+        let good = InertialParameters::from_com(
+            2.0,
+            Vector3::new(0.1, 0.2, 0.3),
+            cuboid(2.0, 1.0, 1.0, 1.0),
+        );
         assert!(good.consistency().is_consistent());
         let mut neg = good;
         neg.mass_kg = -1.0;
-        assert_eq!(neg.consistency().first_failure(), Some(Inconsistency::MassNotPositive));
+        assert_eq!(
+            neg.consistency().first_failure(),
+            Some(Inconsistency::MassNotPositive)
+        );
         let not_pd = InertialParameters::from_com(
             1.0,
             Vector3::zeros(),
@@ -355,8 +372,16 @@ mod tests {
 
     #[test]
     fn tare_arithmetic_is_exact_in_a_common_frame() {
-        let a = InertialParameters::from_com(5.0, Vector3::new(0.1, 0.0, 0.2), cuboid(5.0, 0.5, 0.4, 0.3));
-        let b = InertialParameters::from_com(1.0, Vector3::new(-0.3, 0.2, 0.05), cuboid(1.0, 0.9, 0.9, 0.1));
+        let a = InertialParameters::from_com(
+            5.0,
+            Vector3::new(0.1, 0.0, 0.2),
+            cuboid(5.0, 0.5, 0.4, 0.3),
+        );
+        let b = InertialParameters::from_com(
+            1.0,
+            Vector3::new(-0.3, 0.2, 0.05),
+            cuboid(1.0, 0.9, 0.9, 0.1),
+        );
         let back = (a + b) - b;
         assert!((back.to_vector() - a.to_vector()).norm() < 1e-14);
     }

@@ -33,7 +33,14 @@ pub struct RegressorSignals {
 /// The six distinct entries of ω ωᵀ in tensor order [xx, yy, zz, xy, xz, yz].
 pub fn rate_products(omega_rad_s: &Vector3<f64>) -> Vector6<f64> {
     let w = omega_rad_s;
-    Vector6::new(w.x * w.x, w.y * w.y, w.z * w.z, w.x * w.y, w.x * w.z, w.y * w.z)
+    Vector6::new(
+        w.x * w.x,
+        w.y * w.y,
+        w.z * w.z,
+        w.x * w.y,
+        w.x * w.z,
+        w.y * w.z,
+    )
 }
 
 impl RegressorSignals {
@@ -63,7 +70,9 @@ impl RegressorSignals {
 
     /// True when every signal is finite.
     pub fn is_finite(&self) -> bool {
-        self.angular_acceleration_rad_s2.iter().all(|v| v.is_finite())
+        self.angular_acceleration_rad_s2
+            .iter()
+            .all(|v| v.is_finite())
             && self.rate_products_rad2_s2.iter().all(|v| v.is_finite())
             && self.specific_force_m_s2.iter().all(|v| v.is_finite())
     }
@@ -109,7 +118,8 @@ pub fn from_signals(s: &RegressorSignals) -> Regressor {
     phi.fixed_view_mut::<3, 1>(0, 0).copy_from(f);
     phi.fixed_view_mut::<3, 3>(0, 1).copy_from(&force_h);
     phi.fixed_view_mut::<3, 3>(3, 1).copy_from(&torque_h);
-    phi.fixed_view_mut::<3, 6>(3, 4).copy_from(&inertia_columns(s));
+    phi.fixed_view_mut::<3, 6>(3, 4)
+        .copy_from(&inertia_columns(s));
     phi
 }
 
@@ -191,14 +201,20 @@ mod tests {
         let mut scale: f64 = 0.0;
         for k in 0..400 {
             let t = 0.0123 * k as f64;
-            let dl = (l(t - 2.0 * h) - 8.0 * l(t - h) + 8.0 * l(t + h) - l(t + 2.0 * h)) / (12.0 * h);
+            let dl =
+                (l(t - 2.0 * h) - 8.0 * l(t - h) + 8.0 * l(t + h) - l(t + 2.0 * h)) / (12.0 * h);
             let s = motion.state(t);
             let tau = rigid_body(&s.omega, &s.omega_dot, &s.specific_force) * theta;
             let tau = s.rotation * Vector3::new(tau[3], tau[4], tau[5]);
             worst = worst.max((tau - dl).norm());
             scale = scale.max(dl.norm());
             let j6 = nalgebra::Vector6::new(
-                jc[(0, 0)], jc[(1, 1)], jc[(2, 2)], jc[(0, 1)], jc[(0, 2)], jc[(1, 2)],
+                jc[(0, 0)],
+                jc[(1, 1)],
+                jc[(2, 2)],
+                jc[(0, 1)],
+                jc[(0, 2)],
+                jc[(1, 2)],
             );
             let paper = s.rotation * (torque_about_com(&s.omega, &s.omega_dot) * j6);
             assert!((paper - tau).norm() < 1e-12 * (1.0 + tau.norm()));

@@ -32,7 +32,9 @@ impl<const N: usize> Rls<N> {
         forgetting: f64,
     ) -> Result<Self, EstimatorError> {
         if !(forgetting > 0.0 && forgetting <= 1.0) {
-            return Err(EstimatorError::InvalidConfig("forgetting_factor must be in (0, 1]"));
+            return Err(EstimatorError::InvalidConfig(
+                "forgetting_factor must be in (0, 1]",
+            ));
         }
         if !prior_variance.iter().all(|v| v.is_finite() && *v > 0.0) {
             return Err(EstimatorError::InvalidConfig(
@@ -40,7 +42,9 @@ impl<const N: usize> Rls<N> {
             ));
         }
         if !initial.iter().all(|v| v.is_finite()) {
-            return Err(EstimatorError::InvalidConfig("initial parameters must be finite"));
+            return Err(EstimatorError::InvalidConfig(
+                "initial parameters must be finite",
+            ));
         }
         Ok(Self {
             theta: initial,
@@ -159,9 +163,16 @@ impl<const N: usize> NormalEquations<N> {
     /// Empty equations (no prior), forgetting factor λ ∈ (0, 1].
     pub fn new(forgetting: f64) -> Result<Self, EstimatorError> {
         if !(forgetting > 0.0 && forgetting <= 1.0) {
-            return Err(EstimatorError::InvalidConfig("forgetting_factor must be in (0, 1]"));
+            return Err(EstimatorError::InvalidConfig(
+                "forgetting_factor must be in (0, 1]",
+            ));
         }
-        Ok(Self { a: SMatrix::zeros(), b: SVector::zeros(), forgetting, rows: 0 })
+        Ok(Self {
+            a: SMatrix::zeros(),
+            b: SVector::zeros(),
+            forgetting,
+            rows: 0,
+        })
     }
 
     /// Adds the prior of an [`Rls`] started with the same `initial` and `prior_variance`.

@@ -68,7 +68,10 @@ impl PointBody {
         }
         masses.push(250.0); // engine block
         positions.push(Vector3::new(1.2, 0.0, 0.5));
-        Self { masses_kg: masses, positions_m: positions }
+        Self {
+            masses_kg: masses,
+            positions_m: positions,
+        }
     }
 }
 
@@ -94,7 +97,10 @@ pub fn random_body(rng: &mut StdRng) -> PointBody {
                 ),
         );
     }
-    PointBody { masses_kg, positions_m }
+    PointBody {
+        masses_kg,
+        positions_m,
+    }
 }
 
 /// A sum of sines q(t) = Σ Aᵢ sin(ωᵢ t + φᵢ), with its first two derivatives.
@@ -160,14 +166,44 @@ impl Motion {
         Self {
             centre_m: Vector3::new(0.0, 0.0, 1.0),
             translation: [
-                ms([(0.04, 0.37, 0.1), (0.02, 1.3, 1.0), (0.005, 2.9, 0.0), (0.0, 0.0, 0.0)]),
-                ms([(0.03, 0.53, 0.7), (0.02, 1.7, 2.0), (0.004, 2.3, 0.5), (0.0, 0.0, 0.0)]),
-                ms([(0.03, 0.61, 1.9), (0.015, 1.1, 0.3), (0.004, 3.1, 1.1), (0.0, 0.0, 0.0)]),
+                ms([
+                    (0.04, 0.37, 0.1),
+                    (0.02, 1.3, 1.0),
+                    (0.005, 2.9, 0.0),
+                    (0.0, 0.0, 0.0),
+                ]),
+                ms([
+                    (0.03, 0.53, 0.7),
+                    (0.02, 1.7, 2.0),
+                    (0.004, 2.3, 0.5),
+                    (0.0, 0.0, 0.0),
+                ]),
+                ms([
+                    (0.03, 0.61, 1.9),
+                    (0.015, 1.1, 0.3),
+                    (0.004, 3.1, 1.1),
+                    (0.0, 0.0, 0.0),
+                ]),
             ],
             rotation: [
-                ms([(0.12, 0.41, 0.0), (0.05, 1.23, 0.4), (0.02, 2.71, 1.3), (0.0, 0.0, 0.0)]),
-                ms([(0.10, 0.47, 1.2), (0.05, 1.57, 2.2), (0.02, 2.39, 0.2), (0.0, 0.0, 0.0)]),
-                ms([(0.15, 0.29, 2.1), (0.06, 1.01, 0.9), (0.02, 2.93, 2.7), (0.0, 0.0, 0.0)]),
+                ms([
+                    (0.12, 0.41, 0.0),
+                    (0.05, 1.23, 0.4),
+                    (0.02, 2.71, 1.3),
+                    (0.0, 0.0, 0.0),
+                ]),
+                ms([
+                    (0.10, 0.47, 1.2),
+                    (0.05, 1.57, 2.2),
+                    (0.02, 2.39, 0.2),
+                    (0.0, 0.0, 0.0),
+                ]),
+                ms([
+                    (0.15, 0.29, 2.1),
+                    (0.06, 1.01, 0.9),
+                    (0.02, 2.93, 2.7),
+                    (0.0, 0.0, 0.0),
+                ]),
             ],
         }
     }
@@ -277,7 +313,10 @@ pub fn test_geometry() -> kinematics::Geometry {
         1.0,
         0.4,
         0.4,
-        kinematics::StrokeLimits { min_length_m: 1.3, max_length_m: 2.3 },
+        kinematics::StrokeLimits {
+            min_length_m: 1.3,
+            max_length_m: 2.3,
+        },
     )
     .expect("test geometry")
 }
@@ -334,5 +373,11 @@ pub fn synthetic_sample(
         gyro[k] += draw(noise.gyro_rad_s);
         accel[k] += draw(noise.accel_m_s2);
     }
-    crate::online::Sample { time_s: t, pose, leg_forces_n: forces, gyro_rad_s: gyro, accel_m_s2: accel }
+    crate::online::Sample {
+        time_s: t,
+        pose,
+        leg_forces_n: forces,
+        gyro_rad_s: gyro,
+        accel_m_s2: accel,
+    }
 }

@@ -25,7 +25,9 @@ fn group_scales(theta: &ParameterVector) -> ParameterVector {
 
 fn worst_relative(estimate: &ParameterVector, truth: &ParameterVector) -> f64 {
     let s = group_scales(truth);
-    (0..10).map(|i| (estimate[i] - truth[i]).abs() / s[i]).fold(0.0, f64::max)
+    (0..10)
+        .map(|i| (estimate[i] - truth[i]).abs() / s[i])
+        .fold(0.0, f64::max)
 }
 
 fn random_motion(rng: &mut StdRng) -> Motion {
@@ -34,7 +36,7 @@ fn random_motion(rng: &mut StdRng) -> Motion {
         for term in axis.terms.iter_mut() {
             term.0 *= rng.random_range(0.5..1.5);
             term.1 *= rng.random_range(0.8..1.25);
-            term.2 = rng.random_range(0.0..6.28);
+            term.2 = rng.random_range(0.0..std::f64::consts::TAU);
         }
     }
     m
@@ -78,6 +80,7 @@ fn config(cutoff: Option<f64>, period: f64) -> EstimatorConfig {
     c
 }
 
+#[allow(clippy::too_many_arguments)]
 fn run(
     estimator: &mut OnlineEstimator,
     body: &PointBody,
@@ -107,10 +110,22 @@ fn pipeline_recovers_a_vehicle_from_leg_forces_and_imu() {
     c.accelerometer_position_m = accel_at;
     let mut est = OnlineEstimator::new(c).unwrap();
     let mut rng = StdRng::seed_from_u64(1);
-    run(&mut est, &body, &Motion::rich(), 8000, 1e-3, &accel_at, &SensorNoise::default(), &mut rng);
+    run(
+        &mut est,
+        &body,
+        &Motion::rich(),
+        8000,
+        1e-3,
+        &accel_at,
+        &SensorNoise::default(),
+        &mut rng,
+    );
     let e = est.estimate();
     let err = worst_relative(&e.parameters.to_vector(), &truth.to_vector());
-    std::eprintln!("pipeline: worst relative error {err:.2e}, residual rms {:.2e}", e.residual_rms.max());
+    std::eprintln!(
+        "pipeline: worst relative error {err:.2e}, residual rms {:.2e}",
+        e.residual_rms.max()
+    );
     assert!(err < 1e-8, "worst relative error {err:e}");
     assert!((e.com_m - truth.com_m().unwrap()).norm() < 1e-5);
     assert!(e.consistency.is_consistent());
@@ -130,7 +145,10 @@ fn paper_case_converges_within_100_samples() {
         (25.0, Vector3::new(0.2, -0.3, 0.5)),
         (20.0, Vector3::new(0.6, 0.1, -0.3)),
     ];
-    let mut body = PointBody { masses_kg: Vec::new(), positions_m: Vec::new() };
+    let mut body = PointBody {
+        masses_kg: Vec::new(),
+        positions_m: Vec::new(),
+    };
     for (m, r) in pairs {
         body.masses_kg.extend([m, m]);
         body.positions_m.extend([r, -r]);
@@ -138,31 +156,60 @@ fn paper_case_converges_within_100_samples() {
     let truth = body.parameters();
     assert!(truth.first_moment_kg_m.norm() < 1e-12);
     let jc = truth.inertia_com_kg_m2().unwrap();
-    let truth6 = [jc[(0, 0)], jc[(1, 1)], jc[(2, 2)], jc[(0, 1)], jc[(0, 2)], jc[(1, 2)]];
+    let truth6 = [
+        jc[(0, 0)],
+        jc[(1, 1)],
+        jc[(2, 2)],
+        jc[(0, 1)],
+        jc[(0, 2)],
+        jc[(1, 2)],
+    ];
     let scale = (truth6[0] + truth6[1] + truth6[2]) / 3.0;
 
     let period = 0.01;
     let mut c = config(None, period);
-    c.parameters = ParameterSet::InertiaAboutKnownCom { mass_kg: truth.mass_kg, com_m: Vector3::zeros() };
+    c.parameters = ParameterSet::InertiaAboutKnownCom {
+        mass_kg: truth.mass_kg,
+        com_m: Vector3::zeros(),
+    };
     let mut est = OnlineEstimator::new(c).unwrap();
     let motion = Motion::paper(test_geometry().home_pose().position_m);
     let mut rng = StdRng::seed_from_u64(0);
     let g = test_geometry();
     let mut last_outside = 0;
     for k in 0..400 {
-        let s = synthetic_sample(&g, &body, &motion, k as f64 * period, &Vector3::zeros(), &SensorNoise::default(), &mut rng);
+        let s = synthetic_sample(
+            &g,
+            &body,
+            &motion,
+            k as f64 * period,
+            &Vector3::zeros(),
+            &SensorNoise::default(),
+            &mut rng,
+        );
         est.update(&s).unwrap();
         let e = est.estimate();
         let j = e.inertia_com_kg_m2;
-        let got = [j[(0, 0)], j[(1, 1)], j[(2, 2)], j[(0, 1)], j[(0, 2)], j[(1, 2)]];
+        let got = [
+            j[(0, 0)],
+            j[(1, 1)],
+            j[(2, 2)],
+            j[(0, 1)],
+            j[(0, 2)],
+            j[(1, 2)],
+        ];
         // "Within 1 %" of each entry, products of inertia judged against the tensor's scale.
-        let ok = (0..6).all(|i| (got[i] - truth6[i]).abs() <= 0.01 * truth6[i].abs().max(0.1 * scale));
+        let ok =
+            (0..6).all(|i| (got[i] - truth6[i]).abs() <= 0.01 * truth6[i].abs().max(0.1 * scale));
         if !ok {
             last_outside = k + 1;
         }
     }
     std::eprintln!("paper case: every entry within 1 % from sample {last_outside}");
-    assert!(last_outside < 100, "entries within 1 % only from sample {last_outside}");
+    assert!(
+        last_outside < 100,
+        "entries within 1 % only from sample {last_outside}"
+    );
     assert_eq!(est.estimate().mass_sigma_kg, 0.0);
 }
 
@@ -186,16 +233,38 @@ fn tare_subtraction_recovers_the_payload() {
     assert!(tare_truth.mass_kg >= truth.mass_kg / 6.0);
     let mut loaded = fixture.clone();
     loaded.masses_kg.extend(payload.masses_kg.iter().copied());
-    loaded.positions_m.extend(payload.positions_m.iter().copied());
+    loaded
+        .positions_m
+        .extend(payload.positions_m.iter().copied());
 
     let mut rng = StdRng::seed_from_u64(4);
     let noise = SensorNoise::default();
     let mut tare_est = OnlineEstimator::new(config(Some(20.0), 1e-3)).unwrap();
-    run(&mut tare_est, &fixture, &Motion::rich(), 6000, 1e-3, &Vector3::zeros(), &noise, &mut rng);
+    run(
+        &mut tare_est,
+        &fixture,
+        &Motion::rich(),
+        6000,
+        1e-3,
+        &Vector3::zeros(),
+        &noise,
+        &mut rng,
+    );
     let mut loaded_est = OnlineEstimator::new(config(Some(20.0), 1e-3)).unwrap();
-    run(&mut loaded_est, &loaded, &Motion::rich(), 6000, 1e-3, &Vector3::zeros(), &noise, &mut rng);
+    run(
+        &mut loaded_est,
+        &loaded,
+        &Motion::rich(),
+        6000,
+        1e-3,
+        &Vector3::zeros(),
+        &noise,
+        &mut rng,
+    );
     let tare = tare_est.estimate();
-    let e = loaded_est.estimate().without_tare(&tare.parameters, &tare.covariance);
+    let e = loaded_est
+        .estimate()
+        .without_tare(&tare.parameters, &tare.covariance);
 
     let err = worst_relative(&e.parameters.to_vector(), &truth.to_vector());
     std::eprintln!("tare: payload worst relative error {err:.2e}");
@@ -219,7 +288,11 @@ fn reported_sigmas_match_the_spread_over_seeds() {
     let t = truth.to_vector();
     let c_true = truth.com_m().unwrap();
     let jc_true = truth.inertia_com_kg_m2().unwrap();
-    let noise = SensorNoise { leg_force_n: 5.0, gyro_rad_s: 2e-3, accel_m_s2: 0.02 };
+    let noise = SensorNoise {
+        leg_force_n: 5.0,
+        gyro_rad_s: 2e-3,
+        accel_m_s2: 0.02,
+    };
     let seeds = 48;
     let period = 1e-3;
     let mut z2 = ParameterVector::zeros();
@@ -232,7 +305,16 @@ fn reported_sigmas_match_the_spread_over_seeds() {
         c.accel_noise_m_s2 = noise.accel_m_s2;
         let mut est = OnlineEstimator::new(c).unwrap();
         let mut rng = StdRng::seed_from_u64(1000 + seed);
-        run(&mut est, &body, &Motion::rich(), 10_000, period, &Vector3::zeros(), &noise, &mut rng);
+        run(
+            &mut est,
+            &body,
+            &Motion::rich(),
+            10_000,
+            period,
+            &Vector3::zeros(),
+            &noise,
+            &mut rng,
+        );
         let e = est.estimate();
         let theta = e.parameters.to_vector();
         for i in 0..10 {
@@ -261,7 +343,11 @@ fn reported_sigmas_match_the_spread_over_seeds() {
     std::eprintln!("noise: largest sigma / scale {:.1e}", rel.max());
     for i in 0..10 {
         assert!((0.5..=2.0).contains(&z2[i]), "θ[{i}]: mean z² {}", z2[i]);
-        assert!((0.5..=2.0).contains(&z2_derived[i]), "derived[{i}]: mean z² {}", z2_derived[i]);
+        assert!(
+            (0.5..=2.0).contains(&z2_derived[i]),
+            "derived[{i}]: mean z² {}",
+            z2_derived[i]
+        );
     }
 }
 
@@ -274,7 +360,10 @@ fn exact_table(body: &PointBody, count: usize) -> Vec<(SMatrix<f64, 6, 10>, SVec
             let s = motion.state(0.0137 * k as f64);
             let phi = rigid_body(&s.omega, &s.omega_dot, &s.specific_force);
             let y = body.wrench(&s.omega, &s.omega_dot, &s.specific_force);
-            (SMatrix::from_fn(|r, c| phi[(r, c)] * w[r]), y.component_mul(&w))
+            (
+                SMatrix::from_fn(|r, c| phi[(r, c)] * w[r]),
+                y.component_mul(&w),
+            )
         })
         .collect()
 }
@@ -356,13 +445,25 @@ fn deterministic_and_windowed() {
     let mut a = OnlineEstimator::new(c).unwrap();
     let mut b = OnlineEstimator::new(c).unwrap();
     let g = test_geometry();
-    let noise = SensorNoise { leg_force_n: 3.0, gyro_rad_s: 1e-3, accel_m_s2: 0.01 };
+    let noise = SensorNoise {
+        leg_force_n: 3.0,
+        gyro_rad_s: 1e-3,
+        accel_m_s2: 0.01,
+    };
     let mut rng = StdRng::seed_from_u64(77);
     let mut samples = Vec::new();
     for k in 0..2000 {
         // A 50 ms gap at 1 s restarts the conditioning.
         let t = k as f64 * 1e-3 + if k >= 1000 { 0.05 } else { 0.0 };
-        samples.push(synthetic_sample(&g, &body, &Motion::rich(), t, &Vector3::zeros(), &noise, &mut rng));
+        samples.push(synthetic_sample(
+            &g,
+            &body,
+            &Motion::rich(),
+            t,
+            &Vector3::zeros(),
+            &noise,
+            &mut rng,
+        ));
     }
     for s in &samples {
         a.update(s).unwrap();

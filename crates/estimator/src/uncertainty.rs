@@ -95,7 +95,11 @@ impl<const N: usize> ScoreCovariance<N> {
             for i in 0..N {
                 let mut s = 0.0;
                 for j in 0..N {
-                    let a = if j >= i { self.block_a[(i, j)] } else { self.block_a[(j, i)] };
+                    let a = if j >= i {
+                        self.block_a[(i, j)]
+                    } else {
+                        self.block_a[(j, i)]
+                    };
                     s += a * theta[j];
                 }
                 g[i] -= s;
@@ -292,7 +296,11 @@ mod tests {
             tp[j] += h;
             tm[j] -= h;
             let col = (derived_vector(&tp) - derived_vector(&tm)) / (2.0 * h);
-            assert!((col - g.column(j)).norm() < 1e-7, "column {j}: {col} vs {}", g.column(j));
+            assert!(
+                (col - g.column(j)).norm() < 1e-7,
+                "column {j}: {col} vs {}",
+                g.column(j)
+            );
         }
     }
 

@@ -26,7 +26,12 @@ mod tests {
     #[test]
     fn equals_the_sum_of_leg_forces_in_platform_axes() {
         let g = test_geometry();
-        let pose = Pose::from_rpy(g.home_pose().position_m + Vector3::new(0.02, -0.03, 0.05), 0.1, -0.05, 0.2);
+        let pose = Pose::from_rpy(
+            g.home_pose().position_m + Vector3::new(0.02, -0.03, 0.05),
+            0.1,
+            -0.05,
+            0.2,
+        );
         let forces = Vector6::new(900.0, 1100.0, 950.0, 1020.0, 980.0, 1005.0);
         let w = measured(&g, &pose, &forces);
         let r = pose.rotation;
