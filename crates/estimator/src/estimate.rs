@@ -4,7 +4,7 @@
 use crate::params::{
     principal_of, Consistency, InertialParameters, ParameterVector, PARAMETER_COUNT,
 };
-use crate::uncertainty::{derive, principal_sigma};
+use crate::uncertainty::{derive, principal_sigma, sqrt_nonneg};
 use nalgebra::{Matrix3, SMatrix, Vector3, Vector6};
 
 /// Covariance of θ = [m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz].
@@ -84,7 +84,7 @@ impl Estimate {
     ) -> Self {
         let theta = parameters.to_vector();
         let covariance = (covariance + covariance.transpose()) * 0.5;
-        let parameter_sigma = covariance.diagonal().map(|v| libm::sqrt(v.max(0.0)));
+        let parameter_sigma = covariance.diagonal().map(sqrt_nonneg);
         let nan3 = Vector3::from_element(f64::NAN);
         let nan33 = Matrix3::from_element(f64::NAN);
         let mut e = Estimate {
@@ -184,6 +184,10 @@ mod tests {
         };
         assert!(e.converged(&loose));
         assert!(!e.converged(&tight));
+        // A broken covariance never passes for a converged one.
+        let mut broken = cov;
+        broken[(0, 0)] = f64::NAN;
+        assert!(!Estimate::from_parameters(p, broken).converged(&loose));
         // A non-positive mass has no centre of mass and never converges.
         let z = Estimate::from_parameters(InertialParameters::zero(), cov);
         assert!(z.com_m.x.is_nan() && !z.converged(&loose));

@@ -186,8 +186,14 @@ pub fn derived_jacobian(theta: &SVector<f64, 10>) -> SMatrix<f64, 10, 10> {
     g
 }
 
-fn sqrt_nonneg(v: f64) -> f64 {
-    libm::sqrt(v.max(0.0))
+/// √v with rounding-level negatives read as 0; NaN stays NaN, so that a broken covariance can
+/// never pass for a converged one.
+pub(crate) fn sqrt_nonneg(v: f64) -> f64 {
+    if v.is_nan() {
+        f64::NAN
+    } else {
+        libm::sqrt(v.max(0.0))
+    }
 }
 
 /// Propagates θ's covariance to c and J_C; `None` unless m is positive.
