@@ -94,6 +94,37 @@ mod tests {
     use crate::error::SimErrorKind;
 
     #[test]
+    fn embeds_in_toml_with_defaults_and_refuses_unknown_keys() {
+        let text = "sample_rate_hz = 500.0\nsubsteps = 4\ngyroscopic = \"rapier\"\n\
+                    [actuator]\nbandwidth_hz = 40.0\n\
+                    [sensors.accelerometer]\nmount_m = [0.1, 0.0, 0.2]\n";
+        let cfg: SimConfig = toml::from_str(text).unwrap();
+        assert_eq!(cfg.substeps, 4);
+        assert_eq!(cfg.gyroscopic, GyroscopicModel::Rapier);
+        assert_eq!(cfg.actuator.bandwidth_hz, 40.0);
+        assert_eq!(
+            cfg.actuator.max_force_n,
+            ActuatorConfig::default().max_force_n
+        );
+        assert_eq!(cfg.sensors.accelerometer.mount_m, [0.1, 0.0, 0.2]);
+        assert_eq!(cfg.sensors.gyro, SensorConfig::default().gyro);
+        cfg.validate().unwrap();
+        let back: SimConfig = toml::from_str(&toml::to_string(&cfg).unwrap()).unwrap();
+        assert_eq!(back, cfg);
+        for bad in [
+            "sample_rate_hz = 1000.0\nsubstep = 2\n",
+            "[actuator]\nbandwidth = 40.0\n",
+            "[sensors.load_cell]\nnoise_n = 1.0\n",
+            "gyroscopic = \"exact\"\n",
+        ] {
+            assert!(
+                toml::from_str::<SimConfig>(bad).is_err(),
+                "accepted {bad:?}"
+            );
+        }
+    }
+
+    #[test]
     fn defaults_are_valid_and_bad_values_name_their_field() {
         SimConfig::default().validate().unwrap();
         let cfg = SimConfig {
