@@ -380,7 +380,10 @@ where
             }
         }
         match &s.latest {
-            Some(c) => CommandFrame::from(c),
+            Some(c) if c.enable => CommandFrame::from(c),
+            // A braking command's forces are meaningless and unchecked (they may be NaN): the
+            // inner backend gets zeros.
+            Some(c) => CommandFrame::safe_stop(c.sequence, c.sensor_sequence),
             None => brake,
         }
     }

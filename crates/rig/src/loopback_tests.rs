@@ -63,6 +63,10 @@ impl Backend for FakeBackend {
     }
 
     fn write(&mut self, command: &CommandFrame) -> Result<(), String> {
+        // Like the simulator, refuse what no actuator can do.
+        if command.leg_forces_n.iter().any(|f| !f.is_finite()) {
+            return Err(format!("non-finite force in {command:?}"));
+        }
         self.applied.push(*command);
         self.enabled_ticks += u64::from(command.enable);
         self.sequence += 1;
@@ -993,4 +997,27 @@ fn the_rig_brakes_at_the_end_of_the_stroke() {
     let fake = emulator.inner();
     let last_length = LENGTH_M + 0.45 * fake.enabled_ticks as f64 * PERIOD_S;
     assert!(last_length < 0.7 + 0.45 * PERIOD_S * 1.5, "{last_length}");
+}
+
+#[test]
+fn a_braking_command_with_garbage_forces_reaches_the_backend_as_zeros() {
+    let rig = start(config());
+    let rig_addr = socket_addr(&rig.address);
+    let host = RawPeer::new();
+    host.hello(rig_addr, None).unwrap();
+    let brake = Message::Command(Command {
+        sequence: 1,
+        sensor_sequence: 0,
+        leg_forces_n: [f64::NAN, f64::INFINITY, 1e300, 0.0, -1.0, 2.0],
+        enable: false,
+    });
+    host.send(rig_addr, &brake, None);
+    // Long enough for the brake command to be applied for a few periods.
+    std::thread::sleep(Duration::from_millis(5));
+    host.send(rig_addr, &command(2, 10.0), None);
+    std::thread::sleep(Duration::from_millis(10));
+    let emulator = rig.finish();
+    assert!(emulator.faults().is_empty(), "{:?}", emulator.faults());
+    assert_eq!(emulator.stats().commands_accepted, 2);
+    assert_eq!(emulator.inner().max_enabled_force(), 10.0);
 }
