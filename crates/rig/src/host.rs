@@ -321,7 +321,23 @@ impl Backend for RigBackend {
 
     fn read(&mut self) -> Result<SensorFrame, RigError> {
         let deadline = self.last_valid_at + self.options.link_silence;
+        // Look before timing out: after a long pause of the caller, frames may be waiting.
         let mut newest = loop {
+            let wait = deadline.saturating_duration_since(Instant::now());
+            let received = self.transport.recv(&mut self.buf, wait);
+            match received {
+                Err(e) => return Err(self.fail(e)),
+                Ok(Recv::Frame { len, from }) => match self.classify(len, from) {
+                    Class::Sensor(sensor) => break sensor,
+                    Class::Fault(fault) => return Err(self.fail(rig_fault(&fault))),
+                    Class::Rejected => {}
+                },
+                Ok(Recv::Timeout) => {}
+                Ok(Recv::Garbled) => {
+                    self.stats.received += 1;
+                    self.stats.corrupt += 1;
+                }
+            }
             let now = Instant::now();
             if now >= deadline {
                 let error = RigError::LinkSilent {
@@ -330,22 +346,6 @@ impl Backend for RigBackend {
                     last_sequence: self.last_sequence,
                 };
                 return Err(self.fail(error));
-            }
-            let received = self.transport.recv(&mut self.buf, deadline - now);
-            let (len, from) = match received {
-                Err(e) => return Err(self.fail(e)),
-                Ok(Recv::Frame { len, from }) => (len, from),
-                Ok(Recv::Timeout) => continue,
-                Ok(Recv::Garbled) => {
-                    self.stats.received += 1;
-                    self.stats.corrupt += 1;
-                    continue;
-                }
-            };
-            match self.classify(len, from) {
-                Class::Sensor(sensor) => break sensor,
-                Class::Fault(fault) => return Err(self.fail(rig_fault(&fault))),
-                Class::Rejected => {}
             }
         };
         self.last_valid_at = Instant::now();

@@ -1021,3 +1021,17 @@ fn a_braking_command_with_garbage_forces_reaches_the_backend_as_zeros() {
     assert_eq!(emulator.stats().commands_accepted, 2);
     assert_eq!(emulator.inner().max_enabled_force(), 10.0);
 }
+
+#[test]
+fn after_a_pause_of_the_caller_the_host_skips_to_the_newest_frame() {
+    let rig = start(config());
+    let mut host = RigBackend::connect(&rig.address, RigOptions::default()).unwrap();
+    // Longer than the 50 ms silence limit, but the rig kept sending: not a silent link.
+    std::thread::sleep(Duration::from_millis(80));
+    let first = host.read().unwrap();
+    let stats = *host.stats();
+    drop(host);
+    rig.finish();
+    assert!(first.sequence >= 60, "{}", first.sequence);
+    assert_eq!(stats.late + 1, first.sequence, "{stats}");
+}
