@@ -1,0 +1,434 @@
+//! Drawing [`Figures`] with plotters, the same code for the SVG and the bitmap (PNG) backend.
+//!
+//! The estimate's axis range is set by the settled part of the run (the second half), so the
+//! first samples' wild values — the estimator starts from a weak prior — are clipped at the
+//! frame instead of squashing the converged curve flat.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, Context, Result};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::{ExcitationSeries, Figures, ParameterSeries, TrackingSeries};
+
+/// Pixel size of a single figure.
+pub const FIGURE_SIZE: (u32, u32) = (900, 500);
+/// Pixel size of the overview of all ten quantities.
+pub const OVERVIEW_SIZE: (u32, u32) = (1800, 820);
+const EXCITATION_SIZE: (u32, u32) = (900, 700);
+
+const FONT: &str = "sans-serif";
+const LEG_COLOURS: [RGBColor; 6] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+];
+const ESTIMATE: RGBColor = RGBColor(31, 119, 180);
+const TRUTH: RGBColor = RGBColor(214, 39, 40);
+
+type DrawResult<T, DB> = Result<T, DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
+
+/// Writes every figure of `f` into `dir` (created if needed) as `NAME.svg` and `NAME.png`:
+/// `parameters` (all ten quantities), one per quantity (`mass`, `com_x`, …, `J_yz`),
+/// `tracking_error` and `excitation`. Returns the files written.
+pub fn write_figures(dir: &Path, f: &Figures) -> Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(dir)
+        .with_context(|| format!("cannot create the figure directory {}", dir.display()))?;
+    let mut written = Vec::new();
+    let mut both = |stem: &str,
+                    size: (u32, u32),
+                    draw_svg: &dyn Fn(DrawingArea<SVGBackend, Shift>) -> Result<()>,
+                    draw_png: &dyn Fn(DrawingArea<BitMapBackend, Shift>) -> Result<()>|
+     -> Result<()> {
+        let svg = dir.join(format!("{stem}.svg"));
+        draw_svg(SVGBackend::new(&svg, size).into_drawing_area())
+            .with_context(|| format!("cannot draw {}", svg.display()))?;
+        let png = dir.join(format!("{stem}.png"));
+        draw_png(BitMapBackend::new(&png, size).into_drawing_area())
+            .with_context(|| format!("cannot draw {}", png.display()))?;
+        written.push(svg);
+        written.push(png);
+        Ok(())
+    };
+    if !f.parameters.is_empty() {
+        both(
+            "parameters",
+            OVERVIEW_SIZE,
+            &|a| overview(a, f),
+            &|a| overview(a, f),
+        )?;
+        for p in &f.parameters {
+            both(
+                p.stem,
+                FIGURE_SIZE,
+                &|a| single(a, p, &f.subject),
+                &|a| single(a, p, &f.subject),
+            )?;
+        }
+    }
+    if let Some(t) = &f.tracking {
+        both(
+            "tracking_error",
+            FIGURE_SIZE,
+            &|a| tracking(a, t),
+            &|a| tracking(a, t),
+        )?;
+    }
+    if let Some(e) = &f.excitation {
+        both(
+            "excitation",
+            EXCITATION_SIZE,
+            &|a| excitation(a, e),
+            &|a| excitation(a, e),
+        )?;
+    }
+    Ok(written)
+}
+
+fn fail<E: std::error::Error + Send + Sync>(e: DrawingAreaErrorKind<E>) -> anyhow::Error {
+    anyhow!("plotting failed: {e}")
+}
+
+fn overview<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, f: &Figures) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(fail)?;
+    let root = root
+        .titled(&format!("Estimates ± 1σ: {}", f.subject), (FONT, 24))
+        .map_err(fail)?;
+    let cells = root.split_evenly((2, 5));
+    for (cell, p) in cells.iter().zip(&f.parameters) {
+        parameter(cell, p, 15).map_err(fail)?;
+    }
+    root.present().map_err(fail)
+}
+
+fn single<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    p: &ParameterSeries,
+    subject: &str,
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(fail)?;
+    let root = root.titled(subject, (FONT, 16)).map_err(fail)?;
+    parameter(&root, p, 20).map_err(fail)?;
+    root.present().map_err(fail)
+}
+
+fn finite_range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
+    values
+        .filter(|v| v.is_finite())
+        .fold(None, |acc, v| match acc {
+            None => Some((v, v)),
+            Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
+        })
+}
+
+/// A range around `(lo, hi)` padded by 10 %, never empty.
+fn padded((lo, hi): (f64, f64)) -> (f64, f64) {
+    let span = hi - lo;
+    let pad = if span > 0.0 {
+        0.1 * span
+    } else {
+        0.05 * lo.abs().max(1e-6)
+    };
+    (lo - pad, hi + pad)
+}
+
+fn time_range(t: &[f64]) -> (f64, f64) {
+    match finite_range(t.iter().copied()) {
+        Some((a, b)) if b > a => (a, b),
+        Some((a, _)) => (a, a + 1.0),
+        None => (0.0, 1.0),
+    }
+}
+
+/// y range: the settled half of the estimate with its band, and the truth.
+fn value_range(p: &ParameterSeries) -> (f64, f64) {
+    let n = p.value.len();
+    let from = n / 2;
+    let band = (from..n).flat_map(|i| {
+        let (v, s) = (p.value[i], p.sigma.get(i).copied().unwrap_or(0.0));
+        let s = if s.is_finite() { s } else { 0.0 };
+        [v - s, v + s]
+    });
+    let r = finite_range(band.chain(p.truth))
+        .or_else(|| finite_range(p.value.iter().copied()))
+        .unwrap_or((0.0, 1.0));
+    padded(r)
+}
+
+fn parameter<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    p: &ParameterSeries,
+    font: u32,
+) -> DrawResult<(), DB> {
+    let (x0, x1) = time_range(&p.time_s);
+    let (y0, y1) = value_range(p);
+    let clamp = |v: f64| v.clamp(y0, y1);
+    let mut chart = ChartBuilder::on(area)
+        .caption(format!("{} ({})", p.title, p.unit), (FONT, font + 4))
+        .margin(8)
+        .x_label_area_size(font * 2 + 6)
+        .y_label_area_size(font * 4 + 10)
+        .build_cartesian_2d(x0..x1, y0..y1)?;
+    chart
+        .configure_mesh()
+        .x_desc("time from excitation start (s)")
+        .y_desc(p.unit)
+        .label_style((FONT, font))
+        .axis_desc_style((FONT, font))
+        .light_line_style(WHITE.mix(0.0))
+        .draw()?;
+    // The ±σ band, one polygon per run of finite sigmas.
+    let mut upper: Vec<(f64, f64)> = Vec::new();
+    let mut lower: Vec<(f64, f64)> = Vec::new();
+    let mut bands = Vec::new();
+    for i in 0..p.value.len() {
+        let (t, v, s) = (p.time_s[i], p.value[i], p.sigma.get(i).copied().unwrap_or(f64::NAN));
+        if t.is_finite() && v.is_finite() && s.is_finite() {
+            upper.push((t, clamp(v + s)));
+            lower.push((t, clamp(v - s)));
+        } else if !upper.is_empty() {
+            bands.push((std::mem::take(&mut upper), std::mem::take(&mut lower)));
+        }
+    }
+    if !upper.is_empty() {
+        bands.push((upper, lower));
+    }
+    let mut band_drawn = false;
+    for (up, low) in bands {
+        let outline: Vec<(f64, f64)> = up.into_iter().chain(low.into_iter().rev()).collect();
+        let drawn = chart.draw_series(std::iter::once(Polygon::new(outline, ESTIMATE.mix(0.25))))?;
+        if !band_drawn {
+            drawn.label("±1σ").legend(|(x, y)| {
+                Rectangle::new([(x, y - 5), (x + 18, y + 5)], ESTIMATE.mix(0.25).filled())
+            });
+            band_drawn = true;
+        }
+    }
+    let line: Vec<(f64, f64)> = p
+        .time_s
+        .iter()
+        .zip(&p.value)
+        .filter(|(t, v)| t.is_finite() && v.is_finite())
+        .map(|(t, v)| (*t, clamp(*v)))
+        .collect();
+    chart
+        .draw_series(LineSeries::new(line, ESTIMATE.stroke_width(2)))?
+        .label("estimate")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], ESTIMATE.stroke_width(2)));
+    if let Some(t) = p.truth.filter(|t| t.is_finite()) {
+        chart
+            .draw_series(DashedLineSeries::new(
+                vec![(x0, t), (x1, t)],
+                8,
+                5,
+                TRUTH.stroke_width(2),
+            ))?
+            .label("truth")
+            .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], TRUTH.stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font((FONT, font))
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK.mix(0.5))
+        .draw()?;
+    Ok(())
+}
+
+/// Lines sharing one time axis, scaled by `scale` into `unit`.
+fn lines<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    caption: &str,
+    unit: &str,
+    time_s: &[f64],
+    series: &[(&str, &[f64])],
+    scale: f64,
+) -> DrawResult<(), DB> {
+    let (x0, x1) = time_range(time_s);
+    let (y0, y1) = padded(
+        finite_range(series.iter().flat_map(|(_, v)| v.iter().map(|x| x * scale)))
+            .unwrap_or((-1.0, 1.0)),
+    );
+    let mut chart = ChartBuilder::on(area)
+        .caption(caption, (FONT, 22))
+        .margin(8)
+        .x_label_area_size(40)
+        .y_label_area_size(70)
+        .build_cartesian_2d(x0..x1, y0..y1)?;
+    chart
+        .configure_mesh()
+        .x_desc("time from excitation start (s)")
+        .y_desc(unit)
+        .label_style((FONT, 16))
+        .axis_desc_style((FONT, 16))
+        .light_line_style(WHITE.mix(0.0))
+        .draw()?;
+    for (k, (name, values)) in series.iter().enumerate() {
+        let colour = LEG_COLOURS[k % LEG_COLOURS.len()];
+        let points: Vec<(f64, f64)> = time_s
+            .iter()
+            .zip(values.iter())
+            .filter(|(t, v)| t.is_finite() && v.is_finite())
+            .map(|(t, v)| (*t, v * scale))
+            .collect();
+        chart
+            .draw_series(LineSeries::new(points, colour.stroke_width(1)))?
+            .label(*name)
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .label_font((FONT, 14))
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK.mix(0.5))
+        .draw()?;
+    Ok(())
+}
+
+fn tracking<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, t: &TrackingSeries) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(fail)?;
+    let names = ["leg 1", "leg 2", "leg 3", "leg 4", "leg 5", "leg 6"];
+    let series: Vec<(&str, &[f64])> = names
+        .iter()
+        .zip(&t.error_m)
+        .map(|(n, v)| (*n, v.as_slice()))
+        .collect();
+    lines(
+        &root,
+        "Leg tracking error (desired − measured length)",
+        "mm",
+        &t.time_s,
+        &series,
+        1e3,
+    )
+    .map_err(fail)?;
+    root.present().map_err(fail)
+}
+
+fn excitation<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, e: &ExcitationSeries) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(fail)?;
+    let (top, bottom) = root.split_vertically(EXCITATION_SIZE.1 / 2);
+    let position: Vec<(&str, &[f64])> = ["x", "y", "z"]
+        .iter()
+        .zip(&e.position_m)
+        .map(|(n, v)| (*n, v.as_slice()))
+        .collect();
+    lines(
+        &top,
+        "Excitation: desired translation of the plate",
+        "mm",
+        &e.time_s,
+        &position,
+        1e3,
+    )
+    .map_err(fail)?;
+    let rotation: Vec<(&str, &[f64])> = ["roll", "pitch", "yaw"]
+        .iter()
+        .zip(&e.rpy_rad)
+        .map(|(n, v)| (*n, v.as_slice()))
+        .collect();
+    lines(
+        &bottom,
+        "Excitation: desired rotation of the plate",
+        "deg",
+        &e.time_s,
+        &rotation,
+        180.0 / std::f64::consts::PI,
+    )
+    .map_err(fail)?;
+    root.present().map_err(fail)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn figures() -> Figures {
+        let time_s: Vec<f64> = (0..200).map(|i| i as f64 * 0.05 - 1.0).collect();
+        let value: Vec<f64> = time_s
+            .iter()
+            .map(|t| 1500.0 + 300.0 * (-t.max(0.0)).exp())
+            .collect();
+        let sigma: Vec<f64> = time_s
+            .iter()
+            .map(|t| if *t < 0.0 { f64::NAN } else { 50.0 / (1.0 + t) })
+            .collect();
+        let p = ParameterSeries {
+            stem: "mass",
+            title: "mass",
+            unit: "kg",
+            time_s: time_s.clone(),
+            value,
+            sigma,
+            truth: Some(1500.0),
+        };
+        Figures {
+            subject: "test".into(),
+            parameters: vec![p; 10],
+            tracking: Some(TrackingSeries {
+                time_s: time_s.clone(),
+                error_m: core::array::from_fn(|k| {
+                    time_s.iter().map(|t| 1e-4 * (t + k as f64).sin()).collect()
+                }),
+            }),
+            excitation: Some(ExcitationSeries {
+                time_s: time_s.clone(),
+                position_m: core::array::from_fn(|k| {
+                    time_s.iter().map(|t| 0.01 * (t * (k + 1) as f64).sin()).collect()
+                }),
+                rpy_rad: core::array::from_fn(|k| {
+                    time_s.iter().map(|t| 0.02 * (t * (k + 2) as f64).cos()).collect()
+                }),
+            }),
+        }
+    }
+
+    #[test]
+    fn draws_every_figure_in_both_formats() {
+        let dir = tempfile::tempdir().unwrap();
+        let files = write_figures(dir.path(), &figures()).unwrap();
+        // overview + 10 quantities (all named `mass` here, so written over) + tracking +
+        // excitation, each twice.
+        assert_eq!(files.len(), 2 * (1 + 10 + 2));
+        let svg = std::fs::read_to_string(dir.path().join("parameters.svg")).unwrap();
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+        assert!(svg.contains("truth") && svg.contains("estimate"));
+        let png = std::fs::read(dir.path().join("tracking_error.png")).unwrap();
+        assert_eq!(&png[1..4], b"PNG");
+    }
+
+    #[test]
+    fn ranges_follow_the_settled_half() {
+        let p = ParameterSeries {
+            value: vec![1e6, -1e6, 10.0, 10.0],
+            sigma: vec![1e6, 1e6, 1.0, 1.0],
+            time_s: vec![0.0, 1.0, 2.0, 3.0],
+            truth: Some(10.5),
+            ..ParameterSeries::default()
+        };
+        let (lo, hi) = value_range(&p);
+        assert!(lo < 9.0 && lo > 8.0, "{lo}");
+        assert!(hi > 11.0 && hi < 12.0, "{hi}");
+        let empty = ParameterSeries::default();
+        let (lo, hi) = value_range(&empty);
+        assert!(hi > lo);
+    }
+}
