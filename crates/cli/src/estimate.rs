@@ -97,7 +97,9 @@ pub fn parse_window(text: &str) -> Result<Window, String> {
     };
     if let (Some(s), Some(e)) = (w.start_s, w.end_s) {
         if s >= e {
-            return Err(format!("the window's start {s} s is not before its end {e} s"));
+            return Err(format!(
+                "the window's start {s} s is not before its end {e} s"
+            ));
         }
     }
     Ok(w)
@@ -251,8 +253,8 @@ pub fn reestimate_run(log: &LogContents, run: &str, o: &SettingsOverride) -> Res
     log.require_channel(topics::SENSORS, "the sensor frames the estimator reads")?;
     let (config, fk, feed_from_s) = settings_for(log, run, o)?;
     let geometry: Geometry = config.geometry;
-    let mut estimator =
-        OnlineEstimator::new(config).map_err(|e| anyhow!("the estimator refused its settings: {e}"))?;
+    let mut estimator = OnlineEstimator::new(config)
+        .map_err(|e| anyhow!("the estimator refused its settings: {e}"))?;
     let sample_rate_hz = 1.0 / config.sample_period_s;
     let estimate_every = every(rates::ESTIMATE_HZ, sample_rate_hz);
     let mut guess = geometry.home_pose();

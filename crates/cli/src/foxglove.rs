@@ -15,6 +15,8 @@ use crate::schema::{array, boolean, int, num, object, string, Schema};
 pub const BASE_FRAME: &str = "base";
 /// Name of the plate frame.
 pub const PLATFORM_FRAME: &str = "platform";
+/// Name of the payload's frame: origin at its estimated centre of mass, axes its principal axes.
+pub const PAYLOAD_FRAME: &str = "payload_com";
 
 /// Foxglove `time`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
@@ -585,6 +587,33 @@ pub fn platform_transform(
     }
 }
 
+/// The `platform → payload_com` transform: the payload's estimated centre of mass, with its
+/// principal axes (right-handed, ascending moments along x, y, z). `None` while the estimate
+/// has no centre of mass (mass not positive) or J_C is not finite.
+pub fn payload_transform(time: Time, payload: &InertiaEllipsoid) -> Option<FrameTransform> {
+    if !(payload.mass_kg > 0.0)
+        || !payload.com_m.iter().all(|v| v.is_finite())
+        || !payload.inertia_com_kg_m2.iter().all(|v| v.is_finite())
+    {
+        return None;
+    }
+    let eig = payload.inertia_com_kg_m2.symmetric_eigen();
+    let mut order = [0usize, 1, 2];
+    order.sort_by(|a, b| eig.eigenvalues[*a].total_cmp(&eig.eigenvalues[*b]));
+    let mut axes = Matrix3::from_columns(&order.map(|k| eig.eigenvectors.column(k).into_owned()));
+    if axes.determinant() < 0.0 {
+        axes.column_mut(2).neg_mut();
+    }
+    let rot = nalgebra::Rotation3::from_matrix_unchecked(axes);
+    Some(FrameTransform {
+        timestamp: time,
+        parent_frame_id: PLATFORM_FRAME.into(),
+        child_frame_id: PAYLOAD_FRAME.into(),
+        translation: Xyz::from(payload.com_m),
+        rotation: Quat::from(UnitQuaternion::from_rotation_matrix(&rot)),
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -672,5 +701,35 @@ mod tests {
         assert!(force_color(-1e4, 1e4).b > 0.99);
         let z = force_color(0.0, 1e4);
         assert!((z.r - z.b).abs() < 1e-12);
+    }
+
+    /// The payload frame sits at the centre of mass with its x axis along the smallest
+    /// principal moment: J_C seen in that frame is diagonal and ascending.
+    #[test]
+    fn payload_frame_is_principal() {
+        let r = nalgebra::Rotation3::from_euler_angles(0.3, -0.2, 0.7);
+        let d = Matrix3::from_diagonal(&Vector3::new(900.0, 400.0, 1200.0));
+        let p = InertiaEllipsoid {
+            mass_kg: 1500.0,
+            com_m: Vector3::new(0.1, -0.05, 0.5),
+            inertia_com_kg_m2: r.matrix() * d * r.matrix().transpose(),
+        };
+        let tf = payload_transform(Time::default(), &p).unwrap();
+        assert_eq!(tf.child_frame_id, PAYLOAD_FRAME);
+        assert_eq!(tf.translation, Xyz::from(p.com_m));
+        let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+            tf.rotation.w,
+            tf.rotation.x,
+            tf.rotation.y,
+            tf.rotation.z,
+        ));
+        let m = q.to_rotation_matrix();
+        let local = m.matrix().transpose() * p.inertia_com_kg_m2 * m.matrix();
+        let expect = Matrix3::from_diagonal(&Vector3::new(400.0, 900.0, 1200.0));
+        assert!((local - expect).norm() < 1e-9, "{local}");
+        let v = serde_json::to_value(&tf).unwrap();
+        frame_transform_schema().check(&v).unwrap();
+        let none = InertiaEllipsoid { mass_kg: -1.0, ..p };
+        assert!(payload_transform(Time::default(), &none).is_none());
     }
 }

@@ -37,6 +37,9 @@ pub const TARE: &str = "/run/tare";
 pub const TRUTH: &str = "/run/truth";
 /// `foxglove.FrameTransform` base → platform.
 pub const TF: &str = "/tf";
+/// `foxglove.FrameTransform` platform → payload centre of mass (principal axes), loaded runs
+/// with a known tare.
+pub const TF_PAYLOAD: &str = "/tf/payload";
 /// `foxglove.SceneUpdate`: base, plate, legs, payload inertia ellipsoid.
 pub const SCENE: &str = "/scene";
 
@@ -551,6 +554,11 @@ pub fn channels() -> Vec<ChannelSpec> {
         },
         ChannelSpec {
             topic: TF,
+            schema_name: "foxglove.FrameTransform",
+            schema: foxglove::frame_transform_schema(),
+        },
+        ChannelSpec {
+            topic: TF_PAYLOAD,
             schema_name: "foxglove.FrameTransform",
             schema: foxglove::frame_transform_schema(),
         },

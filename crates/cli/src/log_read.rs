@@ -44,7 +44,10 @@ pub struct ChannelInfo {
 fn nan_or<'de, D: Deserializer<'de>, const N: usize>(d: D) -> Result<[f64; N], D::Error> {
     let v: Vec<Option<f64>> = Deserialize::deserialize(d)?;
     if v.len() != N {
-        return Err(serde::de::Error::invalid_length(v.len(), &"the schema's array length"));
+        return Err(serde::de::Error::invalid_length(
+            v.len(),
+            &"the schema's array length",
+        ));
     }
     Ok(core::array::from_fn(|i| v[i].unwrap_or(f64::NAN)))
 }

@@ -125,6 +125,12 @@ pub struct EstimatorSettings {
     pub max_gap_s: f64,
     /// Samples per residual block of the covariance estimate.
     pub covariance_block_samples: u32,
+    /// Gyro white noise per sample for the errors-in-variables correction, rad/s (0: off).
+    #[serde(default)]
+    pub gyro_noise_rad_s: f64,
+    /// Accelerometer white noise per sample for that correction, m/s² (0: off).
+    #[serde(default)]
+    pub accel_noise_m_s2: f64,
     /// Forward kinematics tolerance, m. The pose of each sample is the FK of its measured leg
     /// lengths, warm-started from the previous sample's solution, the first sample of the run
     /// from the geometry's home pose.
@@ -171,6 +177,14 @@ impl EstimatorSettings {
                 ),
                 ("max_gap_s", num("s")),
                 ("covariance_block_samples", int("")),
+                (
+                    "gyro_noise_rad_s",
+                    num("gyro noise per sample for the errors-in-variables correction, rad/s; 0 = off"),
+                ),
+                (
+                    "accel_noise_m_s2",
+                    num("accelerometer noise per sample for that correction, m/s^2; 0 = off"),
+                ),
                 ("fk_tolerance_m", num("forward kinematics tolerance, m")),
                 (
                     "fk_max_iterations",
@@ -219,6 +233,8 @@ impl EstimatorSettings {
             window_end_s: finite(c.window_end_s),
             max_gap_s: c.max_gap_s,
             covariance_block_samples: c.covariance_block_samples,
+            gyro_noise_rad_s: c.gyro_noise_rad_s,
+            accel_noise_m_s2: c.accel_noise_m_s2,
             fk_tolerance_m: fk.tolerance_m,
             fk_max_iterations: fk.max_iterations,
             fk_max_jump_m: fk.max_jump_m,
@@ -252,6 +268,8 @@ impl EstimatorSettings {
         c.window_end_s = self.window_end_s.unwrap_or(f64::INFINITY);
         c.max_gap_s = self.max_gap_s;
         c.covariance_block_samples = self.covariance_block_samples;
+        c.gyro_noise_rad_s = self.gyro_noise_rad_s;
+        c.accel_noise_m_s2 = self.accel_noise_m_s2;
         let fk = kinematics::FkOptions {
             tolerance_m: self.fk_tolerance_m,
             max_iterations: self.fk_max_iterations,
@@ -313,5 +331,51 @@ impl TruthMsg {
             ],
             "The simulator's ground truth; never read by the estimator",
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every estimator setting survives the log (JSON) and comes back as the same
+    /// configuration, which `stewart estimate` needs to reproduce a run.
+    #[test]
+    fn estimator_settings_round_trip_through_json() {
+        let geometry = kinematics::Geometry::from_radii(
+            1.5,
+            1.2,
+            0.3,
+            0.3,
+            kinematics::StrokeLimits {
+                min_length_m: 1.6,
+                max_length_m: 2.4,
+            },
+        )
+        .unwrap();
+        let mut c = estimator::EstimatorConfig::new(geometry, 1e-3);
+        c.lowpass_cutoff_hz = Some(17.25);
+        c.forgetting_factor = 0.999_9;
+        c.equation_sigma = Vector6::new(1.0, 2.0, 3.0, 0.1, 0.2, 0.3);
+        c.prior_sigma = 3e3;
+        c.accelerometer_position_m = Vector3::new(0.01, -0.02, 0.1);
+        c.window_start_s = 1.234;
+        c.window_end_s = 61.234;
+        c.max_gap_s = 0.0123;
+        c.gyro_noise_rad_s = 1.7e-4;
+        c.accel_noise_m_s2 = 2.3e-3;
+        c.covariance_block_samples = 321;
+        c.parameters = estimator::ParameterSet::InertiaAboutKnownCom {
+            mass_kg: 1900.0,
+            com_m: Vector3::new(0.1, 0.2, 0.45),
+        };
+        let fk = kinematics::FkOptions::default();
+        let s = EstimatorSettings::from_config("loaded", &c, &fk);
+        let json = serde_json::to_value(&s).unwrap();
+        EstimatorSettings::schema().check(&json).unwrap();
+        let back: EstimatorSettings = serde_json::from_value(json).unwrap();
+        let (c2, fk2) = back.to_config(geometry).unwrap();
+        assert_eq!(c2, c);
+        assert_eq!(fk2, fk);
     }
 }

@@ -145,7 +145,17 @@ fn params_of(t: &BodyTruth) -> InertialParameters {
 fn truth_values(p: &InertialParameters) -> Option<[f64; 10]> {
     let com = p.com_m()?;
     let j = p.inertia_com_kg_m2()?;
-    Some(ten(p.mass_kg, 0.0, &com.into(), &[0.0; 3], &rows(&j), &[[0.0; 3]; 3]).0)
+    Some(
+        ten(
+            p.mass_kg,
+            0.0,
+            &com.into(),
+            &[0.0; 3],
+            &rows(&j),
+            &[[0.0; 3]; 3],
+        )
+        .0,
+    )
 }
 
 /// Which body's truth applies: the payload's (tare subtracted), everything on the plate in the
@@ -204,7 +214,10 @@ fn tracking_and_excitation(
         ExcitationSeries {
             time_s: poses.iter().map(|p| p.time_s - t0).collect(),
             position_m: core::array::from_fn(|i| {
-                poses.iter().map(|p| p.desired.position_m[i] - p0[i]).collect()
+                poses
+                    .iter()
+                    .map(|p| p.desired.position_m[i] - p0[i])
+                    .collect()
             }),
             rpy_rad: core::array::from_fn(|i| poses.iter().map(|p| p.desired.rpy_rad[i]).collect()),
         }

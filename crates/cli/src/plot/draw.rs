@@ -55,36 +55,24 @@ pub fn write_figures(dir: &Path, f: &Figures) -> Result<Vec<PathBuf>> {
         Ok(())
     };
     if !f.parameters.is_empty() {
-        both(
-            "parameters",
-            OVERVIEW_SIZE,
-            &|a| overview(a, f),
-            &|a| overview(a, f),
-        )?;
+        both("parameters", OVERVIEW_SIZE, &|a| overview(a, f), &|a| {
+            overview(a, f)
+        })?;
         for p in &f.parameters {
-            both(
-                p.stem,
-                FIGURE_SIZE,
-                &|a| single(a, p, &f.subject),
-                &|a| single(a, p, &f.subject),
-            )?;
+            both(p.stem, FIGURE_SIZE, &|a| single(a, p, &f.subject), &|a| {
+                single(a, p, &f.subject)
+            })?;
         }
     }
     if let Some(t) = &f.tracking {
-        both(
-            "tracking_error",
-            FIGURE_SIZE,
-            &|a| tracking(a, t),
-            &|a| tracking(a, t),
-        )?;
+        both("tracking_error", FIGURE_SIZE, &|a| tracking(a, t), &|a| {
+            tracking(a, t)
+        })?;
     }
     if let Some(e) = &f.excitation {
-        both(
-            "excitation",
-            EXCITATION_SIZE,
-            &|a| excitation(a, e),
-            &|a| excitation(a, e),
-        )?;
+        both("excitation", EXCITATION_SIZE, &|a| excitation(a, e), &|a| {
+            excitation(a, e)
+        })?;
     }
     Ok(written)
 }
@@ -192,7 +180,11 @@ fn parameter<DB: DrawingBackend>(
     let mut lower: Vec<(f64, f64)> = Vec::new();
     let mut bands = Vec::new();
     for i in 0..p.value.len() {
-        let (t, v, s) = (p.time_s[i], p.value[i], p.sigma.get(i).copied().unwrap_or(f64::NAN));
+        let (t, v, s) = (
+            p.time_s[i],
+            p.value[i],
+            p.sigma.get(i).copied().unwrap_or(f64::NAN),
+        );
         if t.is_finite() && v.is_finite() && s.is_finite() {
             upper.push((t, clamp(v + s)));
             lower.push((t, clamp(v - s)));
@@ -206,7 +198,8 @@ fn parameter<DB: DrawingBackend>(
     let mut band_drawn = false;
     for (up, low) in bands {
         let outline: Vec<(f64, f64)> = up.into_iter().chain(low.into_iter().rev()).collect();
-        let drawn = chart.draw_series(std::iter::once(Polygon::new(outline, ESTIMATE.mix(0.25))))?;
+        let drawn =
+            chart.draw_series(std::iter::once(Polygon::new(outline, ESTIMATE.mix(0.25))))?;
         if !band_drawn {
             drawn.label("±1σ").legend(|(x, y)| {
                 Rectangle::new([(x, y - 5), (x + 18, y + 5)], ESTIMATE.mix(0.25).filled())
@@ -285,7 +278,9 @@ fn lines<DB: DrawingBackend>(
         chart
             .draw_series(LineSeries::new(points, colour.stroke_width(1)))?
             .label(*name)
-            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2)));
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
+            });
     }
     chart
         .configure_series_labels()
@@ -392,10 +387,16 @@ mod tests {
             excitation: Some(ExcitationSeries {
                 time_s: time_s.clone(),
                 position_m: core::array::from_fn(|k| {
-                    time_s.iter().map(|t| 0.01 * (t * (k + 1) as f64).sin()).collect()
+                    time_s
+                        .iter()
+                        .map(|t| 0.01 * (t * (k + 1) as f64).sin())
+                        .collect()
                 }),
                 rpy_rad: core::array::from_fn(|k| {
-                    time_s.iter().map(|t| 0.02 * (t * (k + 2) as f64).cos()).collect()
+                    time_s
+                        .iter()
+                        .map(|t| 0.02 * (t * (k + 2) as f64).cos())
+                        .collect()
                 }),
             }),
         }
