@@ -29,6 +29,10 @@ const LEG_COLOURS: [RGBColor; 6] = [
 ];
 const ESTIMATE: RGBColor = RGBColor(31, 119, 180);
 const TRUTH: RGBColor = RGBColor(214, 39, 40);
+/// The band: the estimate's colour at a quarter strength on white, opaque.
+const BAND: RGBColor = RGBColor(199, 221, 236);
+/// At most this many band segments per figure (about one per pixel column).
+const MAX_BAND_QUADS: usize = 800;
 
 type DrawResult<T, DB> = Result<T, DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
 
@@ -175,38 +179,29 @@ fn parameter<DB: DrawingBackend>(
         .axis_desc_style((FONT, font))
         .light_line_style(WHITE.mix(0.0))
         .draw()?;
-    // The ±σ band, one polygon per run of finite sigmas.
-    let mut upper: Vec<(f64, f64)> = Vec::new();
-    let mut lower: Vec<(f64, f64)> = Vec::new();
-    let mut bands = Vec::new();
-    for i in 0..p.value.len() {
-        let (t, v, s) = (
-            p.time_s[i],
-            p.value[i],
-            p.sigma.get(i).copied().unwrap_or(f64::NAN),
-        );
-        if t.is_finite() && v.is_finite() && s.is_finite() {
-            upper.push((t, clamp(v + s)));
-            lower.push((t, clamp(v - s)));
-        } else if !upper.is_empty() {
-            bands.push((std::mem::take(&mut upper), std::mem::take(&mut lower)));
-        }
-    }
-    if !upper.is_empty() {
-        bands.push((upper, lower));
-    }
-    let mut band_drawn = false;
-    for (up, low) in bands {
-        let outline: Vec<(f64, f64)> = up.into_iter().chain(low.into_iter().rev()).collect();
-        let drawn =
-            chart.draw_series(std::iter::once(Polygon::new(outline, ESTIMATE.mix(0.25))))?;
-        if !band_drawn {
-            drawn.label("±1σ").legend(|(x, y)| {
-                Rectangle::new([(x, y - 5), (x + 18, y + 5)], ESTIMATE.mix(0.25).filled())
-            });
-            band_drawn = true;
-        }
-    }
+    // The ±σ band as opaque quads between consecutive samples (one large polygon trips the
+    // bitmap backend's scanline fill; opaque quads leave no seams where they meet).
+    let step = (p.value.len() / MAX_BAND_QUADS).max(1);
+    let finite = |i: usize| {
+        let s = p.sigma.get(i).copied().unwrap_or(f64::NAN);
+        (p.time_s[i].is_finite() && p.value[i].is_finite() && s.is_finite())
+            .then(|| (p.time_s[i], clamp(p.value[i] - s), clamp(p.value[i] + s)))
+    };
+    let picks: Vec<usize> = (0..p.value.len())
+        .step_by(step)
+        .chain(p.value.len().checked_sub(1))
+        .collect();
+    let quads = picks.windows(2).filter_map(|w| {
+        let ((t0, lo0, hi0), (t1, lo1, hi1)) = (finite(w[0])?, finite(w[1])?);
+        Some(Polygon::new(
+            vec![(t0, lo0), (t0, hi0), (t1, hi1), (t1, lo1)],
+            BAND.filled(),
+        ))
+    });
+    chart
+        .draw_series(quads)?
+        .label("±1σ")
+        .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], BAND.filled()));
     let line: Vec<(f64, f64)> = p
         .time_s
         .iter()
@@ -215,7 +210,9 @@ fn parameter<DB: DrawingBackend>(
         .map(|(t, v)| (*t, clamp(*v)))
         .collect();
     chart
-        .draw_series(LineSeries::new(line, ESTIMATE.stroke_width(2)))?
+        // One pixel wide: the bitmap backend draws wider lines as polygons, whose fill spikes
+        // out of the frame on the near-vertical steps of the first samples.
+        .draw_series(LineSeries::new(line, ESTIMATE.stroke_width(1)))?
         .label("estimate")
         .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], ESTIMATE.stroke_width(2)));
     if let Some(t) = p.truth.filter(|t| t.is_finite()) {

@@ -1,0 +1,119 @@
+//! `stewart estimate` on a `simulate` log: with the recorded settings it reproduces the online
+//! report to 1e-9 relative (in practice bit for bit), other settings change the estimate, and a
+//! log without a needed channel is refused with the channel's name.
+
+mod log_support;
+
+use std::path::Path;
+
+use log_support::close;
+use stewart_cli::estimate::{reestimate, EstimateArgs, SettingsOverride, Window};
+use stewart_cli::log_read::LogContents;
+use stewart_cli::report::{Quantities, Report};
+
+fn numbers(q: &Quantities) -> Vec<f64> {
+    let mut v = vec![q.mass];
+    v.extend(q.com);
+    v.extend(q.inertia_com.iter().flatten());
+    v
+}
+
+/// Every number of the report that comes from the estimator.
+fn report_numbers(r: &Report) -> Vec<(String, f64)> {
+    let mut out = Vec::new();
+    let mut add = |name: &str, vals: Vec<f64>| {
+        for (i, v) in vals.into_iter().enumerate() {
+            out.push((format!("{name}[{i}]"), v));
+        }
+    };
+    add("estimate", numbers(&r.estimate));
+    add("sigma", numbers(&r.sigma));
+    add("principal.moments", r.principal.moments.to_vec());
+    add(
+        "principal.axes",
+        r.principal.axes.iter().flatten().copied().collect(),
+    );
+    add("excitation_s", vec![r.excitation_s]);
+    add("residual.force", r.residual_rms.force_n.to_vec());
+    add("residual.torque", r.residual_rms.torque_nm.to_vec());
+    add("tare.theta", r.tare.theta.to_vec());
+    add("tare.sigma", r.tare.sigma.to_vec());
+    out
+}
+
+fn assert_reproduces(online: &Report, offline: &Report) {
+    for ((name, a), (_, b)) in report_numbers(online).iter().zip(report_numbers(offline)) {
+        assert!(close(*a, b, 1e-9), "{name}: online {a:e}, offline {b:e}");
+    }
+    assert_eq!(online.samples, offline.samples);
+    assert_eq!(online.rejected_samples, offline.rejected_samples);
+    assert_eq!(online.convergence, offline.convergence);
+    assert_eq!(online.consistency, offline.consistency);
+    assert_eq!(online.truth, offline.truth);
+    assert_eq!(online.tare.source, offline.tare.source);
+}
+
+#[test]
+fn estimate_reproduces_the_online_report_and_refuses_a_missing_channel() {
+    let run = log_support::simulate();
+    let dir = run.dir.path();
+    let report_path = dir.join("offline.json");
+    let outcome = stewart_cli::estimate::estimate(&EstimateArgs {
+        log: run.log.clone(),
+        report: Some(report_path.clone()),
+        quiet: true,
+        ..EstimateArgs::default()
+    })
+    .unwrap();
+    assert_reproduces(&run.report, &outcome.report);
+    // The report file is the same report.
+    let written: Report =
+        serde_json::from_str(&std::fs::read_to_string(&report_path).unwrap()).unwrap();
+    assert_eq!(written, outcome.report);
+    // Other settings give another estimate (the option reaches the estimator).
+    let log = LogContents::read(&run.log).unwrap();
+    let (other, ..) = reestimate(
+        &log,
+        &SettingsOverride {
+            cutoff_hz: Some(8.0),
+            window: Some(Window {
+                start_s: Some(1.0),
+                end_s: None,
+            }),
+            ..SettingsOverride::default()
+        },
+        None,
+    )
+    .unwrap();
+    assert!(other.samples < run.report.samples);
+    assert!(other.estimate.mass != run.report.estimate.mass);
+    assert!(close(other.estimate.mass, run.report.estimate.mass, 0.05));
+
+    // Without /sensors, or without the estimator's settings, the log is refused by name.
+    for topic in ["/sensors", "/run/estimator", "/run/metadata"] {
+        let cut = dir.join(format!("without{}.mcap", topic.replace('/', "_")));
+        copy_without(&run.log, &cut, topic);
+        let err = stewart_cli::estimate::estimate(&EstimateArgs {
+            log: cut,
+            quiet: true,
+            ..EstimateArgs::default()
+        })
+        .unwrap_err();
+        let text = format!("{err:#}");
+        assert!(text.contains(topic), "{topic}: {text}");
+    }
+}
+
+/// Copies a log without one channel's messages (channels and schemas are kept).
+fn copy_without(from: &Path, to: &Path, topic: &str) {
+    let bytes = std::fs::read(from).unwrap();
+    let mut out =
+        mcap::Writer::new(std::io::BufWriter::new(std::fs::File::create(to).unwrap())).unwrap();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        if m.channel.topic != topic {
+            out.write(&m).unwrap();
+        }
+    }
+    out.finish().unwrap();
+}

@@ -1,0 +1,154 @@
+//! A log from `simulate`, read back with the `mcap` crate: every channel that
+//! `docs/log-schema.md` documents is present with its schema name and encodings, the counts
+//! fit the run's duration and the documented rates, and the times never go backwards.
+
+mod log_support;
+
+use std::collections::BTreeMap;
+
+use stewart_cli::log_read::LogContents;
+use stewart_cli::run_log::rates;
+
+/// The channel table of docs/log-schema.md: topic → schema name. The document gives one
+/// message encoding (`json`) and one schema encoding (`jsonschema`) for every channel.
+fn documented() -> BTreeMap<String, String> {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/log-schema.md"))
+        .expect("docs/log-schema.md");
+    assert!(text.contains("Message encoding `json`, schema encoding `jsonschema`"));
+    let mut out = BTreeMap::new();
+    for line in text.lines() {
+        // | `topic` | `schema` | rate | content |
+        let cells: Vec<&str> = line
+            .split('|')
+            .map(|c| c.trim().trim_matches('`'))
+            .collect();
+        if cells.len() > 4 && cells[1].starts_with('/') {
+            out.insert(cells[1].to_string(), cells[2].to_string());
+        }
+    }
+    out
+}
+
+/// Channels only a rig run writes.
+fn rig_only(topic: &str) -> bool {
+    topic.starts_with("/rig/")
+}
+
+#[test]
+fn every_documented_channel_is_in_the_catalogue() {
+    let doc = documented();
+    let catalogue = stewart_cli::log_messages::channels();
+    assert_eq!(doc.len(), catalogue.len(), "documented: {:?}", doc.keys());
+    for spec in &catalogue {
+        let schema = doc
+            .get(spec.topic)
+            .unwrap_or_else(|| panic!("{} is not documented", spec.topic));
+        assert_eq!(schema, spec.schema_name, "{}", spec.topic);
+    }
+}
+
+#[test]
+fn a_simulate_log_reads_back_as_documented() {
+    let run = log_support::simulate();
+    let bytes = std::fs::read(&run.log).unwrap();
+    // Read with the mcap crate directly: every message, its channel and schema.
+    let mut seen: BTreeMap<String, (String, String, String, u64, u64, bool)> = BTreeMap::new();
+    let mut last_log_time = 0u64;
+    let mut file_monotonic = true;
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        let schema = m
+            .channel
+            .schema
+            .as_ref()
+            .expect("every channel has a schema");
+        let e = seen.entry(m.channel.topic.clone()).or_insert((
+            schema.name.clone(),
+            schema.encoding.clone(),
+            m.channel.message_encoding.clone(),
+            0,
+            0,
+            true,
+        ));
+        e.3 += 1;
+        if m.log_time < e.4 {
+            e.5 = false;
+        }
+        e.4 = m.log_time;
+        file_monotonic &= m.log_time >= last_log_time;
+        last_log_time = m.log_time;
+        // Every message is JSON that its JSON schema accepts.
+        let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+        assert!(v.is_object(), "{}", m.channel.topic);
+    }
+    assert!(file_monotonic, "log times go backwards in the file");
+    for (topic, schema) in documented() {
+        if rig_only(&topic) {
+            continue;
+        }
+        let (s, se, me, n, _, mono) = seen
+            .get(&topic)
+            .unwrap_or_else(|| panic!("channel {topic} missing from the log"));
+        assert_eq!(*s, schema, "{topic}");
+        assert_eq!(se, "jsonschema", "{topic}");
+        assert_eq!(me, "json", "{topic}");
+        assert!(*n > 0 && *mono, "{topic}: {n} messages, monotonic {mono}");
+    }
+    // Each schema document is the catalogue's.
+    for spec in stewart_cli::log_messages::channels() {
+        let doc = spec.schema.document(spec.schema_name);
+        assert_eq!(doc["title"], spec.schema_name);
+    }
+
+    // Counts against the duration and rates.
+    let log = LogContents::read(&run.log).unwrap();
+    assert!(log.truncated.is_none(), "{:?}", log.truncated);
+    let meta = log.metadata.as_ref().unwrap();
+    let rate_hz = 1.0 / meta.sample_period_s;
+    assert_eq!(log.runs(), meta.runs);
+    // Per channel, the fewest and the most messages the runs allow: derived channels start
+    // after the brake hold (at most 1 s), the estimate with the excitation, and each run may
+    // add one final estimate and a message at either end.
+    let mut bounds = BTreeMap::<&str, (f64, f64)>::new();
+    for run_name in log.runs() {
+        let frames: Vec<_> = log.sensors_of(&run_name).collect();
+        let span = frames.last().unwrap().time_s - frames[0].time_s;
+        // One frame per sample period, strictly increasing times, consecutive sequences.
+        assert!(
+            ((frames.len() - 1) as f64 - span * rate_hz).abs() < 1.0,
+            "{run_name}: {} frames over {span} s",
+            frames.len()
+        );
+        for w in frames.windows(2) {
+            assert!(w[1].time_s > w[0].time_s);
+            assert_eq!(w[1].sequence, w[0].sequence + 1);
+        }
+        let settings = log.settings_of(&run_name).unwrap();
+        let excite = settings.window_end_s.unwrap() - settings.window_start_s.unwrap();
+        for (topic, hz, from_s) in [
+            ("/pose", rates::DERIVED_HZ, 1.0),
+            ("/legs", rates::DERIVED_HZ, 1.0),
+            ("/control/pid", rates::DERIVED_HZ, 1.0),
+            ("/tf", rates::ESTIMATE_HZ, 1.0),
+            ("/scene", rates::SCENE_HZ, 0.0),
+            ("/estimate", rates::ESTIMATE_HZ, span - excite),
+        ] {
+            let b = bounds.entry(topic).or_default();
+            b.0 += (span - from_s) * hz - 1.0;
+            b.1 += span * hz + 2.0;
+        }
+    }
+    let n = |t: &str| log.channels[t].count as f64;
+    assert_eq!(n("/commands"), n("/sensors"));
+    for (topic, (lo, hi)) in bounds {
+        let got = n(topic);
+        assert!(
+            got >= lo && got <= hi,
+            "{topic}: {got} messages, expected {lo:.0}..{hi:.0}"
+        );
+    }
+    let runs = meta.runs.len() as f64;
+    assert_eq!(n("/run/metadata"), 1.0);
+    assert_eq!(n("/run/truth"), 1.0);
+    assert_eq!(n("/run/estimator"), runs);
+}
