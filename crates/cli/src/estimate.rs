@@ -291,7 +291,7 @@ pub fn reestimate_run(log: &LogContents, run: &str, o: &SettingsOverride) -> Res
                 None => fk_failures += 1,
             }
         }
-        if started && (tick as u64) % estimate_every == 0 {
+        if started && (tick as u64).is_multiple_of(estimate_every) {
             trace.push(TracePoint {
                 time_s: frame.time_s,
                 estimate: estimator.estimate(),

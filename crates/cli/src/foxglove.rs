@@ -463,7 +463,7 @@ fn entity(time: Time, frame: &str, id: &str) -> SceneEntity {
 /// Semi-axes of the uniform solid ellipsoid with mass m and principal moments I:
 /// I₁ = m(b² + c²)/5 etc., so a² = 5(I₂ + I₃ − I₁)/(2m). `None` when not physical.
 pub fn ellipsoid_semi_axes(mass_kg: f64, moments: [f64; 3]) -> Option<[f64; 3]> {
-    if !(mass_kg > 0.0) {
+    if mass_kg.is_nan() || mass_kg <= 0.0 {
         return None;
     }
     let [i1, i2, i3] = moments;
@@ -512,9 +512,9 @@ pub fn scene(
     let mut legs = entity(time, BASE_FRAME, "legs");
     let mut points = Vec::with_capacity(12);
     let mut colors = Vec::with_capacity(12);
-    for i in 0..6 {
+    for (i, force_n) in leg_forces_n.iter().enumerate() {
         let top = position_m + rotation * geometry.plate_joints_m[i];
-        let c = force_color(leg_forces_n[i], geometry.force_scale_n);
+        let c = force_color(*force_n, geometry.force_scale_n);
         points.push(Xyz::from(geometry.base_joints_m[i]));
         points.push(Xyz::from(top));
         colors.push(c);
@@ -591,7 +591,8 @@ pub fn platform_transform(
 /// principal axes (right-handed, ascending moments along x, y, z). `None` while the estimate
 /// has no centre of mass (mass not positive) or J_C is not finite.
 pub fn payload_transform(time: Time, payload: &InertiaEllipsoid) -> Option<FrameTransform> {
-    if !(payload.mass_kg > 0.0)
+    if payload.mass_kg.is_nan()
+        || payload.mass_kg <= 0.0
         || !payload.com_m.iter().all(|v| v.is_finite())
         || !payload.inertia_com_kg_m2.iter().all(|v| v.is_finite())
     {

@@ -347,7 +347,7 @@ impl LogContents {
     pub fn runs(&self) -> Vec<String> {
         let mut runs: Vec<String> = Vec::new();
         for s in &self.sensors {
-            if !runs.iter().any(|r| *r == s.run) {
+            if !runs.contains(&s.run) {
                 runs.push(s.run.clone());
             }
         }
