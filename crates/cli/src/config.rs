@@ -2,7 +2,8 @@
 //!
 //! Every table refuses unknown keys (`deny_unknown_fields`) so that a misspelt key or a key with
 //! the wrong unit is an error, never a silently ignored setting. Ranges are checked in
-//! [`crate::validate`]; loading and messages are in [`crate::config_load`].
+//! [`crate::validate`]; loading and messages are in [`crate::config_load`]; the checks that need
+//! the kinematics (singular design, unreachable trajectory) in [`crate::preflight`].
 
 use serde::{Deserialize, Serialize};
 
@@ -17,8 +18,8 @@ pub struct Config {
     pub fixture: BodyConfig,
     /// The body to be measured (a car).
     pub payload: BodyConfig,
-    /// The actuators between command and leg force.
-    pub actuator: ActuatorConfig,
+    /// The simulated actuators between command and leg force (the simulator's own section).
+    pub actuator: sim::ActuatorConfig,
     /// Sensor quality and rates.
     pub sensors: SensorsConfig,
     /// Leg position control and the safety supervisor's limits.
@@ -26,9 +27,12 @@ pub struct Config {
     /// The motion that excites the payload's inertia.
     pub excitation: ExcitationConfig,
     /// The online estimator.
-    pub estimator: EstimatorConfig,
+    pub estimator: EstimatorSection,
     /// Durations of the run's phases and the random seed.
     pub run: RunConfig,
+    /// The link to a rig (`stewart rig`, `stewart emulate`); optional, every key defaulted.
+    #[serde(default)]
+    pub rig: crate::rig_cmd::RigLinkConfig,
 }
 
 /// A 6-6 platform with joints in three pairs on each circle (ERRATA Eq. 1–2: the plate's pairs
@@ -64,22 +68,19 @@ pub struct BodyConfig {
     pub inertia_com_kg_m2: [[f64; 3]; 3],
 }
 
-/// Actuator dynamics between force command and applied force.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ActuatorConfig {
-    /// Bandwidth of the first-order force lag, Hz.
-    pub bandwidth_hz: f64,
-    /// Force saturation, N (each direction).
-    pub max_force_n: f64,
-    /// Viscous friction inside the actuator, N·s/m.
-    pub viscous_friction_n_s_per_m: f64,
-    /// Coulomb friction inside the actuator, N.
-    pub coulomb_friction_n: f64,
+impl BodyConfig {
+    /// As the simulator's body description.
+    pub fn to_sim(&self) -> sim::BodyProperties {
+        sim::BodyProperties {
+            mass_kg: self.mass_kg,
+            com_m: self.com_m,
+            inertia_com_kg_m2: self.inertia_com_kg_m2,
+        }
+    }
 }
 
 /// Sensor noise level.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum NoisePreset {
     /// Ideal sensors.
@@ -99,6 +100,15 @@ impl NoisePreset {
             Self::Harsh => "harsh",
         }
     }
+
+    /// The simulator's preset.
+    pub fn to_sim(self) -> sim::NoisePreset {
+        match self {
+            Self::None => sim::NoisePreset::None,
+            Self::Realistic => sim::NoisePreset::Realistic,
+            Self::Harsh => sim::NoisePreset::Harsh,
+        }
+    }
 }
 
 /// Sensors on the platform.
@@ -109,6 +119,8 @@ pub struct SensorsConfig {
     pub noise: NoisePreset,
     /// Sampling (and control loop) rate, Hz.
     pub sample_rate_hz: f64,
+    /// Physics substeps per sample in the simulator (substep ≤ 1 ms).
+    pub physics_substeps: u32,
     /// Accelerometer mounting point in P, metres.
     pub imu_position_m: [f64; 3],
 }
@@ -121,47 +133,127 @@ pub struct ControlConfig {
     pub kp_n_per_m: f64,
     /// Integral gain, N/(m·s).
     pub ki_n_per_m_s: f64,
-    /// Derivative gain, N·s/m.
+    /// Derivative gain (on the measurement), N·s/m.
     pub kd_n_s_per_m: f64,
-    /// The supervisor faults when a leg's tracking error exceeds this, metres.
-    pub max_tracking_error_m: f64,
+    /// Time constant of the derivative's low-pass filter, s.
+    pub derivative_filter_s: f64,
+    /// Force command limit per leg (PID clamp and supervisor gate), N.
+    pub max_force_n: f64,
+    /// The supervisor faults when a load cell reads more than this, N.
+    pub max_measured_force_n: f64,
     /// The supervisor faults when a leg moves faster than this, m/s.
     pub max_leg_speed_m_s: f64,
-    /// Force command limit per leg, N.
-    pub max_force_n: f64,
+    /// The supervisor faults when a measured leg leaves the stroke by more than this, m.
+    pub leg_length_margin_m: f64,
+    /// The supervisor faults on a gap between samples longer than this, s.
+    pub max_sample_gap_s: f64,
+    /// Shortest ramp from the resting pose to home before the settle hold, s.
+    pub settle_ramp_s: f64,
+    /// Hold at home after the park ramp before braking, s.
+    pub park_hold_s: f64,
 }
 
-/// One rotational or translational axis of the excitation: a sum of sines.
+/// Which excitation to run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ExcitationKind {
+    /// A periodic multi-sine on all six axes (`[excitation.multisine]`).
+    Multisine,
+    /// Explicit sine components (`[[excitation.sines]]`), e.g. the paper's Eq. 8.
+    Sines,
+}
+
+/// How a multi-sine shares an axis's amplitude among its harmonics.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpectrumConfig {
+    /// Equal amplitudes.
+    FlatPosition,
+    /// Amplitudes ∝ 1/frequency: equal velocity per harmonic.
+    FlatVelocity,
+}
+
+/// `[excitation.multisine]`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct AxisExcitation {
-    /// Amplitude of each component (degrees for roll/pitch/yaw, metres for x/y/z).
-    pub amplitudes: Vec<f64>,
-    /// Frequency of each component, Hz.
-    pub frequencies_hz: Vec<f64>,
-    /// Phase of each component, degrees.
-    #[serde(default)]
-    pub phases_deg: Vec<f64>,
+pub struct MultisineConfig {
+    /// Base frequency f₀, Hz: the signal repeats every 1/f₀.
+    pub base_frequency_hz: f64,
+    /// Harmonics per excited axis.
+    pub harmonics_per_axis: u32,
+    /// Peak excursion along x, y, z, m (0 leaves the axis still).
+    pub peak_translation_m: [f64; 3],
+    /// Peak roll, pitch, yaw, degrees.
+    pub peak_rotation_deg: [f64; 3],
+    /// How amplitude is shared among harmonics.
+    pub spectrum: SpectrumConfig,
 }
 
-/// The excitation trajectory about the home pose.
+/// A pose coordinate of the excitation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum AxisName {
+    /// Translation along x.
+    X,
+    /// Translation along y.
+    Y,
+    /// Translation along z.
+    Z,
+    /// Roll α.
+    Roll,
+    /// Pitch β.
+    Pitch,
+    /// Yaw γ.
+    Yaw,
+}
+
+impl AxisName {
+    /// True for roll, pitch and yaw.
+    pub fn is_rotation(self) -> bool {
+        matches!(self, Self::Roll | Self::Pitch | Self::Yaw)
+    }
+}
+
+/// One `[[excitation.sines]]` component: `amplitude · sin(2π f t + phase)` on one axis.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SineConfig {
+    /// The coordinate it moves.
+    pub axis: AxisName,
+    /// Amplitude for roll/pitch/yaw, degrees.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub amplitude_deg: Option<f64>,
+    /// Amplitude for x/y/z, metres.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub amplitude_m: Option<f64>,
+    /// Frequency, Hz.
+    pub frequency_hz: f64,
+    /// Phase, degrees.
+    #[serde(default)]
+    pub phase_deg: f64,
+}
+
+/// The excitation trajectory about the home pose, and the limits it must meet before any
+/// motion.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ExcitationConfig {
-    /// Time to fade the motion in and out, s.
-    pub ramp_s: f64,
-    /// Roll α about x, components in degrees.
-    pub roll_deg: AxisExcitation,
-    /// Pitch β about y, degrees.
-    pub pitch_deg: AxisExcitation,
-    /// Yaw γ about z, degrees.
-    pub yaw_deg: AxisExcitation,
-    /// Translation along x, metres.
-    pub x_m: AxisExcitation,
-    /// Translation along y, metres.
-    pub y_m: AxisExcitation,
-    /// Translation along z, metres.
-    pub z_m: AxisExcitation,
+    /// `multisine` or `sines`.
+    pub kind: ExcitationKind,
+    /// Fade in and out (C² window), s; part of the excitation time.
+    pub fade_s: f64,
+    /// Every leg must stay this far inside its stroke, m.
+    pub stroke_margin_m: f64,
+    /// Largest leg speed the trajectory may ask for, m/s (keep below
+    /// `control.max_leg_speed_m_s`).
+    pub max_leg_speed_m_s: f64,
+    /// Smallest inverse condition number of the Jacobian along the trajectory.
+    pub min_inverse_condition: f64,
+    /// The multi-sine (used when `kind = "multisine"`).
+    pub multisine: MultisineConfig,
+    /// The sine components (used when `kind = "sines"`).
+    #[serde(default)]
+    pub sines: Vec<SineConfig>,
 }
 
 /// Which parameters are identified.
@@ -170,7 +262,7 @@ pub struct ExcitationConfig {
 pub enum ParamCount {
     /// m, m·c and J_O: the full rigid-body model.
     Ten,
-    /// The paper's model: J_O only, centre of mass assumed at the P origin.
+    /// The paper's model: the tensor about a known centre of mass.
     Six,
 }
 
@@ -194,29 +286,59 @@ impl From<ParamCount> for u8 {
     }
 }
 
-/// The online estimator's settings (all of them are logged so `stewart estimate` can re-run it).
+/// The online estimator's settings (all of them are logged so the estimate can be re-run).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct EstimatorConfig {
-    /// 10 (full model) or 6 (the paper's: J_O only).
+pub struct EstimatorSection {
+    /// 10 (full model) or 6 (the paper's: the tensor about a known centre of mass).
     pub params: ParamCount,
     /// Cut-off of the low-pass filter applied alike to both sides of the equations, Hz.
     pub cutoff_hz: f64,
     /// RLS forgetting factor λ (1 = none).
     pub forgetting_factor: f64,
+    /// Expected noise of each force equation after filtering, N (sets the row weights).
+    pub force_sigma_n: f64,
+    /// Expected noise of each torque equation after filtering, N·m.
+    pub torque_sigma_nm: f64,
+    /// Prior one-sigma of every parameter about zero (SI units; large = uninformative).
+    pub prior_sigma: f64,
+    /// Per-sample noise of each gyro axis, rad/s, from the IMU's datasheet, for the
+    /// errors-in-variables correction. Omitted: the noise preset's datasheet figure
+    /// (noise density × √sample rate).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gyro_noise_rad_s: Option<f64>,
+    /// Per-sample noise of each accelerometer axis, m/s² (omitted: from the noise preset).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub accel_noise_m_s2: Option<f64>,
+    /// Known payload mass for `params = 6` (weighed beforehand), kg.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub known_payload_mass_kg: Option<f64>,
+    /// Known payload centre of mass in P for `params = 6`, m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub known_payload_com_m: Option<[f64; 3]>,
+    /// Known fixture (plate) mass for `params = 6`, kg.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub known_fixture_mass_kg: Option<f64>,
+    /// Known fixture centre of mass in P for `params = 6`, m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub known_fixture_com_m: Option<[f64; 3]>,
 }
 
 /// The run's phases.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RunConfig {
-    /// Hold at home before each measurement, s.
+    /// Braked hold before each measurement, while the static load is read for the feed-forward,
+    /// s.
+    pub brake_hold_s: f64,
+    /// Hold at home (after the ramp from rest) before the excitation, s.
     pub settle_s: f64,
-    /// Excitation length of the loaded run, s (overridden by `--duration`).
+    /// Excitation length of the loaded run including the fades, s (overridden by
+    /// `--duration`).
     pub duration_s: f64,
     /// Excitation length of the tare run (empty fixture), s.
     pub tare_duration_s: f64,
-    /// Time allowed to return home and stop, s.
+    /// Ramp back home after the excitation, s.
     pub park_s: f64,
     /// Seed of every random number in the simulation (overridden by `--seed`).
     pub seed: u64,

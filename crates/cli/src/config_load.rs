@@ -108,6 +108,64 @@ impl LoadedConfig {
     }
 }
 
+/// Values given on the command line, which take precedence over the file.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Overrides {
+    /// `--duration` → `run.duration_s`.
+    pub duration_s: Option<f64>,
+    /// `--seed` → `run.seed`.
+    pub seed: Option<u64>,
+    /// `--noise` → `sensors.noise`.
+    pub noise: Option<crate::config::NoisePreset>,
+    /// `--params` → `estimator.params`.
+    pub params: Option<crate::config::ParamCount>,
+}
+
+/// Name used for the command line in messages.
+pub const COMMAND_LINE_NAME: &str = "<command line>";
+
+impl LoadedConfig {
+    /// Applies command-line values and validates again; a problem with an overridden value is
+    /// reported against the flag (e.g. `--duration`), not the file.
+    pub fn with_overrides(mut self, o: &Overrides) -> Result<Self, ConfigError> {
+        let mut flags: Vec<(&str, &str)> = Vec::new();
+        if let Some(d) = o.duration_s {
+            self.config.run.duration_s = d;
+            flags.push(("run.duration_s", "--duration"));
+        }
+        if let Some(s) = o.seed {
+            self.config.run.seed = s;
+        }
+        if let Some(n) = o.noise {
+            self.config.sensors.noise = n;
+        }
+        if let Some(p) = o.params {
+            self.config.estimator.params = p;
+            flags.push(("estimator.params", "--params"));
+        }
+        let problems = crate::validate::validate(&self.config);
+        if problems.is_empty() {
+            return Ok(self);
+        }
+        Err(ConfigError {
+            issues: problems
+                .into_iter()
+                .map(
+                    |(key, problem)| match flags.iter().find(|(k, _)| *k == key) {
+                        Some((_, flag)) => ConfigIssue {
+                            file: COMMAND_LINE_NAME.into(),
+                            line: None,
+                            key: format!("{flag} ({key})"),
+                            problem,
+                        },
+                        None => self.issue(&key, problem),
+                    },
+                )
+                .collect(),
+        })
+    }
+}
+
 /// Loads the embedded default, or `path` laid over it, and validates the ranges.
 pub fn load(path: Option<&Path>) -> Result<LoadedConfig, ConfigError> {
     match path {

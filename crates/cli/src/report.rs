@@ -34,13 +34,14 @@ pub struct Convergence {
     pub samples_to_1pct: Option<u64>,
 }
 
-/// RMS of the fit residual per equation, on the loaded run's data.
+/// RMS of the fit residual per equation, on the loaded run's data (the best detector of timing
+/// and model errors).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ResidualRms {
-    /// Force equations, N (absent with the 6-parameter model).
-    pub force_n: Option<f64>,
-    /// Torque equations, N·m.
-    pub torque_nm: f64,
+    /// Force equations x, y, z, N.
+    pub force_n: [f64; 3],
+    /// Torque equations x, y, z (about the P origin), N·m.
+    pub torque_nm: [f64; 3],
 }
 
 /// Physical-consistency verdict on the payload estimate.

@@ -130,10 +130,13 @@ pub fn render(report: &Report) -> String {
             .samples_to_1pct
             .map_or("never".to_string(), |n| format!("{n} samples")),
     );
-    if let Some(f) = report.residual_rms.force_n {
-        let _ = write!(out, "{f:.3} N, ");
-    }
-    let _ = writeln!(out, "{:.3} N·m", report.residual_rms.torque_nm);
+    let f = report.residual_rms.force_n;
+    let t = report.residual_rms.torque_nm;
+    let _ = writeln!(
+        out,
+        "force {:.3}/{:.3}/{:.3} N, torque {:.3}/{:.3}/{:.3} N·m",
+        f[0], f[1], f[2], t[0], t[1], t[2]
+    );
     let _ = writeln!(
         out,
         "tare: {}   consistency: {}{}",

@@ -3,7 +3,7 @@
 //! and line. Checks that need the kinematics (reachability, singularity) run later, before any
 //! motion, in [`crate::preflight`].
 
-use crate::config::{AxisExcitation, BodyConfig, Config};
+use crate::config::{BodyConfig, Config, ExcitationKind, MultisineConfig, ParamCount, SineConfig};
 
 /// Collects problems as (dotted key, message).
 #[derive(Default)]
@@ -89,14 +89,16 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
     body(&mut p, "fixture", &config.fixture);
     body(&mut p, "payload", &config.payload);
 
-    let a = &config.actuator;
-    p.within("actuator.bandwidth_hz", a.bandwidth_hz, 0.1, 10_000.0, "Hz");
-    p.positive("actuator.max_force_n", a.max_force_n);
-    p.non_negative(
-        "actuator.viscous_friction_n_s_per_m",
-        a.viscous_friction_n_s_per_m,
-    );
-    p.non_negative("actuator.coulomb_friction_n", a.coulomb_friction_n);
+    if let Err(e) = config.actuator.validate() {
+        match e {
+            sim::SimError::InvalidConfig {
+                field,
+                value,
+                reason,
+            } => p.push(field, format!("{reason}, got {value}")),
+            other => p.push("actuator", other.to_string()),
+        }
+    }
 
     let s = &config.sensors;
     p.within(
@@ -106,29 +108,66 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
         20_000.0,
         "Hz",
     );
+    let substep_s = 1.0 / (s.sample_rate_hz * f64::from(s.physics_substeps.max(1)));
+    if s.physics_substeps == 0 || substep_s > 1e-3 * (1.0 + 1e-12) {
+        p.push(
+            "sensors.physics_substeps",
+            format!(
+                "must be at least 1 and make the physics step 1/(sample_rate_hz·physics_substeps) at most 1 ms, got {}",
+                s.physics_substeps
+            ),
+        );
+    }
     p.finite3("sensors.imu_position_m", &s.imu_position_m, 10.0);
 
     let c = &config.control;
     p.positive("control.kp_n_per_m", c.kp_n_per_m);
     p.non_negative("control.ki_n_per_m_s", c.ki_n_per_m_s);
     p.non_negative("control.kd_n_s_per_m", c.kd_n_s_per_m);
-    p.positive("control.max_tracking_error_m", c.max_tracking_error_m);
-    p.positive("control.max_leg_speed_m_s", c.max_leg_speed_m_s);
+    p.non_negative("control.derivative_filter_s", c.derivative_filter_s);
     p.positive("control.max_force_n", c.max_force_n);
+    p.positive("control.max_measured_force_n", c.max_measured_force_n);
+    p.positive("control.max_leg_speed_m_s", c.max_leg_speed_m_s);
+    p.non_negative("control.leg_length_margin_m", c.leg_length_margin_m);
+    p.positive("control.max_sample_gap_s", c.max_sample_gap_s);
+    p.positive("control.settle_ramp_s", c.settle_ramp_s);
+    p.non_negative("control.park_hold_s", c.park_hold_s);
 
     let nyquist = s.sample_rate_hz / 2.0;
     let e = &config.excitation;
-    p.non_negative("excitation.ramp_s", e.ramp_s);
-    let axes: [(&str, &AxisExcitation, f64); 6] = [
-        ("excitation.roll_deg", &e.roll_deg, 30.0),
-        ("excitation.pitch_deg", &e.pitch_deg, 30.0),
-        ("excitation.yaw_deg", &e.yaw_deg, 30.0),
-        ("excitation.x_m", &e.x_m, 1.0),
-        ("excitation.y_m", &e.y_m, 1.0),
-        ("excitation.z_m", &e.z_m, 1.0),
-    ];
-    for (key, axis, limit) in axes {
-        excitation_axis(&mut p, key, axis, limit, nyquist / 10.0);
+    p.positive("excitation.fade_s", e.fade_s);
+    p.non_negative("excitation.stroke_margin_m", e.stroke_margin_m);
+    p.positive("excitation.max_leg_speed_m_s", e.max_leg_speed_m_s);
+    if e.max_leg_speed_m_s > c.max_leg_speed_m_s {
+        p.push(
+            "excitation.max_leg_speed_m_s",
+            format!(
+                "must not exceed control.max_leg_speed_m_s ({} m/s), or tracking overshoot trips the supervisor; got {} m/s",
+                c.max_leg_speed_m_s, e.max_leg_speed_m_s
+            ),
+        );
+    }
+    p.within(
+        "excitation.min_inverse_condition",
+        e.min_inverse_condition,
+        0.0,
+        1.0,
+        "",
+    );
+    let f_max = nyquist / 10.0;
+    match e.kind {
+        ExcitationKind::Multisine => multisine(&mut p, &e.multisine, f_max),
+        ExcitationKind::Sines => {
+            if e.sines.is_empty() {
+                p.push(
+                    "excitation.sines",
+                    "needs at least one [[excitation.sines]] component when kind = \"sines\"",
+                );
+            }
+            for (i, sine) in e.sines.iter().enumerate() {
+                sine_component(&mut p, i, sine, f_max);
+            }
+        }
     }
 
     let est = &config.estimator;
@@ -146,8 +185,32 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
         1.0,
         "",
     );
+    p.positive("estimator.force_sigma_n", est.force_sigma_n);
+    p.positive("estimator.torque_sigma_nm", est.torque_sigma_nm);
+    p.within("estimator.prior_sigma", est.prior_sigma, 1e-6, 1e12, "");
+    if let Some(v) = est.gyro_noise_rad_s {
+        p.within("estimator.gyro_noise_rad_s", v, 0.0, 1.0, "rad/s");
+    }
+    if let Some(v) = est.accel_noise_m_s2 {
+        p.within("estimator.accel_noise_m_s2", v, 0.0, 100.0, "m/s²");
+    }
+    if est.params == ParamCount::Six {
+        known(
+            &mut p,
+            "known_payload",
+            est.known_payload_mass_kg,
+            est.known_payload_com_m,
+        );
+        known(
+            &mut p,
+            "known_fixture",
+            est.known_fixture_mass_kg,
+            est.known_fixture_com_m,
+        );
+    }
 
     let r = &config.run;
+    p.within("run.brake_hold_s", r.brake_hold_s, 0.0, 60.0, "s");
     p.within("run.settle_s", r.settle_s, 0.0, 600.0, "s");
     p.within("run.duration_s", r.duration_s, 0.01, 36_000.0, "s");
     p.within(
@@ -157,7 +220,21 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
         36_000.0,
         "s",
     );
-    p.within("run.park_s", r.park_s, 0.0, 600.0, "s");
+    p.within("run.park_s", r.park_s, 0.01, 600.0, "s");
+    for (key, d) in [
+        ("run.duration_s", r.duration_s),
+        ("run.tare_duration_s", r.tare_duration_s),
+    ] {
+        if d.is_finite() && d < 2.0 * e.fade_s {
+            p.push(
+                key,
+                format!(
+                    "must be at least twice excitation.fade_s ({} s), got {d} s",
+                    e.fade_s
+                ),
+            );
+        }
+    }
     p.0
 }
 
@@ -224,58 +301,126 @@ fn body(p: &mut Problems, section: &str, b: &BodyConfig) {
     let _ = lo;
 }
 
-fn excitation_axis(p: &mut Problems, key: &str, axis: &AxisExcitation, limit: f64, f_max: f64) {
-    if axis.amplitudes.len() != axis.frequencies_hz.len() {
+fn multisine(p: &mut Problems, m: &MultisineConfig, f_max: f64) {
+    let k = "excitation.multisine";
+    p.positive(&format!("{k}.base_frequency_hz"), m.base_frequency_hz);
+    if m.harmonics_per_axis == 0 {
+        p.push(format!("{k}.harmonics_per_axis"), "must be at least 1");
+    }
+    let excited = m
+        .peak_translation_m
+        .iter()
+        .chain(&m.peak_rotation_deg)
+        .filter(|a| **a > 0.0)
+        .count();
+    if excited == 0 {
         p.push(
-            format!("{key}.frequencies_hz"),
+            format!("{k}.peak_rotation_deg"),
+            "every peak is zero: nothing would move",
+        );
+    }
+    let total = excited as u64 * u64::from(m.harmonics_per_axis);
+    if total > control::trajectory::MAX_COMPONENTS as u64 {
+        p.push(
+            format!("{k}.harmonics_per_axis"),
             format!(
-                "needs one frequency per amplitude: {} amplitudes, {} frequencies",
-                axis.amplitudes.len(),
-                axis.frequencies_hz.len()
+                "{excited} excited axes × {} harmonics = {total} components, more than the {} a trajectory holds",
+                m.harmonics_per_axis,
+                control::trajectory::MAX_COMPONENTS
             ),
         );
     }
-    if !axis.phases_deg.is_empty() && axis.phases_deg.len() != axis.amplitudes.len() {
+    let highest = m.base_frequency_hz * total as f64;
+    if highest.is_finite() && highest > f_max {
         p.push(
-            format!("{key}.phases_deg"),
+            format!("{k}.base_frequency_hz"),
             format!(
-                "needs one phase per amplitude (or none): {} amplitudes, {} phases",
-                axis.amplitudes.len(),
-                axis.phases_deg.len()
+                "the highest harmonic ({highest} Hz) must be at most {f_max} Hz (a tenth of the Nyquist rate)"
             ),
         );
     }
-    let total: f64 = axis.amplitudes.iter().map(|a| a.abs()).sum();
-    for (i, a) in axis.amplitudes.iter().enumerate() {
-        if !a.is_finite() {
+    for (i, a) in m.peak_translation_m.iter().enumerate() {
+        if !(a.is_finite() && *a >= 0.0 && *a <= 1.0) {
             p.push(
-                format!("{key}.amplitudes[{i}]"),
-                format!("must be finite, got {a}"),
+                format!("{k}.peak_translation_m[{i}]"),
+                format!("must be between 0 and 1 m, got {a}"),
             );
         }
     }
-    if total > limit {
+    for (i, a) in m.peak_rotation_deg.iter().enumerate() {
+        if !(a.is_finite() && *a >= 0.0 && *a <= 30.0) {
+            p.push(
+                format!("{k}.peak_rotation_deg[{i}]"),
+                format!("must be between 0 and 30 degrees, got {a}"),
+            );
+        }
+    }
+}
+
+fn sine_component(p: &mut Problems, i: usize, s: &SineConfig, f_max: f64) {
+    let k = format!("excitation.sines[{i}]");
+    match (s.axis.is_rotation(), s.amplitude_deg, s.amplitude_m) {
+        (true, Some(a), None) => {
+            if !(a.is_finite() && a.abs() <= 30.0) {
+                p.push(
+                    format!("{k}.amplitude_deg"),
+                    format!("must be within ±30 degrees, got {a}"),
+                );
+            }
+        }
+        (false, None, Some(a)) => {
+            if !(a.is_finite() && a.abs() <= 1.0) {
+                p.push(
+                    format!("{k}.amplitude_m"),
+                    format!("must be within ±1 m, got {a}"),
+                );
+            }
+        }
+        (true, _, Some(_)) => p.push(
+            format!("{k}.amplitude_m"),
+            "wrong unit: a rotation axis takes `amplitude_deg`",
+        ),
+        (false, Some(_), _) => p.push(
+            format!("{k}.amplitude_deg"),
+            "wrong unit: a translation axis takes `amplitude_m`",
+        ),
+        (rot, None, None) => p.push(
+            k.clone(),
+            format!(
+                "missing `{}`",
+                if rot { "amplitude_deg" } else { "amplitude_m" }
+            ),
+        ),
+    }
+    if !(s.frequency_hz.is_finite() && s.frequency_hz > 0.0 && s.frequency_hz <= f_max) {
         p.push(
-            format!("{key}.amplitudes"),
-            format!("the amplitudes add up to {total}, more than the limit {limit}"),
+            format!("{k}.frequency_hz"),
+            format!(
+                "must be above 0 and at most {f_max} Hz (a tenth of the Nyquist rate), got {}",
+                s.frequency_hz
+            ),
         );
     }
-    for (i, f) in axis.frequencies_hz.iter().enumerate() {
-        if !(f.is_finite() && *f > 0.0 && *f <= f_max) {
-            p.push(
-                format!("{key}.frequencies_hz[{i}]"),
-                format!(
-                    "must be above 0 and at most {f_max} Hz (a tenth of the Nyquist rate), got {f}"
-                ),
-            );
-        }
+    if !s.phase_deg.is_finite() {
+        p.push(format!("{k}.phase_deg"), "must be finite");
     }
-    for (i, ph) in axis.phases_deg.iter().enumerate() {
-        if !ph.is_finite() {
-            p.push(
-                format!("{key}.phases_deg[{i}]"),
-                format!("must be finite, got {ph}"),
-            );
-        }
+}
+
+fn known(p: &mut Problems, prefix: &str, mass: Option<f64>, com: Option<[f64; 3]>) {
+    let mk = format!("estimator.{prefix}_mass_kg");
+    let ck = format!("estimator.{prefix}_com_m");
+    match mass {
+        Some(m) => p.positive(&mk, m),
+        None => p.push(
+            mk,
+            "required when estimator.params = 6 (the paper's model needs the mass known beforehand)",
+        ),
+    }
+    match com {
+        Some(c) => p.finite3(&ck, &c, 10.0),
+        None => p.push(
+            ck,
+            "required when estimator.params = 6 (the paper's model needs the centre of mass known beforehand)",
+        ),
     }
 }

@@ -1,0 +1,376 @@
+//! Turning a validated [`Config`] into the cores' settings, with the checks that need the
+//! kinematics — a singular or unbuildable design, a trajectory that leaves the stroke, moves a
+//! leg too fast or passes near a singularity — all before anything moves. Every refusal names
+//! the file, the key and what is wrong.
+
+use control::controller::ControllerConfig;
+use control::pid::{AntiWindup, PidConfig};
+use control::supervisor::SupervisorConfig;
+use control::trajectory::{
+    Axis, FeasibilityLimits, MultiSineConfig, SineComponent, Spectrum, Trajectory,
+};
+use control::ControlError;
+use kinematics::{FkOptions, Geometry, KinematicsError, StrokeLimits};
+use nalgebra::{Vector3, Vector6};
+
+use crate::config::{AxisName, Config, ExcitationKind, ParamCount, SpectrumConfig};
+use crate::config_load::{ConfigError, ConfigIssue, LoadedConfig};
+
+/// The platform design of `config`, or the reason it cannot be built (singular, unreachable
+/// home, coincident joints).
+pub fn geometry(loaded: &LoadedConfig) -> Result<Geometry, ConfigError> {
+    let p = &loaded.config.platform;
+    Geometry::from_radii(
+        p.base_radius_m,
+        p.plate_radius_m,
+        p.base_pair_separation_deg.to_radians(),
+        p.plate_pair_separation_deg.to_radians(),
+        StrokeLimits {
+            min_length_m: p.min_leg_length_m,
+            max_length_m: p.max_leg_length_m,
+        },
+    )
+    .map_err(|e| ConfigError::single(geometry_issue(loaded, &e)))
+}
+
+fn geometry_issue(loaded: &LoadedConfig, e: &KinematicsError) -> ConfigIssue {
+    let (key, problem) = match e {
+        KinematicsError::ArchitecturallySingular { inverse_condition } => (
+            "platform",
+            format!(
+                "the design is singular at its home pose (inverse condition number {inverse_condition:.2e}): \
+                 the plate could move with no change of leg length. The plate's joint pairs must be \
+                 turned against the base's: change platform.base_pair_separation_deg / \
+                 platform.plate_pair_separation_deg (equal joint angles on both circles, e.g. \
+                 separations adding up to 120°, are singular; see ERRATA Eq. 1–2)"
+            ),
+        ),
+        KinematicsError::HomeUnreachable => (
+            "platform.min_leg_length_m",
+            "no level home pose has the mid-stroke mean leg length: the stroke is too short for \
+             the joint circles (raise platform.min_leg_length_m / max_leg_length_m or change the radii)"
+                .to_string(),
+        ),
+        KinematicsError::CoincidentJoints { .. } => (
+            "platform",
+            format!("two joints coincide: {e} (check the radii and pair separations)"),
+        ),
+        KinematicsError::InvalidStroke { .. } => ("platform.max_leg_length_m", e.to_string()),
+        _ => ("platform", e.to_string()),
+    };
+    loaded.issue(key, problem)
+}
+
+/// The excitation of the loaded (or tare) run, lasting `duration_s` including the fades,
+/// about the geometry's home pose.
+pub fn trajectory(
+    loaded: &LoadedConfig,
+    geometry: &Geometry,
+    duration_s: f64,
+) -> Result<Trajectory, ConfigError> {
+    let e = &loaded.config.excitation;
+    let home = geometry.home_pose();
+    let result = match e.kind {
+        ExcitationKind::Multisine => {
+            let m = &e.multisine;
+            let t = m.peak_translation_m;
+            let r = m.peak_rotation_deg.map(f64::to_radians);
+            Trajectory::multisine(
+                home,
+                &MultiSineConfig {
+                    base_frequency_hz: m.base_frequency_hz,
+                    harmonics_per_axis: m.harmonics_per_axis as usize,
+                    peak_amplitudes: [t[0], t[1], t[2], r[0], r[1], r[2]],
+                    duration_s,
+                    fade_in_s: e.fade_s,
+                    fade_out_s: e.fade_s,
+                    spectrum: match m.spectrum {
+                        SpectrumConfig::FlatPosition => Spectrum::FlatPosition,
+                        SpectrumConfig::FlatVelocity => Spectrum::FlatVelocity,
+                    },
+                },
+            )
+        }
+        ExcitationKind::Sines => {
+            let components: Vec<SineComponent> = e
+                .sines
+                .iter()
+                .map(|s| SineComponent {
+                    axis: match s.axis {
+                        AxisName::X => Axis::X,
+                        AxisName::Y => Axis::Y,
+                        AxisName::Z => Axis::Z,
+                        AxisName::Roll => Axis::Roll,
+                        AxisName::Pitch => Axis::Pitch,
+                        AxisName::Yaw => Axis::Yaw,
+                    },
+                    amplitude: match (s.amplitude_deg, s.amplitude_m) {
+                        (Some(d), _) => d.to_radians(),
+                        (None, Some(m)) => m,
+                        (None, None) => 0.0,
+                    },
+                    frequency_hz: s.frequency_hz,
+                    phase_rad: s.phase_deg.to_radians(),
+                })
+                .collect();
+            Trajectory::new(home, &components, duration_s, e.fade_s, e.fade_s)
+        }
+    };
+    result.map_err(|err| ConfigError::single(trajectory_issue(loaded, &err)))
+}
+
+/// The key of the excitation's amplitudes, for messages.
+fn amplitude_key(config: &Config) -> &'static str {
+    match config.excitation.kind {
+        ExcitationKind::Multisine => "excitation.multisine",
+        ExcitationKind::Sines => "excitation.sines",
+    }
+}
+
+fn trajectory_issue(loaded: &LoadedConfig, e: &ControlError) -> ConfigIssue {
+    let amplitudes = amplitude_key(&loaded.config);
+    let (key, problem) = match e {
+        ControlError::StrokeViolation { .. } => (
+            amplitudes,
+            format!(
+                "unreachable trajectory: {e} (platform stroke {}–{} m less excitation.stroke_margin_m): \
+                 lower the amplitudes",
+                loaded.config.platform.min_leg_length_m, loaded.config.platform.max_leg_length_m
+            ),
+        ),
+        ControlError::LegSpeedViolation { .. } => (
+            amplitudes,
+            format!(
+                "trajectory too fast for excitation.max_leg_speed_m_s: {e}: lower the amplitudes or frequencies"
+            ),
+        ),
+        ControlError::ConditioningViolation { .. } => (
+            amplitudes,
+            format!(
+                "the trajectory passes too close to a singular pose (excitation.min_inverse_condition): {e}"
+            ),
+        ),
+        ControlError::TooManyComponents { .. } => (amplitudes, e.to_string()),
+        ControlError::InvalidConfig { parameter, reason } => {
+            let key = match *parameter {
+                p if p.contains("fade") => "excitation.fade_s",
+                p if p.contains("duration") => "run.duration_s",
+                _ => amplitudes,
+            };
+            (key, format!("{parameter} {reason}"))
+        }
+        _ => (amplitudes, e.to_string()),
+    };
+    loaded.issue(key, problem)
+}
+
+/// The controller's settings. `feedforward_n` is filled in per run from the braked static load.
+pub fn controller_config(config: &Config) -> ControllerConfig {
+    let c = &config.control;
+    let e = &config.excitation;
+    let period_s = 1.0 / config.sensors.sample_rate_hz;
+    let pid = PidConfig {
+        kp: c.kp_n_per_m,
+        ki: c.ki_n_per_m_s,
+        kd: c.kd_n_s_per_m,
+        derivative_filter_s: c.derivative_filter_s,
+        output_min_n: -c.max_force_n,
+        output_max_n: c.max_force_n,
+        anti_windup: AntiWindup::BackCalculation {
+            tracking_time_s: 0.02,
+        },
+    };
+    let supervisor = SupervisorConfig {
+        leg_length_margin_m: c.leg_length_margin_m,
+        max_leg_speed_m_s: c.max_leg_speed_m_s,
+        max_command_force_n: c.max_force_n,
+        max_measured_force_n: c.max_measured_force_n,
+        max_sample_gap_s: c.max_sample_gap_s,
+        max_sensor_age_s: c.max_sample_gap_s,
+        ..SupervisorConfig::default()
+    };
+    ControllerConfig {
+        sample_period_s: period_s,
+        settle_ramp_s: c.settle_ramp_s,
+        settle_s: config.run.settle_s,
+        park_s: config.run.park_s,
+        park_hold_s: c.park_hold_s,
+        pid,
+        feedforward_n: [0.0; 6],
+        supervisor,
+        feasibility: FeasibilityLimits {
+            stroke_margin_m: e.stroke_margin_m,
+            max_leg_speed_m_s: e.max_leg_speed_m_s,
+            min_inverse_condition: e.min_inverse_condition,
+            step_s: period_s.min(1e-3),
+        },
+        fk: FkOptions::default(),
+        ..ControllerConfig::default()
+    }
+}
+
+/// Builds the controller for one run, refusing (with the key) a configuration or trajectory
+/// the control crate rejects — including the whole-trajectory feasibility check.
+pub fn controller(
+    loaded: &LoadedConfig,
+    geometry: &Geometry,
+    trajectory: Trajectory,
+) -> Result<control::controller::Controller, ConfigError> {
+    let config = controller_config(&loaded.config);
+    control::controller::Controller::new(*geometry, trajectory, config).map_err(|e| {
+        let issue = match e {
+            ControlError::InvalidConfig { parameter, reason } => {
+                let key = if parameter.starts_with("pid") {
+                    "control"
+                } else if parameter.starts_with("supervisor") {
+                    "control"
+                } else if parameter.starts_with("feasibility") {
+                    "excitation"
+                } else {
+                    "control"
+                };
+                loaded.issue(key, format!("{parameter} {reason}"))
+            }
+            other => trajectory_issue(loaded, &other),
+        };
+        ConfigError::single(issue)
+    })
+}
+
+/// Which measurement an estimator is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Measurement {
+    /// The empty fixture.
+    Tare,
+    /// Fixture plus payload.
+    Loaded,
+}
+
+impl Measurement {
+    /// `"tare"` or `"loaded"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Tare => "tare",
+            Self::Loaded => "loaded",
+        }
+    }
+}
+
+/// The estimator's settings for one measurement whose excitation runs over backend times
+/// `[window_start_s, window_end_s]`. With `params = 6` the known mass and centre of mass are
+/// the fixture's (tare) or the fixture's plus the payload's (loaded), from the `known_*` keys —
+/// what an operator weighed beforehand, never the simulator's truth.
+pub fn estimator_config(
+    config: &Config,
+    geometry: &Geometry,
+    measurement: Measurement,
+    window_start_s: f64,
+    window_end_s: f64,
+) -> estimator::EstimatorConfig {
+    let est = &config.estimator;
+    let period_s = 1.0 / config.sensors.sample_rate_hz;
+    let mut c = estimator::EstimatorConfig::new(*geometry, period_s);
+    c.lowpass_cutoff_hz = Some(est.cutoff_hz);
+    c.forgetting_factor = est.forgetting_factor;
+    c.equation_sigma = Vector6::new(
+        est.force_sigma_n,
+        est.force_sigma_n,
+        est.force_sigma_n,
+        est.torque_sigma_nm,
+        est.torque_sigma_nm,
+        est.torque_sigma_nm,
+    );
+    c.prior_sigma = est.prior_sigma;
+    // What the IMU's datasheet says (the preset's figures unless the config gives them): the
+    // same per-sample convention as the simulator, density × √(sample rate).
+    let datasheet = sim::SensorConfig::preset(config.sensors.noise.to_sim());
+    let root_rate = config.sensors.sample_rate_hz.sqrt();
+    c.gyro_noise_rad_s = est
+        .gyro_noise_rad_s
+        .unwrap_or(datasheet.gyro.noise_density_rad_s_sqrt_hz * root_rate);
+    c.accel_noise_m_s2 = est
+        .accel_noise_m_s2
+        .unwrap_or(datasheet.accelerometer.noise_density_m_s2_sqrt_hz * root_rate);
+    c.accelerometer_position_m = Vector3::from(config.sensors.imu_position_m);
+    c.window_start_s = window_start_s;
+    c.window_end_s = window_end_s;
+    if est.params == ParamCount::Six {
+        let fm = est.known_fixture_mass_kg.unwrap_or(0.0);
+        let fc = Vector3::from(est.known_fixture_com_m.unwrap_or_default());
+        let (mass_kg, com_m) = match measurement {
+            Measurement::Tare => (fm, fc),
+            Measurement::Loaded => {
+                let pm = est.known_payload_mass_kg.unwrap_or(0.0);
+                let pc = Vector3::from(est.known_payload_com_m.unwrap_or_default());
+                let m = fm + pm;
+                (m, (fc * fm + pc * pm) / m)
+            }
+        };
+        c.parameters = estimator::ParameterSet::InertiaAboutKnownCom { mass_kg, com_m };
+    }
+    c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config_load::{load, load_str};
+
+    #[test]
+    fn default_config_passes_preflight() {
+        let loaded = load(None).unwrap();
+        let g = geometry(&loaded).unwrap();
+        let t = trajectory(&loaded, &g, loaded.config.run.duration_s).unwrap();
+        controller(&loaded, &g, t).unwrap();
+    }
+
+    #[test]
+    fn singular_design_is_refused_naming_the_platform() {
+        let text =
+            "[platform]\nbase_pair_separation_deg = 60.0\nplate_pair_separation_deg = 60.0\n";
+        let loaded = load_str(text, "bad.toml").unwrap();
+        let err = geometry(&loaded).unwrap_err();
+        let issue = &err.issues[0];
+        assert_eq!(issue.file, "bad.toml");
+        assert_eq!(issue.key, "platform");
+        assert_eq!(issue.line, Some(1));
+        assert!(issue.problem.contains("singular"), "{issue}");
+    }
+
+    #[test]
+    fn unreachable_trajectory_is_refused_naming_the_amplitudes() {
+        let text = "[excitation.multisine]\npeak_translation_m = [0.3, 0.3, 0.3]\n";
+        let loaded = load_str(text, "far.toml").unwrap();
+        let g = geometry(&loaded).unwrap();
+        let t = trajectory(&loaded, &g, 20.0).unwrap();
+        let err = controller(&loaded, &g, t).unwrap_err();
+        let issue = &err.issues[0];
+        assert_eq!(issue.key, "excitation.multisine");
+        assert_eq!(issue.line, Some(1));
+        assert!(
+            issue.problem.contains("stroke") || issue.problem.contains("fast"),
+            "{issue}"
+        );
+    }
+
+    #[test]
+    fn six_parameter_known_values_combine_fixture_and_payload() {
+        let loaded = load_str("[estimator]\nparams = 6\n", "six.toml").unwrap();
+        let g = geometry(&loaded).unwrap();
+        let c = estimator_config(&loaded.config, &g, Measurement::Loaded, 0.0, 1.0);
+        let est = &loaded.config.estimator;
+        match c.parameters {
+            estimator::ParameterSet::InertiaAboutKnownCom { mass_kg, com_m } => {
+                let (fm, pm) = (
+                    est.known_fixture_mass_kg.unwrap(),
+                    est.known_payload_mass_kg.unwrap(),
+                );
+                assert_eq!(mass_kg, fm + pm);
+                let pc = est.known_payload_com_m.unwrap();
+                let fc = est.known_fixture_com_m.unwrap();
+                assert!((com_m.z * (fm + pm) - (fc[2] * fm + pc[2] * pm)).abs() < 1e-9);
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}
