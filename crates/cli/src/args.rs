@@ -25,6 +25,9 @@ pub enum Command {
     Rig(crate::rig_cmd::RigArgs),
     /// Play the rig: the simulator behind the wire protocol in real time, for `stewart rig`.
     Emulate(crate::emulate::EmulateArgs),
+    /// Re-run the estimator on a log of `simulate` or `rig` (its settings, or others) and print
+    /// the same table and report.
+    Estimate(crate::estimate::EstimateArgs),
 }
 
 /// Flags shared by the measurement commands (`simulate`, and `rig` later).
@@ -60,6 +63,9 @@ pub struct RunArgs {
     /// No progress bar and no table.
     #[arg(long)]
     pub quiet: bool,
+    /// Write SVG and PNG figures (estimates with ±σ and truth, tracking error, excitation) here.
+    #[arg(long, value_name = "DIR")]
+    pub plot: Option<PathBuf>,
 }
 
 #[cfg(test)]

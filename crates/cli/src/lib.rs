@@ -53,6 +53,13 @@ pub fn main_entry() -> std::process::ExitCode {
     match cli.command {
         args::Command::Rig(a) => ExitCode::from(rig_cmd::main(&a, &INTERRUPT)),
         args::Command::Emulate(a) => ExitCode::from(emulate::main(&a, &INTERRUPT)),
+        args::Command::Estimate(a) => match estimate::estimate(&a) {
+            Ok(_) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: {e:#}");
+                ExitCode::from(2)
+            }
+        },
         args::Command::Simulate(run_args) => match simulate::simulate(&run_args, &INTERRUPT) {
             Ok(outcome) => {
                 let code = finish(&run_args, &outcome);
@@ -99,5 +106,14 @@ fn finish(args: &args::RunArgs, outcome: &simulate::SimulateOutcome) -> u8 {
         }
     }
     println!("log: {}", outcome.log_path.display());
+    if let Some(dir) = &args.plot {
+        match plot::plot_log(&outcome.log_path, dir) {
+            Ok(files) => println!("figures: {} ({} files)", dir.display(), files.len()),
+            Err(e) => {
+                eprintln!("error: cannot plot the log: {e:#}");
+                code = code.max(1);
+            }
+        }
+    }
     code
 }
