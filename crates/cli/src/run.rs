@@ -290,6 +290,19 @@ where
                     frame.time_s,
                     &estimate_msg(run, frame.time_s, &e, setup.tare.as_ref()),
                 )?;
+                // platform → payload_com: the payload's estimated centre of mass and axes.
+                if let Some(tare) = setup.tare.as_ref() {
+                    let p = payload_estimate(&e, Some(tare));
+                    let time = Time::from_ns(hooks.log.time_ns(frame.time_s));
+                    let body = InertiaEllipsoid {
+                        mass_kg: p.parameters.mass_kg,
+                        com_m: p.com_m,
+                        inertia_com_kg_m2: p.inertia_com_kg_m2,
+                    };
+                    if let Some(tf) = foxglove::payload_transform(time, &body) {
+                        hooks.log.write(topics::TF_PAYLOAD, frame.time_s, &tf)?;
+                    }
+                }
             }
         }
         state.scene(
