@@ -147,6 +147,18 @@ fn a_simulate_log_reads_back_as_documented() {
             "{topic}: {got} messages, expected {lo:.0}..{hi:.0}"
         );
     }
+    // The payload frame follows every loaded estimate that has a centre of mass (not the
+    // final extra one).
+    let payload_estimates = log
+        .estimates
+        .iter()
+        .filter(|e| e.payload.is_some_and(|p| p.mass_kg > 0.0))
+        .count() as f64;
+    let tf_payload = n("/tf/payload");
+    assert!(
+        tf_payload <= payload_estimates && tf_payload >= payload_estimates - 2.0,
+        "/tf/payload: {tf_payload} messages for {payload_estimates} payload estimates"
+    );
     let runs = meta.runs.len() as f64;
     assert_eq!(n("/run/metadata"), 1.0);
     assert_eq!(n("/run/truth"), 1.0);
