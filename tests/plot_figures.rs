@@ -5,7 +5,6 @@ mod log_support;
 
 use std::path::Path;
 
-use stewart_cli::estimate::EstimateArgs;
 use stewart_cli::plot::{FIGURE_SIZE, OVERVIEW_SIZE};
 
 const STEMS: [&str; 13] = [
@@ -67,25 +66,61 @@ fn check_dir(dir: &Path) {
     }
 }
 
+fn stewart(args: &[&std::ffi::OsStr]) -> String {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_stewart"))
+        .args(args)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "stewart {args:?}: {}\n{stdout}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+/// Through the binary: `simulate --plot DIR`, then `estimate LOG --plot DIR`.
 #[test]
-fn simulate_and_estimate_plots_are_valid_svg_and_png() {
-    let run = log_support::simulate();
-    let from_log = run.dir.path().join("figures-run");
-    let files = stewart_cli::plot::plot_log(&run.log, &from_log).unwrap();
-    assert_eq!(files.len(), 2 * STEMS.len());
-    check_dir(&from_log);
+fn simulate_and_estimate_plot_valid_svg_and_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let config = d.join("short.toml");
+    std::fs::write(&config, log_support::SHORT).unwrap();
+    let log = d.join("run.mcap");
+    let run_figures = d.join("figures-run");
+    let stdout = stewart(&[
+        "simulate".as_ref(),
+        "--quiet".as_ref(),
+        "--config".as_ref(),
+        config.as_os_str(),
+        "--log".as_ref(),
+        log.as_os_str(),
+        "--plot".as_ref(),
+        run_figures.as_os_str(),
+    ]);
+    assert!(stdout.contains("figures:"), "{stdout}");
+    check_dir(&run_figures);
     // The truth line is drawn when the log knows the truth.
-    let mass = std::fs::read_to_string(from_log.join("mass.svg")).unwrap();
+    let mass = std::fs::read_to_string(run_figures.join("mass.svg")).unwrap();
     assert!(mass.contains("truth"));
 
-    let from_estimate = run.dir.path().join("figures-estimate");
-    let outcome = stewart_cli::estimate::estimate(&EstimateArgs {
-        log: run.log.clone(),
-        plot: Some(from_estimate.clone()),
-        quiet: true,
-        ..EstimateArgs::default()
-    })
-    .unwrap();
-    assert_eq!(outcome.figures.len(), 2 * STEMS.len());
-    check_dir(&from_estimate);
+    let estimate_figures = d.join("figures-estimate");
+    let stdout = stewart(&[
+        "estimate".as_ref(),
+        log.as_os_str(),
+        "--plot".as_ref(),
+        estimate_figures.as_os_str(),
+    ]);
+    // The table, then where the figures went.
+    assert!(
+        stdout.contains("J_C xy") && stdout.contains("figures:"),
+        "{stdout}"
+    );
+    check_dir(&estimate_figures);
+
+    // The library call the rig command uses writes the same set.
+    let again = d.join("figures-again");
+    let files = stewart_cli::plot::plot_log(&log, &again).unwrap();
+    assert_eq!(files.len(), 2 * STEMS.len());
 }
