@@ -22,7 +22,7 @@ pub enum Command {
     Simulate(RunArgs),
     /// Measure on a rig over the wire protocol (default udp://127.0.0.1:7700): tare run,
     /// payload on, loaded run; or `rig tare --out FILE`, `rig measure --tare FILE`.
-    Rig(crate::rig_cmd::RigArgs),
+    Rig(Box<crate::rig_cmd::RigArgs>),
     /// Play the rig: the simulator behind the wire protocol in real time, for `stewart rig`.
     Emulate(crate::emulate::EmulateArgs),
     /// Re-run the estimator on a log of `simulate` or `rig` (its settings, or others) and print

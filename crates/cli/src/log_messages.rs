@@ -567,5 +567,10 @@ pub fn channels() -> Vec<ChannelSpec> {
             schema_name: "foxglove.SceneUpdate",
             schema: foxglove::scene_update_schema(),
         },
+        ChannelSpec {
+            topic: crate::rig_cmd::link::LINK,
+            schema_name: crate::rig_cmd::link::LINK_SCHEMA_NAME,
+            schema: crate::rig_cmd::link::LinkMsg::schema(),
+        },
     ]
 }

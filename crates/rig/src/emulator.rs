@@ -70,6 +70,13 @@ pub struct EmulatorConfig {
     pub speed_window: usize,
     /// Link damage for tests.
     pub faults: FaultInjection,
+    /// Lockstep, for tests on busy machines (`None`, the default: real time, as a rig).
+    /// With `Some(limit)`, before each sample of a session the emulator waits, at most `limit`,
+    /// until the host has answered the last sensor frame it sent intact (not dropped or
+    /// corrupted by injection): a host that is descheduled then pauses the emulated world
+    /// instead of letting the platform run on its last command. The watchdog still trips
+    /// when the host stays silent for longer than the watchdog time.
+    pub lockstep: Option<Duration>,
     /// Seed for session numbers and fault injection.
     pub seed: u64,
 }
@@ -92,6 +99,7 @@ impl EmulatorConfig {
             enforce_motion_limits: true,
             speed_window: 10,
             faults: FaultInjection::default(),
+            lockstep: None,
             seed: rand::random(),
         }
     }
@@ -142,6 +150,21 @@ pub struct EmulatorStats {
     pub braked_ticks: u64,
 }
 
+/// What a session hook learns when a host opens a session.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SessionStart {
+    /// 1 for the first session the emulator opened, then +1 per session.
+    pub number: u64,
+    /// The session's host.
+    pub peer: Peer,
+    /// The session number sent in the `HelloAck`.
+    pub session_id: u64,
+}
+
+/// Called with the served backend when a session opens, before the `HelloAck` is sent: the
+/// place for what an operator does between sessions (put the payload on, take it off).
+pub type SessionHook<B> = Box<dyn FnMut(&mut B, &SessionStart) + Send>;
+
 struct Session {
     peer: Peer,
     id: u64,
@@ -167,6 +190,10 @@ pub struct Emulator<B> {
     delayed: VecDeque<(Instant, Peer, Vec<u8>)>,
     recent_lengths: VecDeque<[f64; LEG_COUNT]>,
     silent: bool,
+    last_sensor_sent_at: Option<Instant>,
+    /// Sequence of the last sensor frame of the session sent intact (lockstep waits for it).
+    last_intact_sequence: u64,
+    session_hook: Option<SessionHook<B>>,
     faults: Vec<Fault>,
     buf: [u8; MAX_FRAME_LEN + 1],
 }
@@ -244,6 +271,9 @@ where
             delayed: VecDeque::new(),
             recent_lengths: VecDeque::with_capacity(config.speed_window + 1),
             silent: false,
+            last_sensor_sent_at: None,
+            last_intact_sequence: 0,
+            session_hook: None,
             faults: Vec::new(),
             buf: [0; MAX_FRAME_LEN + 1],
             config,
@@ -263,6 +293,28 @@ where
     /// Every fault the emulator reported, in order.
     pub fn faults(&self) -> &[Fault] {
         &self.faults
+    }
+
+    /// Calls `hook` with the served backend whenever a session opens (see [`SessionHook`]).
+    pub fn set_session_hook(&mut self, hook: SessionHook<B>) {
+        self.session_hook = Some(hook);
+    }
+
+    /// The newest command accepted from the current (or last) session's host, braking ones
+    /// included; `None` before the first.
+    pub fn last_command(&self) -> Option<Command> {
+        self.session.as_ref().and_then(|s| s.latest)
+    }
+
+    /// The current session's host.
+    pub fn session_peer(&self) -> Option<Peer> {
+        self.session.as_ref().map(|s| s.peer)
+    }
+
+    /// When the last sensor frame went onto the link (for measuring how fast a host notices
+    /// that the rig went silent).
+    pub fn last_sensor_sent_at(&self) -> Option<Instant> {
+        self.last_sensor_sent_at
     }
 
     /// The served backend (e.g. to read the simulator's truth).
@@ -285,6 +337,12 @@ where
         let mut next = Instant::now() + self.period;
         while !stop.load(Ordering::Relaxed) {
             self.pump_until(next)?;
+            if let Some(limit) = self.config.lockstep {
+                if self.wait_for_host(limit)? {
+                    // The emulated world paused with the host: its clock restarts.
+                    next = Instant::now();
+                }
+            }
             let now = Instant::now();
             let behind = now.saturating_duration_since(next);
             if behind > self.period {
@@ -304,6 +362,31 @@ where
             .map_err(|e| RigError::Backend {
                 reason: e.to_string(),
             })
+    }
+
+    /// Lockstep: waits (at most `limit`) while the host has not answered the last frame sent
+    /// intact. Returns whether it waited.
+    fn wait_for_host(&mut self, limit: Duration) -> Result<bool, RigError> {
+        let start = Instant::now();
+        let mut waited = false;
+        while self.host_is_behind() {
+            let now = Instant::now();
+            if now.saturating_duration_since(start) >= limit {
+                break;
+            }
+            waited = true;
+            self.pump_until((now + self.period / 4).min(start + limit))?;
+        }
+        Ok(waited)
+    }
+
+    fn host_is_behind(&self) -> bool {
+        match &self.session {
+            Some(s) if s.fault.is_none() && !self.silent => s
+                .latest
+                .is_some_and(|c| c.sensor_sequence < self.last_intact_sequence),
+            _ => false,
+        }
     }
 
     /// One sample period: apply a command, sample, send.
@@ -487,6 +570,8 @@ where
             let bit = self.rng.random_range(0..n * 8);
             frame[bit / 8] ^= 1 << (bit % 8);
             self.stats.corrupted_injected += 1;
+        } else {
+            self.last_intact_sequence = sensor.sequence;
         }
         if faults.delay_fraction > 0.0 && self.rng.random::<f64>() < faults.delay_fraction {
             self.delayed
@@ -495,6 +580,7 @@ where
             return Ok(());
         }
         self.stats.sent += 1;
+        self.last_sensor_sent_at = Some(Instant::now());
         self.transport.send(frame, &peer)
     }
 
@@ -668,7 +754,18 @@ where
             fault: None,
         });
         self.recent_lengths.clear();
+        // Frames held back for the previous session must not reach the new one.
+        self.delayed.clear();
+        self.last_intact_sequence = 0;
         self.stats.sessions += 1;
+        if let Some(hook) = self.session_hook.as_mut() {
+            let start = SessionStart {
+                number: self.stats.sessions,
+                peer: from,
+                session_id: id,
+            };
+            hook(&mut self.inner, &start);
+        }
         if !self.silent {
             let _ = self.transport.send(&out[..n], &from);
         }

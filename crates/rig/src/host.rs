@@ -149,11 +149,7 @@ impl RigBackend {
             &mut buf,
         )?;
         let info = validate_ack(&ack, &address, &options)?;
-        let (mut force_min_n, mut force_max_n) = (info.limits.force_min_n, info.limits.force_max_n);
-        if let Some(cap) = options.force_limit_n {
-            force_min_n = force_min_n.max(-cap.abs());
-            force_max_n = force_max_n.min(cap.abs());
-        }
+        let (force_min_n, force_max_n) = force_range(&info, &options);
         Ok(Self {
             transport,
             peer,
@@ -167,6 +163,33 @@ impl RigBackend {
             next_command_sequence: 1,
             buf,
         })
+    }
+
+    /// Ends the current session and opens a new one with the same rig over the same link
+    /// (safe stop, then a fresh handshake). The rig starts the new session braked, with its
+    /// sequences from 1 and any latched fault cleared; a rig that changes something between
+    /// sessions (an emulator loading the payload) does it now. The counters continue.
+    ///
+    /// On failure the backend is left without a usable session: drop it.
+    pub fn restart_session(&mut self) -> Result<(), RigError> {
+        let _ = self.safe_stop();
+        let ack = exchange_hello(
+            self.transport.as_mut(),
+            &self.peer,
+            &self.info.address,
+            &self.options,
+            &mut self.stats,
+            &mut self.buf,
+        )?;
+        let info = validate_ack(&ack, &self.info.address, &self.options)?;
+        let (force_min_n, force_max_n) = force_range(&info, &self.options);
+        self.info = info;
+        self.force_min_n = force_min_n;
+        self.force_max_n = force_max_n;
+        self.last_sequence = 0;
+        self.last_valid_at = Instant::now();
+        self.next_command_sequence = 1;
+        Ok(())
     }
 
     /// What the rig said in the handshake.
@@ -416,6 +439,16 @@ impl Drop for RigBackend {
     }
 }
 
+/// The rig's force limits, tightened by the host's own cap.
+fn force_range(info: &RigInfo, options: &RigOptions) -> (f64, f64) {
+    let (mut min_n, mut max_n) = (info.limits.force_min_n, info.limits.force_max_n);
+    if let Some(cap) = options.force_limit_n {
+        min_n = min_n.max(-cap.abs());
+        max_n = max_n.min(cap.abs());
+    }
+    (min_n, max_n)
+}
+
 fn rig_fault(fault: &Fault) -> RigError {
     RigError::RigFault {
         code: fault.code,
@@ -444,6 +477,19 @@ fn refused(fault: &Fault) -> RigError {
         code: fault.code,
         detail: detail.to_string(),
     }
+}
+
+/// Fault codes 5–8 answer a `Hello` (protocol section 5); any other fault seen during a
+/// handshake is left over from an earlier session (say the watchdog tripping after the host
+/// stopped commanding) and says nothing about this one.
+fn answers_hello(code: FaultCode) -> bool {
+    matches!(
+        code,
+        FaultCode::VERSION_MISMATCH
+            | FaultCode::KEY_REQUIRED
+            | FaultCode::KEY_MISMATCH
+            | FaultCode::BUSY
+    )
 }
 
 /// Sends `Hello` until the rig answers with a `HelloAck` for it, a refusal, or time runs out.
@@ -520,7 +566,9 @@ fn exchange_hello(
                         busy = Some(fault);
                         continue;
                     }
-                    return Err(refused(&fault));
+                    if answers_hello(fault.code) {
+                        return Err(refused(&fault));
+                    }
                 }
                 stats.auth_failed += 1;
                 continue;
@@ -533,7 +581,7 @@ fn exchange_hello(
         match message {
             Message::HelloAck(ack) if ack.host_nonce == host_nonce => return Ok(ack),
             Message::Fault(fault) if fault.code == FaultCode::BUSY => busy = Some(fault),
-            Message::Fault(fault) => return Err(refused(&fault)),
+            Message::Fault(fault) if answers_hello(fault.code) => return Err(refused(&fault)),
             // Frames of an earlier session, or an answer to someone else's Hello.
             _ => stats.unexpected += 1,
         }

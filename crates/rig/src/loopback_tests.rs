@@ -1035,3 +1035,75 @@ fn after_a_pause_of_the_caller_the_host_skips_to_the_newest_frame() {
     assert!(first.sequence >= 60, "{}", first.sequence);
     assert_eq!(stats.late + 1, first.sequence, "{stats}");
 }
+
+#[test]
+fn a_host_restarts_its_session_over_the_same_link() {
+    use crate::emulator::SessionStart;
+    use std::sync::Mutex;
+    let seen: Arc<Mutex<Vec<SessionStart>>> = Arc::default();
+    let mut emulator =
+        Emulator::bind("udp://127.0.0.1:0", FakeBackend::default(), config()).expect("bind");
+    let log = Arc::clone(&seen);
+    emulator.set_session_hook(Box::new(
+        move |inner: &mut FakeBackend, start: &SessionStart| {
+            // What an operator would do between sessions; visible in the frames of the session.
+            inner.rate_m_s = 0.01 * start.number as f64;
+            log.lock().unwrap().push(*start);
+        },
+    ));
+    let address = format!("udp://{}", emulator.local_addr().unwrap());
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    let thread = std::thread::spawn(move || {
+        emulator.run(&flag).expect("emulator run");
+        emulator
+    });
+
+    let mut host = RigBackend::connect(&address, host_options()).expect("connect");
+    let first = host.info().session_id;
+    let frames = drive(&mut host, 50, 10.0).unwrap();
+    assert_eq!(frames[0].sequence, 1);
+    // The host stops commanding: the rig's watchdog trips and its fault reports wait in the
+    // host's socket. A new session must not mistake them for an answer to its Hello.
+    std::thread::sleep(Duration::from_millis(450));
+    host.restart_session().expect("a new session");
+    assert_ne!(host.info().session_id, first);
+    assert_eq!(host.last_sequence(), 0);
+    let frames = drive(&mut host, 50, 10.0).unwrap();
+    // Numbered from 1 again (the old session had reached about 500 by now); a busy machine
+    // may leave some of the new session's first frames waiting, skipped as late.
+    assert!(frames[0].sequence < 300, "{}", frames[0].sequence);
+    assert!(frames.windows(2).all(|w| w[1].sequence > w[0].sequence));
+    drop(host);
+    stop.store(true, Ordering::Relaxed);
+    let emulator = thread.join().unwrap();
+    let sessions = seen.lock().unwrap().clone();
+    assert_eq!(sessions.len(), 2);
+    assert_eq!([sessions[0].number, sessions[1].number], [1, 2]);
+    assert_eq!(sessions[0].peer, sessions[1].peer);
+    assert_eq!(emulator.inner().rate_m_s, 0.02);
+    // The first session's watchdog fault, nothing in the second.
+    assert_eq!(emulator.faults().len(), 1, "{:?}", emulator.faults());
+    assert_eq!(emulator.faults()[0].code, FaultCode::WATCHDOG);
+}
+
+#[test]
+fn in_lockstep_a_slow_host_pauses_the_emulated_world() {
+    let rig = start(EmulatorConfig {
+        lockstep: Some(Duration::from_millis(300)),
+        ..config()
+    });
+    let mut host = RigBackend::connect(&rig.address, host_options()).expect("connect");
+    drive(&mut host, 20, 10.0).unwrap();
+    // A descheduled host: 100 periods without an answer.
+    std::thread::sleep(Duration::from_millis(100));
+    drive(&mut host, 20, 10.0).unwrap();
+    let accepted_late = host.stats().late;
+    drop(host);
+    let emulator = rig.finish();
+    // Real time would have applied the last command ~100 more times.
+    let enabled = emulator.inner().applied.iter().filter(|c| c.enable).count();
+    assert!((39..=45).contains(&enabled), "{enabled} enabled ticks");
+    assert!(emulator.faults().is_empty(), "{:?}", emulator.faults());
+    assert_eq!(accepted_late, 0);
+}

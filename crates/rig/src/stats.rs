@@ -46,6 +46,30 @@ impl LinkStats {
         }
     }
 
+    /// What happened between `earlier` (a copy taken before) and now, e.g. over one
+    /// measurement of a longer session.
+    pub fn since(&self, earlier: &LinkStats) -> LinkStats {
+        LinkStats {
+            received: self.received.saturating_sub(earlier.received),
+            accepted: self.accepted.saturating_sub(earlier.accepted),
+            lost: self.lost.saturating_sub(earlier.lost),
+            late: self.late.saturating_sub(earlier.late),
+            duplicate: self.duplicate.saturating_sub(earlier.duplicate),
+            out_of_sequence: self.out_of_sequence.saturating_sub(earlier.out_of_sequence),
+            corrupt: self.corrupt.saturating_sub(earlier.corrupt),
+            foreign_sender: self.foreign_sender.saturating_sub(earlier.foreign_sender),
+            auth_failed: self.auth_failed.saturating_sub(earlier.auth_failed),
+            version_mismatch: self
+                .version_mismatch
+                .saturating_sub(earlier.version_mismatch),
+            unexpected: self.unexpected.saturating_sub(earlier.unexpected),
+            commands_sent: self.commands_sent.saturating_sub(earlier.commands_sent),
+            commands_clamped: self
+                .commands_clamped
+                .saturating_sub(earlier.commands_clamped),
+        }
+    }
+
     /// Received frames that were not handed to the cores.
     pub fn rejected(&self) -> u64 {
         self.late

@@ -1,0 +1,477 @@
+//! `stewart emulate`: the simulator behind the rig protocol, in real time, so that
+//! `stewart rig` can be run and tested without hardware.
+//!
+//! The same scenario file as `simulate` builds the simulated platform (platform, fixture,
+//! payload, actuator, sensors, seed); the rig's limits sent in the handshake and enforced are
+//! the platform's stroke, `control.max_leg_speed_m_s` and the actuators' `max_force_n`. The
+//! emulator serves one host session after another, as a rig does.
+//!
+//! **The payload.** A real rig's operator puts the vehicle on between the tare and the
+//! loaded measurement; the emulator does it when a session opens, by `--payload`:
+//! `tare-first` (default) leaves the fixture empty for the first session and loads the payload
+//! for every later one, which is what `stewart rig` (tare session, then loaded session) and
+//! `rig tare` followed by `rig measure` need; `on` and `off` fix it for every session (use
+//! `on` for a `rig measure --tare FILE` against a fresh emulator). Loading happens while the
+//! platform is braked between sessions: the brakes take the new static load.
+//!
+//! Fault injection for tests: `--drop F`, `--corrupt F` (fractions of sensor frames),
+//! `--delay-ms N` (with `--delay-fraction F`, default all frames), `--stop-after N` (stop
+//! answering after N sensor frames of a session, as a rig whose link died). `--lockstep`
+//! trades real time for robustness on a busy machine: the emulated world waits for the
+//! host's answer to each frame (up to the watchdog time).
+
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::Duration;
+
+use anyhow::anyhow;
+use clap::{Args, ValueEnum};
+use rig::emulator::{Emulator, EmulatorConfig, EmulatorStats, FaultInjection, SessionStart};
+use rig::wire::{Limits, SensorLayout, LEG_COUNT};
+use rig::{Key, RigError};
+
+use crate::args::RunArgs;
+use crate::config::{Config, NoisePreset};
+use crate::config_load::{ConfigError, LoadedConfig};
+use crate::preflight;
+use crate::simulate::{self, CommandError};
+
+/// Whether the emulated fixture carries the payload.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
+pub enum PayloadMode {
+    /// Empty for the first session, loaded for every later one (tare, then measure).
+    #[default]
+    TareFirst,
+    /// Loaded in every session.
+    On,
+    /// Empty in every session.
+    Off,
+}
+
+impl PayloadMode {
+    /// Whether session `number` (1-based) sees the payload.
+    pub fn loaded_in_session(self, number: u64) -> bool {
+        match self {
+            Self::TareFirst => number > 1,
+            Self::On => true,
+            Self::Off => false,
+        }
+    }
+}
+
+/// `stewart emulate` flags.
+#[derive(Clone, Debug, Args)]
+pub struct EmulateArgs {
+    /// Where to listen: udp://HOST:PORT (port 0: any free port) or serial:///dev/DEVICE?baud=N
+    /// [default: rig.address, udp://127.0.0.1:7700].
+    #[arg(long, value_name = "ADDR")]
+    pub listen: Option<String>,
+    /// Scenario TOML, laid over the embedded default (the same file as `simulate`).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Random seed of the simulation (run.seed).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Sensor noise preset (sensors.noise).
+    #[arg(long, value_enum)]
+    pub noise: Option<NoisePreset>,
+    /// When the payload is on the fixture (see `stewart emulate --help`).
+    #[arg(long, value_enum, default_value_t = PayloadMode::TareFirst)]
+    pub payload: PayloadMode,
+    /// Shared-key file (hex), instead of rig.key_file.
+    #[arg(long, value_name = "FILE")]
+    pub key: Option<PathBuf>,
+    /// Brake when no valid command arrived for this long, ms (rig.watchdog_ms, default 20).
+    #[arg(long, value_name = "MS")]
+    pub watchdog_ms: Option<f64>,
+    /// Fault injection: fraction of sensor frames not sent.
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.0)]
+    pub drop: f64,
+    /// Fault injection: fraction of sensor frames sent with a bit flipped.
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.0)]
+    pub corrupt: f64,
+    /// Fault injection: hold sensor frames back this long.
+    #[arg(long, value_name = "MS")]
+    pub delay_ms: Option<f64>,
+    /// Fault injection: fraction of sensor frames held back by --delay-ms.
+    #[arg(long, value_name = "FRACTION", default_value_t = 1.0)]
+    pub delay_fraction: f64,
+    /// Fault injection: stop answering after this many sensor frames of a session.
+    #[arg(long, value_name = "FRAMES")]
+    pub stop_after: Option<u64>,
+    /// Wait (up to the watchdog time) for the host's answer to each frame before simulating
+    /// the next, so that the emulated world pauses while the host is descheduled. Not real
+    /// time: for tests on busy machines.
+    #[arg(long)]
+    pub lockstep: bool,
+    /// Print nothing but errors.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+impl Default for EmulateArgs {
+    fn default() -> Self {
+        Self {
+            listen: None,
+            config: None,
+            seed: None,
+            noise: None,
+            payload: PayloadMode::TareFirst,
+            key: None,
+            watchdog_ms: None,
+            drop: 0.0,
+            corrupt: 0.0,
+            delay_ms: None,
+            delay_fraction: 1.0,
+            stop_after: None,
+            lockstep: false,
+            quiet: false,
+        }
+    }
+}
+
+/// An emulator ready to run, and what it was built from.
+pub struct Prepared {
+    /// The emulator, bound.
+    pub emulator: Emulator<sim::Simulator>,
+    /// The address hosts connect to (`udp://IP:PORT` with the port actually bound).
+    pub address: String,
+    /// The configuration used.
+    pub loaded: LoadedConfig,
+    sessions: Arc<Mutex<Vec<SessionStart>>>,
+}
+
+fn sim_config(config: &Config) -> sim::SimConfig {
+    let mut sensors = sim::SensorConfig::preset(config.sensors.noise.to_sim());
+    sensors.accelerometer.mount_m = config.sensors.imu_position_m;
+    sim::SimConfig {
+        sample_rate_hz: config.sensors.sample_rate_hz,
+        substeps: config.sensors.physics_substeps,
+        actuator: config.actuator,
+        sensors,
+        ..sim::SimConfig::default()
+    }
+}
+
+/// The rig limits the emulator announces and enforces for `config`.
+pub fn limits(config: &Config) -> Limits {
+    Limits {
+        stroke_min_m: config.platform.min_leg_length_m,
+        stroke_max_m: config.platform.max_leg_length_m,
+        speed_max_m_s: config.control.max_leg_speed_m_s,
+        force_min_n: -config.actuator.max_force_n,
+        force_max_n: config.actuator.max_force_n,
+    }
+}
+
+fn refused(e: impl std::fmt::Display) -> CommandError {
+    CommandError::Input(anyhow!("{e}"))
+}
+
+/// Loads the configuration, builds the simulator and binds the emulator (nothing runs yet).
+pub fn prepare(args: &EmulateArgs) -> Result<Prepared, CommandError> {
+    let loaded = simulate::load_config(&RunArgs {
+        config: args.config.clone(),
+        seed: args.seed,
+        noise: args.noise,
+        ..RunArgs::default()
+    })?;
+    let config = &loaded.config;
+    let mut rig_config = config.rig.clone();
+    if let Some(ms) = args.watchdog_ms {
+        rig_config.watchdog_ms = ms;
+    }
+    if let Some(listen) = &args.listen {
+        rig_config.address = listen.clone();
+    }
+    let problems = rig_config.problems();
+    if !problems.is_empty() {
+        return Err(CommandError::Config(ConfigError {
+            issues: problems
+                .into_iter()
+                .map(|(key, problem)| loaded.issue(&key, problem))
+                .collect(),
+        }));
+    }
+    let geometry = preflight::geometry(&loaded)?;
+    let payload = config.payload.to_sim();
+    let sim_settings = sim_config(config);
+    let sim_refused = |what: &str, e: sim::SimError| {
+        CommandError::Config(ConfigError::single(
+            loaded.issue(what, format!("refused by the simulator: {e}")),
+        ))
+    };
+    // Both worlds must be accepted before a host connects.
+    sim::Simulator::new(
+        geometry,
+        config.fixture.to_sim(),
+        Some(payload),
+        &sim_settings,
+        0,
+    )
+    .map_err(|e| sim_refused("payload", e))?;
+    let initial = args.payload.loaded_in_session(1).then_some(payload);
+    let simulator = sim::Simulator::new(
+        geometry,
+        config.fixture.to_sim(),
+        initial,
+        &sim_settings,
+        config.run.seed,
+    )
+    .map_err(|e| sim_refused("fixture", e))?;
+
+    let key_path = args
+        .key
+        .clone()
+        .or_else(|| rig_config.key_path(&loaded.source));
+    let key = match key_path {
+        Some(path) => Some(Key::from_file(&path).map_err(|e| refused(format!("shared key: {e}")))?),
+        None => None,
+    };
+    let faults = FaultInjection {
+        drop_fraction: args.drop,
+        corrupt_fraction: args.corrupt,
+        delay_fraction: if args.delay_ms.is_some() {
+            args.delay_fraction
+        } else {
+            0.0
+        },
+        delay: match args.delay_ms {
+            Some(ms) if ms.is_finite() && ms >= 0.0 => Duration::from_secs_f64(ms * 1e-3),
+            Some(ms) => return Err(refused(format!("--delay-ms must be 0 or more, got {ms}"))),
+            None => Duration::ZERO,
+        },
+        stop_after_frames: args.stop_after,
+    };
+    let watchdog = Duration::from_secs_f64(rig_config.watchdog_ms * 1e-3);
+    let emulator_config = EmulatorConfig {
+        identity: "stewart-emulator".into(),
+        layout: SensorLayout {
+            leg_count: LEG_COUNT as u8,
+            imu_present: true,
+            accel_position_m: config.sensors.imu_position_m,
+        },
+        limits: limits(config),
+        watchdog,
+        key,
+        faults,
+        lockstep: args.lockstep.then_some(watchdog),
+        seed: config.run.seed,
+        ..EmulatorConfig::new(limits(config))
+    };
+    let mut emulator =
+        Emulator::bind(&rig_config.address, simulator, emulator_config).map_err(refused)?;
+    let address = match emulator.local_addr() {
+        Some(addr) if rig_config.address.starts_with("udp://") => format!("udp://{addr}"),
+        _ => rig_config.address.clone(),
+    };
+    let sessions = Arc::new(Mutex::new(Vec::new()));
+    let seen = Arc::clone(&sessions);
+    let mode = args.payload;
+    let quiet = args.quiet;
+    emulator.set_session_hook(Box::new(
+        move |sim: &mut sim::Simulator, start: &SessionStart| {
+            let on = mode.loaded_in_session(start.number);
+            if on != sim.true_payload().is_some() {
+                if let Err(e) = put_payload(sim, on.then_some(payload)) {
+                    eprintln!("emulator: cannot change the payload: {e}");
+                }
+            }
+            if !quiet {
+                println!(
+                    "session {} from {}: payload {}",
+                    start.number,
+                    start.peer,
+                    if sim.true_payload().is_some() {
+                        "on"
+                    } else {
+                        "off (tare)"
+                    }
+                );
+            }
+            if let Ok(mut list) = seen.lock() {
+                list.push(*start);
+            }
+        },
+    ));
+    Ok(Prepared {
+        emulator,
+        address,
+        loaded,
+        sessions,
+    })
+}
+
+/// What an operator does between sessions: the payload goes on (or off) the braked platform,
+/// whose brakes take the new static load (as `simulate` does between its runs).
+fn put_payload(
+    sim: &mut sim::Simulator,
+    payload: Option<sim::BodyProperties>,
+) -> Result<(), sim::SimError> {
+    sim.set_payload(payload)
+}
+
+fn backend_failed(e: RigError) -> CommandError {
+    CommandError::Run(anyhow!("the emulator stopped: {e}"))
+}
+
+/// Runs `stewart emulate` until `stop` is set. Returns the emulator's counters.
+pub fn emulate(args: &EmulateArgs, stop: &AtomicBool) -> Result<EmulatorStats, CommandError> {
+    let mut prepared = prepare(args)?;
+    if !args.quiet {
+        println!(
+            "emulating the rig of {} on {} (payload: {}); Ctrl-C stops",
+            prepared.loaded.source,
+            prepared.address,
+            match args.payload {
+                PayloadMode::TareFirst => "off for the first session, then on",
+                PayloadMode::On => "on",
+                PayloadMode::Off => "off",
+            }
+        );
+    }
+    prepared.emulator.run(stop).map_err(backend_failed)?;
+    Ok(*prepared.emulator.stats())
+}
+
+/// `stewart emulate` from the command line; returns the exit code.
+pub fn main(args: &EmulateArgs, stop: &AtomicBool) -> u8 {
+    match emulate(args, stop) {
+        Ok(stats) => {
+            if !args.quiet {
+                println!("stopped: {}", summary(&stats));
+            }
+            0
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            e.exit_code()
+        }
+    }
+}
+
+/// The emulator's counters in one line.
+pub fn summary(s: &EmulatorStats) -> String {
+    format!(
+        "{} ticks ({} overruns), {} sessions, {} sensor frames sent ({} dropped, {} corrupted, \
+         {} delayed by injection), {} commands accepted ({} lost, {} duplicate, {} out of \
+         sequence), {} foreign, {} auth failed, {} corrupt, {} faults reported",
+        s.ticks,
+        s.overruns,
+        s.sessions,
+        s.sent,
+        s.dropped_injected,
+        s.corrupted_injected,
+        s.delayed_injected,
+        s.commands_accepted,
+        s.commands_lost,
+        s.duplicate,
+        s.out_of_sequence,
+        s.foreign_sender,
+        s.auth_failed,
+        s.corrupt,
+        s.faults_sent
+    )
+}
+
+/// An emulator running on its own thread (for tests and tools): stops and joins on
+/// [`stop`](Self::stop) or drop.
+pub struct RunningEmulator {
+    address: String,
+    stop: Arc<AtomicBool>,
+    sessions: Arc<Mutex<Vec<SessionStart>>>,
+    thread: Option<JoinHandle<Result<Emulator<sim::Simulator>, RigError>>>,
+}
+
+/// Prepares and starts an emulator on a thread of its own.
+pub fn spawn(args: &EmulateArgs) -> Result<RunningEmulator, CommandError> {
+    let prepared = prepare(args)?;
+    let stop = Arc::new(AtomicBool::new(false));
+    let flag = Arc::clone(&stop);
+    let mut emulator = prepared.emulator;
+    let thread = std::thread::Builder::new()
+        .name("emulator".into())
+        .spawn(move || emulator.run(&flag).map(|()| emulator))
+        .map_err(|e| CommandError::Run(anyhow!("cannot start the emulator thread: {e}")))?;
+    Ok(RunningEmulator {
+        address: prepared.address,
+        stop,
+        sessions: prepared.sessions,
+        thread: Some(thread),
+    })
+}
+
+impl RunningEmulator {
+    /// The address to connect to.
+    pub fn address(&self) -> &str {
+        &self.address
+    }
+
+    /// The sessions opened so far.
+    pub fn sessions(&self) -> Vec<SessionStart> {
+        self.sessions.lock().map(|l| l.clone()).unwrap_or_default()
+    }
+
+    /// Stops the emulator and gives it back (its counters, faults, last command, simulator).
+    pub fn stop(mut self) -> Result<Emulator<sim::Simulator>, CommandError> {
+        self.stop.store(true, Ordering::SeqCst);
+        let thread = self
+            .thread
+            .take()
+            .ok_or_else(|| CommandError::Run(anyhow!("the emulator was already stopped")))?;
+        thread
+            .join()
+            .map_err(|_| CommandError::Run(anyhow!("the emulator thread panicked")))?
+            .map_err(backend_failed)
+    }
+}
+
+impl Drop for RunningEmulator {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::SeqCst);
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn payload_modes_follow_the_sessions() {
+        assert!(!PayloadMode::TareFirst.loaded_in_session(1));
+        assert!(PayloadMode::TareFirst.loaded_in_session(2));
+        assert!(PayloadMode::TareFirst.loaded_in_session(7));
+        assert!(PayloadMode::On.loaded_in_session(1));
+        assert!(!PayloadMode::Off.loaded_in_session(3));
+    }
+
+    #[test]
+    fn limits_come_from_the_scenario() {
+        let loaded = crate::config_load::load(None).unwrap();
+        let c = &loaded.config;
+        let l = limits(c);
+        assert_eq!(l.stroke_min_m, c.platform.min_leg_length_m);
+        assert_eq!(l.stroke_max_m, c.platform.max_leg_length_m);
+        assert_eq!(l.speed_max_m_s, c.control.max_leg_speed_m_s);
+        assert_eq!(l.force_max_n, c.actuator.max_force_n);
+        assert_eq!(l.force_min_n, -c.actuator.max_force_n);
+    }
+
+    #[test]
+    fn bad_fault_injection_is_refused_before_binding() {
+        let args = EmulateArgs {
+            listen: Some("udp://127.0.0.1:0".into()),
+            drop: 1.5,
+            quiet: true,
+            ..EmulateArgs::default()
+        };
+        let e = prepare(&args).err().expect("refused");
+        assert!(e.to_string().contains("drop_fraction"), "{e}");
+        assert_eq!(e.exit_code(), 2);
+    }
+}

@@ -1,0 +1,385 @@
+//! What `stewart rig` watches on the link besides the samples: the rig backend wrapped so that
+//! the first failure (its cause, kind and instant) and the loop's timing are kept, and the
+//! `/rig/link` log record of the link counters.
+
+use std::time::Instant;
+
+use control::io::{Backend, CommandFrame, SensorFrame};
+use rig::{ErrorKind, LinkStats, RigBackend, RigError};
+use serde::Serialize;
+
+use crate::schema::{int, nullable, num, object, string, Schema};
+
+/// Topic of the link records.
+pub const LINK: &str = "/rig/link";
+
+/// Schema name of [`LinkMsg`].
+pub const LINK_SCHEMA_NAME: &str = "stewart.RigLink";
+
+/// The first failure of the link, the rig or its sensors, as the host saw it.
+#[derive(Clone, Debug)]
+pub struct Failure {
+    /// The cause in words (the rig crate's message, naming it).
+    pub cause: String,
+    /// Its class.
+    pub kind: ErrorKind,
+    /// When the host noticed.
+    pub at: Instant,
+    /// Time from the last valid sensor frame to noticing, s (`None` before the first frame).
+    pub after_last_frame_s: Option<f64>,
+}
+
+/// The host loop's timing over a measurement: the wall-clock time between successive sensor
+/// frames handed to the loop (the loop period), and the time from a frame's arrival to its
+/// command going out (the work of one tick).
+#[derive(Clone, Debug, Default)]
+pub struct LoopTiming {
+    periods_s: Vec<f64>,
+    work_s: Vec<f64>,
+}
+
+/// Summary of [`LoopTiming`] against the nominal period `T`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct TimingSummary {
+    /// Loop periods measured.
+    pub periods: u64,
+    /// Nominal sample period T, s.
+    pub nominal_period_s: f64,
+    /// Median loop period, s.
+    pub median_period_s: f64,
+    /// Median of |period − T|, s.
+    pub jitter_median_s: f64,
+    /// 99th percentile of |period − T|, s.
+    pub jitter_p99_s: f64,
+    /// Largest |period − T|, s.
+    pub jitter_max_s: f64,
+    /// Median time from receiving a frame to sending its command, s.
+    pub work_median_s: f64,
+    /// 99th percentile of that time, s.
+    pub work_p99_s: f64,
+}
+
+/// The `p`-quantile (0..=1) of sorted values by the nearest rank; 0 when empty.
+fn quantile(sorted: &[f64], p: f64) -> f64 {
+    if sorted.is_empty() {
+        return 0.0;
+    }
+    let rank = (p * sorted.len() as f64).ceil() as usize;
+    sorted[rank.clamp(1, sorted.len()) - 1]
+}
+
+fn sorted(values: impl Iterator<Item = f64>) -> Vec<f64> {
+    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).collect();
+    v.sort_by(f64::total_cmp);
+    v
+}
+
+impl LoopTiming {
+    /// Summary against the nominal period `nominal_period_s`.
+    pub fn summary(&self, nominal_period_s: f64) -> TimingSummary {
+        let periods = sorted(self.periods_s.iter().copied());
+        let jitter = sorted(self.periods_s.iter().map(|p| (p - nominal_period_s).abs()));
+        let work = sorted(self.work_s.iter().copied());
+        TimingSummary {
+            periods: periods.len() as u64,
+            nominal_period_s,
+            median_period_s: quantile(&periods, 0.5),
+            jitter_median_s: quantile(&jitter, 0.5),
+            jitter_p99_s: quantile(&jitter, 0.99),
+            jitter_max_s: jitter.last().copied().unwrap_or(0.0),
+            work_median_s: quantile(&work, 0.5),
+            work_p99_s: quantile(&work, 0.99),
+        }
+    }
+}
+
+/// The rig backend as the run loop sees it, keeping the first failure and the loop timing.
+pub struct Monitored<'a> {
+    rig: &'a mut RigBackend,
+    timing: &'a mut LoopTiming,
+    failure: Option<Failure>,
+    last_frame_at: Option<Instant>,
+    last_time_s: Option<f64>,
+}
+
+impl<'a> Monitored<'a> {
+    /// Wraps `rig` for one measurement; timing goes to `timing`.
+    pub fn new(rig: &'a mut RigBackend, timing: &'a mut LoopTiming) -> Self {
+        Self {
+            rig,
+            timing,
+            failure: None,
+            last_frame_at: None,
+            last_time_s: None,
+        }
+    }
+
+    /// The first failure, if any.
+    pub fn failure(&self) -> Option<&Failure> {
+        self.failure.as_ref()
+    }
+
+    /// Rig time of the last frame handed to the loop, s.
+    pub fn last_time_s(&self) -> Option<f64> {
+        self.last_time_s
+    }
+
+    /// The wrapped backend.
+    pub fn rig(&mut self) -> &mut RigBackend {
+        self.rig
+    }
+
+    fn note(&mut self, error: &RigError) {
+        if self.failure.is_none() {
+            let at = Instant::now();
+            self.failure = Some(Failure {
+                cause: error.to_string(),
+                kind: error.kind(),
+                at,
+                after_last_frame_s: self.last_frame_at.map(|t| (at - t).as_secs_f64()),
+            });
+        }
+    }
+}
+
+impl Backend for Monitored<'_> {
+    type Error = RigError;
+
+    fn read(&mut self) -> Result<SensorFrame, RigError> {
+        match self.rig.read() {
+            Ok(frame) => {
+                let now = Instant::now();
+                if let Some(previous) = self.last_frame_at {
+                    self.timing.periods_s.push((now - previous).as_secs_f64());
+                }
+                self.last_frame_at = Some(now);
+                self.last_time_s = Some(frame.time_s);
+                Ok(frame)
+            }
+            Err(e) => {
+                self.note(&e);
+                Err(e)
+            }
+        }
+    }
+
+    fn write(&mut self, command: &CommandFrame) -> Result<(), RigError> {
+        if let Some(at) = self.last_frame_at {
+            self.timing.work_s.push(at.elapsed().as_secs_f64());
+        }
+        self.rig.write(command).inspect_err(|e| self.note(e))
+    }
+
+    fn sample_period_s(&self) -> f64 {
+        self.rig.sample_period_s()
+    }
+}
+
+/// The link counters in the log and the report (`rig::LinkStats` with names that say what
+/// each counts).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct LinkCounters {
+    /// Frames received from anyone.
+    pub received: u64,
+    /// Sensor frames handed to the loop.
+    pub accepted: u64,
+    /// Sensor frames that never arrived (sequence gaps).
+    pub lost: u64,
+    /// Frames skipped because a newer one was waiting.
+    pub late: u64,
+    /// Repeats of the last sequence.
+    pub duplicate: u64,
+    /// Frames older than the last accepted.
+    pub out_of_sequence: u64,
+    /// Damaged frames (CRC, framing).
+    pub corrupt: u64,
+    /// Frames from an address other than the rig's.
+    pub foreign: u64,
+    /// Frames with a missing or wrong key tag.
+    pub auth_failed: u64,
+    /// Frames of another protocol (version).
+    pub version_mismatch: u64,
+    /// Valid frames not expected then.
+    pub unexpected: u64,
+    /// Commands sent.
+    pub commands_sent: u64,
+    /// Commands with a force clamped to the limits.
+    pub commands_clamped: u64,
+}
+
+impl From<LinkStats> for LinkCounters {
+    fn from(s: LinkStats) -> Self {
+        Self {
+            received: s.received,
+            accepted: s.accepted,
+            lost: s.lost,
+            late: s.late,
+            duplicate: s.duplicate,
+            out_of_sequence: s.out_of_sequence,
+            corrupt: s.corrupt,
+            foreign: s.foreign_sender,
+            auth_failed: s.auth_failed,
+            version_mismatch: s.version_mismatch,
+            unexpected: s.unexpected,
+            commands_sent: s.commands_sent,
+            commands_clamped: s.commands_clamped,
+        }
+    }
+}
+
+impl LinkCounters {
+    fn schema() -> Schema {
+        let n = |d: &'static str| int(d);
+        object(
+            vec![
+                ("received", n("frames received from anyone")),
+                ("accepted", n("sensor frames handed to the loop")),
+                (
+                    "lost",
+                    n("sensor frames that never arrived (sequence gaps)"),
+                ),
+                ("late", n("frames skipped because a newer one was waiting")),
+                ("duplicate", n("repeats of the last sequence")),
+                ("out_of_sequence", n("frames older than the last accepted")),
+                ("corrupt", n("damaged frames (CRC, framing)")),
+                ("foreign", n("frames from an address other than the rig's")),
+                ("auth_failed", n("frames with a missing or wrong key tag")),
+                ("version_mismatch", n("frames of another protocol version")),
+                ("unexpected", n("valid frames not expected then")),
+                ("commands_sent", n("commands sent")),
+                (
+                    "commands_clamped",
+                    n("commands with a force clamped to the limits"),
+                ),
+            ],
+            "link counters over the measurement",
+        )
+    }
+}
+
+/// `stewart.RigLink` on [`LINK`]: the rig and the link counters, written when a session opens
+/// and when a measurement ends (completed, interrupted or faulted).
+#[derive(Clone, Debug, Serialize)]
+pub struct LinkMsg {
+    /// Measurement (`"tare"` or `"loaded"`).
+    pub run: &'static str,
+    /// Rig time of the last frame, s (0 before the first).
+    pub time_s: f64,
+    /// `"session"` (opened) or `"end"` (measurement over).
+    pub event: &'static str,
+    /// The rig's address.
+    pub address: String,
+    /// The rig's identity from the handshake.
+    pub identity: String,
+    /// The session number the rig chose.
+    pub session_id: u64,
+    /// Counters over this measurement (zero at `"session"`).
+    pub counters: LinkCounters,
+    /// The loop's timing over this measurement (`null` at `"session"`).
+    pub timing: Option<TimingSummary>,
+    /// What stopped the measurement, when it faulted.
+    pub fault: Option<String>,
+}
+
+impl LinkMsg {
+    /// JSON schema.
+    pub fn schema() -> Schema {
+        object(
+            vec![
+                (
+                    "run",
+                    string("measurement this belongs to: \"tare\" or \"loaded\""),
+                ),
+                ("time_s", num("rig time of the last frame, s")),
+                (
+                    "event",
+                    string("\"session\" (opened) or \"end\" (measurement over)"),
+                ),
+                ("address", string("the rig's address")),
+                ("identity", string("the rig's identity from the handshake")),
+                ("session_id", int("session number chosen by the rig")),
+                ("counters", LinkCounters::schema()),
+                (
+                    "timing",
+                    nullable(object(
+                        vec![
+                            ("periods", int("loop periods measured")),
+                            ("nominal_period_s", num("nominal sample period, s")),
+                            ("median_period_s", num("median loop period, s")),
+                            ("jitter_median_s", num("median |period - T|, s")),
+                            ("jitter_p99_s", num("99th percentile of |period - T|, s")),
+                            ("jitter_max_s", num("largest |period - T|, s")),
+                            ("work_median_s", num("median frame-to-command time, s")),
+                            (
+                                "work_p99_s",
+                                num("99th percentile of frame-to-command time, s"),
+                            ),
+                        ],
+                        "host loop timing (wall clock)",
+                    )),
+                ),
+                ("fault", nullable(string("what stopped the measurement"))),
+            ],
+            "The rig link: identity and counters",
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantiles_by_nearest_rank() {
+        let v: Vec<f64> = (1..=100).map(f64::from).collect();
+        assert_eq!(quantile(&v, 0.5), 50.0);
+        assert_eq!(quantile(&v, 0.99), 99.0);
+        assert_eq!(quantile(&v, 1.0), 100.0);
+        assert_eq!(quantile(&[], 0.5), 0.0);
+        assert_eq!(quantile(&[3.0], 0.99), 3.0);
+    }
+
+    #[test]
+    fn timing_summary_measures_jitter_about_the_nominal_period() {
+        let timing = LoopTiming {
+            periods_s: vec![0.001, 0.0011, 0.0009, 0.001, 0.003],
+            work_s: vec![1e-5, 2e-5],
+        };
+        let s = timing.summary(0.001);
+        assert_eq!(s.periods, 5);
+        assert!((s.median_period_s - 0.001).abs() < 1e-12);
+        assert!((s.jitter_median_s - 1e-4).abs() < 1e-9);
+        assert!((s.jitter_max_s - 0.002).abs() < 1e-12);
+        assert!((s.jitter_p99_s - 0.002).abs() < 1e-12);
+        assert!((s.work_median_s - 1e-5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn link_message_matches_its_schema() {
+        let msg = LinkMsg {
+            run: "loaded",
+            time_s: 1.5,
+            event: "end",
+            address: "udp://127.0.0.1:7700".into(),
+            identity: "stewart-emulator".into(),
+            session_id: 7,
+            counters: LinkCounters::from(LinkStats {
+                lost: 3,
+                ..LinkStats::default()
+            }),
+            timing: Some(LoopTiming::default().summary(0.001)),
+            fault: Some("link silent".into()),
+        };
+        let value = serde_json::to_value(&msg).unwrap();
+        LinkMsg::schema().check(&value).unwrap();
+        assert_eq!(value["counters"]["lost"], 3);
+        let no_timing = LinkMsg {
+            timing: None,
+            fault: None,
+            ..msg
+        };
+        LinkMsg::schema()
+            .check(&serde_json::to_value(&no_timing).unwrap())
+            .unwrap();
+    }
+}

@@ -1,0 +1,100 @@
+//! The emulator stops answering in the middle of a run: `stewart rig` notices within 100 ms
+//! (link silence limit 50 ms, the default), commands a safe stop, ends with a fault naming the
+//! cause and exit code 3, and its MCAP log is finished and readable to the last frame.
+
+mod rig_support;
+
+use std::time::Duration;
+
+use rig::transport::Peer;
+use rig_support::*;
+use stewart_cli::rig_cmd::link::LINK;
+use stewart_cli::run::End;
+
+#[test]
+fn the_emulator_going_silent_is_a_fault_within_100_ms() {
+    let _lock = real_time();
+    let scratch = Scratch::new(&quick());
+    // 500 Hz: 1000 frames are 2 s, past the brake hold (0.5 s) and into the ramp home, settle
+    // and the start of the excitation: the platform is being driven.
+    let stop_after = 1000u64;
+    let emulator = start(&EmulateArgs {
+        stop_after: Some(stop_after),
+        ..emulate_args(&scratch)
+    });
+    let log = scratch.path("rig.mcap");
+    let args = rig_args(&[
+        "tare",
+        "--out",
+        scratch.path("tare.json").to_str().unwrap(),
+        "--config",
+        scratch.config_str(),
+        "--connect",
+        emulator.address(),
+        "--link-silence-ms",
+        "50",
+        "--log",
+        log.to_str().unwrap(),
+        "--quiet",
+    ]);
+    let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));
+    let sessions = emulator.sessions();
+    // Give the safe stop time to arrive before the emulator is stopped.
+    std::thread::sleep(Duration::from_millis(50));
+    let stopped = emulator.stop().unwrap();
+
+    // A fault naming the cause, exit code 3.
+    let End::Fault(cause) = &outcome.end else {
+        panic!("expected a fault, got {:?}", outcome.end)
+    };
+    assert!(cause.contains("link silent"), "{cause}");
+    assert!(
+        cause.contains(&format!("last sequence {stop_after}")),
+        "{cause}"
+    );
+    assert_eq!(
+        stewart_cli::rig_cmd::finish(&args, &outcome),
+        stewart_cli::EXIT_FAULT
+    );
+    assert!(
+        !scratch.path("tare.json").exists(),
+        "no tare from a failed run"
+    );
+
+    // Noticed within 100 ms of the last frame the emulator sent.
+    let failure = outcome.failure.as_ref().expect("the failure is kept");
+    let last_sent = stopped.last_sensor_sent_at().expect("frames were sent");
+    let latency = failure.at.duration_since(last_sent);
+    eprintln!(
+        "fault detected {:.1} ms after the last frame was sent ({:.1} ms after the host read it)",
+        latency.as_secs_f64() * 1e3,
+        failure.after_last_frame_s.unwrap_or(f64::NAN) * 1e3
+    );
+    assert!(latency >= Duration::from_millis(50), "{latency:?}");
+    assert!(latency < Duration::from_millis(100), "{latency:?}");
+
+    // The safe stop reached the rig: its last command from the host brakes.
+    let last = stopped.last_command().expect("commands were sent");
+    assert!(!last.enable, "{last:?}");
+    assert_eq!(stopped.session_peer(), Some(sessions[0].peer));
+    assert!(matches!(sessions[0].peer, Peer::Udp(_)));
+
+    // The log: finished, every record readable, the last frame is the last one sent, and the
+    // fault is named in /supervisor and /rig/link.
+    let messages = read_log(&log);
+    let sensors = on(&messages, "/sensors");
+    let last_sequence = sensors.last().unwrap()["sequence"].as_u64().unwrap();
+    assert_eq!(last_sequence, stop_after);
+    let supervisor = on(&messages, "/supervisor");
+    let last = supervisor.last().unwrap();
+    assert_eq!(last["phase"], "fault");
+    assert!(last["fault"].as_str().unwrap().contains("link silent"));
+    let link = on(&messages, LINK);
+    let end = link.last().unwrap();
+    assert_eq!(end["event"], "end");
+    assert!(end["fault"].as_str().unwrap().contains("link silent"));
+    assert_eq!(
+        end["counters"]["accepted"].as_u64().unwrap(),
+        sensors.len() as u64
+    );
+}
