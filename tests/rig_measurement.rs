@@ -77,6 +77,8 @@ fn a_rig_measurement_agrees_with_truth_as_well_as_simulate() {
         log.to_str().unwrap(),
         "--report",
         report_path.to_str().unwrap(),
+        "--plot",
+        scratch.path("figures").to_str().unwrap(),
         "--quiet",
     ]);
     let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));
@@ -84,6 +86,8 @@ fn a_rig_measurement_agrees_with_truth_as_well_as_simulate() {
     let stopped = emulator.stop().unwrap();
     assert_eq!(outcome.end, End::Completed, "{:?}", outcome.failure);
     assert_eq!(stewart_cli::rig_cmd::finish(&args, &outcome), 0);
+    let figures = std::fs::read_dir(scratch.path("figures")).unwrap().count();
+    assert!(figures > 0, "--plot wrote no figures");
     // Two sessions from one host: the tare with the fixture empty, then loaded.
     assert_eq!(sessions.len(), 2, "{sessions:?}");
     assert_eq!(sessions[0].peer, sessions[1].peer);

@@ -205,6 +205,8 @@ pub(super) fn build_report(
             sigma: core::array::from_fn(|i| tare_file.covariance[i][i].max(0.0).sqrt()),
             estimate: quantities(&tare_estimate),
         },
+        // The accelerometer-bias probes run only online (`run`); none here.
+        systematic: Default::default(),
         run: RunInfo {
             config: loaded.source.clone(),
             seed: config.run.seed,
@@ -315,5 +317,14 @@ pub fn finish(args: &RigArgs, outcome: &RigOutcome) -> u8 {
         }
     }
     println!("log: {}", outcome.log_path.display());
+    if let Some(dir) = &run_args.plot {
+        match crate::plot::plot_log(&outcome.log_path, dir) {
+            Ok(files) => println!("figures: {} ({} files)", dir.display(), files.len()),
+            Err(e) => {
+                eprintln!("error: cannot plot the log: {e:#}");
+                code = code.max(1);
+            }
+        }
+    }
     code
 }
