@@ -28,6 +28,9 @@ pub enum Command {
     /// Re-run the estimator on a log of `simulate` or `rig` (its settings, or others) and print
     /// the same table and report.
     Estimate(crate::estimate::EstimateArgs),
+    /// Can this computer run the loop? Times the full control-and-estimation tick (median,
+    /// p99) and the simulator on the configured scenario, and says whether the rate fits.
+    Bench(crate::bench::BenchArgs),
 }
 
 /// Flags shared by the measurement commands (`simulate`, and `rig` later).
@@ -66,6 +69,13 @@ pub struct RunArgs {
     /// Write SVG and PNG figures (estimates with ±σ and truth, tracking error, excitation) here.
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
+    /// Accuracy campaign: this many runs with seeds seed, seed+1, …, then per-parameter error
+    /// statistics (`--report` writes them as JSON).
+    #[arg(long, value_name = "N")]
+    pub runs: Option<u32>,
+    /// Runs in parallel with `--runs` (default: one per CPU).
+    #[arg(long, value_name = "J", requires = "runs")]
+    pub jobs: Option<usize>,
 }
 
 #[cfg(test)]

@@ -4,6 +4,8 @@
 #![warn(missing_docs)]
 
 pub mod args;
+pub mod bench;
+pub mod campaign;
 pub mod config;
 pub mod config_load;
 pub mod emulate;
@@ -60,6 +62,10 @@ pub fn main_entry() -> std::process::ExitCode {
                 ExitCode::from(2)
             }
         },
+        args::Command::Bench(a) => ExitCode::from(bench::main(&a)),
+        args::Command::Simulate(run_args) if run_args.runs.is_some() => {
+            ExitCode::from(campaign::main(&run_args, &INTERRUPT))
+        }
         args::Command::Simulate(run_args) => match simulate::simulate(&run_args, &INTERRUPT) {
             Ok(outcome) => {
                 let code = finish(&run_args, &outcome);

@@ -1,0 +1,609 @@
+//! `stewart simulate --runs N [--jobs J]`: what accuracy will I get with these sensors?
+//!
+//! N runs of the configured scenario with seeds `seed, seed+1, …` (every random number of a run
+//! — sensor noise, biases — follows from its seed), J at a time on a rayon pool. Each run is
+//! the ordinary single run ([`crate::simulate::simulate`], quiet, its log written to a
+//! temporary file and deleted). Then, per parameter of the payload (mass, centre of mass, J_C):
+//!
+//! - **mean error** `ē = mean(x̂ − x)`: the bias, to be read against `spread/√N`;
+//! - **spread**: the sample standard deviation of the estimates over the runs (`N − 1`);
+//! - **largest error** `max |x̂ − x|`, against issue 4's acceptance: mass 0.2 %, centre of mass
+//!   1 mm, diagonal of J_C 0.5 %, off-diagonal 0.5 % of the smallest principal moment;
+//! - **mean z²** `mean(((x̂ − x)/σ̂)²)` with σ̂ each run's reported sigma: 1 when the sigmas are
+//!   honest, below when they are pessimistic, above when optimistic (for N runs its own
+//!   sampling spread is about `√(2/N)`);
+//! - **share within 2σ**: the fraction of runs with `|x̂ − x| ≤ 2σ̂` (95.4 % for honest
+//!   Gaussian errors).
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Instant;
+
+use nalgebra::{Matrix3, SymmetricEigen};
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::args::RunArgs;
+use crate::report::{Quantities, Report};
+use crate::run::End;
+use crate::simulate::{self, CommandError};
+
+/// One parameter of the payload: name, unit, accessor.
+struct Parameter {
+    name: &'static str,
+    unit: &'static str,
+    get: fn(&Quantities) -> f64,
+    kind: Kind,
+}
+
+/// Which acceptance applies (issue 4).
+#[derive(Clone, Copy)]
+enum Kind {
+    Mass,
+    Com,
+    Diagonal,
+    OffDiagonal,
+}
+
+const PARAMETERS: [Parameter; 10] = [
+    Parameter {
+        name: "mass",
+        unit: "kg",
+        get: |q| q.mass,
+        kind: Kind::Mass,
+    },
+    Parameter {
+        name: "com x",
+        unit: "m",
+        get: |q| q.com[0],
+        kind: Kind::Com,
+    },
+    Parameter {
+        name: "com y",
+        unit: "m",
+        get: |q| q.com[1],
+        kind: Kind::Com,
+    },
+    Parameter {
+        name: "com z",
+        unit: "m",
+        get: |q| q.com[2],
+        kind: Kind::Com,
+    },
+    Parameter {
+        name: "J_C xx",
+        unit: "kg·m²",
+        get: |q| q.inertia_com[0][0],
+        kind: Kind::Diagonal,
+    },
+    Parameter {
+        name: "J_C yy",
+        unit: "kg·m²",
+        get: |q| q.inertia_com[1][1],
+        kind: Kind::Diagonal,
+    },
+    Parameter {
+        name: "J_C zz",
+        unit: "kg·m²",
+        get: |q| q.inertia_com[2][2],
+        kind: Kind::Diagonal,
+    },
+    Parameter {
+        name: "J_C xy",
+        unit: "kg·m²",
+        get: |q| q.inertia_com[0][1],
+        kind: Kind::OffDiagonal,
+    },
+    Parameter {
+        name: "J_C xz",
+        unit: "kg·m²",
+        get: |q| q.inertia_com[0][2],
+        kind: Kind::OffDiagonal,
+    },
+    Parameter {
+        name: "J_C yz",
+        unit: "kg·m²",
+        get: |q| q.inertia_com[1][2],
+        kind: Kind::OffDiagonal,
+    },
+];
+
+/// Issue 4's acceptance for one parameter of a body whose truth is `truth`.
+fn acceptance(kind: Kind, value: f64, truth: &Quantities) -> f64 {
+    match kind {
+        Kind::Mass => 0.002 * value.abs(),
+        Kind::Com => 1e-3,
+        Kind::Diagonal => 0.005 * value.abs(),
+        Kind::OffDiagonal => {
+            let j = Matrix3::from_fn(|r, c| truth.inertia_com[r][c]);
+            let smallest = SymmetricEigen::new(j).eigenvalues.min();
+            0.005 * smallest
+        }
+    }
+}
+
+/// Campaign statistics of one parameter (errors are estimate − truth, in the parameter's unit).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ParameterStats {
+    /// `mass`, `com x`, …, `J_C yz`.
+    pub name: String,
+    /// SI unit.
+    pub unit: String,
+    /// Ground truth (the same in every run).
+    pub truth: f64,
+    /// Mean error over the runs (the bias).
+    pub mean_error: f64,
+    /// Sample standard deviation of the estimates over the runs.
+    pub spread: f64,
+    /// `mean_error / (spread/√N)`: how many standard errors the bias is (|·| > 3 is a real
+    /// bias); null with fewer than two runs or no spread.
+    pub mean_error_in_standard_errors: Option<f64>,
+    /// Largest |error|.
+    pub max_abs_error: f64,
+    /// Mean of the reported sigmas.
+    pub mean_sigma: f64,
+    /// Mean of (error/σ)²; null when a sigma is zero (e.g. mass and centre of mass with
+    /// `params = 6`, which are given, not estimated).
+    pub mean_z2: Option<f64>,
+    /// Share of runs with |error| ≤ 2σ.
+    pub within_2_sigma: f64,
+    /// Issue 4's acceptance for |error|.
+    pub acceptance: f64,
+    /// `max_abs_error ≤ acceptance`.
+    pub within_acceptance: bool,
+}
+
+/// A run that produced no report.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct FailedRun {
+    /// Its seed.
+    pub seed: u64,
+    /// Why (fault, interrupt, error).
+    pub reason: String,
+}
+
+/// The campaign's result (`--report` writes it as JSON).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct CampaignReport {
+    /// Scenario file, or the embedded default.
+    pub config: String,
+    /// Noise preset.
+    pub noise: String,
+    /// 10 or 6.
+    pub params: u8,
+    /// Excitation time of each loaded run including the fades, s.
+    pub duration_s: f64,
+    /// Tare excitation time, s (0 with `--tare FILE`).
+    pub tare_duration_s: f64,
+    /// Runs asked for.
+    pub runs: u32,
+    /// Threads used.
+    pub jobs: usize,
+    /// Seed of the first run; run k has `first_seed + k`.
+    pub first_seed: u64,
+    /// Runs that produced a report (the statistics are over these).
+    pub completed: u32,
+    /// Runs that did not.
+    pub failed: Vec<FailedRun>,
+    /// Wall time of the whole campaign, s.
+    pub wall_s: f64,
+    /// One row per parameter (empty when no run completed or the truth is unknown).
+    pub parameters: Vec<ParameterStats>,
+    /// Every run's report, in seed order (completed runs only).
+    pub reports: Vec<Report>,
+}
+
+/// Statistics of `reports` (all with the same truth). `None` without reports or truth.
+pub fn statistics(reports: &[Report]) -> Option<Vec<ParameterStats>> {
+    let truth = reports.first()?.truth?;
+    let n = reports.len() as f64;
+    let rows = PARAMETERS.iter().map(|p| {
+        let t = (p.get)(&truth);
+        let estimates: Vec<f64> = reports.iter().map(|r| (p.get)(&r.estimate)).collect();
+        let sigmas: Vec<f64> = reports.iter().map(|r| (p.get)(&r.sigma)).collect();
+        let errors: Vec<f64> = estimates.iter().map(|e| e - t).collect();
+        let mean_error = errors.iter().sum::<f64>() / n;
+        let mean_estimate = estimates.iter().sum::<f64>() / n;
+        let spread = if reports.len() > 1 {
+            (estimates
+                .iter()
+                .map(|e| (e - mean_estimate).powi(2))
+                .sum::<f64>()
+                / (n - 1.0))
+                .sqrt()
+        } else {
+            0.0
+        };
+        let standard_error = spread / n.sqrt();
+        let honest_sigmas = sigmas.iter().all(|s| s.is_finite() && *s > 0.0);
+        let mean_z2 = honest_sigmas.then(|| {
+            errors
+                .iter()
+                .zip(&sigmas)
+                .map(|(e, s)| (e / s).powi(2))
+                .sum::<f64>()
+                / n
+        });
+        let within = errors
+            .iter()
+            .zip(&sigmas)
+            .filter(|(e, s)| e.abs() <= 2.0 * **s)
+            .count() as f64
+            / n;
+        let max_abs_error = errors.iter().fold(0.0f64, |m, e| m.max(e.abs()));
+        let limit = acceptance(p.kind, t, &truth);
+        ParameterStats {
+            name: p.name.into(),
+            unit: p.unit.into(),
+            truth: t,
+            mean_error,
+            spread,
+            mean_error_in_standard_errors: (reports.len() > 1 && standard_error > 0.0)
+                .then(|| mean_error / standard_error),
+            max_abs_error,
+            mean_sigma: sigmas.iter().sum::<f64>() / n,
+            mean_z2,
+            within_2_sigma: within,
+            acceptance: limit,
+            within_acceptance: max_abs_error <= limit,
+        }
+    });
+    Some(rows.collect())
+}
+
+/// Why the flags cannot make a campaign, if they cannot.
+fn refuse(args: &RunArgs) -> Option<&'static str> {
+    if args.runs == Some(0) {
+        Some("--runs must be at least 1")
+    } else if args.jobs == Some(0) {
+        Some("--jobs must be at least 1")
+    } else if args.log.is_some() || args.plot.is_some() || args.save_tare.is_some() {
+        Some("--log, --plot and --save-tare apply to a single run, not to --runs")
+    } else {
+        None
+    }
+}
+
+fn progress_bar(total: u64, quiet: bool) -> indicatif::ProgressBar {
+    use std::io::IsTerminal;
+    if quiet || !std::io::stderr().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let bar = indicatif::ProgressBar::new(total);
+    if let Ok(style) =
+        indicatif::ProgressStyle::with_template("[{elapsed_precise}] {bar:40} {pos}/{len} runs")
+    {
+        bar.set_style(style);
+    }
+    bar
+}
+
+/// Runs the campaign. Configuration problems are refused before any run starts. `interrupt`
+/// parks the runs in flight and skips the rest.
+pub fn run(args: &RunArgs, interrupt: &AtomicBool) -> Result<CampaignReport, CommandError> {
+    if let Some(problem) = refuse(args) {
+        return Err(CommandError::Input(anyhow::anyhow!(problem)));
+    }
+    let loaded = simulate::load_config(args)?;
+    let config = &loaded.config;
+    let runs = args.runs.unwrap_or(1);
+    let jobs = args
+        .jobs
+        .unwrap_or_else(|| rayon::current_num_threads().max(1));
+    let first_seed = config.run.seed;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs)
+        .build()
+        .map_err(|e| CommandError::Run(e.into()))?;
+    let log_dir = std::env::temp_dir().join(format!("stewart-campaign-{}", std::process::id()));
+    std::fs::create_dir_all(&log_dir).map_err(|e| CommandError::Run(e.into()))?;
+    let progress = progress_bar(u64::from(runs), args.quiet);
+    let start = Instant::now();
+
+    let outcomes: Vec<(u64, Result<Report, String>)> = pool.install(|| {
+        (0..u64::from(runs))
+            .into_par_iter()
+            .map(|k| {
+                let seed = first_seed.wrapping_add(k);
+                let result = if interrupt.load(Ordering::SeqCst) {
+                    Err("skipped: interrupted".to_string())
+                } else {
+                    one_run(
+                        args,
+                        seed,
+                        log_dir.join(format!("seed-{seed}.mcap")),
+                        interrupt,
+                    )
+                };
+                progress.inc(1);
+                (seed, result)
+            })
+            .collect()
+    });
+    progress.finish_and_clear();
+    let _ = std::fs::remove_dir_all(&log_dir);
+
+    let mut reports = Vec::new();
+    let mut failed = Vec::new();
+    for (seed, result) in outcomes {
+        match result {
+            Ok(r) => reports.push(r),
+            Err(reason) => failed.push(FailedRun { seed, reason }),
+        }
+    }
+    Ok(CampaignReport {
+        config: loaded.source.clone(),
+        noise: config.sensors.noise.name().into(),
+        params: config.estimator.params.into(),
+        duration_s: config.run.duration_s,
+        tare_duration_s: if args.tare.is_some() {
+            0.0
+        } else {
+            config.run.tare_duration_s
+        },
+        runs,
+        jobs,
+        first_seed,
+        completed: reports.len() as u32,
+        failed,
+        wall_s: start.elapsed().as_secs_f64(),
+        parameters: statistics(&reports).unwrap_or_default(),
+        reports,
+    })
+}
+
+/// One seeded run through the ordinary single-run path; its log is deleted afterwards.
+fn one_run(
+    args: &RunArgs,
+    seed: u64,
+    log: PathBuf,
+    interrupt: &AtomicBool,
+) -> Result<Report, String> {
+    let run_args = RunArgs {
+        seed: Some(seed),
+        log: Some(log.clone()),
+        report: None,
+        quiet: true,
+        runs: None,
+        jobs: None,
+        ..args.clone()
+    };
+    let outcome = simulate::simulate(&run_args, interrupt);
+    let _ = std::fs::remove_file(&log);
+    let outcome = outcome.map_err(|e| e.to_string())?;
+    match (outcome.end, outcome.report) {
+        (End::Completed, Some(report)) => Ok(report),
+        (End::Completed, None) => Err("no report".into()),
+        (End::Interrupted, _) => Err("interrupted".into()),
+        (End::Fault(f), _) => Err(format!("fault: {f}")),
+    }
+}
+
+fn opt(v: Option<f64>, decimals: usize) -> String {
+    v.map_or_else(|| "—".to_string(), |x| format!("{x:.decimals$}"))
+}
+
+/// The table: one row per parameter.
+pub fn render(c: &CampaignReport) -> String {
+    let mut out = String::new();
+    let last = c
+        .first_seed
+        .wrapping_add(u64::from(c.runs).saturating_sub(1));
+    let _ = writeln!(
+        out,
+        "{} of {} runs completed (seeds {}–{}), noise {}, {} parameters, {} s excitation, {} jobs, {:.0} s wall",
+        c.completed, c.runs, c.first_seed, last, c.noise, c.params, c.duration_s, c.jobs, c.wall_s
+    );
+    for f in &c.failed {
+        let _ = writeln!(out, "  seed {}: {}", f.seed, f.reason);
+    }
+    if c.parameters.is_empty() {
+        let _ = writeln!(out, "no statistics: no run completed with a known truth");
+        return out;
+    }
+    let _ = writeln!(
+        out,
+        "{:<7} {:<6} {:>11} {:>11} {:>10} {:>10} {:>10} {:>10} {:>8} {:>6} {:>10} {:>4}",
+        "param",
+        "unit",
+        "truth",
+        "mean err",
+        "(in s.e.)",
+        "spread",
+        "max |err|",
+        "mean σ",
+        "mean z²",
+        "≤2σ",
+        "accept",
+        "ok"
+    );
+    for p in &c.parameters {
+        let _ = writeln!(
+            out,
+            "{:<7} {:<6} {:>11.5} {:>11.3e} {:>10} {:>10.3e} {:>10.3e} {:>10.3e} {:>8} {:>5.0}% {:>10.3e} {:>4}",
+            p.name,
+            p.unit,
+            p.truth,
+            p.mean_error,
+            opt(p.mean_error_in_standard_errors, 2),
+            p.spread,
+            p.max_abs_error,
+            p.mean_sigma,
+            opt(p.mean_z2, 2),
+            100.0 * p.within_2_sigma,
+            p.acceptance,
+            if p.within_acceptance { "yes" } else { "NO" }
+        );
+    }
+    out
+}
+
+/// `stewart simulate --runs N`: runs, prints, writes `--report`. Exit code: 0 when every run
+/// completed, 1 when some did not, 2 when the input was refused, 130 after Ctrl-C.
+pub fn main(args: &RunArgs, interrupt: &AtomicBool) -> u8 {
+    let report = match run(args, interrupt) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return e.exit_code();
+        }
+    };
+    print!("{}", render(&report));
+    let mut code = u8::from(report.completed < report.runs);
+    if let Some(path) = &args.report {
+        match serde_json::to_string_pretty(&report) {
+            Ok(text) => match std::fs::write(path, text) {
+                Ok(()) => println!("report: {}", path.display()),
+                Err(e) => {
+                    eprintln!("error: cannot write the report {}: {e}", path.display());
+                    code = 1;
+                }
+            },
+            Err(e) => {
+                eprintln!("error: cannot encode the report: {e}");
+                code = 1;
+            }
+        }
+    }
+    if interrupt.load(Ordering::SeqCst) {
+        code = crate::EXIT_INTERRUPTED;
+    }
+    code
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn body(mass: f64, com_x: f64, jxy: f64) -> Quantities {
+        Quantities {
+            mass,
+            com: [com_x, 0.0, 0.5],
+            inertia_com: [[600.0, jxy, 0.0], [jxy, 2500.0, 0.0], [0.0, 0.0, 2700.0]],
+        }
+    }
+
+    fn report(estimate: Quantities, sigma: Quantities, truth: Quantities) -> Report {
+        Report {
+            estimate,
+            sigma,
+            truth: Some(truth),
+            ..Report::default()
+        }
+    }
+
+    #[test]
+    fn statistics_by_hand() {
+        let truth = body(1500.0, 0.1, -25.0);
+        let sigma = body(1.0, 1e-3, 0.5);
+        // Mass errors +1, −1, +3 (σ = 1): mean 1, z² mean (1+1+9)/3, two of three within 2σ.
+        let reports = [
+            report(body(1501.0, 0.1, -25.0), sigma, truth),
+            report(body(1499.0, 0.1, -25.0), sigma, truth),
+            report(body(1503.0, 0.1, -24.0), sigma, truth),
+        ];
+        let s = statistics(&reports).unwrap();
+        let mass = &s[0];
+        assert_eq!(mass.name, "mass");
+        assert!((mass.mean_error - 1.0).abs() < 1e-12);
+        assert!((mass.spread - 2.0).abs() < 1e-12); // estimates 1501, 1499, 1503
+        assert!((mass.max_abs_error - 3.0).abs() < 1e-12);
+        assert!((mass.mean_z2.unwrap() - 11.0 / 3.0).abs() < 1e-12);
+        assert!((mass.within_2_sigma - 2.0 / 3.0).abs() < 1e-12);
+        assert!((mass.acceptance - 3.0).abs() < 1e-12); // 0.2 % of 1500 kg
+        assert!(mass.within_acceptance);
+        let se = 2.0 / 3f64.sqrt();
+        assert!((mass.mean_error_in_standard_errors.unwrap() - 1.0 / se).abs() < 1e-12);
+        // Off-diagonal acceptance: 0.5 % of the smallest principal moment.
+        let xy = &s[7];
+        assert_eq!(xy.name, "J_C xy");
+        let smallest: f64 = SymmetricEigen::new(Matrix3::new(
+            600.0, -25.0, 0.0, -25.0, 2500.0, 0.0, 0.0, 0.0, 2700.0,
+        ))
+        .eigenvalues
+        .min();
+        assert!((xy.acceptance - 0.005 * smallest).abs() < 1e-12);
+        assert!((xy.max_abs_error - 1.0).abs() < 1e-12);
+        assert!(!xy.within_acceptance); // 1 kg·m² > 0.5 % of ≈ 599.7
+                                        // Com: 1 mm, no error at all.
+        assert_eq!(s[1].acceptance, 1e-3);
+        assert_eq!(s[1].max_abs_error, 0.0);
+        assert_eq!(s[1].mean_error_in_standard_errors, None);
+    }
+
+    #[test]
+    fn zero_sigma_gives_no_z2_and_no_truth_gives_no_statistics() {
+        let truth = body(1500.0, 0.1, -25.0);
+        let mut sigma = body(1.0, 1e-3, 0.5);
+        sigma.mass = 0.0;
+        let s = statistics(&[report(truth, sigma, truth)]).unwrap();
+        assert_eq!(s[0].mean_z2, None);
+        assert_eq!(s[4].mean_z2, Some(0.0));
+        let mut r = report(truth, sigma, truth);
+        r.truth = None;
+        assert!(statistics(&[r]).is_none());
+        assert!(statistics(&[]).is_none());
+    }
+
+    #[test]
+    fn single_run_flags_are_refused() {
+        let base = RunArgs {
+            runs: Some(3),
+            ..RunArgs::default()
+        };
+        assert!(refuse(&base).is_none());
+        for bad in [
+            RunArgs {
+                runs: Some(0),
+                ..base.clone()
+            },
+            RunArgs {
+                jobs: Some(0),
+                ..base.clone()
+            },
+            RunArgs {
+                log: Some("x.mcap".into()),
+                ..base.clone()
+            },
+            RunArgs {
+                plot: Some("d".into()),
+                ..base.clone()
+            },
+        ] {
+            assert!(refuse(&bad).is_some(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn a_tiny_campaign_runs_seeds_in_parallel_and_reports_each() {
+        let dir = tempfile::tempdir().unwrap();
+        let cfg = dir.path().join("short.toml");
+        // Short, so the test stays fast; the statistics themselves are checked above.
+        std::fs::write(&cfg, "[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n").unwrap();
+        let args = RunArgs {
+            config: Some(cfg),
+            noise: Some(crate::config::NoisePreset::Realistic),
+            seed: Some(40),
+            runs: Some(2),
+            jobs: Some(2),
+            quiet: true,
+            ..RunArgs::default()
+        };
+        let c = run(&args, &AtomicBool::new(false)).unwrap();
+        assert_eq!((c.completed, c.runs, c.jobs, c.first_seed), (2, 2, 2, 40));
+        assert_eq!(
+            c.reports.iter().map(|r| r.run.seed).collect::<Vec<_>>(),
+            [40, 41]
+        );
+        // Different seeds, different noise, different estimates.
+        assert_ne!(c.reports[0].estimate, c.reports[1].estimate);
+        assert_eq!(c.parameters.len(), 10);
+        assert!(c.parameters.iter().all(|p| p.spread > 0.0));
+        let text = render(&c);
+        assert!(
+            text.contains("2 of 2 runs completed (seeds 40–41)"),
+            "{text}"
+        );
+    }
+}
