@@ -310,6 +310,11 @@ pub struct EstimatorSection {
     /// Per-sample noise of each accelerometer axis, m/s² (omitted: from the noise preset).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub accel_noise_m_s2: Option<f64>,
+    /// One sigma of the accelerometer's bias, m/s², from its datasheet (omitted: from the noise
+    /// preset). Its effect on the estimate is added to the reported uncertainty: it does not
+    /// cancel with the tare, being proportional to the mass on the plate.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub accel_bias_m_s2: Option<f64>,
     /// Known payload mass for `params = 6` (weighed beforehand), kg.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub known_payload_mass_kg: Option<f64>,

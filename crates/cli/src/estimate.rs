@@ -273,7 +273,9 @@ pub fn reestimate_run(log: &LogContents, run: &str, o: &SettingsOverride) -> Res
             started = true;
             start_s = frame.time_s;
         }
-        if started && frame.time_s <= config.window_end_s {
+        // Every frame of the run up to the window's end, as the online run feeds them: frames
+        // before the window only warm the conditioning (see `run`).
+        if frame.time_s <= config.window_end_s {
             match pose {
                 Some(p) => {
                     let sample = Sample {
@@ -493,6 +495,8 @@ pub fn build_report(
             sigma: core::array::from_fn(|i| tare.covariance[i][i].max(0.0).sqrt()),
             estimate: quantities(&tare_estimate),
         },
+        // The accelerometer-bias probes run only online (`run`); none here.
+        systematic: Default::default(),
         run: RunInfo {
             config: meta.config_source.clone(),
             seed: meta.seed,

@@ -23,6 +23,7 @@ pub mod run;
 pub mod run_log;
 pub mod schema;
 pub mod simulate;
+pub mod systematic;
 pub mod table;
 pub mod tare;
 pub mod validate;

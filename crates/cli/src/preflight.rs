@@ -237,6 +237,16 @@ pub fn controller(
     })
 }
 
+/// One sigma of the accelerometer's bias, m/s² (its datasheet figure): the config's
+/// `estimator.accel_bias_m_s2`, else the noise preset's. Zero for ideal sensors.
+pub fn accel_bias_sigma(config: &Config) -> f64 {
+    config.estimator.accel_bias_m_s2.unwrap_or_else(|| {
+        sim::SensorConfig::preset(config.sensors.noise.to_sim())
+            .accelerometer
+            .bias_sigma_m_s2
+    })
+}
+
 /// Which measurement an estimator is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Measurement {

@@ -70,6 +70,15 @@ pub struct TareUsed {
     pub estimate: Quantities,
 }
 
+/// The systematic part of `sigma` (already included in it): the accelerometer bias's effect.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Systematic {
+    /// One sigma of the accelerometer bias assumed (datasheet), m/s².
+    pub accel_bias_sigma_m_s2: f64,
+    /// One sigma of each entry due to that bias alone.
+    pub sigma: Quantities,
+}
+
 /// How the run was made (enough to repeat it).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct RunInfo {
@@ -113,6 +122,9 @@ pub struct Report {
     pub consistency: Consistency,
     /// The tare subtracted.
     pub tare: TareUsed,
+    /// The systematic part of `sigma` (accelerometer bias), included in `sigma`.
+    #[serde(default)]
+    pub systematic: Systematic,
     /// How the run was made.
     pub run: RunInfo,
 }

@@ -11,8 +11,9 @@
 //! 2. **Controller** (`control::controller::Controller`): ramp to home and hold
 //!    (`run.settle_s`), the excitation, the park ramp and hold, then brakes on.
 //! 3. **Estimator**: created on the first excitation sample with the window
-//!    `[t_start, t_start + trajectory duration]` and fed every sample from there while the
-//!    excitation lasts. Its pose input is the forward kinematics of the measured leg lengths,
+//!    `[t_start, t_start + trajectory duration]`, then fed every earlier sample of the
+//!    measurement (they only warm its conditioning, so the filter's start transient is over when
+//!    the window opens) and every later one up to the window's end. Its pose input is the forward kinematics of the measured leg lengths,
 //!    warm-started from the previous sample's solution (the first sample of the measurement from
 //!    the home pose), so `stewart estimate` can rebuild the same inputs from `/sensors` alone.
 //!
@@ -94,6 +95,10 @@ pub struct MeasureOutcome {
     pub excitation_s: f64,
     /// Samples whose forward kinematics failed (not fed to the estimator).
     pub fk_failures: u64,
+    /// Change of θ caused by an accelerometer bias of one datasheet sigma along P's x, y and z
+    /// (rows), from three estimators fed the same samples with the bias added; `None` without
+    /// a bias figure (ideal sensors) or without an excitation. See [`crate::systematic`].
+    pub accel_bias_effect: Option<[[f64; 10]; 3]>,
     /// How it ended.
     pub end: End,
 }
@@ -150,10 +155,18 @@ where
     let average_samples = ((0.1 * rate_hz).round() as u64).clamp(1, hold_samples);
     let mut force_sum = [0.0; 6];
     let mut first_time: Option<f64> = None;
+    // Samples before the excitation: fed to the estimator when it is created, so that its
+    // conditioning (filtered derivative, low-pass) has settled by the window's start.
+    let mut pending: Vec<Sample> = Vec::with_capacity(8192);
+    let mut fk_failures = 0u64;
     for i in 0..hold_samples {
         let frame = read(backend)?;
         first_time.get_or_insert(frame.time_s);
         let pose = fk(&setup.geometry, &frame, &mut fk_guess, &fk_options);
+        match pose {
+            Some(p) => pending.push(sample_of(&frame, p)),
+            None => fk_failures += 1,
+        }
         hooks
             .log
             .write(topics::SENSORS, frame.time_s, &SensorMsg::new(run, &frame))?;
@@ -180,6 +193,7 @@ where
                 estimator_config: None,
                 excitation_s: 0.0,
                 fk_failures: 0,
+                accel_bias_effect: None,
                 end: End::Interrupted,
             });
         }
@@ -199,10 +213,11 @@ where
     let expected = expected_samples(config, &setup.trajectory);
     let budget = expected + (120.0 * rate_hz) as u64;
     let mut estimator: Option<OnlineEstimator> = None;
+    let bias_sigma = preflight::accel_bias_sigma(config);
+    let mut probes: Option<BiasProbes> = None;
     let mut history = Vec::with_capacity((setup.trajectory.duration_s() * rate_hz) as usize + 16);
     let mut excite_start_s = f64::NAN;
     let mut last_fed_s = f64::NAN;
-    let mut fk_failures = 0u64;
     let mut park_requested = false;
     let mut last_pose = fk_guess;
 
@@ -238,28 +253,38 @@ where
                 &EstimatorSettings::from_config(run, &c, &fk_options),
             )?;
             excite_start_s = frame.time_s;
-        }
-        if let Some(est) = estimator.as_mut() {
-            // Every frame up to the window's end, whatever the phase, so that a re-run from
-            // the log feeds exactly the same samples.
-            if frame.time_s <= est.config().window_end_s {
-                match pose {
-                    Some(p) => {
-                        let sample = Sample {
-                            time_s: frame.time_s,
-                            pose: p,
-                            leg_forces_n: Vector6::from(frame.leg_forces_n),
-                            gyro_rad_s: Vector3::from(frame.gyro_rad_s),
-                            accel_m_s2: Vector3::from(frame.accel_m_s2),
-                        };
-                        if let Ok(Outcome::Used) = est.update(&sample) {
-                            history.push(est.theta().into());
-                            last_fed_s = frame.time_s;
-                        }
+            // Every earlier sample of the measurement only warms the conditioning (they lie
+            // before the window), so the filter's start transient is over by the window.
+            if bias_sigma > 0.0 {
+                probes = Some(BiasProbes::new(&c, bias_sigma)?);
+            }
+            if let Some(est) = estimator.as_mut() {
+                for sample in pending.drain(..) {
+                    let _ = est.update(&sample);
+                    if let Some(p) = probes.as_mut() {
+                        p.update(&sample);
                     }
-                    None => fk_failures += 1,
                 }
             }
+        }
+        let sample = pose.map(|p| sample_of(&frame, p));
+        if sample.is_none() {
+            fk_failures += 1;
+        }
+        match (estimator.as_mut(), sample) {
+            // Every frame up to the window's end, whatever the phase, so that a re-run from
+            // the log feeds exactly the same samples.
+            (Some(est), Some(sample)) if frame.time_s <= est.config().window_end_s => {
+                if let Some(p) = probes.as_mut() {
+                    p.update(&sample);
+                }
+                if let Ok(Outcome::Used) = est.update(&sample) {
+                    history.push(est.theta().into());
+                    last_fed_s = frame.time_s;
+                }
+            }
+            (None, Some(sample)) if !park_requested => pending.push(sample),
+            _ => {}
         }
 
         // Log.
@@ -352,6 +377,10 @@ where
                         0.0
                     },
                     fk_failures,
+                    accel_bias_effect: match (&estimator, &probes) {
+                        (Some(e), Some(p)) => Some(p.effect(&e.theta().into())),
+                        _ => None,
+                    },
                     end,
                 });
             }
@@ -390,6 +419,50 @@ fn next(sequence: &mut u64) -> u64 {
     let s = *sequence;
     *sequence += 1;
     s
+}
+
+/// Three estimators fed the same samples with an accelerometer bias of one sigma added along
+/// x, y and z: their difference from the main estimate is the bias's effect on θ.
+struct BiasProbes {
+    estimators: [OnlineEstimator; 3],
+    bias_m_s2: f64,
+}
+
+impl BiasProbes {
+    fn new(config: &EstimatorConfig, bias_m_s2: f64) -> Result<Self> {
+        let e = OnlineEstimator::new(*config)
+            .map_err(|e| anyhow!("estimator refused its settings: {e}"))?;
+        Ok(Self {
+            estimators: [e, e, e],
+            bias_m_s2,
+        })
+    }
+
+    fn update(&mut self, sample: &Sample) {
+        for (axis, e) in self.estimators.iter_mut().enumerate() {
+            let mut biased = *sample;
+            biased.accel_m_s2[axis] += self.bias_m_s2;
+            let _ = e.update(&biased);
+        }
+    }
+
+    fn effect(&self, theta: &[f64; 10]) -> [[f64; 10]; 3] {
+        core::array::from_fn(|axis| {
+            let t: [f64; 10] = self.estimators[axis].theta().into();
+            core::array::from_fn(|i| t[i] - theta[i])
+        })
+    }
+}
+
+/// The estimator's input of one frame at `pose`.
+fn sample_of(frame: &SensorFrame, pose: Pose) -> Sample {
+    Sample {
+        time_s: frame.time_s,
+        pose,
+        leg_forces_n: Vector6::from(frame.leg_forces_n),
+        gyro_rad_s: Vector3::from(frame.gyro_rad_s),
+        accel_m_s2: Vector3::from(frame.accel_m_s2),
+    }
 }
 
 /// Forward kinematics of the frame's leg lengths, warm-started from (and updating) `guess`.

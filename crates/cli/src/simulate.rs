@@ -24,7 +24,8 @@ use crate::mcap_log::default_log_path;
 use crate::metadata::{BodyTruth, RunMetadata, TruthMsg};
 use crate::preflight::{self, Measurement};
 use crate::report::{
-    Consistency, Convergence, Principal, Quantities, Report, ResidualRms, RunInfo, TareUsed,
+    Consistency, Convergence, Principal, Quantities, Report, ResidualRms, RunInfo, Systematic,
+    TareUsed,
 };
 use crate::run::{self, End, Hooks, MeasureOutcome, MeasureSetup};
 use crate::run_log::RunLog;
@@ -328,6 +329,7 @@ fn simulate_logged(
 
     // Tare: measured now, or from the file.
     let mut measured_tare = None;
+    let mut tare_bias_effect = None;
     let tare = match (tare_file, tare_trajectory) {
         (Some(file), _) => {
             log.write_now(topics::TARE, &file)?;
@@ -364,6 +366,7 @@ fn simulate_logged(
                 file.save(path)?;
             }
             measured_tare = Some(file.clone());
+            tare_bias_effect = outcome.accel_bias_effect;
             TareSource::Measured(file)
         }
         (None, None) => unreachable!("a tare file or a tare trajectory is always present"),
@@ -394,7 +397,16 @@ fn simulate_logged(
         return Ok((None, outcome.end, measured_tare));
     }
     let truth = sim.true_payload().map(|b| quantities_of_body(&b));
-    let report = build_report(args, loaded, &outcome, &tare, &tare_params, truth, log)?;
+    let report = build_report(
+        args,
+        loaded,
+        &outcome,
+        &tare,
+        &tare_params,
+        tare_bias_effect.as_ref(),
+        truth,
+        log,
+    )?;
     Ok((Some(report), End::Completed, measured_tare))
 }
 
@@ -464,12 +476,14 @@ fn quantities_of_body(b: &sim::BodyProperties) -> Quantities {
     }
 }
 
+#[allow(clippy::too_many_arguments)]
 fn build_report(
     args: &RunArgs,
     loaded: &LoadedConfig,
     outcome: &MeasureOutcome,
     tare: &TareSource,
     tare_params: &(InertialParameters, ParameterCovariance),
+    tare_bias_effect: Option<&[[f64; 10]; 3]>,
     truth: Option<Quantities>,
     log: &RunLog,
 ) -> anyhow::Result<Report> {
@@ -477,7 +491,11 @@ fn build_report(
     let loaded_estimate = outcome
         .estimate
         .context("the loaded run produced no estimate")?;
-    let payload = run::payload_estimate(&loaded_estimate, Some(tare_params));
+    let systematic =
+        crate::systematic::bias_covariance(outcome.accel_bias_effect.as_ref(), tare_bias_effect);
+    let payload =
+        crate::systematic::payload_with_systematics(&loaded_estimate, tare_params, &systematic);
+    let systematic_only = Estimate::from_parameters(payload.parameters, systematic);
     let axes = payload.principal_axes;
     let consistency = payload.consistency;
     let tare_file = tare.file();
@@ -524,6 +542,10 @@ fn build_report(
             theta: tare_file.theta,
             sigma: core::array::from_fn(|i| tare_file.covariance[i][i].max(0.0).sqrt()),
             estimate: quantities(&tare_estimate),
+        },
+        systematic: Systematic {
+            accel_bias_sigma_m_s2: crate::preflight::accel_bias_sigma(config),
+            sigma: sigmas(&systematic_only),
         },
         run: RunInfo {
             config: loaded.source.clone(),

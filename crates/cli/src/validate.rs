@@ -178,6 +178,17 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
         nyquist * 0.8,
         "Hz (below 80 % of half the sample rate)",
     );
+    let highest = highest_excitation_hz(config);
+    if highest.is_finite() && est.cutoff_hz.is_finite() && est.cutoff_hz < 2.0 * highest {
+        p.push(
+            "estimator.cutoff_hz",
+            format!(
+                "must be at least twice the excitation's highest frequency ({highest:.3} Hz), got {} Hz: \
+                 the low-pass would remove the motion it is meant to measure",
+                est.cutoff_hz
+            ),
+        );
+    }
     p.within(
         "estimator.forgetting_factor",
         est.forgetting_factor,
@@ -193,6 +204,9 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
     }
     if let Some(v) = est.accel_noise_m_s2 {
         p.within("estimator.accel_noise_m_s2", v, 0.0, 100.0, "m/s²");
+    }
+    if let Some(v) = est.accel_bias_m_s2 {
+        p.within("estimator.accel_bias_m_s2", v, 0.0, 1.0, "m/s²");
     }
     if est.params == ParamCount::Six {
         known(
@@ -236,6 +250,28 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
         }
     }
     p.0
+}
+
+/// The excitation's highest frequency, Hz (NaN when it has none).
+fn highest_excitation_hz(config: &Config) -> f64 {
+    let e = &config.excitation;
+    match e.kind {
+        ExcitationKind::Multisine => {
+            let m = &e.multisine;
+            let excited = m
+                .peak_translation_m
+                .iter()
+                .chain(&m.peak_rotation_deg)
+                .filter(|a| **a > 0.0)
+                .count();
+            m.base_frequency_hz * (excited as f64) * f64::from(m.harmonics_per_axis)
+        }
+        ExcitationKind::Sines => e
+            .sines
+            .iter()
+            .map(|s| s.frequency_hz)
+            .fold(f64::NAN, f64::max),
+    }
 }
 
 /// Checks a body's mass, centre of mass and inertia tensor for physical consistency.
@@ -298,7 +334,6 @@ fn body(p: &mut Problems, section: &str, b: &BodyConfig) {
             ),
         );
     }
-    let _ = lo;
 }
 
 fn multisine(p: &mut Problems, m: &MultisineConfig, f_max: f64) {
