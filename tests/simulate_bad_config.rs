@@ -1,0 +1,145 @@
+//! `stewart simulate` refuses a bad scenario before anything runs: unknown key, wrong unit,
+//! wrong type, out-of-range value, unreachable trajectory, singular geometry, and a bad flag
+//! value. Each through the built binary: exit code 2, a message naming the file (with the line)
+//! and the dotted key, and no log written.
+
+use std::path::Path;
+use std::process::Command;
+
+/// Runs `stewart simulate --config <file with text>` and returns (exit code, stderr, dir).
+fn refuse(text: &str, extra: &[&str]) -> (i32, String, tempfile::TempDir) {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("bad.toml");
+    std::fs::write(&config, text).unwrap();
+    let log = dir.path().join("run.mcap");
+    let out = Command::new(env!("CARGO_BIN_EXE_stewart"))
+        .arg("simulate")
+        .arg("--config")
+        .arg(&config)
+        .arg("--log")
+        .arg(&log)
+        .arg("--quiet")
+        .args(extra)
+        .current_dir(dir.path())
+        .output()
+        .expect("the stewart binary runs");
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(!log.exists(), "a refused run must not start a log:\n{stderr}");
+    assert!(!dir.path().join("runs").exists(), "nor a default log");
+    (out.status.code().unwrap_or(-1), stderr, dir)
+}
+
+fn assert_names(stderr: &str, dir: &Path, line: Option<usize>, key: &str, what: &str) {
+    let file = dir.join("bad.toml").display().to_string();
+    let at = match line {
+        Some(l) => format!("{file}:{l}:"),
+        None => format!("{file}"),
+    };
+    assert!(stderr.contains(&at), "no `{at}` in:\n{stderr}");
+    assert!(stderr.contains(&format!("`{key}`")), "no key `{key}` in:\n{stderr}");
+    assert!(stderr.contains(what), "no `{what}` in:\n{stderr}");
+}
+
+#[test]
+fn unknown_key() {
+    let (code, err, dir) = refuse("[payload]\nmass_kg = 1500.0\ncolour = \"red\"\n", &[]);
+    assert_eq!(code, 2, "{err}");
+    assert_names(&err, dir.path(), Some(3), "payload.colour", "unknown key");
+}
+
+#[test]
+fn unknown_section() {
+    let (code, err, dir) = refuse("[paylod]\nmass_kg = 1500.0\n", &[]);
+    assert_eq!(code, 2, "{err}");
+    assert_names(&err, dir.path(), Some(1), "paylod", "did you mean `payload`");
+}
+
+#[test]
+fn wrong_unit() {
+    let (code, err, dir) = refuse("[payload]\n\nmass_lb = 3300.0\n", &[]);
+    assert_eq!(code, 2, "{err}");
+    assert_names(&err, dir.path(), Some(3), "payload.mass_lb", "mass_kg");
+    assert!(err.contains("unit"), "{err}");
+}
+
+#[test]
+fn wrong_unit_in_a_sine_component() {
+    let text = "[excitation]\nkind = \"sines\"\n[[excitation.sines]]\naxis = \"roll\"\namplitude_m = 0.05\nfrequency_hz = 0.5\n";
+    let (code, err, dir) = refuse(text, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert_names(
+        &err,
+        dir.path(),
+        Some(5),
+        "excitation.sines[0].amplitude_m",
+        "amplitude_deg",
+    );
+}
+
+#[test]
+fn wrong_type() {
+    let (code, err, dir) = refuse("[payload]\nmass_kg = \"1500 kg\"\n", &[]);
+    assert_eq!(code, 2, "{err}");
+    assert_names(&err, dir.path(), Some(2), "payload.mass_kg", "wrong type");
+}
+
+#[test]
+fn out_of_range_values() {
+    let text = "[payload]\nmass_kg = -1500.0\n[estimator]\nforgetting_factor = 1.5\n";
+    let (code, err, dir) = refuse(text, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert_names(&err, dir.path(), Some(2), "payload.mass_kg", "positive");
+    // Every problem is reported at once.
+    assert_names(&err, dir.path(), Some(4), "estimator.forgetting_factor", "between");
+}
+
+#[test]
+fn unphysical_inertia() {
+    let text = "[payload]\ninertia_com_kg_m2 = [[100.0, 0.0, 0.0], [0.0, 100.0, 0.0], [0.0, 0.0, 500.0]]\n";
+    let (code, err, dir) = refuse(text, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert_names(&err, dir.path(), Some(2), "payload.inertia_com_kg_m2", "triangle");
+}
+
+#[test]
+fn unreachable_trajectory() {
+    let text = "[excitation.multisine]\npeak_translation_m = [0.3, 0.3, 0.3]\n";
+    let (code, err, dir) = refuse(text, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert_names(&err, dir.path(), Some(1), "excitation.multisine", "trajectory");
+}
+
+#[test]
+fn singular_geometry() {
+    // Pair separations adding up to 120° put the plate's joints at the base's angles.
+    let text = "[platform]\nbase_pair_separation_deg = 60.0\nplate_pair_separation_deg = 60.0\n";
+    let (code, err, dir) = refuse(text, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert_names(&err, dir.path(), Some(1), "platform", "singular");
+}
+
+#[test]
+fn bad_duration_flag_names_the_flag() {
+    let (code, err, _dir) = refuse("", &["--duration", "1.0"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--duration (run.duration_s)"), "{err}");
+    assert!(err.contains("excitation.fade_s"), "{err}");
+}
+
+#[test]
+fn bad_flag_value_is_a_usage_error() {
+    let (code, err, _dir) = refuse("", &["--noise", "loud"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("loud"), "{err}");
+}
+
+#[test]
+fn missing_file() {
+    let out = Command::new(env!("CARGO_BIN_EXE_stewart"))
+        .args(["simulate", "--config", "/nonexistent/car.toml", "--quiet"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("/nonexistent/car.toml") && err.contains("cannot read"), "{err}");
+}
