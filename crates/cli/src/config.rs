@@ -68,6 +68,13 @@ pub struct BodyConfig {
     pub inertia_com_kg_m2: [[f64; 3]; 3],
 }
 
+impl ExcitationConfig {
+    /// The fade-out time, s.
+    pub fn fade_out(&self) -> f64 {
+        self.fade_out_s.unwrap_or(self.fade_s)
+    }
+}
+
 impl BodyConfig {
     /// As the simulator's body description.
     pub fn to_sim(&self) -> sim::BodyProperties {
@@ -240,8 +247,13 @@ pub struct SineConfig {
 pub struct ExcitationConfig {
     /// `multisine` or `sines`.
     pub kind: ExcitationKind,
-    /// Fade in and out (C² window), s; part of the excitation time.
+    /// Fade in (and out, unless `fade_out_s` is given) with a C² window, s; part of the
+    /// excitation time.
     pub fade_s: f64,
+    /// Fade out, s (omitted: `fade_s`). A short fade-in starts the motion at once; the fade-out
+    /// must still be long enough to bring the legs to rest within their speed limit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fade_out_s: Option<f64>,
     /// Every leg must stay this far inside its stroke, m.
     pub stroke_margin_m: f64,
     /// Largest leg speed the trajectory may ask for, m/s (keep below

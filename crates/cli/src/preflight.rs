@@ -83,7 +83,7 @@ pub fn trajectory(
                     peak_amplitudes: [t[0], t[1], t[2], r[0], r[1], r[2]],
                     duration_s,
                     fade_in_s: e.fade_s,
-                    fade_out_s: e.fade_s,
+                    fade_out_s: e.fade_out(),
                     spectrum: match m.spectrum {
                         SpectrumConfig::FlatPosition => Spectrum::FlatPosition,
                         SpectrumConfig::FlatVelocity => Spectrum::FlatVelocity,
@@ -113,7 +113,7 @@ pub fn trajectory(
                     phase_rad: s.phase_deg.to_radians(),
                 })
                 .collect();
-            Trajectory::new(home, &components, duration_s, e.fade_s, e.fade_s)
+            Trajectory::new(home, &components, duration_s, e.fade_s, e.fade_out())
         }
     };
     result.map_err(|err| ConfigError::single(trajectory_issue(loaded, &err)))

@@ -136,6 +136,9 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
     let nyquist = s.sample_rate_hz / 2.0;
     let e = &config.excitation;
     p.positive("excitation.fade_s", e.fade_s);
+    if let Some(f) = e.fade_out_s {
+        p.positive("excitation.fade_out_s", f);
+    }
     p.non_negative("excitation.stroke_margin_m", e.stroke_margin_m);
     p.positive("excitation.max_leg_speed_m_s", e.max_leg_speed_m_s);
     if e.max_leg_speed_m_s > c.max_leg_speed_m_s {
@@ -239,12 +242,13 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
         ("run.duration_s", r.duration_s),
         ("run.tare_duration_s", r.tare_duration_s),
     ] {
-        if d.is_finite() && d < 2.0 * e.fade_s {
+        let fades = e.fade_s + e.fade_out();
+        if d.is_finite() && d < fades {
             p.push(
                 key,
                 format!(
-                    "must be at least twice excitation.fade_s ({} s), got {d} s",
-                    e.fade_s
+                    "must be at least the fade-in and fade-out together (excitation.fade_s and \
+                     excitation.fade_out_s: {fades} s), got {d} s"
                 ),
             );
         }

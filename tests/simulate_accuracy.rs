@@ -1,0 +1,234 @@
+//! `stewart simulate` end to end, through the library entry point: the default car measured
+//! with realistic noise (a shorter excitation than the 60 s acceptance run, so looser
+//! figures), the paper's case converging within 100 samples, and the tare: subtracted, saved,
+//! reused, and refused for another rig.
+//!
+//! Every figure is checked against the simulator's truth, which only the report carries.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use stewart_cli::args::RunArgs;
+use stewart_cli::report::{Quantities, Report};
+use stewart_cli::simulate::{simulate, SimulateOutcome};
+
+/// Runs `simulate` on `scenario` (laid over the default) in a fresh directory.
+fn run(scenario: &str, extra: impl FnOnce(&mut RunArgs, &Path)) -> (tempfile::TempDir, SimulateOutcome) {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("scenario.toml");
+    std::fs::write(&config, scenario).unwrap();
+    let mut args = RunArgs {
+        config: Some(config),
+        log: Some(dir.path().join("run.mcap")),
+        quiet: true,
+        ..RunArgs::default()
+    };
+    extra(&mut args, dir.path());
+    let outcome = simulate(&args, &AtomicBool::new(false)).unwrap_or_else(|e| panic!("{e}"));
+    (dir, outcome)
+}
+
+fn report(outcome: &SimulateOutcome) -> &Report {
+    outcome.report.as_ref().expect("a completed run has a report")
+}
+
+/// Each checked entry: (name, estimate, sigma, truth).
+fn entries(r: &Report) -> Vec<(String, f64, f64, f64)> {
+    let t = r.truth.as_ref().expect("simulation reports the truth");
+    let get = |q: &Quantities, i: usize| -> f64 {
+        match i {
+            0 => q.mass,
+            1..=3 => q.com[i - 1],
+            _ => {
+                let (a, b) = [(0, 0), (1, 1), (2, 2), (0, 1), (0, 2), (1, 2)][i - 4];
+                q.inertia_com[a][b]
+            }
+        }
+    };
+    let names = ["mass", "cx", "cy", "cz", "Jxx", "Jyy", "Jzz", "Jxy", "Jxz", "Jyz"];
+    (0..10)
+        .map(|i| (names[i].to_string(), get(&r.estimate, i), get(&r.sigma, i), get(t, i)))
+        .collect()
+}
+
+/// The acceptance figures, each loosened by `factor`: mass 0.2 %, centre of mass 1 mm,
+/// diagonal of J_C 0.5 %, off-diagonal 0.5 % of the smallest principal moment; and the truth
+/// within `k` sigma.
+fn check_accuracy(r: &Report, factor: f64, k: f64) {
+    let smallest = r.principal.moments[0];
+    for (name, est, sigma, truth) in entries(r) {
+        let err = est - truth;
+        let tol = match &name[..] {
+            "mass" => 0.002 * truth,
+            "cx" | "cy" | "cz" => 1e-3,
+            "Jxx" | "Jyy" | "Jzz" => 0.005 * truth,
+            _ => 0.005 * smallest,
+        } * factor;
+        assert!(
+            err.abs() <= tol,
+            "{name}: estimate {est} truth {truth} error {err:e} beyond {tol:e}"
+        );
+        assert!(sigma > 0.0 && sigma.is_finite(), "{name}: sigma {sigma}");
+        assert!(
+            err.abs() <= k * sigma,
+            "{name}: error {err:e} is {:.1} sigma (sigma {sigma:e})",
+            err / sigma
+        );
+    }
+}
+
+#[test]
+fn default_car_with_realistic_noise() {
+    // 15 s of excitation instead of 60: sigmas about twice as large, so twice the tolerance.
+    let (_dir, outcome) = run(
+        "[sensors]\nnoise = \"realistic\"\n[run]\nduration_s = 15.0\ntare_duration_s = 10.0\n",
+        |_, _| {},
+    );
+    let r = report(&outcome);
+    check_accuracy(r, 2.0, 4.0);
+    assert_eq!(r.consistency.verdict, "consistent");
+    assert_eq!(r.tare.source, "measured");
+    assert!(r.samples > 14_000, "samples {}", r.samples);
+    assert!((r.excitation_s - 15.0).abs() < 0.01, "{}", r.excitation_s);
+    assert_eq!(r.rejected_samples, 0);
+    // The accelerometer's bias is part of the sigma, and it dominates the mass's.
+    assert!(r.systematic.sigma.mass > 0.0 && r.systematic.sigma.mass <= r.sigma.mass);
+}
+
+#[test]
+fn default_car_without_noise_is_exact() {
+    let (_dir, outcome) = run(
+        "[sensors]\nnoise = \"none\"\n[run]\nduration_s = 10.0\ntare_duration_s = 6.0\n",
+        |_, _| {},
+    );
+    let r = report(&outcome);
+    // The acceptance for ideal sensors: every entry within 0.05 %; off-diagonal entries
+    // (tens of kg·m²) against 0.05 % of the smallest principal moment.
+    let smallest = r.principal.moments[0];
+    for (name, est, _, truth) in entries(r) {
+        let tol = match &name[..] {
+            "cx" | "cy" | "cz" => 0.0005 * 0.5,
+            "Jxy" | "Jxz" | "Jyz" => 0.0005 * smallest,
+            _ => 0.0005 * truth.abs(),
+        };
+        assert!((est - truth).abs() <= tol, "{name}: {est} vs {truth}");
+    }
+    assert_eq!(r.systematic.sigma.mass, 0.0);
+    // Ideal sensors leave only the integration's model error in the residual.
+    assert!(r.residual_rms.torque_nm.iter().all(|v| *v < 0.1), "{:?}", r.residual_rms);
+}
+
+#[test]
+fn paper_case_converges_within_100_samples() {
+    let paper = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/configs/paper.toml"))
+        .unwrap();
+    // Shorter than the file's 20 s: convergence is decided in the first tenth of a second.
+    let (_dir, outcome) = run(
+        &format!("{paper}\n[run]\nduration_s = 4.0\ntare_duration_s = 4.0\n")
+            .replace("[run]\nduration_s = 20.0\ntare_duration_s = 20.0\n", ""),
+        |_, _| {},
+    );
+    let r = report(&outcome);
+    assert_eq!(r.run.params, 6);
+    let n = r.convergence.samples_to_1pct.expect("converges");
+    assert!(n < 100, "samples_to_1pct = {n}");
+    // The six-parameter model takes the mass and centre of mass as given.
+    let t = r.truth.as_ref().unwrap();
+    assert_eq!(r.estimate.mass, t.mass);
+    assert_eq!(r.sigma.mass, 0.0);
+    for (a, b) in [(0, 0), (1, 1), (2, 2)] {
+        let (e, t) = (r.estimate.inertia_com[a][b], t.inertia_com[a][b]);
+        assert!((e - t).abs() < 1e-3 * t, "J[{a}][{b}] {e} vs {t}");
+    }
+}
+
+fn tare_path(dir: &Path) -> PathBuf {
+    dir.join("tare.json")
+}
+
+#[test]
+fn tare_is_subtracted_saved_and_reused() {
+    let scenario = "[sensors]\nnoise = \"none\"\n[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n";
+    let (dir, first) = run(scenario, |a, d| a.save_tare = Some(tare_path(d)));
+    let r1 = report(&first).clone();
+    // The tare is the empty fixture (400 kg, centre of mass 5 cm above the P origin), and the
+    // payload is the loaded estimate minus it.
+    let fixture = &r1.tare.estimate;
+    assert!((fixture.mass - 400.0).abs() < 0.01, "{}", fixture.mass);
+    assert!((fixture.com[2] - 0.05).abs() < 1e-4, "{:?}", fixture.com);
+    let t = r1.truth.as_ref().unwrap();
+    assert!((r1.estimate.mass - t.mass).abs() < 0.01);
+    assert!((r1.estimate.com[2] - t.com[2]).abs() < 1e-4);
+
+    // A second run that reuses the saved tare skips the tare run and agrees.
+    let saved = tare_path(dir.path());
+    let (_dir2, second) = run(scenario, |a, _| a.tare = Some(saved.clone()));
+    let r2 = report(&second);
+    assert_eq!(r2.tare.source, "file");
+    assert_eq!(r2.tare.theta, r1.tare.theta);
+    assert!((r2.estimate.mass - r1.estimate.mass).abs() < 0.01);
+    for i in 0..3 {
+        assert!((r2.estimate.inertia_com[i][i] - r1.estimate.inertia_com[i][i]).abs() < 0.05);
+    }
+
+    // The same tare on a rig with other joints is refused before anything moves.
+    let other = "[platform]\nbase_radius_m = 1.6\n[run]\nduration_s = 6.0\n";
+    let cfg = dir.path().join("other.toml");
+    std::fs::write(&cfg, other).unwrap();
+    let args = RunArgs {
+        config: Some(cfg),
+        tare: Some(saved),
+        log: Some(dir.path().join("never.mcap")),
+        quiet: true,
+        ..RunArgs::default()
+    };
+    let err = simulate(&args, &AtomicBool::new(false)).expect_err("another rig's tare");
+    assert_eq!(err.exit_code(), 2);
+    assert!(err.to_string().contains("tare.json"), "{err}");
+    assert!(err.to_string().contains("joint"), "{err}");
+    assert!(!dir.path().join("never.mcap").exists(), "a refused run writes no log");
+}
+
+#[test]
+fn interrupt_parks_and_finishes_the_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("run.mcap");
+    let args = RunArgs {
+        log: Some(log.clone()),
+        quiet: true,
+        duration: Some(30.0),
+        ..RunArgs::default()
+    };
+    let stop = AtomicBool::new(false);
+    let outcome = std::thread::scope(|s| {
+        s.spawn(|| {
+            // Interrupt once the log has grown: the run is under way.
+            for _ in 0..600 {
+                std::thread::sleep(std::time::Duration::from_millis(50));
+                if std::fs::metadata(&log).map(|m| m.len() > 200_000).unwrap_or(false) {
+                    break;
+                }
+            }
+            stop.store(true, std::sync::atomic::Ordering::SeqCst);
+        });
+        simulate(&args, &stop).unwrap()
+    });
+    assert_eq!(outcome.end, stewart_cli::run::End::Interrupted);
+    assert!(outcome.report.is_none());
+    // The log is complete (summary and footer) and says the platform parked.
+    let bytes = std::fs::read(&log).unwrap();
+    let summary = mcap::Summary::read(&bytes).unwrap().expect("a finished log has a summary");
+    assert!(summary.stats.unwrap().message_count > 0);
+    let mut phases = Vec::new();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        if m.channel.topic == "/supervisor" {
+            let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+            phases.push((v["phase"].as_str().unwrap().to_string(), v["interrupted"].as_bool().unwrap()));
+        }
+    }
+    let (last, interrupted) = phases.last().unwrap();
+    assert!(*interrupted);
+    assert!(last == "done" || last == "idle", "ended in {last}");
+    assert!(phases.iter().any(|(p, i)| p == "park" && *i), "parked after the interrupt");
+}
