@@ -220,11 +220,7 @@ pub fn controller(
     control::controller::Controller::new(*geometry, trajectory, config).map_err(|e| {
         let issue = match e {
             ControlError::InvalidConfig { parameter, reason } => {
-                let key = if parameter.starts_with("pid") {
-                    "control"
-                } else if parameter.starts_with("supervisor") {
-                    "control"
-                } else if parameter.starts_with("feasibility") {
+                let key = if parameter.starts_with("feasibility") {
                     "excitation"
                 } else {
                     "control"

@@ -300,14 +300,14 @@ where
             last_pose = p;
         }
         state.tick_logs(hooks, &frame, &out, &last_pose)?;
-        let payload = if state.tick % state.scene_every == 0 {
+        let payload = if state.tick.is_multiple_of(state.scene_every) {
             estimator
                 .as_ref()
                 .map(|e| payload_estimate(&e.estimate(), setup.tare.as_ref()))
         } else {
             None
         };
-        if state.tick % state.estimate_every == 0 {
+        if state.tick.is_multiple_of(state.estimate_every) {
             if let Some(est) = estimator.as_ref() {
                 let e = est.estimate();
                 hooks.log.write(
@@ -533,7 +533,7 @@ impl Logging {
         measured: &Pose,
     ) -> Result<()> {
         let t = frame.time_s;
-        if self.tick % self.derived_every == 0 {
+        if self.tick.is_multiple_of(self.derived_every) {
             hooks.log.write(
                 topics::POSE,
                 t,
@@ -563,7 +563,7 @@ impl Logging {
                 .log
                 .write(topics::PID, t, &PidMsg::new(self.run, t, &out.pid))?;
         }
-        if self.tick % self.estimate_every == 0 {
+        if self.tick.is_multiple_of(self.estimate_every) {
             let time = Time::from_ns(hooks.log.time_ns(t));
             let tf = foxglove::platform_transform(time, measured.position_m, &measured.rotation);
             hooks.log.write(topics::TF, t, &tf)?;
@@ -579,7 +579,7 @@ impl Logging {
         pose: Option<&Pose>,
         payload: Option<&Estimate>,
     ) -> Result<()> {
-        if self.tick % self.scene_every != 0 {
+        if !self.tick.is_multiple_of(self.scene_every) {
             return Ok(());
         }
         let pose = pose.copied().unwrap_or_else(|| geometry.home_pose());
@@ -614,7 +614,7 @@ impl Logging {
         interrupted: bool,
     ) -> Result<()> {
         let changed = self.last_phase != Some(phase) || self.last_fault != fault;
-        if changed || clamped || self.tick % self.supervisor_every == 0 {
+        if changed || clamped || self.tick.is_multiple_of(self.supervisor_every) {
             self.last_phase = Some(phase);
             self.last_fault.clone_from(&fault);
             hooks.log.write(

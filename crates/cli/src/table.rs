@@ -163,9 +163,10 @@ mod tests {
         let mut report = Report::default();
         report.estimate.mass = 1500.3;
         report.sigma.mass = 0.2;
-        let mut truth = Quantities::default();
-        truth.mass = 1500.0;
-        report.truth = Some(truth);
+        report.truth = Some(Quantities {
+            mass: 1500.0,
+            ..Quantities::default()
+        });
         let text = render(&report);
         assert_eq!(text.lines().filter(|l| l.contains("kg·m²")).count(), 7);
         let mass = text.lines().find(|l| l.starts_with("mass")).unwrap();

@@ -102,7 +102,7 @@ impl TareFile {
         if !self.theta.iter().all(|v| v.is_finite()) {
             bail!("`theta` has a non-finite entry");
         }
-        if !(self.theta[0] > 0.0) {
+        if self.theta[0].is_nan() || self.theta[0] <= 0.0 {
             bail!("`theta[0]` (mass) must be positive, got {}", self.theta[0]);
         }
         for r in 0..10 {
