@@ -13,7 +13,10 @@ use stewart_cli::report::{Quantities, Report};
 use stewart_cli::simulate::{simulate, SimulateOutcome};
 
 /// Runs `simulate` on `scenario` (laid over the default) in a fresh directory.
-fn run(scenario: &str, extra: impl FnOnce(&mut RunArgs, &Path)) -> (tempfile::TempDir, SimulateOutcome) {
+fn run(
+    scenario: &str,
+    extra: impl FnOnce(&mut RunArgs, &Path),
+) -> (tempfile::TempDir, SimulateOutcome) {
     let dir = tempfile::tempdir().unwrap();
     let config = dir.path().join("scenario.toml");
     std::fs::write(&config, scenario).unwrap();
@@ -29,7 +32,10 @@ fn run(scenario: &str, extra: impl FnOnce(&mut RunArgs, &Path)) -> (tempfile::Te
 }
 
 fn report(outcome: &SimulateOutcome) -> &Report {
-    outcome.report.as_ref().expect("a completed run has a report")
+    outcome
+        .report
+        .as_ref()
+        .expect("a completed run has a report")
 }
 
 /// Each checked entry: (name, estimate, sigma, truth).
@@ -45,9 +51,18 @@ fn entries(r: &Report) -> Vec<(String, f64, f64, f64)> {
             }
         }
     };
-    let names = ["mass", "cx", "cy", "cz", "Jxx", "Jyy", "Jzz", "Jxy", "Jxz", "Jyz"];
+    let names = [
+        "mass", "cx", "cy", "cz", "Jxx", "Jyy", "Jzz", "Jxy", "Jxz", "Jyz",
+    ];
     (0..10)
-        .map(|i| (names[i].to_string(), get(&r.estimate, i), get(&r.sigma, i), get(t, i)))
+        .map(|i| {
+            (
+                names[i].to_string(),
+                get(&r.estimate, i),
+                get(&r.sigma, i),
+                get(t, i),
+            )
+        })
         .collect()
 }
 
@@ -115,7 +130,11 @@ fn default_car_without_noise_is_exact() {
     }
     assert_eq!(r.systematic.sigma.mass, 0.0);
     // Ideal sensors leave only the integration's model error in the residual.
-    assert!(r.residual_rms.torque_nm.iter().all(|v| *v < 0.1), "{:?}", r.residual_rms);
+    assert!(
+        r.residual_rms.torque_nm.iter().all(|v| *v < 0.1),
+        "{:?}",
+        r.residual_rms
+    );
 }
 
 #[test]
@@ -186,7 +205,10 @@ fn tare_is_subtracted_saved_and_reused() {
     assert_eq!(err.exit_code(), 2);
     assert!(err.to_string().contains("tare.json"), "{err}");
     assert!(err.to_string().contains("joint"), "{err}");
-    assert!(!dir.path().join("never.mcap").exists(), "a refused run writes no log");
+    assert!(
+        !dir.path().join("never.mcap").exists(),
+        "a refused run writes no log"
+    );
 }
 
 #[test]
@@ -205,7 +227,10 @@ fn interrupt_parks_and_finishes_the_log() {
             // Interrupt once the log has grown: the run is under way.
             for _ in 0..600 {
                 std::thread::sleep(std::time::Duration::from_millis(50));
-                if std::fs::metadata(&log).map(|m| m.len() > 200_000).unwrap_or(false) {
+                if std::fs::metadata(&log)
+                    .map(|m| m.len() > 200_000)
+                    .unwrap_or(false)
+                {
                     break;
                 }
             }
@@ -217,18 +242,26 @@ fn interrupt_parks_and_finishes_the_log() {
     assert!(outcome.report.is_none());
     // The log is complete (summary and footer) and says the platform parked.
     let bytes = std::fs::read(&log).unwrap();
-    let summary = mcap::Summary::read(&bytes).unwrap().expect("a finished log has a summary");
+    let summary = mcap::Summary::read(&bytes)
+        .unwrap()
+        .expect("a finished log has a summary");
     assert!(summary.stats.unwrap().message_count > 0);
     let mut phases = Vec::new();
     for m in mcap::MessageStream::new(&bytes).unwrap() {
         let m = m.unwrap();
         if m.channel.topic == "/supervisor" {
             let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
-            phases.push((v["phase"].as_str().unwrap().to_string(), v["interrupted"].as_bool().unwrap()));
+            phases.push((
+                v["phase"].as_str().unwrap().to_string(),
+                v["interrupted"].as_bool().unwrap(),
+            ));
         }
     }
     let (last, interrupted) = phases.last().unwrap();
     assert!(*interrupted);
     assert!(last == "done" || last == "idle", "ended in {last}");
-    assert!(phases.iter().any(|(p, i)| p == "park" && *i), "parked after the interrupt");
+    assert!(
+        phases.iter().any(|(p, i)| p == "park" && *i),
+        "parked after the interrupt"
+    );
 }

@@ -24,7 +24,10 @@ fn refuse(text: &str, extra: &[&str]) -> (i32, String, tempfile::TempDir) {
         .output()
         .expect("the stewart binary runs");
     let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    assert!(!log.exists(), "a refused run must not start a log:\n{stderr}");
+    assert!(
+        !log.exists(),
+        "a refused run must not start a log:\n{stderr}"
+    );
     assert!(!dir.path().join("runs").exists(), "nor a default log");
     (out.status.code().unwrap_or(-1), stderr, dir)
 }
@@ -33,10 +36,13 @@ fn assert_names(stderr: &str, dir: &Path, line: Option<usize>, key: &str, what: 
     let file = dir.join("bad.toml").display().to_string();
     let at = match line {
         Some(l) => format!("{file}:{l}:"),
-        None => format!("{file}"),
+        None => file.clone(),
     };
     assert!(stderr.contains(&at), "no `{at}` in:\n{stderr}");
-    assert!(stderr.contains(&format!("`{key}`")), "no key `{key}` in:\n{stderr}");
+    assert!(
+        stderr.contains(&format!("`{key}`")),
+        "no key `{key}` in:\n{stderr}"
+    );
     assert!(stderr.contains(what), "no `{what}` in:\n{stderr}");
 }
 
@@ -51,7 +57,13 @@ fn unknown_key() {
 fn unknown_section() {
     let (code, err, dir) = refuse("[paylod]\nmass_kg = 1500.0\n", &[]);
     assert_eq!(code, 2, "{err}");
-    assert_names(&err, dir.path(), Some(1), "paylod", "did you mean `payload`");
+    assert_names(
+        &err,
+        dir.path(),
+        Some(1),
+        "paylod",
+        "did you mean `payload`",
+    );
 }
 
 #[test]
@@ -90,7 +102,13 @@ fn out_of_range_values() {
     assert_eq!(code, 2, "{err}");
     assert_names(&err, dir.path(), Some(2), "payload.mass_kg", "positive");
     // Every problem is reported at once.
-    assert_names(&err, dir.path(), Some(4), "estimator.forgetting_factor", "between");
+    assert_names(
+        &err,
+        dir.path(),
+        Some(4),
+        "estimator.forgetting_factor",
+        "between",
+    );
 }
 
 #[test]
@@ -98,7 +116,13 @@ fn unphysical_inertia() {
     let text = "[payload]\ninertia_com_kg_m2 = [[100.0, 0.0, 0.0], [0.0, 100.0, 0.0], [0.0, 0.0, 500.0]]\n";
     let (code, err, dir) = refuse(text, &[]);
     assert_eq!(code, 2, "{err}");
-    assert_names(&err, dir.path(), Some(2), "payload.inertia_com_kg_m2", "triangle");
+    assert_names(
+        &err,
+        dir.path(),
+        Some(2),
+        "payload.inertia_com_kg_m2",
+        "triangle",
+    );
 }
 
 #[test]
@@ -106,7 +130,13 @@ fn unreachable_trajectory() {
     let text = "[excitation.multisine]\npeak_translation_m = [0.3, 0.3, 0.3]\n";
     let (code, err, dir) = refuse(text, &[]);
     assert_eq!(code, 2, "{err}");
-    assert_names(&err, dir.path(), Some(1), "excitation.multisine", "trajectory");
+    assert_names(
+        &err,
+        dir.path(),
+        Some(1),
+        "excitation.multisine",
+        "trajectory",
+    );
 }
 
 #[test]
@@ -141,5 +171,8 @@ fn missing_file() {
         .unwrap();
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("/nonexistent/car.toml") && err.contains("cannot read"), "{err}");
+    assert!(
+        err.contains("/nonexistent/car.toml") && err.contains("cannot read"),
+        "{err}"
+    );
 }
