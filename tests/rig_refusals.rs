@@ -116,7 +116,7 @@ fn a_protocol_version_mismatch_is_refused_before_any_motion() {
         kinds
     });
     let args = tare_args(&scratch, &address, &[]);
-    let error = run_rig(&args).err().expect("refused");
+    let error = run_rig(&args).expect_err("refused");
     let heard = rig.join().unwrap();
     let message = error.to_string();
     assert!(message.contains("protocol version mismatch"), "{message}");

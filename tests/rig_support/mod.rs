@@ -23,6 +23,7 @@ use stewart_cli::simulate::CommandError;
 pub const SHORT: &str = r#"
 [sensors]
 sample_rate_hz = 500.0
+physics_substeps = 2
 
 [control]
 max_sample_gap_s = 0.5

@@ -43,7 +43,7 @@ use crate::tare::TareFile;
 
 pub use outcome::{finish, link_lines, LinkReport, RigOutcome};
 
-use link::{Failure, LinkCounters, LinkMsg, LoopTiming, Monitored, TimingSummary, LINK};
+use link::{Failure, Link, LinkCounters, LinkMsg, LoopTiming, Monitored, TimingSummary, LINK};
 
 /// Where `stewart rig` looks for the rig and `stewart emulate` listens, unless the
 /// configuration's `rig.address` or `--connect`/`--listen` say otherwise.
@@ -424,9 +424,10 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
     };
 
     // The handshake: refusals end here, before the log and before any command.
-    let mut backend = RigBackend::connect(&link.address, link.options.clone())
+    let backend = RigBackend::connect(&link.address, link.options.clone())
         .map_err(|e| refuse(format!("{e}")))?;
     check_rig(backend.info(), &loaded)?;
+    let rig_link = Link::start(backend);
 
     let start_ns = unix_ns();
     let log_path = match &common.run.log {
@@ -439,7 +440,7 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
         plan: &plan,
         loaded: &loaded,
         geometry,
-        backend: &mut backend,
+        link: &rig_link,
         log: &mut log,
         interrupt,
         produced: outcome::Produced::default(),
@@ -448,12 +449,13 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
     let produced = std::mem::take(&mut state.produced);
     if !matches!(produced.end, Some(End::Completed)) || result.is_err() {
         // Whatever happened, leave the rig braked.
-        let _ = backend.safe_stop();
+        let _ = rig_link.lock().safe_stop();
     }
     let finished = log.finish();
     result.map_err(CommandError::Run)?;
     finished.map_err(CommandError::Run)?;
-    Ok(produced.into_outcome(log_path, backend.info().clone()))
+    let info = rig_link.lock().rig.info().clone();
+    Ok(produced.into_outcome(log_path, info))
 }
 
 /// The state of one `stewart rig` run once the rig answered.
@@ -462,7 +464,7 @@ struct Session<'a> {
     plan: &'a Plan,
     loaded: &'a LoadedConfig,
     geometry: kinematics::Geometry,
-    backend: &'a mut RigBackend,
+    link: &'a Link,
     log: &'a mut RunLog,
     interrupt: &'a AtomicBool,
     produced: outcome::Produced,
@@ -503,7 +505,7 @@ impl Session<'_> {
                 seed: config.run.seed,
                 noise: outcome::NOISE.into(),
                 params: config.estimator.params.into(),
-                sample_period_s: self.backend.sample_period_s(),
+                sample_period_s: self.link.lock().rig.sample_period_s(),
                 start_unix_ns: self.log.start_unix_ns(),
                 runs,
                 tare_file: self
@@ -579,7 +581,7 @@ impl Session<'_> {
 
         if matches!(tare, outcome::TareSource::Measured(_)) {
             // The tare's session ends braked; the payload goes on; a new session begins.
-            self.backend.safe_stop()?;
+            self.link.lock().safe_stop()?;
             let confirmed = progress
                 .suspend(|| operator_loads_payload(self.common.link.no_prompt, self.interrupt))?;
             if !confirmed {
@@ -587,10 +589,11 @@ impl Session<'_> {
                 self.produced.end = Some(End::Interrupted);
                 return Ok(());
             }
-            self.backend
+            let mut held = self.link.lock();
+            held.rig
                 .restart_session()
                 .map_err(|e| anyhow!("cannot open the loaded run's session: {e}"))?;
-            check_rig(self.backend.info(), self.loaded).map_err(|e| anyhow!("{e}"))?;
+            check_rig(held.rig.info(), self.loaded).map_err(|e| anyhow!("{e}"))?;
         }
 
         let tare_params = (tare.file().parameters(), tare.file().covariance_matrix());
@@ -637,8 +640,10 @@ impl Session<'_> {
         command_sequence: &mut u64,
     ) -> anyhow::Result<Measured> {
         let run_name = measurement.name();
-        let info = self.backend.info().clone();
-        let before = *self.backend.stats();
+        let (info, before) = {
+            let held = self.link.lock();
+            (held.rig.info().clone(), *held.rig.stats())
+        };
         self.log.write_now(
             LINK,
             &LinkMsg {
@@ -655,7 +660,7 @@ impl Session<'_> {
         )?;
         let mut timing = LoopTiming::default();
         let (result, failure, last_time_s) = {
-            let mut monitored = Monitored::new(self.backend, &mut timing);
+            let mut monitored = Monitored::new(self.link, &mut timing);
             let result = run::measure(
                 &mut monitored,
                 &MeasureSetup {
@@ -679,8 +684,14 @@ impl Session<'_> {
                 monitored.last_time_s(),
             )
         };
-        let counters = LinkCounters::from(self.backend.stats().since(&before));
-        let summary = timing.summary(self.backend.sample_period_s());
+        let (counters, period_s) = {
+            let held = self.link.lock();
+            (
+                LinkCounters::from(held.rig.stats().since(&before)),
+                held.rig.sample_period_s(),
+            )
+        };
+        let summary = timing.summary(period_s);
         let (outcome, end) = match result {
             Ok(o) => {
                 let end = o.end.clone();
@@ -690,13 +701,13 @@ impl Session<'_> {
             Err(e) => match &failure {
                 Some(f) => (None, End::Fault(f.cause.clone())),
                 None => {
-                    let _ = self.backend.safe_stop();
+                    let _ = self.link.lock().safe_stop();
                     return Err(e);
                 }
             },
         };
         if end != End::Completed {
-            self.backend.safe_stop()?;
+            self.link.lock().safe_stop()?;
         }
         let time_s = last_time_s.unwrap_or(0.0);
         if let (Some(f), End::Fault(cause)) = (&failure, &end) {

@@ -20,9 +20,15 @@ use crate::wire::{
     SensorLayout, NO_LEG, PROTOCOL_VERSION,
 };
 
-/// Most frames looked at in one read while skipping to the newest: bounds the work a flood of
-/// datagrams can cause per tick.
-const MAX_DRAIN: usize = 64;
+/// Most frames looked at in one read while skipping to the newest. A caller that paused for a
+/// while (say 100 ms, 100 frames at 1 kHz) must get the newest frame in one read: a second
+/// read would jump as far again, and a supervisor would see that jump as a gap between
+/// samples. The bound (and [`DRAIN_PERIODS`] sample periods of draining at most) caps the work
+/// a flood of datagrams can cause per tick.
+const MAX_DRAIN: usize = 4096;
+
+/// Longest time one read spends skipping to the newest frame, in sample periods.
+const DRAIN_PERIODS: f64 = 10.0;
 
 /// How the host talks to the rig. `Default` gives the documented defaults.
 #[derive(Clone, Debug)]
@@ -373,7 +379,12 @@ impl Backend for RigBackend {
         };
         self.last_valid_at = Instant::now();
         if self.options.skip_stale {
+            let drain_until = self.last_valid_at
+                + Duration::from_secs_f64(DRAIN_PERIODS * self.info.sample_period_s);
             for _ in 0..MAX_DRAIN {
+                if Instant::now() >= drain_until {
+                    break;
+                }
                 let received = self.transport.recv(&mut self.buf, Duration::ZERO);
                 match received {
                     Err(e) => return Err(self.fail(e)),

@@ -1,8 +1,19 @@
-//! What `stewart rig` watches on the link besides the samples: the rig backend wrapped so that
-//! the first failure (its cause, kind and instant) and the loop's timing are kept, and the
-//! `/rig/link` log record of the link counters.
+//! The host's side of the link as `stewart rig` holds it: the rig backend shared with a brake
+//! heartbeat, wrapped for the run loop so that the first failure (its cause, kind and instant)
+//! and the loop's timing are kept, and the `/rig/link` log record of the link counters.
+//!
+//! **Brake heartbeat.** The run procedure has pauses in which it sends nothing while the
+//! platform is braked: building the controller after the brake hold (its trajectory
+//! feasibility check takes about 0.1 s), saving the tare, waiting for the operator. A rig's
+//! command watchdog (20 ms) would trip in each. While the last command was a brake, a
+//! background thread repeats it (a safe stop) whenever the loop has been quiet for a quarter
+//! of the watchdog time. It never sends anything but a brake, and never while the actuators are
+//! driven: a loop that stalls mid-motion still lets the watchdog brake the rig.
 
-use std::time::Instant;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, MutexGuard};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
 
 use control::io::{Backend, CommandFrame, SensorFrame};
 use rig::{ErrorKind, LinkStats, RigBackend, RigError};
@@ -93,9 +104,100 @@ impl LoopTiming {
     }
 }
 
+/// The rig backend and what the heartbeat needs to know about the last command.
+pub struct Held {
+    /// The backend.
+    pub rig: RigBackend,
+    braked: bool,
+    last_command_at: Instant,
+    heartbeats: u64,
+}
+
+impl Held {
+    /// Sends a command through the backend, noting whether it brakes.
+    pub fn write(&mut self, command: &CommandFrame) -> Result<(), RigError> {
+        self.braked = !command.enable;
+        self.last_command_at = Instant::now();
+        self.rig.write(command)
+    }
+
+    /// Sends a safe stop (brakes).
+    pub fn safe_stop(&mut self) -> Result<(), RigError> {
+        self.braked = true;
+        self.last_command_at = Instant::now();
+        self.rig.safe_stop()
+    }
+
+    /// Safe stops the heartbeat sent so far.
+    pub fn heartbeats(&self) -> u64 {
+        self.heartbeats
+    }
+}
+
+/// The rig backend shared between the run loop and the brake heartbeat thread.
+pub struct Link {
+    held: Arc<Mutex<Held>>,
+    stop: Arc<AtomicBool>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl Link {
+    /// Takes over `rig` (just connected: braked) and starts the heartbeat at a quarter of the
+    /// rig's watchdog time (at least 1 ms).
+    pub fn start(rig: RigBackend) -> Self {
+        let interval = (rig.info().watchdog / 4).max(Duration::from_millis(1));
+        let held = Arc::new(Mutex::new(Held {
+            rig,
+            braked: true,
+            last_command_at: Instant::now(),
+            heartbeats: 0,
+        }));
+        let stop = Arc::new(AtomicBool::new(false));
+        let thread = {
+            let held = Arc::clone(&held);
+            let stop = Arc::clone(&stop);
+            std::thread::Builder::new()
+                .name("rig-heartbeat".into())
+                .spawn(move || heartbeat(&held, &stop, interval))
+                .ok()
+        };
+        Self { held, stop, thread }
+    }
+
+    /// The backend, exclusively (the heartbeat waits).
+    pub fn lock(&self) -> MutexGuard<'_, Held> {
+        self.held.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    fn stop_heartbeat(&mut self) {
+        self.stop.store(true, Ordering::SeqCst);
+        if let Some(thread) = self.thread.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+impl Drop for Link {
+    fn drop(&mut self) {
+        self.stop_heartbeat();
+    }
+}
+
+fn heartbeat(held: &Mutex<Held>, stop: &AtomicBool, interval: Duration) {
+    while !stop.load(Ordering::SeqCst) {
+        std::thread::sleep(interval);
+        let mut h = held.lock().unwrap_or_else(|e| e.into_inner());
+        if h.braked && h.last_command_at.elapsed() >= interval {
+            // A failed send is the link failing, which the loop's next read reports.
+            let _ = h.safe_stop();
+            h.heartbeats += 1;
+        }
+    }
+}
+
 /// The rig backend as the run loop sees it, keeping the first failure and the loop timing.
 pub struct Monitored<'a> {
-    rig: &'a mut RigBackend,
+    link: &'a Link,
     timing: &'a mut LoopTiming,
     failure: Option<Failure>,
     last_frame_at: Option<Instant>,
@@ -103,10 +205,10 @@ pub struct Monitored<'a> {
 }
 
 impl<'a> Monitored<'a> {
-    /// Wraps `rig` for one measurement; timing goes to `timing`.
-    pub fn new(rig: &'a mut RigBackend, timing: &'a mut LoopTiming) -> Self {
+    /// Wraps `link` for one measurement; timing goes to `timing`.
+    pub fn new(link: &'a Link, timing: &'a mut LoopTiming) -> Self {
         Self {
-            rig,
+            link,
             timing,
             failure: None,
             last_frame_at: None,
@@ -122,11 +224,6 @@ impl<'a> Monitored<'a> {
     /// Rig time of the last frame handed to the loop, s.
     pub fn last_time_s(&self) -> Option<f64> {
         self.last_time_s
-    }
-
-    /// The wrapped backend.
-    pub fn rig(&mut self) -> &mut RigBackend {
-        self.rig
     }
 
     fn note(&mut self, error: &RigError) {
@@ -146,7 +243,8 @@ impl Backend for Monitored<'_> {
     type Error = RigError;
 
     fn read(&mut self) -> Result<SensorFrame, RigError> {
-        match self.rig.read() {
+        let result = self.link.lock().rig.read();
+        match result {
             Ok(frame) => {
                 let now = Instant::now();
                 if let Some(previous) = self.last_frame_at {
@@ -167,11 +265,12 @@ impl Backend for Monitored<'_> {
         if let Some(at) = self.last_frame_at {
             self.timing.work_s.push(at.elapsed().as_secs_f64());
         }
-        self.rig.write(command).inspect_err(|e| self.note(e))
+        let result = self.link.lock().write(command);
+        result.inspect_err(|e| self.note(e))
     }
 
     fn sample_period_s(&self) -> f64 {
-        self.rig.sample_period_s()
+        self.link.lock().rig.sample_period_s()
     }
 }
 
