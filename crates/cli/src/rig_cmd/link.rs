@@ -428,6 +428,93 @@ impl LinkMsg {
 mod tests {
     use super::*;
 
+    /// A rig that holds still: enough for the link's timing.
+    struct Still {
+        sequence: u64,
+    }
+
+    impl Backend for Still {
+        type Error = String;
+        fn read(&mut self) -> Result<SensorFrame, String> {
+            Ok(SensorFrame {
+                sequence: self.sequence,
+                time_s: self.sequence as f64 * 1e-3,
+                leg_lengths_m: [0.55; 6],
+                accel_m_s2: [0.0, 0.0, 9.80665],
+                ..SensorFrame::default()
+            })
+        }
+        fn write(&mut self, _: &CommandFrame) -> Result<(), String> {
+            self.sequence += 1;
+            Ok(())
+        }
+        fn sample_period_s(&self) -> f64 {
+            1e-3
+        }
+    }
+
+    #[test]
+    fn the_heartbeat_keeps_a_braked_rig_quiet_and_a_driven_one_watched() {
+        use rig::emulator::{Emulator, EmulatorConfig};
+        use rig::wire::Limits;
+        let limits = Limits {
+            stroke_min_m: 0.4,
+            stroke_max_m: 0.7,
+            speed_max_m_s: 0.5,
+            force_min_n: -500.0,
+            force_max_n: 500.0,
+        };
+        // A 100 ms watchdog: long enough that a busy machine does not trip it by itself.
+        let config = EmulatorConfig {
+            watchdog: Duration::from_millis(100),
+            seed: 3,
+            ..EmulatorConfig::new(limits)
+        };
+        let mut emulator =
+            Emulator::bind("udp://127.0.0.1:0", Still { sequence: 0 }, config).unwrap();
+        let address = format!("udp://{}", emulator.local_addr().unwrap());
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = Arc::clone(&stop);
+        let thread = std::thread::spawn(move || {
+            emulator.run(&flag).unwrap();
+            emulator
+        });
+        let options = rig::RigOptions {
+            link_silence: Duration::from_secs(1),
+            ..rig::RigOptions::default()
+        };
+        let link = Link::start(RigBackend::connect(&address, options).unwrap());
+        let frame = link.lock().rig.read().unwrap();
+        link.lock()
+            .write(&CommandFrame::safe_stop(1, frame.sequence))
+            .unwrap();
+        // Braked and quiet for five watchdog times: the heartbeat keeps the session.
+        std::thread::sleep(Duration::from_millis(500));
+        let heartbeats = link.lock().heartbeats();
+        // Driven and quiet: nothing but the rig's watchdog may act.
+        link.lock()
+            .write(&CommandFrame {
+                sequence: 2,
+                sensor_sequence: frame.sequence,
+                leg_forces_n: [1.0; 6],
+                enable: true,
+            })
+            .unwrap();
+        std::thread::sleep(Duration::from_millis(400));
+        let after_driving = link.lock().heartbeats();
+        drop(link);
+        stop.store(true, Ordering::SeqCst);
+        let emulator = thread.join().unwrap();
+        assert!(heartbeats >= 5, "{heartbeats} heartbeats");
+        assert_eq!(after_driving, heartbeats, "no heartbeat while driven");
+        let faults = emulator.faults();
+        assert_eq!(faults.len(), 1, "{faults:?}");
+        assert_eq!(faults[0].code, rig::wire::FaultCode::WATCHDOG);
+        // It tripped after the driven command (wire sequence 1 the brake, then one per
+        // heartbeat, then the driven one), not while braked.
+        assert_eq!(faults[0].command_sequence, 2 + heartbeats);
+    }
+
     #[test]
     fn quantiles_by_nearest_rank() {
         let v: Vec<f64> = (1..=100).map(f64::from).collect();
