@@ -495,13 +495,13 @@ mod tests {
 
     #[test]
     fn statistics_by_hand() {
-        let truth = body(1500.0, 0.1, -25.0);
+        let truth = body(1500.0, 0.125, -25.0);
         let sigma = body(1.0, 1e-3, 0.5);
         // Mass errors +1, −1, +3 (σ = 1): mean 1, z² mean (1+1+9)/3, two of three within 2σ.
         let reports = [
-            report(body(1501.0, 0.1, -25.0), sigma, truth),
-            report(body(1499.0, 0.1, -25.0), sigma, truth),
-            report(body(1503.0, 0.1, -24.0), sigma, truth),
+            report(body(1501.0, 0.125, -25.0), sigma, truth),
+            report(body(1499.0, 0.125, -25.0), sigma, truth),
+            report(body(1503.0, 0.125, -21.0), sigma, truth),
         ];
         let s = statistics(&reports).unwrap();
         let mass = &s[0];
@@ -524,8 +524,8 @@ mod tests {
         .eigenvalues
         .min();
         assert!((xy.acceptance - 0.005 * smallest).abs() < 1e-12);
-        assert!((xy.max_abs_error - 1.0).abs() < 1e-12);
-        assert!(!xy.within_acceptance); // 1 kg·m² > 0.5 % of ≈ 599.7
+        assert!((xy.max_abs_error - 4.0).abs() < 1e-12);
+        assert!(!xy.within_acceptance); // 4 kg·m² > 0.5 % of ≈ 599.7 = 3.0
                                         // Com: 1 mm, no error at all.
         assert_eq!(s[1].acceptance, 1e-3);
         assert_eq!(s[1].max_abs_error, 0.0);
