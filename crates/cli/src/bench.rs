@@ -292,8 +292,18 @@ pub struct BenchReport {
     pub completed: bool,
 }
 
+/// Microseconds, to the nanosecond.
 fn micros(d: Duration) -> f64 {
-    d.as_secs_f64() * 1e6
+    d.as_nanos() as f64 / 1e3
+}
+
+/// `x` to `digits` significant figures (so the JSON shows what was measured, not float noise).
+fn significant(x: f64, digits: i32) -> f64 {
+    if x == 0.0 || !x.is_finite() {
+        return x;
+    }
+    let scale = 10f64.powi(digits - 1 - x.abs().log10().floor() as i32);
+    (x * scale).round() / scale
 }
 
 /// The `q`-quantile (0..=1) of sorted durations, by the nearest-rank rule.
@@ -377,13 +387,13 @@ pub fn measure(loaded: &LoadedConfig, excitation_s: f64) -> Result<BenchReport> 
         tick_p99_us: p99,
         tick_max_us: micros(ticks.last().copied().unwrap_or_default()),
         period_us,
-        p99_fraction_of_period: fraction,
+        p99_fraction_of_period: significant(fraction, 3),
         fits_with_margin: fits,
         verdict,
         sim_samples: steps.len() as u64,
-        sim_speed: simulated_s / sim_wall.as_secs_f64(),
+        sim_speed: significant(simulated_s / sim_wall.as_secs_f64(), 3),
         sim_step_median_us: micros(quantile(&steps, 0.5)),
-        closed_loop_speed: simulated_s / wall.as_secs_f64(),
+        closed_loop_speed: significant(simulated_s / wall.as_secs_f64(), 3),
         completed,
     })
 }
@@ -472,6 +482,14 @@ mod tests {
         assert_eq!(quantile(&d, 0.99), Duration::from_micros(99));
         assert_eq!(quantile(&d, 1.0), Duration::from_micros(100));
         assert_eq!(quantile(&[], 0.5), Duration::ZERO);
+    }
+
+    #[test]
+    fn significant_figures() {
+        assert_eq!(significant(0.0038160000000000004, 3), 0.00382);
+        assert_eq!(significant(289.1760214832255, 3), 289.0);
+        assert_eq!(significant(-12.345, 2), -12.0);
+        assert_eq!(significant(0.0, 3), 0.0);
     }
 
     #[test]

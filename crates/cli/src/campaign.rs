@@ -137,7 +137,7 @@ pub struct ParameterStats {
     /// Sample standard deviation of the estimates over the runs.
     pub spread: f64,
     /// `mean_error / (spread/√N)`: how many standard errors the bias is (|·| > 3 is a real
-    /// bias); null with fewer than two runs or no spread.
+    /// bias); null with fewer than two runs or no spread (identical runs, as without noise).
     pub mean_error_in_standard_errors: Option<f64>,
     /// Largest |error|.
     pub max_abs_error: f64,
@@ -239,8 +239,11 @@ pub fn statistics(reports: &[Report]) -> Option<Vec<ParameterStats>> {
             truth: t,
             mean_error,
             spread,
-            mean_error_in_standard_errors: (reports.len() > 1 && standard_error > 0.0)
-                .then(|| mean_error / standard_error),
+            // A spread at rounding level (identical runs, e.g. without noise) gives no
+            // standard error to compare the bias with.
+            mean_error_in_standard_errors: (reports.len() > 1
+                && spread > 1e-9 * t.abs().max(mean_estimate.abs()))
+            .then(|| mean_error / standard_error),
             max_abs_error,
             mean_sigma: sigmas.iter().sum::<f64>() / n,
             mean_z2,
