@@ -38,6 +38,8 @@ fn report_numbers(r: &Report) -> Vec<(String, f64)> {
     add("residual.torque", r.residual_rms.torque_nm.to_vec());
     add("tare.theta", r.tare.theta.to_vec());
     add("tare.sigma", r.tare.sigma.to_vec());
+    add("systematic.sigma", numbers(&r.systematic.sigma));
+    add("systematic.bias", vec![r.systematic.accel_bias_sigma_m_s2]);
     out
 }
 

@@ -54,7 +54,13 @@ fn a_log_cut_short_opens_and_estimate_uses_what_is_there() {
         .rev()
         .find(|e| e.run == "loaded")
         .unwrap();
-    let offline = reestimate_run(&log, "loaded", &SettingsOverride::default()).unwrap();
+    let offline = reestimate_run(
+        &log,
+        "loaded",
+        &SettingsOverride::default(),
+        stewart_cli::estimate::accel_bias_sigma(&log).unwrap(),
+    )
+    .unwrap();
     let at = offline
         .trace
         .iter()

@@ -5,14 +5,16 @@
 //! `/sensors` frame of a measurement, in order, gives its pose by forward kinematics
 //! warm-started from the previous frame's solution (the measurement's first frame from the home
 //! pose); the estimator, configured from that measurement's `/run/estimator` message, is fed
-//! from the first frame of its window (the first excitation sample) to the window's end. With
-//! the recorded settings the result is the online estimate, to rounding (JSON keeps every f64
-//! exactly, so in practice bit for bit).
+//! every frame with a pose from the measurement's first frame to its window's end (frames before
+//! the window only warm the conditioning). When the configuration in the log gives an
+//! accelerometer bias, three more estimators are fed the same frames with one sigma of bias
+//! along x, y and z, as the run does ([`crate::systematic`]), and the payload's share of their
+//! shifts joins the reported sigma. With the recorded settings the result is the online report,
+//! to rounding (JSON keeps every f64 exactly, so in practice bit for bit).
 //!
 //! Options change the settings of every measurement alike: `--cutoff-hz`, `--forgetting-factor`,
-//! `--params` and `--window START:END` (seconds from the start of each measurement's
-//! excitation; either end may be left open). With a window that starts earlier than the
-//! recorded one, the frames are fed from the measurement's first frame.
+//! `--params` and `--window START:END` (seconds from the start of each measurement's recorded
+//! window, its excitation; either end may be left open).
 
 use std::path::{Path, PathBuf};
 
@@ -26,7 +28,8 @@ use crate::log_messages as topics;
 use crate::log_read::{LogContents, SensorRecord};
 use crate::metadata::EstimatorSettings;
 use crate::report::{
-    Consistency, Convergence, Principal, Quantities, Report, ResidualRms, RunInfo, TareUsed,
+    Consistency, Convergence, Principal, Quantities, Report, ResidualRms, RunInfo, Systematic,
+    TareUsed,
 };
 use crate::run_log::rates;
 use crate::tare::{TareFile, TARE_FORMAT};
@@ -163,14 +166,16 @@ pub struct RunEstimate {
     pub theta_history: Vec<[f64; 10]>,
     /// Estimates at the `/estimate` rate, and the final one.
     pub trace: Vec<TracePoint>,
-    /// Backend time of the first frame fed, s.
+    /// Backend time of the first frame in the window (the excitation's start), s.
     pub excitation_start_s: f64,
-    /// From the first frame fed to the last sample used, s.
+    /// From there to the last sample used, s.
     pub excitation_s: f64,
     /// Frames fed whose forward kinematics failed.
     pub fk_failures: u64,
     /// Frames of the measurement in the log.
     pub frames: u64,
+    /// Change of θ from one sigma of accelerometer bias along x, y, z (rows), when probed.
+    pub accel_bias_effect: Option<[[f64; 10]; 3]>,
 }
 
 fn every(rate_hz: f64, sample_rate_hz: f64) -> u64 {
@@ -201,13 +206,12 @@ fn parameter_set(log: &LogContents, run: &str, params: ParamCount) -> Result<Par
     }
 }
 
-/// The estimator settings of `run` as recorded, with `o` applied; also the backend time from
-/// which frames are fed.
+/// The estimator settings of `run` as recorded, with `o` applied.
 pub fn settings_for(
     log: &LogContents,
     run: &str,
     o: &SettingsOverride,
-) -> Result<(EstimatorConfig, FkOptions, f64)> {
+) -> Result<(EstimatorConfig, FkOptions)> {
     log.require_channel(
         topics::ESTIMATOR_SETTINGS,
         "the estimator's settings (stewart.EstimatorSettings)",
@@ -219,8 +223,6 @@ pub fn settings_for(
         )
     })?;
     let (mut c, fk) = recorded.to_config(log.geometry()?)?;
-    let origin_s = recorded.window_start_s.unwrap_or(f64::NEG_INFINITY);
-    let mut feed_from_s = origin_s;
     if let Some(p) = o.params {
         c.parameters = parameter_set(log, run, p)?;
     }
@@ -231,37 +233,75 @@ pub fn settings_for(
         c.forgetting_factor = l;
     }
     if let Some(w) = o.window {
-        if !origin_s.is_finite() {
-            bail!("the log's {run} settings have no window start to measure --window from");
-        }
+        let origin_s = recorded.window_start_s.with_context(|| {
+            format!("the log's {run} settings have no window start to measure --window from")
+        })?;
         if let Some(s) = w.start_s {
             c.window_start_s = origin_s + s;
-            feed_from_s = feed_from_s.min(c.window_start_s);
-            if s < 0.0 {
-                feed_from_s = f64::NEG_INFINITY;
-            }
         }
         if let Some(e) = w.end_s {
             c.window_end_s = origin_s + e;
         }
     }
-    Ok((c, fk, feed_from_s))
+    Ok((c, fk))
 }
 
-/// Re-runs the estimator on measurement `run` of the log.
-pub fn reestimate_run(log: &LogContents, run: &str, o: &SettingsOverride) -> Result<RunEstimate> {
+/// The accelerometer bias (one sigma, m/s²) the run assumed for the systematic part of sigma:
+/// `estimator.accel_bias_m_s2` of the logged configuration, else its noise preset's figure.
+pub fn accel_bias_sigma(log: &LogContents) -> Result<f64> {
+    let meta = log.require_metadata()?;
+    let loaded = crate::config_load::load_str(&meta.config_toml, "<configuration in the log>")
+        .map_err(|e| anyhow!("the log's configuration is refused: {e}"))?;
+    Ok(crate::preflight::accel_bias_sigma(&loaded.config))
+}
+
+/// Three estimators fed the same samples with one sigma of accelerometer bias added along x,
+/// y and z (the run's probes, see [`crate::systematic`]).
+struct BiasProbes {
+    estimators: [OnlineEstimator; 3],
+    bias_m_s2: f64,
+}
+
+impl BiasProbes {
+    fn update(&mut self, sample: &Sample) {
+        for (axis, e) in self.estimators.iter_mut().enumerate() {
+            let mut biased = *sample;
+            biased.accel_m_s2[axis] += self.bias_m_s2;
+            let _ = e.update(&biased);
+        }
+    }
+
+    fn effect(&self, theta: &[f64; 10]) -> [[f64; 10]; 3] {
+        core::array::from_fn(|axis| {
+            let t: [f64; 10] = self.estimators[axis].theta().into();
+            core::array::from_fn(|i| t[i] - theta[i])
+        })
+    }
+}
+
+/// Re-runs the estimator on measurement `run` of the log; `bias_m_s2` > 0 also runs the
+/// accelerometer-bias probes.
+pub fn reestimate_run(
+    log: &LogContents,
+    run: &str,
+    o: &SettingsOverride,
+    bias_m_s2: f64,
+) -> Result<RunEstimate> {
     log.require_channel(topics::SENSORS, "the sensor frames the estimator reads")?;
-    let (config, fk, feed_from_s) = settings_for(log, run, o)?;
+    let (config, fk) = settings_for(log, run, o)?;
     let geometry: Geometry = config.geometry;
     let mut estimator = OnlineEstimator::new(config)
         .map_err(|e| anyhow!("the estimator refused its settings: {e}"))?;
+    let mut probes = (bias_m_s2 > 0.0).then_some(BiasProbes {
+        estimators: [estimator; 3],
+        bias_m_s2,
+    });
     let sample_rate_hz = 1.0 / config.sample_period_s;
     let estimate_every = every(rates::ESTIMATE_HZ, sample_rate_hz);
     let mut guess = geometry.home_pose();
     let mut history = Vec::new();
     let mut trace = Vec::new();
     let mut fk_failures = 0;
-    let mut started = false;
     let mut start_s = f64::NAN;
     let mut last_used_s = f64::NAN;
     let mut frames = 0u64;
@@ -269,31 +309,32 @@ pub fn reestimate_run(log: &LogContents, run: &str, o: &SettingsOverride) -> Res
     for (tick, frame) in log.sensors_of(run).enumerate() {
         frames += 1;
         let pose = forward_kinematics(&geometry, frame, &mut guess, &fk);
-        if !started && frame.time_s >= feed_from_s {
-            started = true;
+        if start_s.is_nan() && frame.time_s >= config.window_start_s {
             start_s = frame.time_s;
         }
-        // Every frame of the run up to the window's end, as the online run feeds them: frames
-        // before the window only warm the conditioning (see `run`).
-        if frame.time_s <= config.window_end_s {
-            match pose {
-                Some(p) => {
-                    let sample = Sample {
-                        time_s: frame.time_s,
-                        pose: p,
-                        leg_forces_n: Vector6::from(frame.leg_forces_n),
-                        gyro_rad_s: Vector3::from(frame.gyro_rad_s),
-                        accel_m_s2: Vector3::from(frame.accel_m_s2),
-                    };
-                    if let Ok(Outcome::Used) = estimator.update(&sample) {
-                        history.push(estimator.theta().into());
-                        last_used_s = frame.time_s;
-                    }
+        match pose {
+            // Every frame up to the window's end, as the online run feeds them: frames before
+            // the window only warm the conditioning.
+            Some(p) if frame.time_s <= config.window_end_s => {
+                let sample = Sample {
+                    time_s: frame.time_s,
+                    pose: p,
+                    leg_forces_n: Vector6::from(frame.leg_forces_n),
+                    gyro_rad_s: Vector3::from(frame.gyro_rad_s),
+                    accel_m_s2: Vector3::from(frame.accel_m_s2),
+                };
+                if let Some(p) = probes.as_mut() {
+                    p.update(&sample);
                 }
-                None => fk_failures += 1,
+                if let Ok(Outcome::Used) = estimator.update(&sample) {
+                    history.push(estimator.theta().into());
+                    last_used_s = frame.time_s;
+                }
             }
+            Some(_) => {}
+            None => fk_failures += 1,
         }
-        if started && (tick as u64).is_multiple_of(estimate_every) {
+        if start_s.is_finite() && (tick as u64).is_multiple_of(estimate_every) {
             trace.push(TracePoint {
                 time_s: frame.time_s,
                 estimate: estimator.estimate(),
@@ -301,7 +342,7 @@ pub fn reestimate_run(log: &LogContents, run: &str, o: &SettingsOverride) -> Res
         }
         last_time_s = frame.time_s;
     }
-    if !started {
+    if start_s.is_nan() {
         bail!(
             "the log has no {} frames of the {run} measurement from its excitation on",
             topics::SENSORS
@@ -314,6 +355,7 @@ pub fn reestimate_run(log: &LogContents, run: &str, o: &SettingsOverride) -> Res
             estimate,
         });
     }
+    let theta: [f64; 10] = estimate.parameters.to_vector().into();
     Ok(RunEstimate {
         run: run.to_string(),
         config,
@@ -328,6 +370,7 @@ pub fn reestimate_run(log: &LogContents, run: &str, o: &SettingsOverride) -> Res
         },
         fk_failures,
         frames,
+        accel_bias_effect: probes.map(|p| p.effect(&theta)),
     })
 }
 
@@ -445,13 +488,20 @@ pub fn build_report(
     log: &LogContents,
     loaded: &RunEstimate,
     tare: &TareFile,
-    tare_source: &str,
-    tare_path: Option<String>,
+    tare_origin: &TareOrigin,
+    bias_m_s2: f64,
 ) -> Result<Report> {
     let meta = log.require_metadata()?;
     let tare_params = (tare.parameters(), tare.covariance_matrix());
     let l = &loaded.estimate;
-    let payload = l.without_tare(&tare_params.0, &tare_params.1);
+    let (tare_source, tare_path, tare_effect) = match tare_origin {
+        TareOrigin::Measured(r) => ("measured", None, r.accel_bias_effect.as_ref()),
+        TareOrigin::File(p) => ("file", p.clone(), None),
+    };
+    let systematic =
+        crate::systematic::bias_covariance(loaded.accel_bias_effect.as_ref(), tare_effect);
+    let payload = crate::systematic::payload_with_systematics(l, &tare_params, &systematic);
+    let systematic_only = Estimate::from_parameters(payload.parameters, systematic);
     let axes = payload.principal_axes;
     let consistency = payload.consistency;
     let tare_estimate = Estimate::from_parameters(tare_params.0, tare_params.1);
@@ -495,8 +545,10 @@ pub fn build_report(
             sigma: core::array::from_fn(|i| tare.covariance[i][i].max(0.0).sqrt()),
             estimate: quantities(&tare_estimate),
         },
-        // The accelerometer-bias probes run only online (`run`); none here.
-        systematic: Default::default(),
+        systematic: Systematic {
+            accel_bias_sigma_m_s2: bias_m_s2,
+            sigma: sigmas(&systematic_only),
+        },
         run: RunInfo {
             config: meta.config_source.clone(),
             seed: meta.seed,
@@ -521,11 +573,12 @@ pub fn reestimate(
         topics::ESTIMATOR_SETTINGS,
         "the estimator's settings (stewart.EstimatorSettings)",
     )?;
+    let bias_m_s2 = accel_bias_sigma(log)?;
     let (tare, origin) = if let Some(path) = tare_path {
         let t = TareFile::load(path, &meta.base_joints_m, &meta.plate_joints_m)?;
         (t, TareOrigin::File(Some(path.display().to_string())))
     } else if log.sensors_of("tare").next().is_some() && log.settings_of("tare").is_some() {
-        let r = reestimate_run(log, "tare", o).context("re-estimating the tare run")?;
+        let r = reestimate_run(log, "tare", o, bias_m_s2).context("re-estimating the tare run")?;
         let t = tare_file_of(&r.estimate, log)?;
         (t, TareOrigin::Measured(Box::new(r)))
     } else {
@@ -538,12 +591,9 @@ pub fn reestimate(
         })?;
         (t, TareOrigin::File(meta.tare_file.clone()))
     };
-    let loaded = reestimate_run(log, "loaded", o).context("re-estimating the loaded run")?;
-    let (source, path) = match &origin {
-        TareOrigin::Measured(_) => ("measured", None),
-        TareOrigin::File(p) => ("file", p.clone()),
-    };
-    let report = build_report(log, &loaded, &tare, source, path)?;
+    let loaded =
+        reestimate_run(log, "loaded", o, bias_m_s2).context("re-estimating the loaded run")?;
+    let report = build_report(log, &loaded, &tare, &origin, bias_m_s2)?;
     Ok((report, loaded, tare, origin))
 }
 

@@ -369,3 +369,90 @@ impl LogContents {
         .map_err(|e| anyhow::anyhow!("the log's platform design is refused: {e}"))
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::log_messages::{channels, SensorMsg};
+    use crate::mcap_log::McapLog;
+
+    fn frame(i: u64) -> control::io::SensorFrame {
+        control::io::SensorFrame {
+            sequence: i,
+            time_s: i as f64 * 1e-3,
+            leg_lengths_m: [1.9 + i as f64 * 1e-7; 6],
+            leg_forces_n: [f64::NAN, 2.0, 3.0, 4.0, 5.0, 6.0],
+            gyro_rad_s: [0.1, -0.2, 1.0 / 3.0],
+            accel_m_s2: [0.0, 0.0, 9.80665],
+            status: control::io::Status(0),
+        }
+    }
+
+    /// A log of `n` sensor frames in small chunks, as bytes.
+    fn log_bytes(n: u64) -> Vec<u8> {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("t.mcap");
+        let mut log = McapLog::create(&path, &channels()).unwrap();
+        for i in 0..n {
+            log.write(
+                SENSORS_TOPIC,
+                1_000 + i,
+                &SensorMsg::new("loaded", &frame(i)),
+            )
+            .unwrap();
+            if i % 100 == 99 {
+                log.flush().unwrap();
+            }
+        }
+        log.finish().unwrap();
+        std::fs::read(&path).unwrap()
+    }
+
+    const SENSORS_TOPIC: &str = topics::SENSORS;
+
+    #[test]
+    fn reads_frames_back_exactly_with_nan_as_null() {
+        let log = LogContents::from_bytes(&log_bytes(250)).unwrap();
+        assert!(log.truncated.is_none());
+        assert_eq!(log.sensors.len(), 250);
+        let info = &log.channels[topics::SENSORS];
+        assert_eq!(
+            (info.count, info.first_ns, info.last_ns, info.monotonic),
+            (250, 1_000, 1_249, true)
+        );
+        assert_eq!(info.schema_name, "stewart.SensorFrame");
+        assert_eq!(info.message_encoding, "json");
+        for (i, s) in log.sensors.iter().enumerate() {
+            let f = frame(i as u64);
+            assert_eq!(s.time_s.to_bits(), f.time_s.to_bits());
+            assert_eq!(s.leg_lengths_m, f.leg_lengths_m);
+            assert_eq!(s.gyro_rad_s[2].to_bits(), (1.0f64 / 3.0).to_bits());
+            assert!(s.leg_forces_n[0].is_nan());
+        }
+        assert_eq!(log.runs(), vec!["loaded".to_string()]);
+        let err = log
+            .require_channel(topics::ESTIMATOR_SETTINGS, "the settings")
+            .unwrap_err();
+        assert!(err.to_string().contains("/run/estimator"), "{err}");
+        assert!(log
+            .require_metadata()
+            .unwrap_err()
+            .to_string()
+            .contains("/run/metadata"));
+    }
+
+    #[test]
+    fn a_cut_log_gives_its_complete_chunks() {
+        let bytes = log_bytes(1000);
+        let whole = LogContents::from_bytes(&bytes).unwrap().sensors;
+        for cut in [bytes.len() / 3, bytes.len() / 2, bytes.len() - 50] {
+            let log = LogContents::from_bytes(&bytes[..cut]).unwrap();
+            assert!(log.truncated.is_some(), "cut at {cut}");
+            // Whole chunks of 100 frames, the start of the full log.
+            assert_eq!(log.sensors.len() % 100, 0, "cut at {cut}");
+            assert_eq!(log.sensors[..], whole[..log.sensors.len()]);
+        }
+        assert!(LogContents::from_bytes(b"not an mcap file").is_err());
+        assert!(LogContents::from_bytes(&bytes[..5]).is_err());
+    }
+}

@@ -273,7 +273,7 @@ pub fn figures_from_reestimate(
     loaded: &RunEstimate,
     tare: &TareFile,
 ) -> Result<Figures> {
-    let t0 = loaded.excitation_start_s;
+    let t0 = origin_s(log, &loaded.run);
     let (tp, tc) = (tare.parameters(), tare.covariance_matrix());
     let times: Vec<f64> = loaded.trace.iter().map(|p| p.time_s - t0).collect();
     let values: Vec<_> = loaded
