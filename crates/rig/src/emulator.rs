@@ -148,7 +148,14 @@ pub struct EmulatorStats {
     pub faults_sent: u64,
     /// Ticks in a session during which the brakes were applied.
     pub braked_ticks: u64,
+    /// Sensor frames the link would not take (a serial output buffer full because the host
+    /// stopped reading, a UDP send refused): dropped, as rig firmware must, never waited for.
+    pub send_failed: u64,
 }
+
+/// At most this many waiting frames are handled per tick once the tick is due, so that a
+/// flood of datagrams cannot stall the rig's loop.
+const MAX_LATE_DRAIN: usize = 64;
 
 /// What a session hook learns when a host opens a session.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -579,36 +586,56 @@ where
             self.stats.delayed_injected += 1;
             return Ok(());
         }
-        self.stats.sent += 1;
         self.last_sensor_sent_at = Some(Instant::now());
-        self.transport.send(frame, &peer)
+        self.send_or_count(frame, peer);
+        Ok(())
     }
 
-    /// Receives and handles frames (and sends delayed ones) until `deadline`.
+    /// Puts a sensor frame on the link. A send that fails drops the frame and is counted: the
+    /// host notices the gap, and if the link is really gone the command watchdog brakes.
+    fn send_or_count(&mut self, frame: &[u8], peer: Peer) {
+        match self.transport.send(frame, &peer) {
+            Ok(()) => self.stats.sent += 1,
+            Err(_) => self.stats.send_failed += 1,
+        }
+    }
+
+    /// Receives and handles frames (and sends delayed ones) until `deadline`. Frames already
+    /// waiting are handled even when the deadline has passed: a rig that runs late must still
+    /// hear the commands it was sent, or its own watchdog would trip on a host that answered
+    /// (regression: watchdog faults in the loopback tests on a loaded machine).
     fn pump_until(&mut self, deadline: Instant) -> Result<(), RigError> {
+        let mut drained_late = 0;
         loop {
             let now = Instant::now();
             while self.delayed.front().is_some_and(|(due, _, _)| *due <= now) {
                 if let Some((_, peer, frame)) = self.delayed.pop_front() {
                     if !self.silent {
-                        self.stats.sent += 1;
-                        self.transport.send(&frame, &peer)?;
+                        self.send_or_count(&frame, peer);
                     }
                 }
             }
-            if now >= deadline {
-                return Ok(());
+            let late = now >= deadline;
+            if late {
+                if drained_late >= MAX_LATE_DRAIN {
+                    return Ok(());
+                }
+                drained_late += 1;
             }
             let until = match self.delayed.front() {
                 Some((due, _, _)) => deadline.min(*due),
                 None => deadline,
             };
-            match self.transport.recv(&mut self.buf, until - now)? {
+            match self
+                .transport
+                .recv(&mut self.buf, until.saturating_duration_since(now))?
+            {
                 Recv::Frame { len, from } => self.handle(len, from, Instant::now()),
                 Recv::Garbled => {
                     self.stats.received += 1;
                     self.stats.corrupt += 1;
                 }
+                Recv::Timeout if late => return Ok(()),
                 Recv::Timeout => {}
             }
         }

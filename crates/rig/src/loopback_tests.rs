@@ -4,7 +4,7 @@
 
 use std::net::{SocketAddr, UdpSocket};
 use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
@@ -89,24 +89,33 @@ fn limits() -> Limits {
     }
 }
 
+/// One real-time pair (emulator and host, each a 1 kHz loop) at a time: run side by side on a
+/// 2-core machine, they starve each other for hundreds of milliseconds and trip watchdogs that
+/// no real host would (CI saw it). Held for the whole test; a failed test does not poison it.
+fn one_at_a_time() -> MutexGuard<'static, ()> {
+    static LOCK: Mutex<()> = Mutex::new(());
+    LOCK.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
 /// Tests not about timing get generous time limits: the machine is shared and a scheduler
 /// hiccup must not trip a watchdog there. The timing tests set the real defaults.
 fn config() -> EmulatorConfig {
     EmulatorConfig {
         seed: 7,
-        watchdog: Duration::from_millis(300),
+        watchdog: Duration::from_millis(1000),
         ..EmulatorConfig::new(limits())
     }
 }
 
 fn host_options() -> RigOptions {
     RigOptions {
-        link_silence: Duration::from_millis(500),
+        link_silence: Duration::from_millis(1500),
         ..RigOptions::default()
     }
 }
 
 struct Running {
+    _turn: MutexGuard<'static, ()>,
     address: String,
     stop: Arc<AtomicBool>,
     thread: JoinHandle<Emulator<FakeBackend>>,
@@ -124,6 +133,7 @@ fn start(config: EmulatorConfig) -> Running {
 }
 
 fn start_with(inner: FakeBackend, config: EmulatorConfig) -> Running {
+    let turn = one_at_a_time();
     let mut emulator = Emulator::bind("udp://127.0.0.1:0", inner, config).expect("bind");
     let address = format!("udp://{}", emulator.local_addr().expect("local address"));
     let stop = Arc::new(AtomicBool::new(false));
@@ -133,6 +143,7 @@ fn start_with(inner: FakeBackend, config: EmulatorConfig) -> Running {
         emulator
     });
     Running {
+        _turn: turn,
         address,
         stop,
         thread,
@@ -264,7 +275,7 @@ impl RawPeer {
     fn new() -> Self {
         let socket = UdpSocket::bind("127.0.0.1:0").unwrap();
         socket
-            .set_read_timeout(Some(Duration::from_millis(200)))
+            .set_read_timeout(Some(Duration::from_millis(1000)))
             .unwrap();
         Self { socket }
     }
@@ -282,7 +293,7 @@ impl RawPeer {
     /// The next frame that decodes under `auth` (others skipped), within the read timeout.
     fn recv(&self, auth: Option<&Auth<'_>>) -> Option<(Message, SocketAddr)> {
         let mut buf = [0u8; MAX_FRAME_LEN + 1];
-        let give_up = Instant::now() + Duration::from_secs(2);
+        let give_up = Instant::now() + Duration::from_secs(5);
         while Instant::now() < give_up {
             let Ok((n, from)) = self.socket.recv_from(&mut buf) else {
                 return None;
@@ -295,6 +306,19 @@ impl RawPeer {
             }
         }
         None
+    }
+
+    /// Waits until a sensor frame shows `force_n` on the load cells: the fake echoes the
+    /// applied command, so the rig has then applied it (a fixed sleep is not enough on a busy
+    /// machine, where the next command may overtake it before the rig's next tick).
+    fn wait_until_applied(&self, force_n: f64) {
+        loop {
+            match self.recv(None) {
+                Some((Message::Sensor(s), _)) if s.leg_forces_n == [force_n; LEG_COUNT] => return,
+                Some(_) => continue,
+                None => panic!("the rig never applied {force_n} N"),
+            }
+        }
     }
 
     /// Opens a session with the rig at `rig`; returns the HelloAck.
@@ -582,11 +606,17 @@ fn the_rig_watchdog_brakes_and_the_host_hears_the_fault() {
         ..config()
     });
     let mut host = RigBackend::connect(&rig.address, host_options()).unwrap();
-    drive(&mut host, 20, 30.0).unwrap();
-    std::thread::sleep(Duration::from_millis(60));
-    let err = loop {
-        if let Err(e) = host.read() {
-            break e;
+    // On a loaded machine the 20 ms can already pass while driving: the fault is then heard
+    // there, which is just as much what this test is about.
+    let err = match drive(&mut host, 20, 30.0) {
+        Err(e) => e,
+        Ok(_) => {
+            std::thread::sleep(Duration::from_millis(60));
+            loop {
+                if let Err(e) = host.read() {
+                    break e;
+                }
+            }
         }
     };
     assert!(
@@ -620,7 +650,7 @@ fn a_command_beyond_the_limits_brakes_and_latches() {
     let host = RawPeer::new();
     host.hello(rig_addr, None).unwrap();
     host.send(rig_addr, &command(1, 100.0), None);
-    std::thread::sleep(Duration::from_millis(5));
+    host.wait_until_applied(100.0);
     host.send(rig_addr, &command(2, 501.0), None);
     let fault = loop {
         match host.recv(None) {
@@ -891,6 +921,8 @@ fn random_datagrams_at_both_sockets_are_counted_and_harmless() {
         }
         drive(&mut host, 1, 2.0).unwrap();
     }
+    // Quiet ticks: the rig reads what is waiting every tick, so by now it has seen the noise.
+    drive(&mut host, 20, 2.0).unwrap();
     let stats = *host.stats();
     drop(host);
     let emulator = rig.finish();
@@ -903,6 +935,7 @@ fn random_datagrams_at_both_sockets_are_counted_and_harmless() {
 #[test]
 fn a_session_runs_over_a_serial_line() {
     use crate::transport::{Peer, SerialTransport};
+    let _turn = one_at_a_time();
     let (a, b) = serialport::TTYPort::pair().expect("pseudo-terminal pair");
     let rig_side = SerialTransport::from_port(Box::new(a), "pty-rig");
     let host_side = SerialTransport::from_port(Box::new(b), "pty-host");
@@ -1005,21 +1038,30 @@ fn a_braking_command_with_garbage_forces_reaches_the_backend_as_zeros() {
     let rig_addr = socket_addr(&rig.address);
     let host = RawPeer::new();
     host.hello(rig_addr, None).unwrap();
+    host.send(rig_addr, &command(1, 5.0), None);
+    host.wait_until_applied(5.0);
     let brake = Message::Command(Command {
-        sequence: 1,
+        sequence: 2,
         sensor_sequence: 0,
         leg_forces_n: [f64::NAN, f64::INFINITY, 1e300, 0.0, -1.0, 2.0],
         enable: false,
     });
     host.send(rig_addr, &brake, None);
-    // Long enough for the brake command to be applied for a few periods.
-    std::thread::sleep(Duration::from_millis(5));
-    host.send(rig_addr, &command(2, 10.0), None);
-    std::thread::sleep(Duration::from_millis(10));
+    // Braked, the fake's load cells read zero: the brake reached the backend (whose `write`
+    // refuses non-finite forces, which would end the emulator's run with an error).
+    host.wait_until_applied(0.0);
+    host.send(rig_addr, &command(3, 10.0), None);
+    host.wait_until_applied(10.0);
     let emulator = rig.finish();
     assert!(emulator.faults().is_empty(), "{:?}", emulator.faults());
-    assert_eq!(emulator.stats().commands_accepted, 2);
+    assert_eq!(emulator.stats().commands_accepted, 3);
     assert_eq!(emulator.inner().max_enabled_force(), 10.0);
+    assert!(emulator
+        .inner()
+        .applied
+        .iter()
+        .filter(|c| !c.enable)
+        .all(|c| c.leg_forces_n == [0.0; LEG_COUNT]));
 }
 
 #[test]
@@ -1036,9 +1078,10 @@ fn after_a_pause_of_the_caller_the_host_skips_to_the_newest_frame() {
     rig.finish();
     assert!(first.sequence >= 120, "{}", first.sequence);
     assert_eq!(stats.late + 1, first.sequence, "{stats}");
-    // The next read is the next sample or nearly: no second jump a supervisor would see as a gap.
+    // The next read is the next sample or nearly: no second jump of a backlog, which would be
+    // tens of frames (a busy machine may still let a few periods pass between the two reads).
     assert!(
-        second.sequence - first.sequence <= 5,
+        second.sequence - first.sequence <= 20,
         "{} then {}",
         first.sequence,
         second.sequence
@@ -1048,10 +1091,15 @@ fn after_a_pause_of_the_caller_the_host_skips_to_the_newest_frame() {
 #[test]
 fn a_host_restarts_its_session_over_the_same_link() {
     use crate::emulator::SessionStart;
-    use std::sync::Mutex;
+    let _turn = one_at_a_time();
     let seen: Arc<Mutex<Vec<SessionStart>>> = Arc::default();
+    let config = EmulatorConfig {
+        // The old session must still be open when the host restarts after the watchdog trips.
+        session_timeout: Duration::from_secs(10),
+        ..config()
+    };
     let mut emulator =
-        Emulator::bind("udp://127.0.0.1:0", FakeBackend::default(), config()).expect("bind");
+        Emulator::bind("udp://127.0.0.1:0", FakeBackend::default(), config).expect("bind");
     let log = Arc::clone(&seen);
     emulator.set_session_hook(Box::new(
         move |inner: &mut FakeBackend, start: &SessionStart| {
@@ -1071,15 +1119,17 @@ fn a_host_restarts_its_session_over_the_same_link() {
     let mut host = RigBackend::connect(&address, host_options()).expect("connect");
     let first = host.info().session_id;
     let frames = drive(&mut host, 50, 10.0).unwrap();
-    assert_eq!(frames[0].sequence, 1);
+    // Numbered from 1; a busy machine may leave the first frames waiting, skipped as late
+    // (CI once saw 3 here).
+    assert!(frames[0].sequence <= 50, "{}", frames[0].sequence);
     // The host stops commanding: the rig's watchdog trips and its fault reports wait in the
     // host's socket. A new session must not mistake them for an answer to its Hello.
-    std::thread::sleep(Duration::from_millis(450));
+    std::thread::sleep(Duration::from_millis(1200));
     host.restart_session().expect("a new session");
     assert_ne!(host.info().session_id, first);
     assert_eq!(host.last_sequence(), 0);
     let frames = drive(&mut host, 50, 10.0).unwrap();
-    // Numbered from 1 again (the old session had reached about 500 by now); a busy machine
+    // Numbered from 1 again (the old session had reached about 1250 by now); a busy machine
     // may leave some of the new session's first frames waiting, skipped as late.
     assert!(frames[0].sequence < 300, "{}", frames[0].sequence);
     assert!(frames.windows(2).all(|w| w[1].sequence > w[0].sequence));
@@ -1099,20 +1149,24 @@ fn a_host_restarts_its_session_over_the_same_link() {
 #[test]
 fn in_lockstep_a_slow_host_pauses_the_emulated_world() {
     let rig = start(EmulatorConfig {
-        lockstep: Some(Duration::from_millis(300)),
+        lockstep: Some(Duration::from_millis(2000)),
         ..config()
     });
     let mut host = RigBackend::connect(&rig.address, host_options()).expect("connect");
     drive(&mut host, 20, 10.0).unwrap();
+    // (Until the host's first command the rig runs in real time, so a slow start may already
+    // have skipped frames as late: only the pause below is this test's business.)
+    let late_before = host.stats().late;
     // A descheduled host: 100 periods without an answer.
     std::thread::sleep(Duration::from_millis(100));
     drive(&mut host, 20, 10.0).unwrap();
-    let accepted_late = host.stats().late;
+    let stats = *host.stats();
+    let accepted_late = stats.late - late_before;
     drop(host);
     let emulator = rig.finish();
     // Real time would have applied the last command ~100 more times.
     let enabled = emulator.inner().applied.iter().filter(|c| c.enable).count();
     assert!((39..=45).contains(&enabled), "{enabled} enabled ticks");
     assert!(emulator.faults().is_empty(), "{:?}", emulator.faults());
-    assert_eq!(accepted_late, 0);
+    assert_eq!(accepted_late, 0, "{stats}");
 }

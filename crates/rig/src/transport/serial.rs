@@ -20,6 +20,10 @@ pub struct SerialTransport {
     overflowed: bool,
 }
 
+/// How long a write may wait for room in the output buffer: a few frame times at 921 600 baud,
+/// short enough that a host that stopped reading cannot stall a rig loop for long.
+const WRITE_TIMEOUT: Duration = Duration::from_millis(5);
+
 impl std::fmt::Debug for SerialTransport {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "SerialTransport({})", self.path)
@@ -80,6 +84,12 @@ impl Transport for SerialTransport {
     fn send(&mut self, frame: &[u8], _to: &Peer) -> Result<(), RigError> {
         let mut wire = [0u8; MAX_COBS_LEN];
         let n = cobs_encode(frame, &mut wire).map_err(RigError::Encode)?;
+        // The port has one timeout for reads and writes, and `recv` leaves it at whatever was
+        // left of its wait, often zero: a write would then fail the moment the output buffer
+        // is momentarily full (regression: `a_session_runs_over_a_serial_line` under load).
+        self.port
+            .set_timeout(WRITE_TIMEOUT)
+            .map_err(|e| RigError::io("configuring the serial port", e.into()))?;
         self.port
             .write_all(&wire[..n])
             .map_err(|e| RigError::io(format!("writing to serial port {}", self.path), e))
