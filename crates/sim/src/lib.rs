@@ -9,8 +9,9 @@
 //! - [`actuator`]: first-order lag, saturation, viscous and Coulomb friction, and a brake.
 //! - [`sensors`]: encoders, load cells, gyro and accelerometer with seeded noise, bias and
 //!   quantization; presets `none`, `realistic`, `harsh`.
-//! - [`Simulator`]: the backend; every channel of a sample describes the same instant (see
-//!   the [`simulator`] module docs). Ground truth is exposed through `true_*` methods, for
+//! - [`Simulator`]: the backend; every channel of a sample is its mean over the sample period,
+//!   as behind an anti-alias filter, so all channels describe the same interval (see the
+//!   [`simulator`] module docs). Ground truth is exposed through `true_*` methods, for
 //!   reports and tests only.
 //!
 //! Configuration structs ([`SimConfig`], [`ActuatorConfig`], [`SensorConfig`],

@@ -1,13 +1,32 @@
 //! The simulated rig as a [`control::io::Backend`].
 //!
-//! # What instant a sample describes
+//! # What a sample describes
 //!
-//! Sample `k` describes the instant `t_k = k T` (`T` the sample period, an integer number `N`
-//! of physics substeps `h`), and every channel is evaluated *at that instant*:
+//! Sample `k` is read at `t_k = k T` (`T` the sample period, an integer number `N` of physics
+//! substeps `h`) and reports, on every channel, the **mean over the sample period**
+//! `[t_{k−1}, t_k]`, as a real sensor behind an anti-alias (integrating) filter does: a
+//! sigma-delta load-cell ADC, a MEMS IMU's decimation filter. The encoders report the same mean,
+//! which a firmware gets (to second order) by latching them at the period's midpoint, where the
+//! filters' group delay puts the other channels. The mean is the trapezoidal rule over the
+//! period's `N + 1` physics nodes `t_n` (half weight at both ends), each node evaluated as below,
+//! so all channels are the same linear filter of simultaneous values and still satisfy the
+//! rigid body's equations together: exactly in the linear terms, and to `O((ω̇ T)²)` ≈ 10⁻⁷ in
+//! the products of rates and in the leg directions.
 //!
-//! - **pose, leg lengths**: rapier's pose after `kN` steps (positions live on step boundaries).
-//! - **load cells**: the axial force each actuator applies at `t_k`, i.e. the force rapier
-//!   integrates over the next substep. It depends only on the actuator state at `t_k` (the lag
+//! Why the mean: with `N > 1` the lagged actuator force bends inside a sample (its slope jumps
+//! when a new command arrives at `t_k`). A load cell read at the instant misses that, while the
+//! gyro's change over a sample integrates it, and the frames disagreed with Newton–Euler by
+//! about 5·10⁻⁴ of the wrench, biasing a noise-free estimate by about 0.05 %. Means over the
+//! period are smooth and agree to about 10⁻⁵ whatever `N` (test
+//! `load_cells_with_substeps_report_the_mean_force_of_the_sample`). Sample 0 and a sample right
+//! after [`Simulator::set_state`] or [`Simulator::set_payload`] have no period behind them and
+//! report the node values at the instant.
+//!
+//! Each node `t_n` is evaluated *at that instant*:
+//!
+//! - **pose, leg lengths**: rapier's pose after `n` steps (positions live on step boundaries).
+//! - **load cells**: the axial force each actuator applies at `t_n`, i.e. the force rapier
+//!   integrates over the next substep. At `t_k` it depends only on the actuator state (the lag
 //!   applies its state, then advances), never on the command written after the read, so it is
 //!   known when the sample is taken.
 //! - **gyro**: rapier's stored velocity is that of the half step *before* `t_k` (symplectic
@@ -20,19 +39,18 @@
 //!   [`GyroscopicModel::Midpoint`] — moved to the mounting point:
 //!   `f_a = f + ω̇ × r_a + ω × (ω × r_a)`.
 //!
-//! So the load cells, the pose, the gyro and the accelerometer of one frame satisfy the rigid
-//! body's equations at one instant. A half-step skew between channels (a force held over a step
+//! So the load cells, the pose, the gyro and the accelerometer of one node satisfy the rigid
+//! body's equations at one instant, and their means over a period satisfy them on average. A half-step skew between channels (a force held over a step
 //! against a centrally differenced rate) leaves the fitted parameters nearly intact but raises
 //! the fit residual by orders of magnitude (DESIGN.md, "Things we measured").
 //!
 //! Measured (tests `sample_channels_are_simultaneous`, `leg_wrench_matches_newton_euler_*`,
-//! 1 kHz, 0.5 ms substeps, 1.7 t tumbling at up to 1 rad/s): Newton–Euler on rapier's motion
-//! matches the leg wrench to 3·10⁻⁸ per substep (midpoint gyroscopic torque) or 3·10⁻⁴
-//! (rapier's); Newton–Euler on the frames alone, with `ω̇` from a 4th-order central difference
-//! of the gyro, to 4·10⁻⁵ with a 5 Hz actuator, against 5·10⁻³ when `ω̇` is skewed by half a
-//! sample. With the default 100 Hz actuator that residual is 5·10⁻⁴: a command held over a
-//! sample makes the lagged force's slope jump at every sample instant, a kink in `ω̈` that a
-//! finite difference across the instant sees. It is physics a real rig shares, not a skew.
+//! `load_cells_with_substeps_*`; 1 kHz, 1.7 t tumbling at up to 1 rad/s): Newton–Euler on
+//! rapier's motion matches the leg wrench to 3·10⁻⁸ per substep (midpoint gyroscopic torque)
+//! or 3·10⁻⁴ (rapier's). Newton–Euler on the frames alone (pose by forward kinematics of the
+//! reported leg lengths, `ω̇` from a 4th-order central difference of the gyro) matches the
+//! reported wrench with the default 100 Hz actuator to the figures in the test's output,
+//! against 5·10⁻⁴ for `N = 4` when the load cells were read at the instant.
 //!
 //! # Gyroscopic torque
 //!
@@ -90,10 +108,71 @@ struct Evaluation {
 #[derive(Clone, Copy, Debug)]
 struct Instant {
     pose: Pose,
+    lengths_m: [f64; 6],
     forces_n: [f64; 6],
     velocity: PlateVelocity,
     acceleration: Acceleration,
     clean: SensorFrame,
+}
+
+/// The sensed channels at one physics node, in P.
+#[derive(Clone, Copy, Debug, Default)]
+struct Node {
+    lengths_m: [f64; 6],
+    forces_n: [f64; 6],
+    gyro_rad_s: Vector3<f64>,
+    accel_m_s2: Vector3<f64>,
+}
+
+impl Node {
+    /// The channels of `legs` and `e`, the accelerometer at `mount_m`:
+    /// `f_a = f + ω̇ × r_a + ω × (ω × r_a)`.
+    fn new(legs: &LegState, e: &Evaluation, mount_m: &Vector3<f64>) -> Self {
+        let (omega, acc) = (e.omega_p, e.acceleration);
+        Self {
+            lengths_m: legs.lengths_m,
+            forces_n: e.forces_n,
+            gyro_rad_s: omega,
+            accel_m_s2: acc.specific_force_m_s2
+                + acc.angular_rad_s2.cross(mount_m)
+                + omega.cross(&omega.cross(mount_m)),
+        }
+    }
+}
+
+/// Trapezoidal sum of the node values of the current sample period.
+#[derive(Clone, Copy, Debug, Default)]
+struct PeriodSum {
+    sum: Node,
+    weight: f64,
+}
+
+impl PeriodSum {
+    fn add(&mut self, node: &Node, weight: f64) {
+        let s = &mut self.sum;
+        for i in 0..LEG_COUNT {
+            s.lengths_m[i] += weight * node.lengths_m[i];
+            s.forces_n[i] += weight * node.forces_n[i];
+        }
+        s.gyro_rad_s += weight * node.gyro_rad_s;
+        s.accel_m_s2 += weight * node.accel_m_s2;
+        self.weight += weight;
+    }
+
+    /// The mean, or `None` before any node.
+    fn mean(&self) -> Option<Node> {
+        if self.weight <= 0.0 {
+            return None;
+        }
+        let k = 1.0 / self.weight;
+        let s = &self.sum;
+        Some(Node {
+            lengths_m: s.lengths_m.map(|v| v * k),
+            forces_n: s.forces_n.map(|v| v * k),
+            gyro_rad_s: s.gyro_rad_s * k,
+            accel_m_s2: s.accel_m_s2 * k,
+        })
+    }
 }
 
 /// The simulated Stewart platform: rapier physics, actuators and sensors.
@@ -111,6 +190,8 @@ pub struct Simulator {
     substep_s: f64,
     sample: u64,
     now: Instant,
+    /// Node sums of the period since the last sample (empty after a state change).
+    period: PeriodSum,
     frame: SensorFrame,
 }
 
@@ -180,6 +261,7 @@ impl Simulator {
             sample: 0,
             now: Instant {
                 pose,
+                lengths_m: [0.0; 6],
                 forces_n: [0.0; 6],
                 velocity: PlateVelocity {
                     linear_m_s: Vector3::zeros(),
@@ -191,6 +273,7 @@ impl Simulator {
                 },
                 clean: SensorFrame::default(),
             },
+            period: PeriodSum::default(),
             frame: SensorFrame::default(),
         };
         sim.check_stability()?;
@@ -226,6 +309,7 @@ impl Simulator {
         self.world.set_state(pose, linear_m_s, angular_rad_s);
         self.actuators =
             Actuators::new_braked(self.config.actuator, self.substep_s, &legs.lengths_m, &hold);
+        self.period = PeriodSum::default();
         self.refresh()
     }
 
@@ -245,6 +329,7 @@ impl Simulator {
         self.inertia_com = self.model.params().to_body().inertia_com();
         self.payload = payload;
         self.world.set_payload(self.payload.as_ref());
+        self.period = PeriodSum::default();
         self.refresh()
     }
 
@@ -442,7 +527,8 @@ impl Simulator {
 
     /// One physics substep: forces along the current leg lines at the plate joints, plus the
     /// gyroscopic torque at the instant when we integrate it ([`GyroscopicModel::Midpoint`]).
-    fn substep(&mut self) {
+    /// Returns the channels at the substep's start node, with the forces it applied.
+    fn substep(&mut self) -> Node {
         let pose = self.world.pose();
         let legs = self.legs(&pose);
         let e = self.evaluate(&pose, &legs);
@@ -461,14 +547,28 @@ impl Simulator {
         };
         self.world.step(&applied, &gyroscopic);
         self.actuators.advance(&e.forces_n);
+        Node::new(&legs, &e, &self.mount_m())
     }
 
-    /// Evaluates every channel at the current instant (see the module docs) and samples the
+    fn mount_m(&self) -> Vector3<f64> {
+        Vector3::from(self.config.sensors.accelerometer.mount_m)
+    }
+
+    /// Evaluates every channel at the current instant (see the module docs), closes the
+    /// period's mean with it (or takes the instant when no period lies behind), and samples the
     /// sensors.
     fn refresh(&mut self) -> Result<(), SimError> {
         let pose = self.world.pose();
         let legs = self.legs(&pose);
         let e = self.evaluate(&pose, &legs);
+        let node = Node::new(&legs, &e, &self.mount_m());
+        self.period.add(&node, 0.5);
+        let sensed = if self.period.weight > 0.5 {
+            self.period.mean().unwrap_or(node)
+        } else {
+            node
+        };
+        self.period = PeriodSum::default();
         let (omega, acc) = (e.omega_p, e.acceleration);
         // Velocity of the P origin: rapier's is the centre of mass's, half a step old.
         let (v_com, omega_b) = self.world.raw_velocities();
@@ -480,9 +580,6 @@ impl Simulator {
             linear_m_s: v_origin_raw + 0.5 * self.substep_s * a_origin_b,
             angular_rad_s: pose.rotation * omega,
         };
-        let r = Vector3::from(self.config.sensors.accelerometer.mount_m);
-        let accel =
-            acc.specific_force_m_s2 + acc.angular_rad_s2.cross(&r) + omega.cross(&omega.cross(&r));
         let status = if self.actuators.braked() {
             Status::BRAKED
         } else {
@@ -491,10 +588,10 @@ impl Simulator {
         let clean = SensorFrame {
             sequence: self.sample,
             time_s: self.time_s(),
-            leg_lengths_m: legs.lengths_m,
-            leg_forces_n: e.forces_n,
-            gyro_rad_s: [omega.x, omega.y, omega.z],
-            accel_m_s2: [accel.x, accel.y, accel.z],
+            leg_lengths_m: sensed.lengths_m,
+            leg_forces_n: sensed.forces_n,
+            gyro_rad_s: sensed.gyro_rad_s.into(),
+            accel_m_s2: sensed.accel_m_s2.into(),
             status: Status(status),
         };
         if !clean.is_finite() {
@@ -504,6 +601,7 @@ impl Simulator {
         }
         self.now = Instant {
             pose,
+            lengths_m: legs.lengths_m,
             forces_n: e.forces_n,
             velocity,
             acceleration: acc,
@@ -548,7 +646,8 @@ impl Simulator {
         self.now.forces_n
     }
 
-    /// Ground truth: every channel of the current sample without noise, bias or quantization.
+    /// Ground truth: every channel of the current sample without noise, bias or quantization
+    /// (the means over the sample period, like the sensed frame; see the module docs).
     pub fn clean_frame(&self) -> SensorFrame {
         self.now.clean
     }
@@ -596,11 +695,13 @@ impl Backend for Simulator {
         self.actuators.command(
             &command.leg_forces_n,
             command.enable,
-            &self.now.clean.leg_lengths_m,
+            &self.now.lengths_m,
             &self.now.forces_n,
         );
-        for _ in 0..self.config.substeps {
-            self.substep();
+        self.period = PeriodSum::default();
+        for j in 0..self.config.substeps {
+            let node = self.substep();
+            self.period.add(&node, if j == 0 { 0.5 } else { 1.0 });
         }
         self.sample += 1;
         self.refresh()
