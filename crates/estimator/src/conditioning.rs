@@ -60,7 +60,8 @@ pub struct Conditioned {
 /// What one pushed sample produced.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Step {
-    /// One of the first three samples after a start or a gap: stored, nothing produced yet.
+    /// One of the first samples after a start or a gap: the stencil's first three, then the
+    /// low-pass's warm-up ([`Conditioner::warmup_samples`]); nothing produced yet.
     Started,
     /// A conditioned sample.
     Ready(Conditioned),
@@ -86,7 +87,38 @@ pub struct Conditioner {
     history: [Raw; STENCIL],
     held: usize,
     primed: bool,
+    /// Filtered samples still to be withheld after the filter was primed.
+    warming: u32,
+    /// Filtered samples withheld after every (re)start: see [`Self::warmup_samples`].
+    warmup: u32,
     restarts: u64,
+}
+
+/// Samples until the start transient of `biquad` has died away: the filter primed with a unit
+/// value and fed zeros (the state error that priming with one wrong sample leaves) until its
+/// output stays below 1e-3. The poles' envelope |p|ⁿ = a₂^(n/2) alone would be a few samples
+/// short, the second-order response's amplitude being above one.
+fn warmup_samples(biquad: &Biquad) -> u32 {
+    let radius_sq = biquad.pole_radius_squared();
+    if !(radius_sq > 0.0 && radius_sq < 1.0) {
+        return 0;
+    }
+    // The envelope bounds the search: a generous multiple of where it reaches 1e-3.
+    let envelope = libm::log(1e-3) / (0.5 * libm::log(radius_sq));
+    let limit = if envelope.is_finite() {
+        (4.0 * envelope + 100.0).clamp(0.0, 1e7) as u32
+    } else {
+        return 0;
+    };
+    let mut f = LowPass::<1>::new(*biquad);
+    f.reset_to(&SVector::from_element(1.0));
+    let mut last_above = 0;
+    for k in 0..limit {
+        if f.step(&SVector::zeros())[0].abs() > 1e-3 {
+            last_above = k + 1;
+        }
+    }
+    last_above
 }
 
 fn all_bounded<const N: usize>(v: &SVector<f64, N>) -> bool {
@@ -170,6 +202,8 @@ impl Conditioner {
             history: [empty; STENCIL],
             held: 0,
             primed: false,
+            warming: 0,
+            warmup: warmup_samples(&biquad),
             restarts: 0,
         })
     }
@@ -177,6 +211,17 @@ impl Conditioner {
     /// The configuration in use.
     pub fn config(&self) -> &ConditioningConfig {
         &self.config
+    }
+
+    /// Filtered samples withheld after every (re)start, while the low-pass's start transient
+    /// dies away: the filter is primed with the first interpolated sample, whose ω̇ carries one
+    /// raw sample's derivative noise — at 1 kHz about a thousand times what the filter lets
+    /// through — so its output starts that far off and relaxes along the poles' envelope
+    /// |p|ⁿ = a₂^(n/2) (complex Butterworth poles). Withheld until that transient stays below
+    /// 1e-3 of its start (≈ 10 time constants 1/(2π f_c): 0.33 s at 5 Hz, 82 ms at 20 Hz);
+    /// none without a low-pass.
+    pub fn warmup_samples(&self) -> u32 {
+        self.warmup
     }
 
     /// How many times a gap restarted the conditioning.
@@ -213,7 +258,7 @@ impl Conditioner {
         (gain(&slope), gain(&value))
     }
 
-    /// Forgets the history: the next sample starts afresh.
+    /// Forgets the history: the next sample starts afresh (and warms the filter again).
     pub fn restart(&mut self) {
         self.held = 0;
         self.primed = false;
@@ -303,9 +348,14 @@ impl Conditioner {
         if !self.primed {
             self.filter.reset_to(&x);
             self.primed = true;
+            self.warming = self.warmup;
         }
         let y = self.filter.step(&x);
         self.hold(raw);
+        if self.warming > 0 {
+            self.warming -= 1;
+            return Ok(Step::Started);
+        }
 
         let mut signals = RegressorSignals {
             angular_acceleration_rad_s2: y.fixed_rows::<3>(0).into_owned(),
@@ -389,7 +439,8 @@ mod tests {
 
     #[test]
     fn rejects_bad_samples_without_changing_state() {
-        let mut c = Conditioner::new(config(Some(20.0), Vector3::zeros())).unwrap();
+        // No low-pass, so no warm-up: the fourth sample is the first output.
+        let mut c = Conditioner::new(config(None, Vector3::zeros())).unwrap();
         let w = Wrench::default();
         let one = Vector3::new(0.1, 0.2, 0.3);
         assert_eq!(c.push(-0.002, &one, &one, &w), Ok(Step::Started));
@@ -459,6 +510,26 @@ mod tests {
             "{} vs {vg}",
             sv / count
         );
+    }
+
+    /// The warm-up is about ten time constants of the low-pass (the 1e-3 decay of a
+    /// second-order Butterworth's start transient), and none without one.
+    #[test]
+    fn warm_up_is_about_ten_time_constants() {
+        for (cutoff, period) in [(5.0, 1e-3), (20.0, 1e-3), (20.0, 1e-2)] {
+            let mut cc = config(Some(cutoff), Vector3::zeros());
+            cc.sample_period_s = period;
+            cc.max_gap_s = 10.0 * period;
+            let n = Conditioner::new(cc).unwrap().warmup_samples() as f64;
+            let tau = 1.0 / (2.0 * core::f64::consts::PI * cutoff * period);
+            // Continuous envelope e^(−t/(√2 τ)) reaches 1e-3 at √2·ln(1e3)·τ ≈ 9.8 τ.
+            assert!(
+                n > 8.0 * tau && n < 13.0 * tau,
+                "{cutoff} Hz at {period} s: {n} vs τ {tau}"
+            );
+        }
+        let none = Conditioner::new(config(None, Vector3::zeros())).unwrap();
+        assert_eq!(none.warmup_samples(), 0);
     }
 
     #[test]

@@ -53,6 +53,12 @@ impl Biquad {
             a2: 0.0,
         }
     }
+
+    /// |p|² of the poles, a₂ (the product of the two poles, equal to the squared radius of a
+    /// complex pair, as a Butterworth low-pass has): the start transient decays as |p|ⁿ.
+    pub fn pole_radius_squared(&self) -> f64 {
+        self.a2
+    }
 }
 
 /// The biquad applied to `C` channels at once.

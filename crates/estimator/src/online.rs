@@ -65,8 +65,9 @@ pub struct EstimatorConfig {
     /// `gyro_noise_rad_s` (its bias is usually negligible beside gravity).
     pub accel_noise_m_s2: f64,
     /// Samples per residual block of the covariance estimate; blocks must be long compared
-    /// with the filter's memory (≈ 1/f_c), and a run needs some tens of them for a steady
-    /// sigma.
+    /// with the filter's memory (≈ 1/f_c) and with the boundary terms of the gyro's derivative
+    /// noise (which grow with f_c and matter most for slow motion), and a run needs some tens
+    /// of them for a steady sigma.
     pub covariance_block_samples: u32,
 }
 
@@ -127,18 +128,19 @@ pub struct Sample {
 pub enum Outcome {
     /// It reached the least-squares solver.
     Used,
-    /// It only fed the conditioning (first sample after a start or a gap, or before the
-    /// window).
+    /// It only fed the conditioning (the first samples after a start or a gap, while the
+    /// stencil fills and the low-pass's start transient dies away, or before the window).
     Conditioning,
     /// It lies after the window and was ignored.
     AfterWindow,
 }
 
-/// Least squares plus residual scores for `N` parameters and `R` equations per sample.
+/// Least squares plus residual scores for `N` parameters and `R` equations per sample
+/// (`NR` = N·R sizes the scores' offset terms).
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Solver<const N: usize, const R: usize> {
+struct Solver<const N: usize, const R: usize, const NR: usize> {
     rls: Rls<N>,
-    score: ScoreCovariance<N>,
+    score: ScoreCovariance<N, R, NR>,
     inv_sigma: SVector<f64, R>,
     /// Second moment the regressor noise adds per sample, C (weighted rows).
     noise_moment: SMatrix<f64, N, N>,
@@ -146,7 +148,7 @@ struct Solver<const N: usize, const R: usize> {
     samples: f64,
 }
 
-impl<const N: usize, const R: usize> Solver<N, R> {
+impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
     fn new(
         config: &EstimatorConfig,
         sigma: SVector<f64, R>,
@@ -190,7 +192,10 @@ impl<const N: usize, const R: usize> Solver<N, R> {
             self.rls = before;
             return Err(EstimatorError::Overflow("least-squares update"));
         }
-        self.score.add(&wrows, &wy, self.rls.theta());
+        if self.score.add(&wrows, &wy) {
+            let (theta, p, moment) = self.corrected_with_moment();
+            self.score.close_block(&theta, &p, &moment);
+        }
         self.samples = self.samples * self.rls.forgetting() + 1.0;
         Ok(())
     }
@@ -199,23 +204,30 @@ impl<const N: usize, const R: usize> Solver<N, R> {
     /// equations (A − nC) θ' = b give θ' = (𝟙 − nPC)⁻¹ θ and P' = (𝟙 − nPC)⁻¹ P. Uncorrected
     /// when no noise is configured or the correction would not leave a definite system.
     fn corrected(&self) -> (SVector<f64, N>, SMatrix<f64, N, N>) {
+        let (theta, p, _) = self.corrected_with_moment();
+        (theta, p)
+    }
+
+    /// [`Self::corrected`] and the noise moment C it applied (zero when it fell back).
+    fn corrected_with_moment(&self) -> (SVector<f64, N>, SMatrix<f64, N, N>, SMatrix<f64, N, N>) {
         let theta = *self.rls.theta();
         let p = self.rls.covariance();
+        let plain = (theta, p, SMatrix::zeros());
         if self.samples <= 0.0 || self.noise_moment.iter().all(|v| *v == 0.0) {
-            return (theta, p);
+            return plain;
         }
         let m = SMatrix::<f64, N, N>::identity() - p * self.noise_moment * self.samples;
         let Some(inv) = m.try_inverse() else {
-            return (theta, p);
+            return plain;
         };
         let pc = inv * p;
         let pc = (pc + pc.transpose()) * 0.5;
         let t = inv * theta;
         let definite = (0..N).all(|i| pc[(i, i)] > 0.0);
         if definite && t.iter().all(|v| v.is_finite()) && pc.iter().all(|v| v.is_finite()) {
-            (t, pc)
+            (t, pc, self.noise_moment)
         } else {
-            (theta, p)
+            plain
         }
     }
 
@@ -223,8 +235,31 @@ impl<const N: usize, const R: usize> Solver<N, R> {
         self.corrected().0
     }
 
+    /// ∂θ/∂c for a constant offset c added to every sample's (unweighted) measurements:
+    /// θ = P' b and b gains S W c, so Δθ = P' S W c (exact for λ = 1: P does not see y).
+    fn offset_sensitivity(&self) -> SMatrix<f64, N, R> {
+        let (s, _) = self.score.totals();
+        let (_, p) = self.corrected();
+        let mut sw = p * s;
+        for r in 0..R {
+            sw.column_mut(r).scale_mut(self.inv_sigma[r]);
+        }
+        sw
+    }
+
+    /// Δθ caused by a constant perturbation `b` of every sample's (unweighted) regressor, to
+    /// first order: with Φ → Φ + B, A gains S B_w + B_wᵀ Sᵀ and b gains B_wᵀ Y (B_w = W B), so
+    /// Δθ = P' (B_wᵀ (Y − Sᵀθ) − S B_w θ): from the accumulated S and Y, no second fit.
+    fn regressor_perturbation_effect(&self, b: &SMatrix<f64, R, N>) -> SVector<f64, N> {
+        let (s, y) = self.score.totals();
+        let (theta, p) = self.corrected();
+        let bw = self.weigh(b);
+        p * (bw.tr_mul(&(y - s.tr_mul(&theta))) - s * (bw * theta))
+    }
+
     fn covariance(&self) -> SMatrix<f64, N, N> {
-        self.score.covariance(&self.corrected().1)
+        let (theta, p) = self.corrected();
+        self.score.covariance(&theta, &p)
     }
 }
 
@@ -276,9 +311,9 @@ fn noise_moment<const N: usize, const R: usize>(
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Engine {
-    Full(Solver<10, 6>),
+    Full(Solver<10, 6, 60>),
     Six {
-        solver: Solver<6, 3>,
+        solver: Solver<6, 3, 18>,
         mass_kg: f64,
         com_m: Vector3<f64>,
     },
@@ -557,6 +592,49 @@ impl OnlineEstimator {
                 c
             }
         }
+    }
+
+    /// Sensitivity of θ to a constant offset of the measured wrench, ∂θ/∂w₀ with
+    /// w₀ = [F; τ] (N, N·m) about the P origin in P axes, added to every sample: a load cell's
+    /// zero offset b on leg i moves θ by (this) · ŵᵢ · b, ŵᵢ the wrench of a unit force of
+    /// leg i. Exact for λ = 1 (θ is linear in the measurements); the residual covariance
+    /// leaves such offsets out (see [`crate::uncertainty::ScoreCovariance`]), so a caller that
+    /// knows the offsets' datasheet sigma adds their effect as a systematic term.
+    pub fn wrench_offset_sensitivity(&self) -> SMatrix<f64, 10, 6> {
+        match &self.engine {
+            Engine::Full(s) => s.offset_sensitivity(),
+            Engine::Six { solver, com_m, .. } => {
+                // τ_C = τ − c × F: a wrench offset reaches the rows as τ₀ − [c]× F₀.
+                let mut map = SMatrix::<f64, 3, 6>::zeros();
+                map.fixed_view_mut::<3, 3>(0, 0)
+                    .copy_from(&(-com_m.cross_matrix()));
+                map.fixed_view_mut::<3, 3>(0, 3)
+                    .copy_from(&nalgebra::Matrix3::identity());
+                let mut d = SMatrix::<f64, 10, 6>::zeros();
+                d.fixed_view_mut::<6, 6>(4, 0)
+                    .copy_from(&(solver.offset_sensitivity() * map));
+                d
+            }
+        }
+    }
+
+    /// Sensitivity of θ to a constant accelerometer bias, ∂θ/∂b (b in m/s², P axes, one
+    /// column per axis), to first order: the bias adds b to the conditioned specific force
+    /// (the low-pass passes a constant unchanged, and the lever-arm correction does not touch
+    /// it), i.e. a constant perturbation of the regressor's specific-force columns. Zero for
+    /// the paper's six parameters, whose rows hold no specific force.
+    pub fn accel_bias_sensitivity(&self) -> SMatrix<f64, 10, 3> {
+        let mut d = SMatrix::<f64, 10, 3>::zeros();
+        if let Engine::Full(s) = &self.engine {
+            for axis in 0..3 {
+                let b = from_signals(&RegressorSignals {
+                    specific_force_m_s2: Vector3::ith(axis, 1.0),
+                    ..RegressorSignals::default()
+                });
+                d.set_column(axis, &s.regressor_perturbation_effect(&b));
+            }
+        }
+        d
     }
 
     /// The full estimate: parameters, covariance, centre-of-mass form with sigmas, principal

@@ -18,16 +18,56 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 /// the block's end, g = b − A θ, rather than at the estimates of its samples: the estimate
 /// still moving at the start of a run would otherwise inflate the scores of the first blocks
 /// many times over. The first block, where the prior still shapes θ, is left out.
+///
+/// **Constant offsets.** A constant error c in the equations — a load cell's zero offset
+/// mapped into the wrench, m·b and h × b of an accelerometer bias b — is not noise: over a
+/// whole run it meets regressor columns that average out, yet every block's share of it looks
+/// like a random score, and the blocks' spread would count it as noise several times over
+/// (measured: the load-cell offsets alone tripled σ(J_zz) of the default scenario while moving
+/// J_zz by a fifth of that). So the scores are those of the fit augmented with one constant
+/// offset per equation, y = φθ + c + e. A block's score depends on c through
+/// D_k = S_k − A_k P_k S (S_k = Σ φ over the block, S over the fit so far, P_k the fit's P at
+/// the block's end: θ_k absorbs P_k S c), so the offset-free score is g_k − D_k c. The offset
+/// is the augmented fit's, c = (n𝟙 − SᵀPS)⁺(Y − Sᵀθ) from the augmented normal equations
+/// [A S; Sᵀ n𝟙][θ; c] = [b; Y] (Y = Σ y, n samples), taken at the *latest* fit whenever the
+/// covariance is asked for: a running offset would be poorly known along the directions the
+/// regressors nearly absorb (F_z with m·f_z ≈ m·g; measured: σ(m) 2.4× too large), while
+/// at the latest fit its error is an ordinary fitted parameter's. Hence the sums kept are
+/// those of M's expansion in c (below). The offset's own effect on θ, P S c, is systematic:
+/// where its cause has a datasheet figure the caller accounts for it as such, from
+/// [`Self::totals`] (`OnlineEstimator::wrench_offset_sensitivity`).
+///
+/// M = Σ λ^(2·age) (g gᵀ + ½(g g₋ᵀ + g₋ gᵀ)) over the finished blocks (g₋ the block before;
+/// Newey–West at lag one) equals ½ Σ λ^(2·age) h hᵀ + ½ g_G g_Gᵀ with h = g + λ^B g₋ (G the
+/// last block), and h − (D + λ^B D₋) c is quadratic in c: `NR` = N·R sizes the sums of
+/// η ⊗ E and E ⊗ E (η = g + λ^B g₋, E = D + λ^B D₋).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ScoreCovariance<const N: usize> {
+pub struct ScoreCovariance<const N: usize, const R: usize, const NR: usize> {
     /// Σ λ^(age) φ y over the block in progress.
     block_b: SVector<f64, N>,
     /// Σ λ^(age) φ φᵀ over the block in progress (upper triangle only).
     block_a: SMatrix<f64, N, N>,
-    /// M = Σ λ^(2·age) (g gᵀ + ½(g g₋ᵀ + g₋ gᵀ)) over finished blocks (g₋: the block before).
-    sum: SMatrix<f64, N, N>,
-    /// Score of the last finished block, aged by one block.
-    previous: SVector<f64, N>,
+    /// Σ λ^(age) φ over the block in progress, one column per equation.
+    block_s: SMatrix<f64, N, R>,
+    /// Σ λ^(age) y over the block in progress.
+    block_y: SVector<f64, R>,
+    /// Σ λ^(age) 1 over the block in progress.
+    block_n: f64,
+    /// Σ λ^(age) φ over the finished blocks.
+    total_s: SMatrix<f64, N, R>,
+    /// Σ λ^(age) y over the finished blocks.
+    total_y: SVector<f64, R>,
+    /// Σ λ^(age) over the samples of the finished blocks.
+    total_samples: f64,
+    /// Σ λ^(2·age) η ηᵀ.
+    eta_eta: SMatrix<f64, N, N>,
+    /// Σ λ^(2·age) η ⊗ E: entry (i, j·R + r) = Σ ηᵢ E_jr.
+    eta_e: SMatrix<f64, N, NR>,
+    /// Σ λ^(2·age) E ⊗ E: entry (i·R + r, j·R + s) = Σ E_ir E_js.
+    e_e: SMatrix<f64, NR, NR>,
+    /// Score of the last finished block and its offset sensitivity, unaged.
+    last_g: SVector<f64, N>,
+    last_d: SMatrix<f64, N, R>,
     /// Effective number of finished blocks, Σ λ^(2·age).
     blocks: f64,
     /// Effective number of rows, Σ λ^(age).
@@ -39,15 +79,26 @@ pub struct ScoreCovariance<const N: usize> {
     block_decay: f64,
 }
 
-impl<const N: usize> ScoreCovariance<N> {
-    /// Blocks of `block_samples` samples (≥ 1); forgetting factor λ as the fit's.
+impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> {
+    /// Blocks of `block_samples` samples (≥ 1); forgetting factor λ as the fit's. `NR` must
+    /// be N·R (checked by the compiler's evaluation of [`Self::SIZES_MATCH`]).
     pub fn new(block_samples: u32, forgetting: f64) -> Self {
+        let () = Self::SIZES_MATCH;
         let block_samples = block_samples.max(1);
         Self {
             block_b: SVector::zeros(),
             block_a: SMatrix::zeros(),
-            sum: SMatrix::zeros(),
-            previous: SVector::zeros(),
+            block_s: SMatrix::zeros(),
+            block_y: SVector::zeros(),
+            block_n: 0.0,
+            total_s: SMatrix::zeros(),
+            total_y: SVector::zeros(),
+            total_samples: 0.0,
+            eta_eta: SMatrix::zeros(),
+            eta_e: SMatrix::zeros(),
+            e_e: SMatrix::zeros(),
+            last_g: SVector::zeros(),
+            last_d: SMatrix::zeros(),
             blocks: 0.0,
             rows: 0.0,
             in_block: 0,
@@ -58,19 +109,23 @@ impl<const N: usize> ScoreCovariance<N> {
         }
     }
 
-    /// Adds one sample's weighted rows and weighted measurements; `theta` is the estimate after
-    /// the sample, used when the sample closes a block.
-    pub fn add<const R: usize>(
-        &mut self,
-        rows: &SMatrix<f64, R, N>,
-        y: &SVector<f64, R>,
-        theta: &SVector<f64, N>,
-    ) {
+    /// Compile-time check that `NR` = N·R.
+    pub const SIZES_MATCH: () = assert!(NR == N * R, "NR must be N·R");
+
+    /// Adds one sample's weighted rows and weighted measurements. Returns true when the
+    /// sample completes a block: the caller then calls [`Self::close_block`] with the fit
+    /// after this sample (θ and P cost a little to form, so only then).
+    pub fn add(&mut self, rows: &SMatrix<f64, R, N>, y: &SVector<f64, R>) -> bool {
         if self.forgetting < 1.0 {
             self.block_b *= self.forgetting;
             self.block_a *= self.forgetting;
+            self.block_s *= self.forgetting;
+            self.block_y *= self.forgetting;
         }
         self.block_b += rows.tr_mul(y);
+        self.block_s += rows.transpose();
+        self.block_y += y;
+        self.block_n = self.block_n * self.forgetting + 1.0;
         for r in 0..R {
             for i in 0..N {
                 let ri = rows[(r, i)];
@@ -83,39 +138,133 @@ impl<const N: usize> ScoreCovariance<N> {
         }
         self.rows = self.rows * self.forgetting + R as f64;
         self.in_block += 1;
-        if self.in_block >= self.block_samples {
-            self.close_block(theta);
-        }
+        self.in_block >= self.block_samples
     }
 
-    fn close_block(&mut self, theta: &SVector<f64, N>) {
+    /// Closes the block in progress with the fit after its last sample: θ and P of the
+    /// estimator as reported, which solves (A − n C) θ = b, C the second moment that
+    /// regressor noise adds per sample (zero without an errors-in-variables correction; see
+    /// `OnlineEstimator`). The block's score is that of the same equations,
+    /// g = b_k − (A_k − n_k C) θ: scoring the corrected θ against the uncorrected A_k would
+    /// leave (A_k/n_k − A/n)·n_k·(θ − θ_uncorrected) in every block, which the blocks' spread
+    /// counts as noise.
+    pub fn close_block(
+        &mut self,
+        theta: &SVector<f64, N>,
+        p: &SMatrix<f64, N, N>,
+        noise_moment: &SMatrix<f64, N, N>,
+    ) {
+        let age = libm::pow(self.forgetting, self.block_samples as f64);
+        self.total_s = self.total_s * age + self.block_s;
+        self.total_y = self.total_y * age + self.block_y;
+        self.total_samples = self.total_samples * age + self.in_block as f64;
         if self.finished > 0 {
-            // g = b − A θ with A symmetric, stored as its upper triangle.
-            let mut g = self.block_b;
-            for i in 0..N {
-                let mut s = 0.0;
-                for j in 0..N {
-                    let a = if j >= i {
-                        self.block_a[(i, j)]
-                    } else {
-                        self.block_a[(j, i)]
-                    };
-                    s += a * theta[j];
+            // A symmetric, stored as its upper triangle.
+            let a = SMatrix::<f64, N, N>::from_fn(|i, j| {
+                if j >= i {
+                    self.block_a[(i, j)]
+                } else {
+                    self.block_a[(j, i)]
                 }
-                g[i] -= s;
-            }
-            // Bartlett weight ½ on the neighbouring blocks' cross terms (Newey–West at lag one):
-            // a derivative's noise telescopes, so neighbours' scores anticorrelate; slow noise
-            // makes them correlate. Either way the pair terms keep M positive semi-definite.
-            let cross = g * self.previous.transpose() * 0.5;
-            self.sum = self.sum * self.block_decay + g * g.transpose() + cross + cross.transpose();
-            self.blocks = self.blocks * self.block_decay + 1.0;
-            self.previous = g * libm::pow(self.forgetting, self.block_samples as f64);
+            }) - noise_moment * self.block_n;
+            let g = self.block_b - a * theta;
+            let d = self.block_s - a * (p * self.total_s);
+            let eta = g + self.last_g * age;
+            let e = d + self.last_d * age;
+            let decay = self.block_decay;
+            self.eta_eta = self.eta_eta * decay + eta * eta.transpose();
+            let flat = SVector::<f64, NR>::from_fn(|k, _| e[(k / R, k % R)]);
+            self.eta_e = self.eta_e * decay + eta * flat.transpose();
+            self.e_e = self.e_e * decay + flat * flat.transpose();
+            self.blocks = self.blocks * decay + 1.0;
+            self.last_g = g;
+            self.last_d = d;
         }
         self.finished += 1;
         self.block_b = SVector::zeros();
         self.block_a = SMatrix::zeros();
+        self.block_s = SMatrix::zeros();
+        self.block_y = SVector::zeros();
+        self.block_n = 0.0;
         self.in_block = 0;
+    }
+
+    /// The augmented fit's offset c = (n𝟙 − SᵀPS)⁺(Y − Sᵀθ) over every sample so far, from the
+    /// plain fit's θ and P. The Schur complement is positive semi-definite; a direction where
+    /// it vanishes (below 1e-9 of n: an offset the regressors cannot be told from) gets no
+    /// offset (pseudo-inverse), as θ has absorbed it already.
+    fn offset(&self, theta: &SVector<f64, N>, p: &SMatrix<f64, N, N>) -> SVector<f64, R> {
+        let (s, y) = self.totals();
+        let n = self.total_samples * libm::pow(self.forgetting, self.in_block as f64)
+            + self.in_block as f64;
+        let schur = SMatrix::<f64, R, R>::identity() * n - s.tr_mul(&(p * s));
+        let schur = (schur + schur.transpose()) * 0.5;
+        let rhs = y - s.tr_mul(theta);
+        let mut offset = SVector::<f64, R>::zeros();
+        if !(n > 0.0 && schur.iter().all(|v| v.is_finite()) && rhs.iter().all(|v| v.is_finite())) {
+            return offset;
+        }
+        let (values, vectors) = jacobi_eigen(schur);
+        for k in 0..R {
+            if values[k] > 1e-9 * n {
+                let v = vectors.column(k);
+                offset += v * (v.dot(&rhs) / values[k]);
+            }
+        }
+        if offset.iter().all(|v| v.is_finite()) {
+            offset
+        } else {
+            SVector::zeros()
+        }
+    }
+
+    /// Σ (x − X c)(x − X c)ᵀ from the sums x xᵀ, x ⊗ X and X ⊗ X.
+    fn quadratic(
+        xx: &SMatrix<f64, N, N>,
+        x_x: &SMatrix<f64, N, NR>,
+        xx_xx: &SMatrix<f64, NR, NR>,
+        c: &SVector<f64, R>,
+    ) -> SMatrix<f64, N, N> {
+        let mut cross = SMatrix::<f64, N, N>::zeros();
+        let mut square = SMatrix::<f64, N, N>::zeros();
+        for i in 0..N {
+            for j in 0..N {
+                let mut v = 0.0;
+                let mut w = 0.0;
+                for r in 0..R {
+                    v += x_x[(i, j * R + r)] * c[r];
+                    for t in 0..R {
+                        w += xx_xx[(i * R + r, j * R + t)] * c[r] * c[t];
+                    }
+                }
+                cross[(i, j)] = v;
+                square[(i, j)] = w;
+            }
+        }
+        xx - cross - cross.transpose() + square
+    }
+
+    /// M of the offset-free scores g̃ = g − D c: Σ g̃ g̃ᵀ + ½ Σ (g̃ g̃₋ᵀ + g̃₋ g̃ᵀ), Newey–West
+    /// at lag one with Bartlett's weight ½, which keeps M positive semi-definite:
+    /// ½ Σ h hᵀ + ½ g̃_G g̃_Gᵀ. Neighbouring blocks' scores correlate (slow noise) or
+    /// anticorrelate (the gyro's derivative noise telescopes across a block boundary); the
+    /// weight ½ leaves half of that lag-one term in M, so blocks must be long compared with
+    /// both the noise's memory and the boundary terms (see `EstimatorConfig`).
+    fn score_sum(&self, c: &SVector<f64, R>) -> SMatrix<f64, N, N> {
+        let h_h = Self::quadratic(&self.eta_eta, &self.eta_e, &self.e_e, c);
+        let last = self.last_g - self.last_d * c;
+        let m = (h_h + last * last.transpose()) * 0.5;
+        (m + m.transpose()) * 0.5
+    }
+
+    /// S = Σ λ^(age) φ (one column per equation) and Y = Σ λ^(age) y over every sample so far,
+    /// the block in progress included.
+    pub fn totals(&self) -> (SMatrix<f64, N, R>, SVector<f64, R>) {
+        let age = libm::pow(self.forgetting, self.in_block as f64);
+        (
+            self.total_s * age + self.block_s,
+            self.total_y * age + self.block_y,
+        )
     }
 
     /// Effective number of finished blocks that count.
@@ -123,24 +272,88 @@ impl<const N: usize> ScoreCovariance<N> {
         self.blocks
     }
 
-    /// Covariance of θ given the fit's P: the sandwich P M P with the small-sample factor
-    /// G/(G−1)·(n−1)/(n−N) (G blocks, n rows), combined with P (what the configured noise
-    /// sigmas predict) as if P were worth two blocks: weight G/(G+2) on the sandwich. P alone
-    /// before two blocks count. The configured sigmas thus matter only at the start; a wrong
-    /// guess does not bias the reported sigmas of a long run.
-    pub fn covariance(&self, p: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
+    /// Covariance of θ given the fit's θ and P (as for [`Self::close_block`]): the offset c,
+    /// then the sandwich P M P with M of the offset-free scores, with the small-sample factor G/(G−1)·(n−1)/(n−N−R) (G blocks, n rows; N
+    /// parameters and R offsets fitted), combined with P (what the configured noise sigmas
+    /// predict) as if P were worth two blocks: weight G/(G+2) on the sandwich. P alone before
+    /// two blocks count. The configured sigmas thus matter only at the start; a wrong guess
+    /// does not bias the reported sigmas of a long run.
+    pub fn covariance(
+        &self,
+        theta: &SVector<f64, N>,
+        p: &SMatrix<f64, N, N>,
+    ) -> SMatrix<f64, N, N> {
         let g = self.blocks;
         let n = self.rows;
-        let nf = N as f64;
-        if g < 2.0 || n <= nf + 1.0 {
+        let fitted = (N + R) as f64;
+        if g < 2.0 || n <= fitted + 1.0 {
             return *p;
         }
-        let correction = g / (g - 1.0) * (n - 1.0) / (n - nf);
-        let sandwich = p * self.sum * p * correction;
+        let m = self.score_sum(&self.offset(theta, p));
+        let correction = g / (g - 1.0) * (n - 1.0) / (n - fitted);
+        let sandwich = p * m * p * correction;
         let w = g / (g + PRIOR_BLOCKS);
         let c = sandwich * w + p * (1.0 - w);
         (c + c.transpose()) * 0.5
     }
+}
+
+/// Eigenvalues and eigenvectors (columns) of a small symmetric matrix by cyclic Jacobi
+/// rotations (nalgebra's `SymmetricEigen` needs a dimension it can subtract from, which a
+/// generic `R` is not). Converges quadratically; 30 sweeps are far more than a 6×6 needs.
+fn jacobi_eigen<const R: usize>(
+    mut a: SMatrix<f64, R, R>,
+) -> (SVector<f64, R>, SMatrix<f64, R, R>) {
+    let mut v = SMatrix::<f64, R, R>::identity();
+    for _ in 0..30 {
+        let mut off = 0.0;
+        let mut diag = 0.0;
+        for i in 0..R {
+            diag += a[(i, i)] * a[(i, i)];
+            for j in (i + 1)..R {
+                off += a[(i, j)] * a[(i, j)];
+            }
+        }
+        if off <= 1e-30 * diag || off == 0.0 {
+            break;
+        }
+        for p in 0..R {
+            for q in (p + 1)..R {
+                let apq = a[(p, q)];
+                if apq == 0.0 {
+                    continue;
+                }
+                // The rotation that zeroes a[p][q] (Golub & Van Loan, Alg. 8.4.1).
+                let tau = (a[(q, q)] - a[(p, p)]) / (2.0 * apq);
+                let t = if tau >= 0.0 {
+                    1.0 / (tau + libm::sqrt(1.0 + tau * tau))
+                } else {
+                    -1.0 / (-tau + libm::sqrt(1.0 + tau * tau))
+                };
+                let c = 1.0 / libm::sqrt(1.0 + t * t);
+                let s = t * c;
+                for k in 0..R {
+                    let akp = a[(k, p)];
+                    let akq = a[(k, q)];
+                    a[(k, p)] = c * akp - s * akq;
+                    a[(k, q)] = s * akp + c * akq;
+                }
+                for k in 0..R {
+                    let apk = a[(p, k)];
+                    let aqk = a[(q, k)];
+                    a[(p, k)] = c * apk - s * aqk;
+                    a[(q, k)] = s * apk + c * aqk;
+                }
+                for k in 0..R {
+                    let vkp = v[(k, p)];
+                    let vkq = v[(k, q)];
+                    v[(k, p)] = c * vkp - s * vkq;
+                    v[(k, q)] = s * vkp + c * vkq;
+                }
+            }
+        }
+    }
+    (a.diagonal(), v)
 }
 
 /// Weight of the configured-noise covariance P, in blocks.
@@ -311,19 +524,31 @@ mod tests {
     }
 
     #[test]
+    fn jacobi_eigen_reconstructs_the_matrix() {
+        let b = SMatrix::<f64, 4, 4>::from_fn(|i, j| ((i * 7 + j * 3) % 5) as f64 - 1.5);
+        let a = b * b.transpose() + SMatrix::<f64, 4, 4>::identity() * 1e-3;
+        let (values, vectors) = jacobi_eigen(a);
+        let back = vectors * SMatrix::<f64, 4, 4>::from_diagonal(&values) * vectors.transpose();
+        assert!((back - a).norm() < 1e-12 * a.norm());
+        assert!((vectors.transpose() * vectors - SMatrix::<f64, 4, 4>::identity()).norm() < 1e-12);
+    }
+
+    #[test]
     fn score_covariance_falls_back_to_p_until_blocks_exist() {
-        let mut s = ScoreCovariance::<2>::new(10, 1.0);
+        let mut s = ScoreCovariance::<2, 1, 2>::new(10, 1.0);
         let p = SMatrix::<f64, 2, 2>::identity() * 0.5;
-        assert_eq!(s.covariance(&p), p);
-        let rows = SMatrix::<f64, 1, 2>::new(1.0, 0.0);
         let theta = SVector::<f64, 2>::zeros();
+        assert_eq!(s.covariance(&theta, &p), p);
+        let rows = SMatrix::<f64, 1, 2>::new(1.0, 0.0);
         for k in 0..1000 {
             let y = SVector::<f64, 1>::new(if k % 2 == 0 { 1.0 } else { -1.0 });
-            s.add(&rows, &y, &theta);
+            if s.add(&rows, &y) {
+                s.close_block(&theta, &p, &SMatrix::zeros());
+            }
         }
         // Alternating residuals cancel in every block: no spread in the first parameter.
         assert!((s.blocks() - 99.0).abs() < 1e-12);
-        let c = s.covariance(&p);
+        let c = s.covariance(&theta, &p);
         assert!(c[(0, 0)] < 0.03 * p[(0, 0)]);
     }
 }
