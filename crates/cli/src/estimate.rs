@@ -174,7 +174,8 @@ pub struct RunEstimate {
     pub fk_failures: u64,
     /// Frames of the measurement in the log.
     pub frames: u64,
-    /// Change of θ from one sigma of accelerometer bias along x, y, z (rows), when probed.
+    /// Change of θ from one sigma of accelerometer bias along x, y, z (rows), when a bias
+    /// figure is known.
     pub accel_bias_effect: Option<[[f64; 10]; 3]>,
 }
 
@@ -255,32 +256,8 @@ pub fn accel_bias_sigma(log: &LogContents) -> Result<f64> {
     Ok(crate::preflight::accel_bias_sigma(&loaded.config))
 }
 
-/// Three estimators fed the same samples with one sigma of accelerometer bias added along x,
-/// y and z (the run's probes, see [`crate::systematic`]).
-struct BiasProbes {
-    estimators: [OnlineEstimator; 3],
-    bias_m_s2: f64,
-}
-
-impl BiasProbes {
-    fn update(&mut self, sample: &Sample) {
-        for (axis, e) in self.estimators.iter_mut().enumerate() {
-            let mut biased = *sample;
-            biased.accel_m_s2[axis] += self.bias_m_s2;
-            let _ = e.update(&biased);
-        }
-    }
-
-    fn effect(&self, theta: &[f64; 10]) -> [[f64; 10]; 3] {
-        core::array::from_fn(|axis| {
-            let t: [f64; 10] = self.estimators[axis].theta().into();
-            core::array::from_fn(|i| t[i] - theta[i])
-        })
-    }
-}
-
-/// Re-runs the estimator on measurement `run` of the log; `bias_m_s2` > 0 also runs the
-/// accelerometer-bias probes.
+/// Re-runs the estimator on measurement `run` of the log; `bias_m_s2` > 0 also gives the
+/// accelerometer bias's effect (see [`crate::systematic`]).
 pub fn reestimate_run(
     log: &LogContents,
     run: &str,
@@ -292,10 +269,6 @@ pub fn reestimate_run(
     let geometry: Geometry = config.geometry;
     let mut estimator = OnlineEstimator::new(config)
         .map_err(|e| anyhow!("the estimator refused its settings: {e}"))?;
-    let mut probes = (bias_m_s2 > 0.0).then_some(BiasProbes {
-        estimators: [estimator; 3],
-        bias_m_s2,
-    });
     let sample_rate_hz = 1.0 / config.sample_period_s;
     let estimate_every = every(rates::ESTIMATE_HZ, sample_rate_hz);
     let mut guess = geometry.home_pose();
@@ -323,9 +296,6 @@ pub fn reestimate_run(
                     gyro_rad_s: Vector3::from(frame.gyro_rad_s),
                     accel_m_s2: Vector3::from(frame.accel_m_s2),
                 };
-                if let Some(p) = probes.as_mut() {
-                    p.update(&sample);
-                }
                 if let Ok(Outcome::Used) = estimator.update(&sample) {
                     history.push(estimator.theta().into());
                     last_used_s = frame.time_s;
@@ -355,7 +325,6 @@ pub fn reestimate_run(
             estimate,
         });
     }
-    let theta: [f64; 10] = estimate.parameters.to_vector().into();
     Ok(RunEstimate {
         run: run.to_string(),
         config,
@@ -370,7 +339,7 @@ pub fn reestimate_run(
         },
         fk_failures,
         frames,
-        accel_bias_effect: probes.map(|p| p.effect(&theta)),
+        accel_bias_effect: crate::systematic::accel_bias_effect(&estimator, bias_m_s2),
     })
 }
 

@@ -12,8 +12,9 @@
 //!    (`run.settle_s`), the excitation, the park ramp and hold, then brakes on.
 //! 3. **Estimator**: created on the first excitation sample with the window
 //!    `[t_start, t_start + trajectory duration]`, then fed every earlier sample of the
-//!    measurement (they only warm its conditioning, so the filter's start transient is over when
-//!    the window opens) and every later one up to the window's end. Its pose input is the forward kinematics of the measured leg lengths,
+//!    measurement (they only warm its conditioning: the estimator withholds the low-pass's start
+//!    transient from the fit by itself, and warming it on the brake hold and settle frames keeps
+//!    the whole excitation for the fit) and every later one up to the window's end. Its pose input is the forward kinematics of the measured leg lengths,
 //!    warm-started from the previous sample's solution (the first sample of the measurement from
 //!    the home pose), so `stewart estimate` can rebuild the same inputs from `/sensors` alone.
 //!
@@ -96,8 +97,8 @@ pub struct MeasureOutcome {
     /// Samples whose forward kinematics failed (not fed to the estimator).
     pub fk_failures: u64,
     /// Change of θ caused by an accelerometer bias of one datasheet sigma along P's x, y and z
-    /// (rows), from three estimators fed the same samples with the bias added; `None` without
-    /// a bias figure (ideal sensors) or without an excitation. See [`crate::systematic`].
+    /// (rows), from the estimator's first-order sensitivity; `None` without a bias figure
+    /// (ideal sensors) or without an excitation. See [`crate::systematic`].
     pub accel_bias_effect: Option<[[f64; 10]; 3]>,
     /// How it ended.
     pub end: End,
@@ -156,7 +157,8 @@ where
     let mut force_sum = [0.0; 6];
     let mut first_time: Option<f64> = None;
     // Samples before the excitation: fed to the estimator when it is created, so that its
-    // conditioning (filtered derivative, low-pass) has settled by the window's start.
+    // conditioning (filtered derivative, low-pass, warm-up) is done by the window's start and
+    // no excitation sample is spent on it.
     let mut pending: Vec<Sample> = Vec::with_capacity(8192);
     let mut fk_failures = 0u64;
     for i in 0..hold_samples {
@@ -214,7 +216,6 @@ where
     let budget = expected + (120.0 * rate_hz) as u64;
     let mut estimator: Option<OnlineEstimator> = None;
     let bias_sigma = preflight::accel_bias_sigma(config);
-    let mut probes: Option<BiasProbes> = None;
     let mut history = Vec::with_capacity((setup.trajectory.duration_s() * rate_hz) as usize + 16);
     let mut excite_start_s = f64::NAN;
     let mut last_fed_s = f64::NAN;
@@ -254,16 +255,10 @@ where
             )?;
             excite_start_s = frame.time_s;
             // Every earlier sample of the measurement only warms the conditioning (they lie
-            // before the window), so the filter's start transient is over by the window.
-            if bias_sigma > 0.0 {
-                probes = Some(BiasProbes::new(&c, bias_sigma)?);
-            }
+            // before the window), so the whole excitation reaches the fit.
             if let Some(est) = estimator.as_mut() {
                 for sample in pending.drain(..) {
                     let _ = est.update(&sample);
-                    if let Some(p) = probes.as_mut() {
-                        p.update(&sample);
-                    }
                 }
             }
         }
@@ -275,9 +270,6 @@ where
             // Every frame up to the window's end, whatever the phase, so that a re-run from
             // the log feeds exactly the same samples.
             (Some(est), Some(sample)) if frame.time_s <= est.config().window_end_s => {
-                if let Some(p) = probes.as_mut() {
-                    p.update(&sample);
-                }
                 if let Ok(Outcome::Used) = est.update(&sample) {
                     history.push(est.theta().into());
                     last_fed_s = frame.time_s;
@@ -377,10 +369,9 @@ where
                         0.0
                     },
                     fk_failures,
-                    accel_bias_effect: match (&estimator, &probes) {
-                        (Some(e), Some(p)) => Some(p.effect(&e.theta().into())),
-                        _ => None,
-                    },
+                    accel_bias_effect: estimator
+                        .as_ref()
+                        .and_then(|e| crate::systematic::accel_bias_effect(e, bias_sigma)),
                     end,
                 });
             }
@@ -419,39 +410,6 @@ fn next(sequence: &mut u64) -> u64 {
     let s = *sequence;
     *sequence += 1;
     s
-}
-
-/// Three estimators fed the same samples with an accelerometer bias of one sigma added along
-/// x, y and z: their difference from the main estimate is the bias's effect on θ.
-struct BiasProbes {
-    estimators: [OnlineEstimator; 3],
-    bias_m_s2: f64,
-}
-
-impl BiasProbes {
-    fn new(config: &EstimatorConfig, bias_m_s2: f64) -> Result<Self> {
-        let e = OnlineEstimator::new(*config)
-            .map_err(|e| anyhow!("estimator refused its settings: {e}"))?;
-        Ok(Self {
-            estimators: [e, e, e],
-            bias_m_s2,
-        })
-    }
-
-    fn update(&mut self, sample: &Sample) {
-        for (axis, e) in self.estimators.iter_mut().enumerate() {
-            let mut biased = *sample;
-            biased.accel_m_s2[axis] += self.bias_m_s2;
-            let _ = e.update(&biased);
-        }
-    }
-
-    fn effect(&self, theta: &[f64; 10]) -> [[f64; 10]; 3] {
-        core::array::from_fn(|axis| {
-            let t: [f64; 10] = self.estimators[axis].theta().into();
-            core::array::from_fn(|i| t[i] - theta[i])
-        })
-    }
 }
 
 /// The estimator's input of one frame at `pose`.
