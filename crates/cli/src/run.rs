@@ -123,10 +123,32 @@ fn every(rate_hz: f64, sample_rate_hz: f64) -> u64 {
 
 /// Runs one measurement. Errors are backend or log failures (after a best-effort safe stop);
 /// a supervisor fault or an interrupt end the measurement normally with [`End::Fault`] or
-/// [`End::Interrupted`].
+/// [`End::Interrupted`]. The controller (and its feasibility check) is built before the first
+/// sample; see [`measure_with`] to hand over one built earlier.
 pub fn measure<B: Backend>(
     backend: &mut B,
     setup: &MeasureSetup<'_>,
+    hooks: &mut Hooks<'_>,
+) -> Result<MeasureOutcome>
+where
+    B::Error: std::fmt::Display,
+{
+    let controller = Controller::new(
+        setup.geometry,
+        setup.trajectory,
+        preflight::controller_config(setup.config),
+    )
+    .map_err(|e| anyhow!("controller refused the run: {e}"))?;
+    measure_with(backend, setup, controller, hooks)
+}
+
+/// [`measure`] with `controller` built (and so checked) beforehand for `setup`'s trajectory,
+/// e.g. by [`preflight::controller`]: nothing slow happens between samples once the backend
+/// runs (a rig's watchdog counts). Its feed-forward is replaced by the brake hold's load.
+pub fn measure_with<B: Backend>(
+    backend: &mut B,
+    setup: &MeasureSetup<'_>,
+    mut controller: Controller,
     hooks: &mut Hooks<'_>,
 ) -> Result<MeasureOutcome>
 where
@@ -206,10 +228,9 @@ where
     }
 
     // 2. The controller, with the static load as feed-forward.
-    let mut controller_config = preflight::controller_config(config);
-    controller_config.feedforward_n = feedforward;
-    let mut controller = Controller::new(setup.geometry, setup.trajectory, controller_config)
-        .map_err(|e| anyhow!("controller refused the run: {e}"))?;
+    controller
+        .set_feedforward(feedforward)
+        .map_err(|e| anyhow!("controller refused the feed-forward: {e}"))?;
     controller.set_pose_guess(fk_guess);
 
     let expected = expected_samples(config, &setup.trajectory);

@@ -265,6 +265,19 @@ impl Controller {
         self.supervisor.fault()
     }
 
+    /// Replaces the static feed-forward ([`ControllerConfig::feedforward_n`]), e.g. with the
+    /// load the legs carried during a brake hold, without repeating the pre-motion checks of
+    /// [`Controller::new`] (the trajectory's feasibility does not depend on it), so a caller can
+    /// build the controller before the rig moves and still feed it what the rig then measured.
+    /// Refused, leaving the controller unchanged, unless every entry is finite.
+    pub fn set_feedforward(&mut self, feedforward_n: [f64; LEG_COUNT]) -> Result<(), ControlError> {
+        let mut config = self.config;
+        config.feedforward_n = feedforward_n;
+        config.validate()?;
+        self.config = config;
+        Ok(())
+    }
+
     /// Sets the FK warm start (e.g. the platform's resting pose before the first tick).
     /// Ignored unless finite.
     pub fn set_pose_guess(&mut self, pose: Pose) {

@@ -209,6 +209,38 @@ fn running(ticks: usize) -> (Controller, Legs) {
     (controller, legs)
 }
 
+#[test]
+fn feedforward_set_after_construction_acts_as_if_configured() {
+    let g = geometry();
+    let mut configured = Controller::new(g, eq8(6.0), config()).unwrap();
+    let mut set_later = Controller::new(
+        g,
+        eq8(6.0),
+        ControllerConfig {
+            feedforward_n: [0.0; LEG_COUNT],
+            ..config()
+        },
+    )
+    .unwrap();
+    let mut bad = [LOAD_N; LEG_COUNT];
+    bad[2] = f64::NAN;
+    assert!(matches!(
+        set_later.set_feedforward(bad),
+        Err(ControlError::NonFinite { index: 2, .. })
+    ));
+    assert_eq!(set_later.config().feedforward_n, [0.0; LEG_COUNT]);
+    set_later.set_feedforward([LOAD_N; LEG_COUNT]).unwrap();
+    let mut legs = Legs::at(&g.home_pose());
+    for _ in 0..3000 {
+        let frame = legs.frame();
+        let a = configured.tick(&frame);
+        let b = set_later.tick(&frame);
+        assert_eq!(a.command, b.command);
+        legs.step(&a.command);
+    }
+    assert_eq!(configured.phase(), set_later.phase());
+}
+
 fn assert_safe_stop(out: &TickOutput, expected: Fault) {
     assert_eq!(out.phase, Phase::Fault);
     assert_eq!(out.fault, Some(expected));
