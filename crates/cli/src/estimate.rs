@@ -27,12 +27,9 @@ use crate::config::ParamCount;
 use crate::log_messages as topics;
 use crate::log_read::{LogContents, SensorRecord};
 use crate::metadata::EstimatorSettings;
-use crate::report::{
-    Consistency, Convergence, Principal, Quantities, Report, ResidualRms, RunInfo, Systematic,
-    TareUsed,
-};
+use crate::report::{Quantities, Report, ReportInputs, RunInfo, TareKind};
 use crate::run_log::rates;
-use crate::tare::{TareFile, TARE_FORMAT};
+use crate::tare::TareFile;
 
 /// `stewart estimate` arguments.
 #[derive(Clone, Debug, Default, Args)]
@@ -388,42 +385,13 @@ pub struct EstimateOutcome {
 /// The tare file of a tare estimate, as the run saves it.
 pub fn tare_file_of(e: &Estimate, log: &LogContents) -> Result<TareFile> {
     let meta = log.require_metadata()?;
-    let c = &e.covariance;
-    Ok(TareFile {
-        format: TARE_FORMAT.into(),
-        theta: e.parameters.to_vector().into(),
-        covariance: core::array::from_fn(|r| {
-            core::array::from_fn(|k| 0.5 * (c[(r, k)] + c[(k, r)]))
-        }),
-        samples: e.counts.used,
-        residual_rms: e.residual_rms.into(),
-        base_joints_m: meta.base_joints_m,
-        plate_joints_m: meta.plate_joints_m,
-        config: meta.config_source.clone(),
-        backend: meta.backend.clone(),
-    })
-}
-
-fn rows(m: &nalgebra::Matrix3<f64>) -> [[f64; 3]; 3] {
-    core::array::from_fn(|r| core::array::from_fn(|c| m[(r, c)]))
-}
-
-/// Mass, centre of mass and J_C of an estimate.
-pub fn quantities(e: &Estimate) -> Quantities {
-    Quantities {
-        mass: e.parameters.mass_kg,
-        com: e.com_m.into(),
-        inertia_com: rows(&e.inertia_com_kg_m2),
-    }
-}
-
-/// One sigma of each entry of [`quantities`].
-pub fn sigmas(e: &Estimate) -> Quantities {
-    Quantities {
-        mass: e.mass_sigma_kg,
-        com: e.com_sigma_m.into(),
-        inertia_com: rows(&e.inertia_com_sigma_kg_m2),
-    }
+    Ok(TareFile::from_estimate(
+        e,
+        &meta.base_joints_m,
+        &meta.plate_joints_m,
+        &meta.config_source,
+        &meta.backend,
+    ))
 }
 
 /// The payload's truth from `/run/truth`, if logged.
@@ -435,24 +403,8 @@ pub fn payload_truth(log: &LogContents) -> Option<Quantities> {
     })
 }
 
-/// `samples_to_1pct`: 1-based index of the first sample after which every estimated parameter
-/// of the payload (θ − tare) stays within 1 % of its final value.
-pub fn samples_to_1pct(history: &[[f64; 10]], tare: &[f64; 10], six: bool) -> Option<u64> {
-    let last = history.last()?;
-    let fin: [f64; 10] = core::array::from_fn(|i| last[i] - tare[i]);
-    let range = if six { 4..10 } else { 0..10 };
-    let within = |t: &[f64; 10]| {
-        range
-            .clone()
-            .all(|i| ((t[i] - tare[i]) - fin[i]).abs() <= 0.01 * fin[i].abs())
-    };
-    Some(match history.iter().rposition(|t| !within(t)) {
-        None => 1,
-        Some(k) => k as u64 + 2,
-    })
-}
-
-/// The report of a loaded re-run with `tare` subtracted, in `simulate`'s shape.
+/// The report of a loaded re-run with `tare` subtracted, in `simulate`'s shape
+/// ([`crate::report::build`]).
 pub fn build_report(
     log: &LogContents,
     loaded: &RunEstimate,
@@ -461,72 +413,36 @@ pub fn build_report(
     bias_m_s2: f64,
 ) -> Result<Report> {
     let meta = log.require_metadata()?;
-    let tare_params = (tare.parameters(), tare.covariance_matrix());
-    let l = &loaded.estimate;
-    let (tare_source, tare_path, tare_effect) = match tare_origin {
-        TareOrigin::Measured(r) => ("measured", None, r.accel_bias_effect.as_ref()),
-        TareOrigin::File(p) => ("file", p.clone(), None),
+    let (tare_kind, tare_path, tare_effect) = match tare_origin {
+        TareOrigin::Measured(r) => (TareKind::Measured, None, r.accel_bias_effect.as_ref()),
+        TareOrigin::File(p) => (TareKind::File, p.clone(), None),
     };
-    let systematic =
-        crate::systematic::bias_covariance(loaded.accel_bias_effect.as_ref(), tare_effect);
-    let payload = crate::systematic::payload_with_systematics(l, &tare_params, &systematic);
-    let systematic_only = Estimate::from_parameters(payload.parameters, systematic);
-    let axes = payload.principal_axes;
-    let consistency = payload.consistency;
-    let tare_estimate = Estimate::from_parameters(tare_params.0, tare_params.1);
-    let six = matches!(
-        loaded.config.parameters,
-        ParameterSet::InertiaAboutKnownCom { .. }
-    );
-    Ok(Report {
-        estimate: quantities(&payload),
-        sigma: sigmas(&payload),
-        truth: payload_truth(log),
-        principal: Principal {
-            moments: payload.principal_moments_kg_m2.into(),
-            axes: core::array::from_fn(|k| core::array::from_fn(|i| axes[(i, k)])),
-        },
-        samples: l.counts.used,
+    let params = match loaded.config.parameters {
+        ParameterSet::InertiaAboutKnownCom { .. } => ParamCount::Six,
+        ParameterSet::Full => ParamCount::Ten,
+    };
+    Ok(crate::report::build(&ReportInputs {
+        loaded: &loaded.estimate,
+        theta_history: &loaded.theta_history,
         excitation_s: loaded.excitation_s,
-        convergence: Convergence {
-            samples_to_1pct: samples_to_1pct(&loaded.theta_history, &tare.theta, six),
-        },
-        residual_rms: ResidualRms {
-            force_n: [0, 1, 2].map(|i| l.residual_rms[i]),
-            torque_nm: [3, 4, 5].map(|i| l.residual_rms[i]),
-        },
-        rejected_samples: l.counts.rejected + loaded.fk_failures,
-        consistency: Consistency {
-            verdict: if consistency.is_consistent() {
-                "consistent".into()
-            } else {
-                "inconsistent".into()
-            },
-            problems: consistency
-                .first_failure()
-                .map(|f| vec![f.to_string()])
-                .unwrap_or_default(),
-        },
-        tare: TareUsed {
-            source: tare_source.into(),
-            file: tare_path,
-            theta: tare.theta,
-            sigma: core::array::from_fn(|i| tare.covariance[i][i].max(0.0).sqrt()),
-            estimate: quantities(&tare_estimate),
-        },
-        systematic: Systematic {
-            accel_bias_sigma_m_s2: bias_m_s2,
-            sigma: sigmas(&systematic_only),
-        },
+        fk_failures: loaded.fk_failures,
+        tare,
+        tare_kind,
+        tare_path,
+        loaded_bias_effect: loaded.accel_bias_effect.as_ref(),
+        tare_bias_effect: tare_effect,
+        accel_bias_sigma_m_s2: bias_m_s2,
+        params,
+        truth: payload_truth(log),
         run: RunInfo {
             config: meta.config_source.clone(),
             seed: meta.seed,
             noise: meta.noise.clone(),
-            params: if six { 6 } else { 10 },
+            params: params.into(),
             log: Some(log.path.display().to_string()),
             backend: meta.backend.clone(),
         },
-    })
+    }))
 }
 
 /// Re-estimates the log's measurements with `o`, subtracts the tare (`tare_path`, else the
@@ -630,18 +546,5 @@ mod tests {
         assert!(parse_window("9:3").is_err());
         assert!(parse_window("a:3").is_err());
         assert!(parse_window("1:inf").is_err());
-    }
-
-    #[test]
-    fn samples_to_1pct_counts_the_payload() {
-        let tare = [99.0; 10];
-        let h = vec![[101.0; 10], [100.0; 10], [100.0; 10]];
-        assert_eq!(samples_to_1pct(&h, &tare, false), Some(2));
-        let mut h = vec![[1.0; 10]; 10];
-        h[3][5] = 1.2;
-        h[6][0] = 0.985;
-        assert_eq!(samples_to_1pct(&h, &[0.0; 10], false), Some(8));
-        assert_eq!(samples_to_1pct(&h, &[0.0; 10], true), Some(5));
-        assert_eq!(samples_to_1pct(&[], &[0.0; 10], true), None);
     }
 }

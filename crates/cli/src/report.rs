@@ -4,7 +4,11 @@
 //! Everything is for the payload alone (tare removed), `com` in metres in P, `inertia_com` = J_C
 //! in kg·m² in P axes, `sigma` one standard deviation of each entry.
 
+use estimator::Estimate;
 use serde::{Deserialize, Serialize};
+
+use crate::config::ParamCount;
+use crate::tare::TareFile;
 
 /// Mass, centre of mass and inertia about the centre of mass.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -136,6 +140,131 @@ impl Report {
     }
 }
 
+fn rows(m: &nalgebra::Matrix3<f64>) -> [[f64; 3]; 3] {
+    core::array::from_fn(|r| core::array::from_fn(|c| m[(r, c)]))
+}
+
+/// Mass, centre of mass and J_C of an estimate.
+pub fn quantities(e: &Estimate) -> Quantities {
+    Quantities {
+        mass: e.parameters.mass_kg,
+        com: e.com_m.into(),
+        inertia_com: rows(&e.inertia_com_kg_m2),
+    }
+}
+
+/// One sigma of each entry of [`quantities`].
+pub fn sigmas(e: &Estimate) -> Quantities {
+    Quantities {
+        mass: e.mass_sigma_kg,
+        com: e.com_sigma_m.into(),
+        inertia_com: rows(&e.inertia_com_sigma_kg_m2),
+    }
+}
+
+/// Where the subtracted tare came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TareKind {
+    /// A tare run in the same invocation (or the same log).
+    Measured,
+    /// A tare file.
+    File,
+}
+
+/// Everything a report is made from: the loaded measurement, the tare, the systematic part's
+/// inputs and how the run was made. `simulate`, `rig` and `estimate` fill it from their own
+/// sources and call [`build`], so their reports cannot drift apart.
+#[derive(Clone, Debug)]
+pub struct ReportInputs<'a> {
+    /// The loaded run's final estimate (everything on the plate).
+    pub loaded: &'a Estimate,
+    /// θ after every used sample of the loaded run.
+    pub theta_history: &'a [[f64; 10]],
+    /// Excitation time of the loaded run, s.
+    pub excitation_s: f64,
+    /// Loaded-run frames whose forward kinematics failed (counted as rejected).
+    pub fk_failures: u64,
+    /// The tare subtracted.
+    pub tare: &'a TareFile,
+    /// Where it came from.
+    pub tare_kind: TareKind,
+    /// The tare file's path, when one was given.
+    pub tare_path: Option<String>,
+    /// Change of the loaded θ from one sigma of accelerometer bias along x, y, z.
+    pub loaded_bias_effect: Option<&'a [[f64; 10]; 3]>,
+    /// The same for the tare run, when it was measured with the same accelerometer.
+    pub tare_bias_effect: Option<&'a [[f64; 10]; 3]>,
+    /// The accelerometer bias's one sigma assumed, m/s².
+    pub accel_bias_sigma_m_s2: f64,
+    /// 10 or 6 parameters (which ones count for `samples_to_1pct`).
+    pub params: ParamCount,
+    /// The payload's truth, where known.
+    pub truth: Option<Quantities>,
+    /// How the run was made.
+    pub run: RunInfo,
+}
+
+/// The report of the payload alone: loaded minus tare, with the covariance of both plus the
+/// accelerometer bias's systematic part ([`crate::systematic`]).
+pub fn build(i: &ReportInputs<'_>) -> Report {
+    let tare_params = (i.tare.parameters(), i.tare.covariance_matrix());
+    let systematic = crate::systematic::bias_covariance(i.loaded_bias_effect, i.tare_bias_effect);
+    let payload = crate::systematic::payload_with_systematics(i.loaded, &tare_params, &systematic);
+    let systematic_only = Estimate::from_parameters(payload.parameters, systematic);
+    let axes = payload.principal_axes;
+    let consistency = payload.consistency;
+    let tare_estimate = Estimate::from_parameters(tare_params.0, tare_params.1);
+    Report {
+        estimate: quantities(&payload),
+        sigma: sigmas(&payload),
+        truth: i.truth,
+        principal: Principal {
+            moments: payload.principal_moments_kg_m2.into(),
+            axes: core::array::from_fn(|k| core::array::from_fn(|r| axes[(r, k)])),
+        },
+        samples: i.loaded.counts.used,
+        excitation_s: i.excitation_s,
+        convergence: Convergence {
+            samples_to_1pct: crate::run::samples_to_1pct(
+                i.theta_history,
+                Some(&i.tare.theta),
+                i.params,
+            ),
+        },
+        residual_rms: ResidualRms {
+            force_n: [0, 1, 2].map(|k| i.loaded.residual_rms[k]),
+            torque_nm: [3, 4, 5].map(|k| i.loaded.residual_rms[k]),
+        },
+        rejected_samples: i.loaded.counts.rejected + i.fk_failures,
+        consistency: Consistency {
+            verdict: if consistency.is_consistent() {
+                "consistent".into()
+            } else {
+                "inconsistent".into()
+            },
+            problems: consistency
+                .first_failure()
+                .map(|f| vec![f.to_string()])
+                .unwrap_or_default(),
+        },
+        tare: TareUsed {
+            source: match i.tare_kind {
+                TareKind::Measured => "measured".into(),
+                TareKind::File => "file".into(),
+            },
+            file: i.tare_path.clone(),
+            theta: i.tare.theta,
+            sigma: core::array::from_fn(|k| i.tare.covariance[k][k].max(0.0).sqrt()),
+            estimate: quantities(&tare_estimate),
+        },
+        systematic: Systematic {
+            accel_bias_sigma_m_s2: i.accel_bias_sigma_m_s2,
+            sigma: sigmas(&systematic_only),
+        },
+        run: i.run.clone(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -160,6 +289,70 @@ mod tests {
         assert!(v["samples"].is_u64());
         assert!(v["excitation_s"].is_number());
         assert!(v["convergence"]["samples_to_1pct"].is_null());
+    }
+
+    /// The shared builder: payload = loaded − tare, its covariance loaded + tare + the bias's
+    /// Σ d dᵀ (d = loaded effect − tare effect), the counters and the tare's own figures.
+    #[test]
+    fn build_subtracts_the_tare_and_adds_the_systematic_part() {
+        use estimator::{InertialParameters, ParameterCovariance};
+        use nalgebra::{Matrix3, Vector3};
+        let fixture = InertialParameters::from_com(
+            400.0,
+            Vector3::new(0.0, 0.0, 0.05),
+            Matrix3::from_diagonal(&Vector3::new(240.0, 240.0, 450.0)),
+        );
+        let payload = InertialParameters::from_com(
+            1500.0,
+            Vector3::new(0.15, -0.08, 0.5),
+            Matrix3::new(
+                600.0, -25.0, 60.0, -25.0, 2500.0, -15.0, 60.0, -15.0, 2700.0,
+            ),
+        );
+        let stat = ParameterCovariance::identity() * 1e-4;
+        let mut loaded = Estimate::from_parameters(payload + fixture, stat * 2.0);
+        loaded.counts.used = 1000;
+        loaded.counts.rejected = 3;
+        let tare_estimate = Estimate::from_parameters(fixture, stat);
+        let tare =
+            TareFile::from_estimate(&tare_estimate, &[[0.0; 3]; 6], &[[0.0; 3]; 6], "x", "sim");
+        let mut loaded_effect = [[0.0; 10]; 3];
+        let mut tare_effect = [[0.0; 10]; 3];
+        loaded_effect[2][0] = 0.2;
+        tare_effect[2][0] = 0.05;
+        let history = vec![
+            [0.0; 10],
+            tare.theta,
+            (payload + fixture).to_vector().into(),
+        ];
+        let r = build(&ReportInputs {
+            loaded: &loaded,
+            theta_history: &history,
+            excitation_s: 60.0,
+            fk_failures: 2,
+            tare: &tare,
+            tare_kind: TareKind::Measured,
+            tare_path: None,
+            loaded_bias_effect: Some(&loaded_effect),
+            tare_bias_effect: Some(&tare_effect),
+            accel_bias_sigma_m_s2: 1e-3,
+            params: ParamCount::Ten,
+            truth: None,
+            run: RunInfo::default(),
+        });
+        assert!((r.estimate.mass - 1500.0).abs() < 1e-9);
+        assert!((r.estimate.com[2] - 0.5).abs() < 1e-12);
+        assert!((r.estimate.inertia_com[0][2] - 60.0).abs() < 1e-9);
+        // σ(m)² = 2e-4 (loaded) + 1e-4 (tare) + 0.15² (bias on the payload's share).
+        assert!((r.sigma.mass - (3e-4f64 + 0.0225).sqrt()).abs() < 1e-12);
+        assert!((r.systematic.sigma.mass - 0.15).abs() < 1e-12);
+        assert_eq!(r.systematic.accel_bias_sigma_m_s2, 1e-3);
+        assert_eq!((r.samples, r.rejected_samples), (1000, 5));
+        assert_eq!(r.tare.source, "measured");
+        assert!((r.tare.estimate.mass - 400.0).abs() < 1e-9);
+        assert!((r.tare.sigma[0] - 1e-2).abs() < 1e-15);
+        // Only the last of three samples is within 1 % of the final payload.
+        assert_eq!(r.convergence.samples_to_1pct, Some(3));
     }
 
     #[test]

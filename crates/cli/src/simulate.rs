@@ -11,7 +11,6 @@ use std::sync::atomic::AtomicBool;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use anyhow::{anyhow, Context};
-use estimator::{Estimate, InertialParameters, ParameterCovariance};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use kinematics::Geometry;
 
@@ -23,13 +22,10 @@ use crate::log_messages as topics;
 use crate::mcap_log::default_log_path;
 use crate::metadata::{BodyTruth, RunMetadata, TruthMsg};
 use crate::preflight::{self, Measurement};
-use crate::report::{
-    Consistency, Convergence, Principal, Quantities, Report, ResidualRms, RunInfo, Systematic,
-    TareUsed,
-};
+use crate::report::{self, Quantities, Report, ReportInputs, RunInfo, TareKind};
 use crate::run::{self, End, Hooks, MeasureOutcome, MeasureSetup};
 use crate::run_log::RunLog;
-use crate::tare::{TareFile, TARE_FORMAT};
+use crate::tare::TareFile;
 
 /// Why a command failed.
 #[derive(Debug, thiserror::Error)]
@@ -360,7 +356,13 @@ fn simulate_logged(
             let estimate = outcome
                 .estimate
                 .ok_or_else(|| anyhow!("the tare run produced no estimate"))?;
-            let file = tare_file_of(&estimate, loaded, &base_joints, &plate_joints);
+            let file = TareFile::from_estimate(
+                &estimate,
+                &base_joints,
+                &plate_joints,
+                &loaded.source,
+                "sim",
+            );
             log.write_now(topics::TARE, &file)?;
             if let Some(path) = &args.save_tare {
                 file.save(path)?;
@@ -402,7 +404,6 @@ fn simulate_logged(
         loaded,
         &outcome,
         &tare,
-        &tare_params,
         tare_bias_effect.as_ref(),
         truth,
         log,
@@ -424,50 +425,6 @@ impl TareSource {
     }
 }
 
-fn tare_file_of(
-    estimate: &Estimate,
-    loaded: &LoadedConfig,
-    base_joints: &[[f64; 3]; 6],
-    plate_joints: &[[f64; 3]; 6],
-) -> TareFile {
-    let c = &estimate.covariance;
-    TareFile {
-        format: TARE_FORMAT.into(),
-        theta: estimate.parameters.to_vector().into(),
-        covariance: core::array::from_fn(|r| {
-            core::array::from_fn(|k| 0.5 * (c[(r, k)] + c[(k, r)]))
-        }),
-        samples: estimate.counts.used,
-        residual_rms: estimate.residual_rms.into(),
-        base_joints_m: *base_joints,
-        plate_joints_m: *plate_joints,
-        config: loaded.source.clone(),
-        backend: "sim".into(),
-    }
-}
-
-fn rows(m: &nalgebra::Matrix3<f64>) -> [[f64; 3]; 3] {
-    core::array::from_fn(|r| core::array::from_fn(|c| m[(r, c)]))
-}
-
-/// Mass, centre of mass and J_C of an estimate.
-pub fn quantities(e: &Estimate) -> Quantities {
-    Quantities {
-        mass: e.parameters.mass_kg,
-        com: e.com_m.into(),
-        inertia_com: rows(&e.inertia_com_kg_m2),
-    }
-}
-
-/// One sigma of each entry of [`quantities`].
-pub fn sigmas(e: &Estimate) -> Quantities {
-    Quantities {
-        mass: e.mass_sigma_kg,
-        com: e.com_sigma_m.into(),
-        inertia_com: rows(&e.inertia_com_sigma_kg_m2),
-    }
-}
-
 fn quantities_of_body(b: &sim::BodyProperties) -> Quantities {
     Quantities {
         mass: b.mass_kg,
@@ -482,7 +439,6 @@ fn build_report(
     loaded: &LoadedConfig,
     outcome: &MeasureOutcome,
     tare: &TareSource,
-    tare_params: &(InertialParameters, ParameterCovariance),
     tare_bias_effect: Option<&[[f64; 10]; 3]>,
     truth: Option<Quantities>,
     log: &RunLog,
@@ -490,63 +446,24 @@ fn build_report(
     let config = &loaded.config;
     let loaded_estimate = outcome
         .estimate
+        .as_ref()
         .context("the loaded run produced no estimate")?;
-    let systematic =
-        crate::systematic::bias_covariance(outcome.accel_bias_effect.as_ref(), tare_bias_effect);
-    let payload =
-        crate::systematic::payload_with_systematics(&loaded_estimate, tare_params, &systematic);
-    let systematic_only = Estimate::from_parameters(payload.parameters, systematic);
-    let axes = payload.principal_axes;
-    let consistency = payload.consistency;
-    let tare_file = tare.file();
-    let tare_estimate = Estimate::from_parameters(tare_params.0, tare_params.1);
-    Ok(Report {
-        estimate: quantities(&payload),
-        sigma: sigmas(&payload),
-        truth,
-        principal: Principal {
-            moments: payload.principal_moments_kg_m2.into(),
-            axes: core::array::from_fn(|k| core::array::from_fn(|i| axes[(i, k)])),
-        },
-        samples: loaded_estimate.counts.used,
+    Ok(report::build(&ReportInputs {
+        loaded: loaded_estimate,
+        theta_history: &outcome.theta_history,
         excitation_s: outcome.excitation_s,
-        convergence: Convergence {
-            samples_to_1pct: run::samples_to_1pct(
-                &outcome.theta_history,
-                Some(&tare_file.theta),
-                config.estimator.params,
-            ),
+        fk_failures: outcome.fk_failures,
+        tare: tare.file(),
+        tare_kind: match tare {
+            TareSource::Measured(_) => TareKind::Measured,
+            TareSource::File(_) => TareKind::File,
         },
-        residual_rms: ResidualRms {
-            force_n: [0, 1, 2].map(|i| loaded_estimate.residual_rms[i]),
-            torque_nm: [3, 4, 5].map(|i| loaded_estimate.residual_rms[i]),
-        },
-        rejected_samples: loaded_estimate.counts.rejected + outcome.fk_failures,
-        consistency: Consistency {
-            verdict: if consistency.is_consistent() {
-                "consistent".into()
-            } else {
-                "inconsistent".into()
-            },
-            problems: consistency
-                .first_failure()
-                .map(|f| vec![f.to_string()])
-                .unwrap_or_default(),
-        },
-        tare: TareUsed {
-            source: match tare {
-                TareSource::Measured(_) => "measured".into(),
-                TareSource::File(_) => "file".into(),
-            },
-            file: args.tare.as_ref().map(|p| p.display().to_string()),
-            theta: tare_file.theta,
-            sigma: core::array::from_fn(|i| tare_file.covariance[i][i].max(0.0).sqrt()),
-            estimate: quantities(&tare_estimate),
-        },
-        systematic: Systematic {
-            accel_bias_sigma_m_s2: crate::preflight::accel_bias_sigma(config),
-            sigma: sigmas(&systematic_only),
-        },
+        tare_path: args.tare.as_ref().map(|p| p.display().to_string()),
+        loaded_bias_effect: outcome.accel_bias_effect.as_ref(),
+        tare_bias_effect,
+        accel_bias_sigma_m_s2: crate::preflight::accel_bias_sigma(config),
+        params: config.estimator.params,
+        truth,
         run: RunInfo {
             config: loaded.source.clone(),
             seed: config.run.seed,
@@ -555,5 +472,5 @@ fn build_report(
             log: Some(log.path().display().to_string()),
             backend: "sim".into(),
         },
-    })
+    }))
 }

@@ -132,6 +132,31 @@ impl TareFile {
         Ok(())
     }
 
+    /// The tare file of a tare measurement's estimate (covariance symmetrised), measured on
+    /// the rig with these joints with scenario `config` on `backend`.
+    pub fn from_estimate(
+        estimate: &estimator::Estimate,
+        base_joints_m: &[[f64; 3]; 6],
+        plate_joints_m: &[[f64; 3]; 6],
+        config: &str,
+        backend: &str,
+    ) -> Self {
+        let c = &estimate.covariance;
+        Self {
+            format: TARE_FORMAT.into(),
+            theta: estimate.parameters.to_vector().into(),
+            covariance: core::array::from_fn(|r| {
+                core::array::from_fn(|k| 0.5 * (c[(r, k)] + c[(k, r)]))
+            }),
+            samples: estimate.counts.used,
+            residual_rms: estimate.residual_rms.into(),
+            base_joints_m: *base_joints_m,
+            plate_joints_m: *plate_joints_m,
+            config: config.into(),
+            backend: backend.into(),
+        }
+    }
+
     /// θ as nalgebra.
     pub fn parameters(&self) -> estimator::InertialParameters {
         estimator::InertialParameters::from_vector(&estimator::ParameterVector::from_row_slice(

@@ -12,11 +12,10 @@ use super::link::{Failure, LinkCounters, TimingSummary};
 use super::RigArgs;
 use crate::args::RunArgs;
 use crate::config_load::LoadedConfig;
-use crate::report::{Consistency, Convergence, Principal, Report, ResidualRms, RunInfo, TareUsed};
-use crate::run::{self, End, MeasureOutcome};
+use crate::report::{self, Report, ReportInputs, RunInfo, TareKind};
+use crate::run::{End, MeasureOutcome};
 use crate::run_log::RunLog;
-use crate::simulate::{quantities, sigmas};
-use crate::tare::{TareFile, TARE_FORMAT};
+use crate::tare::TareFile;
 
 /// What the metadata and the report give as the noise preset: the rig's sensors are what they
 /// are.
@@ -128,85 +127,42 @@ pub(super) fn tare_file_of(
     base_joints: &[[f64; 3]; 6],
     plate_joints: &[[f64; 3]; 6],
 ) -> TareFile {
-    let c = &estimate.covariance;
-    TareFile {
-        format: TARE_FORMAT.into(),
-        theta: estimate.parameters.to_vector().into(),
-        covariance: core::array::from_fn(|r| {
-            core::array::from_fn(|k| 0.5 * (c[(r, k)] + c[(k, r)]))
-        }),
-        samples: estimate.counts.used,
-        residual_rms: estimate.residual_rms.into(),
-        base_joints_m: *base_joints,
-        plate_joints_m: *plate_joints,
-        config: loaded.source.clone(),
-        backend: "rig".into(),
-    }
+    TareFile::from_estimate(estimate, base_joints, plate_joints, &loaded.source, "rig")
 }
 
-/// The report of a loaded run on the rig: as `simulate`'s, without truth.
+/// The report of a loaded run on the rig: as `simulate`'s ([`report::build`]), without truth.
+/// The accelerometer bias's systematic part counts the loaded run's effect only (the tare run's
+/// is not kept through a rig session), which overstates it slightly (see
+/// [`crate::systematic::bias_covariance`]).
 pub(super) fn build_report(
     args: &RunArgs,
     loaded: &LoadedConfig,
     outcome: &MeasureOutcome,
     tare: &TareSource,
-    tare_params: &(InertialParameters, ParameterCovariance),
+    _tare_params: &(InertialParameters, ParameterCovariance),
     log: &RunLog,
 ) -> anyhow::Result<Report> {
     let config = &loaded.config;
     let loaded_estimate = outcome
         .estimate
+        .as_ref()
         .context("the loaded run produced no estimate")?;
-    let payload = run::payload_estimate(&loaded_estimate, Some(tare_params));
-    let axes = payload.principal_axes;
-    let consistency = payload.consistency;
-    let tare_file = tare.file();
-    let tare_estimate = Estimate::from_parameters(tare_params.0, tare_params.1);
-    Ok(Report {
-        estimate: quantities(&payload),
-        sigma: sigmas(&payload),
-        truth: None,
-        principal: Principal {
-            moments: payload.principal_moments_kg_m2.into(),
-            axes: core::array::from_fn(|k| core::array::from_fn(|i| axes[(i, k)])),
-        },
-        samples: loaded_estimate.counts.used,
+    Ok(report::build(&ReportInputs {
+        loaded: loaded_estimate,
+        theta_history: &outcome.theta_history,
         excitation_s: outcome.excitation_s,
-        convergence: Convergence {
-            samples_to_1pct: run::samples_to_1pct(
-                &outcome.theta_history,
-                Some(&tare_file.theta),
-                config.estimator.params,
-            ),
+        fk_failures: outcome.fk_failures,
+        tare: tare.file(),
+        tare_kind: match tare {
+            TareSource::Measured(_) => TareKind::Measured,
+            TareSource::File(_) => TareKind::File,
         },
-        residual_rms: ResidualRms {
-            force_n: [0, 1, 2].map(|i| loaded_estimate.residual_rms[i]),
-            torque_nm: [3, 4, 5].map(|i| loaded_estimate.residual_rms[i]),
-        },
-        rejected_samples: loaded_estimate.counts.rejected + outcome.fk_failures,
-        consistency: Consistency {
-            verdict: if consistency.is_consistent() {
-                "consistent".into()
-            } else {
-                "inconsistent".into()
-            },
-            problems: consistency
-                .first_failure()
-                .map(|f| vec![f.to_string()])
-                .unwrap_or_default(),
-        },
-        tare: TareUsed {
-            source: match tare {
-                TareSource::Measured(_) => "measured".into(),
-                TareSource::File(_) => "file".into(),
-            },
-            file: args.tare.as_ref().map(|p| p.display().to_string()),
-            theta: tare_file.theta,
-            sigma: core::array::from_fn(|i| tare_file.covariance[i][i].max(0.0).sqrt()),
-            estimate: quantities(&tare_estimate),
-        },
-        // The accelerometer-bias probes run only online (`run`); none here.
-        systematic: Default::default(),
+        tare_path: args.tare.as_ref().map(|p| p.display().to_string()),
+        loaded_bias_effect: outcome.accel_bias_effect.as_ref(),
+        tare_bias_effect: None,
+        accel_bias_sigma_m_s2: crate::preflight::accel_bias_sigma(config),
+        params: config.estimator.params,
+        truth: None,
         run: RunInfo {
             config: loaded.source.clone(),
             seed: config.run.seed,
@@ -215,7 +171,7 @@ pub(super) fn build_report(
             log: Some(log.path().display().to_string()),
             backend: "rig".into(),
         },
-    })
+    }))
 }
 
 /// One line per measurement: the link counters and the loop's timing.
