@@ -7,7 +7,7 @@
 //!    command held over a physics substep `h`: `y ← u + (y − u) e^{−h/τ}`. The force a substep
 //!    applies is the lag state at the substep's *start*; the update comes after. So the force at a
 //!    sample instant never depends on the command written at that instant, which is what lets
-//!    every sensor channel of a sample describe the same period (see `simulator`).
+//!    the sensor channels of a sample be evaluated at consistent instants (see `simulator`).
 //! 3. **Friction inside the actuator** (between motor and load cell): the output is
 //!    `F = y − c_v l̇ − F_c tanh(l̇ / v_s)`, with `l̇` the leg's extension rate; the `tanh`
 //!    smooths the Coulomb step over `v_s` so that explicit integration does not chatter.

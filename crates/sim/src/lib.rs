@@ -9,8 +9,8 @@
 //! - [`actuator`]: first-order lag, saturation, viscous and Coulomb friction, and a brake.
 //! - [`sensors`]: encoders, load cells, gyro and accelerometer with seeded noise, bias and
 //!   quantization; presets `none`, `realistic`, `harsh`.
-//! - [`Simulator`]: the backend; every channel of a sample is its mean over the sample period,
-//!   as behind an anti-alias filter, so all channels describe the same interval (see the
+//! - [`Simulator`]: the backend; load cells, gyro and accelerometer report their mean over the
+//!   sample period, as behind an anti-alias filter, and the encoders the instant (see the
 //!   [`simulator`] module docs). Ground truth is exposed through `true_*` methods, for
 //!   reports and tests only.
 //!

@@ -3,20 +3,29 @@
 //! # What a sample describes
 //!
 //! Sample `k` is read at `t_k = k T` (`T` the sample period, an integer number `N` of physics
-//! substeps `h`) and reports, on every channel, the **mean over the sample period**
-//! `[t_{k−1}, t_k]`, as a real sensor behind an anti-alias (integrating) filter does: a
-//! sigma-delta load-cell ADC, a MEMS IMU's decimation filter. The encoders report the same mean,
-//! which a firmware gets (to second order) by latching them at the period's midpoint, where the
-//! filters' group delay puts the other channels. The mean is the trapezoidal rule over the
-//! period's `N + 1` physics nodes `t_n` (half weight at both ends), each node evaluated as below,
-//! so all channels are the same linear filter of simultaneous values and still satisfy the
-//! rigid body's equations together: exactly in the linear terms, and to `O((ω̇ T)²)` ≈ 10⁻⁷ in
-//! the products of rates and in the leg directions.
+//! substeps `h`). As on a real rig:
 //!
-//! Why the mean: with `N > 1` the lagged actuator force bends inside a sample (its slope jumps
+//! - **load cells, gyro, accelerometer** report the **mean over the sample period**
+//!   `[t_{k−1}, t_k]`, as a sensor behind an anti-alias (integrating) filter does: a
+//!   sigma-delta load-cell ADC, a MEMS IMU's decimation filter. The mean is the trapezoidal rule
+//!   over the period's `N + 1` physics nodes `t_n` (half weight at both ends), each node
+//!   evaluated as below, so these channels are one linear filter of simultaneous values and
+//!   still satisfy the rigid body's equations together: exactly in the linear terms, to
+//!   `O((ω̇ T)²)` ≈ 10⁻⁷ in the products of rates.
+//! - **encoders** (leg lengths) are latched at the instant `t_k`: they need no anti-alias
+//!   filter, and the leg controllers want them without delay (a half-sample delay of the
+//!   lengths made the default PIDs oscillate at 500 Hz).
+//!
+//! So the filtered channels describe the period's middle `t_k − T/2` (their group delay) and
+//! the lengths `t_k`. An estimator pairs them by taking the pose at the period's middle, e.g.
+//! forward kinematics of `(l_{k−1} + l_k)/2` (second order); with the pose of `l_k` the wrench's
+//! directions are half a sample early, which leaves the fitted parameters within about 10⁻⁵
+//! but raises the fit residual about a hundredfold (DESIGN.md, "Things we measured").
+//!
+//! Why the means: with `N > 1` the lagged actuator force bends inside a sample (its slope jumps
 //! when a new command arrives at `t_k`). A load cell read at the instant misses that, while the
-//! gyro's change over a sample integrates it, and the frames disagreed with Newton–Euler by
-//! about 5·10⁻⁴ of the wrench, biasing a noise-free estimate by about 0.05 %. Means over the
+//! gyro's change over a sample integrates it: such frames disagreed with Newton–Euler by about
+//! 4·10⁻⁴ of the wrench (rms) and biased a noise-free estimate's J_xx by 0.07 %. Means over the
 //! period are smooth and agree to about 10⁻⁵ whatever `N` (test
 //! `load_cells_with_substeps_report_the_mean_force_of_the_sample`). Sample 0 and a sample right
 //! after [`Simulator::set_state`] or [`Simulator::set_payload`] have no period behind them and
@@ -48,9 +57,9 @@
 //! `load_cells_with_substeps_*`; 1 kHz, 1.7 t tumbling at up to 1 rad/s): Newton–Euler on
 //! rapier's motion matches the leg wrench to 3·10⁻⁸ per substep (midpoint gyroscopic torque)
 //! or 3·10⁻⁴ (rapier's). Newton–Euler on the frames alone (pose by forward kinematics of the
-//! reported leg lengths, `ω̇` from a 4th-order central difference of the gyro) matches the
-//! reported wrench with the default 100 Hz actuator to the figures in the test's output,
-//! against 5·10⁻⁴ for `N = 4` when the load cells were read at the instant.
+//! mean of two successive frames' leg lengths, `ω̇` from a 4th-order central difference of the
+//! gyro), with the default 100 Hz actuator: 1.6·10⁻⁵ rms with one substep, 1.3·10⁻⁶ with
+//! four, against 3.9·10⁻⁴ with four when the load cells were read at the instant.
 //!
 //! # Gyroscopic torque
 //!
@@ -115,22 +124,20 @@ struct Instant {
     clean: SensorFrame,
 }
 
-/// The sensed channels at one physics node, in P.
+/// The filtered channels at one physics node, in P.
 #[derive(Clone, Copy, Debug, Default)]
 struct Node {
-    lengths_m: [f64; 6],
     forces_n: [f64; 6],
     gyro_rad_s: Vector3<f64>,
     accel_m_s2: Vector3<f64>,
 }
 
 impl Node {
-    /// The channels of `legs` and `e`, the accelerometer at `mount_m`:
+    /// The channels of `e`, the accelerometer at `mount_m`:
     /// `f_a = f + ω̇ × r_a + ω × (ω × r_a)`.
-    fn new(legs: &LegState, e: &Evaluation, mount_m: &Vector3<f64>) -> Self {
+    fn new(e: &Evaluation, mount_m: &Vector3<f64>) -> Self {
         let (omega, acc) = (e.omega_p, e.acceleration);
         Self {
-            lengths_m: legs.lengths_m,
             forces_n: e.forces_n,
             gyro_rad_s: omega,
             accel_m_s2: acc.specific_force_m_s2
@@ -150,9 +157,8 @@ struct PeriodSum {
 impl PeriodSum {
     fn add(&mut self, node: &Node, weight: f64) {
         let s = &mut self.sum;
-        for i in 0..LEG_COUNT {
-            s.lengths_m[i] += weight * node.lengths_m[i];
-            s.forces_n[i] += weight * node.forces_n[i];
+        for (sum, f) in s.forces_n.iter_mut().zip(node.forces_n) {
+            *sum += weight * f;
         }
         s.gyro_rad_s += weight * node.gyro_rad_s;
         s.accel_m_s2 += weight * node.accel_m_s2;
@@ -167,7 +173,6 @@ impl PeriodSum {
         let k = 1.0 / self.weight;
         let s = &self.sum;
         Some(Node {
-            lengths_m: s.lengths_m.map(|v| v * k),
             forces_n: s.forces_n.map(|v| v * k),
             gyro_rad_s: s.gyro_rad_s * k,
             accel_m_s2: s.accel_m_s2 * k,
@@ -547,7 +552,7 @@ impl Simulator {
         };
         self.world.step(&applied, &gyroscopic);
         self.actuators.advance(&e.forces_n);
-        Node::new(&legs, &e, &self.mount_m())
+        Node::new(&e, &self.mount_m())
     }
 
     fn mount_m(&self) -> Vector3<f64> {
@@ -561,7 +566,7 @@ impl Simulator {
         let pose = self.world.pose();
         let legs = self.legs(&pose);
         let e = self.evaluate(&pose, &legs);
-        let node = Node::new(&legs, &e, &self.mount_m());
+        let node = Node::new(&e, &self.mount_m());
         self.period.add(&node, 0.5);
         let sensed = if self.period.weight > 0.5 {
             self.period.mean().unwrap_or(node)
@@ -588,7 +593,7 @@ impl Simulator {
         let clean = SensorFrame {
             sequence: self.sample,
             time_s: self.time_s(),
-            leg_lengths_m: sensed.lengths_m,
+            leg_lengths_m: legs.lengths_m,
             leg_forces_n: sensed.forces_n,
             gyro_rad_s: sensed.gyro_rad_s.into(),
             accel_m_s2: sensed.accel_m_s2.into(),
@@ -647,7 +652,8 @@ impl Simulator {
     }
 
     /// Ground truth: every channel of the current sample without noise, bias or quantization
-    /// (the means over the sample period, like the sensed frame; see the module docs).
+    /// (like the sensed frame: leg lengths at the instant, the rest means over the sample
+    /// period; see the module docs).
     pub fn clean_frame(&self) -> SensorFrame {
         self.now.clean
     }

@@ -238,9 +238,10 @@ fn leg_wrench_matches_newton_euler_on_a_tumbling_motion() {
     }
 }
 
-/// Every channel of a sample describes the same period: with ideal sensors, the load cells,
-/// the pose of the leg lengths, the gyro (differentiated centrally) and the accelerometer
-/// satisfy Newton–Euler with the truth; the leg lengths are the mean over the period.
+/// The channels of a sample fit together: with ideal sensors, the load cells, gyro
+/// (differentiated centrally) and accelerometer (means over the period) and the pose of the
+/// period's middle (mean of two successive frames' leg lengths, latched at the instants)
+/// satisfy Newton–Euler with the truth.
 #[test]
 fn sample_channels_are_simultaneous() {
     let mut cfg = config(NoisePreset::None);
@@ -275,13 +276,12 @@ fn sample_channels_are_simultaneous() {
         let spec =
             Vector3::from(f.accel_m_s2) - omega_dot.cross(&r_a) - omega.cross(&omega.cross(&r_a));
         let (f_ne, t_ne) = newton_euler(&p, &spec, &omega, &omega_dot);
+        // The filtered channels describe the period's middle: the pose of the mean lengths.
+        let lengths =
+            (Vector6::from(frames[k - 1].leg_lengths_m) + Vector6::from(f.leg_lengths_m)) / 2.0;
         let pose = s
             .geometry()
-            .forward_kinematics(
-                &Vector6::from(f.leg_lengths_m),
-                &poses[k],
-                &kinematics::FkOptions::default(),
-            )
+            .forward_kinematics(&lengths, &poses[k], &kinematics::FkOptions::default())
             .unwrap()
             .pose;
         let w = s
@@ -293,12 +293,10 @@ fn sample_channels_are_simultaneous() {
     let mut skewed = 0.0f64;
     // Skip the release transient: the brake force jumps to the motor's lag.
     for k in 20..frames.len() - 2 {
-        // Over one period a leg moves < 1 mm and bends by O(l̈ T²/12) ≈ 1e-7 m: its mean is the
-        // mean of the two ends.
-        let ends =
-            (s.geometry().leg_lengths(&poses[k - 1]) + s.geometry().leg_lengths(&poses[k])) / 2.0;
+        // The encoders are latched at the instant.
+        let lengths = s.geometry().leg_lengths(&poses[k]);
         for i in 0..6 {
-            assert!((frames[k].leg_lengths_m[i] - ends[i]).abs() < 1e-6);
+            assert!((frames[k].leg_lengths_m[i] - lengths[i]).abs() < 1e-12);
         }
         central = central.max(residual(k, true));
         skewed = skewed.max(residual(k, false));
@@ -318,11 +316,13 @@ struct Agreement {
 
 /// Per-sample agreement of frames with Newton–Euler on a tumbling motion, with the default
 /// 100 Hz actuator and `substeps` physics steps per 1 ms sample: the wrench of the frame's leg
-/// forces, at the pose forward kinematics gives for its leg lengths (as the estimator sees
-/// them), against m, h, J_O (the truth) times the motion its gyro (fourth-order central
-/// difference) and accelerometer report, over 0.3 s. Returns the agreement of the sensed
-/// frames, of point samples at the sample instants built from the truth accessors (what the
-/// load cells reported before they averaged), and the largest |ω|.
+/// forces, at the pose forward kinematics gives for the leg lengths of the instant those forces
+/// describe, against m, h, J_O (the truth) times the motion the frame's gyro (fourth-order
+/// central difference) and accelerometer report, over 0.3 s. Returns the agreement of the
+/// sensed frames (filtered channels: means over the period, so the pose of the period's middle,
+/// `(l_{k−1} + l_k)/2`), of point samples at the sample instants built from the truth
+/// accessors (what the load cells reported before they averaged; the pose of `l_k`), and the
+/// largest |ω|.
 fn frame_agreement(substeps: u32) -> (Agreement, Agreement, f64) {
     let mut cfg = config(NoisePreset::None);
     cfg.substeps = substeps;
@@ -354,19 +354,20 @@ fn frame_agreement(substeps: u32) -> (Agreement, Agreement, f64) {
     }
     let p = truth(true);
     let t = s.sample_period_s();
-    let agreement = |frames: &[SensorFrame]| {
+    let agreement = |frames: &[SensorFrame], mid_period: bool| {
         let gyro = |j: usize| Vector3::from(frames[j].gyro_rad_s);
         let mut guess = home;
         let (mut worst, mut sum_sq, mut n) = (0.0f64, 0.0f64, 0usize);
         // Skip the release transient: the brake force jumps to the motor's lag.
         for (k, f) in frames.iter().enumerate().take(frames.len() - 2).skip(20) {
+            let lengths = if mid_period {
+                (Vector6::from(frames[k - 1].leg_lengths_m) + Vector6::from(f.leg_lengths_m)) / 2.0
+            } else {
+                Vector6::from(f.leg_lengths_m)
+            };
             let pose = s
                 .geometry()
-                .forward_kinematics(
-                    &Vector6::from(f.leg_lengths_m),
-                    &guess,
-                    &kinematics::FkOptions::default(),
-                )
+                .forward_kinematics(&lengths, &guess, &kinematics::FkOptions::default())
                 .unwrap()
                 .pose;
             guess = pose;
@@ -390,7 +391,11 @@ fn frame_agreement(substeps: u32) -> (Agreement, Agreement, f64) {
             rms: (sum_sq / n as f64).sqrt(),
         }
     };
-    (agreement(&sensed), agreement(&point), max_omega)
+    (
+        agreement(&sensed, true),
+        agreement(&point, false),
+        max_omega,
+    )
 }
 
 /// Regression (load cells read at the instant with substeps > 1): inside a sample the lagged
