@@ -174,6 +174,9 @@ pub struct RunEstimate {
     /// Change of θ from one sigma of accelerometer bias along x, y, z (rows), when a bias
     /// figure is known.
     pub accel_bias_effect: Option<[[f64; 10]; 3]>,
+    /// Change of θ from one sigma of zero offset on each load cell (rows), when a figure is
+    /// known.
+    pub load_cell_bias_effect: Option<[[f64; 10]; 6]>,
 }
 
 fn every(rate_hz: f64, sample_rate_hz: f64) -> u64 {
@@ -253,6 +256,14 @@ pub fn accel_bias_sigma(log: &LogContents) -> Result<f64> {
     Ok(crate::preflight::accel_bias_sigma(&loaded.config))
 }
 
+/// One sigma of each load cell's zero offset the run assumed, N (its noise preset's figure).
+pub fn load_cell_bias_sigma(log: &LogContents) -> Result<f64> {
+    let meta = log.require_metadata()?;
+    let loaded = crate::config_load::load_str(&meta.config_toml, "<configuration in the log>")
+        .map_err(|e| anyhow!("the log's configuration is refused: {e}"))?;
+    Ok(crate::systematic::load_cell_bias_sigma(&loaded.config))
+}
+
 /// Re-runs the estimator on measurement `run` of the log; `bias_m_s2` > 0 also gives the
 /// accelerometer bias's effect (see [`crate::systematic`]).
 pub fn reestimate_run(
@@ -262,7 +273,10 @@ pub fn reestimate_run(
     bias_m_s2: f64,
 ) -> Result<RunEstimate> {
     log.require_channel(topics::SENSORS, "the sensor frames the estimator reads")?;
-    let (config, fk) = settings_for(log, run, o)?;
+    let (mut config, fk) = settings_for(log, run, o)?;
+    // As the online run: the load cells' offset sensitivity when their datasheet gives one.
+    let load_cell_sigma = load_cell_bias_sigma(log)?;
+    config.leg_force_offsets = load_cell_sigma > 0.0;
     let geometry: Geometry = config.geometry;
     let mut estimator = OnlineEstimator::new(config)
         .map_err(|e| anyhow!("the estimator refused its settings: {e}"))?;
@@ -337,6 +351,10 @@ pub fn reestimate_run(
         fk_failures,
         frames,
         accel_bias_effect: crate::systematic::accel_bias_effect(&estimator, bias_m_s2),
+        load_cell_bias_effect: crate::systematic::load_cell_bias_effect(
+            &estimator,
+            load_cell_sigma,
+        ),
     })
 }
 
@@ -413,9 +431,14 @@ pub fn build_report(
     bias_m_s2: f64,
 ) -> Result<Report> {
     let meta = log.require_metadata()?;
-    let (tare_kind, tare_path, tare_effect) = match tare_origin {
-        TareOrigin::Measured(r) => (TareKind::Measured, None, r.accel_bias_effect.as_ref()),
-        TareOrigin::File(p) => (TareKind::File, p.clone(), None),
+    let (tare_kind, tare_path, tare_effect, tare_load_cell_effect) = match tare_origin {
+        TareOrigin::Measured(r) => (
+            TareKind::Measured,
+            None,
+            r.accel_bias_effect.as_ref(),
+            r.load_cell_bias_effect.as_ref(),
+        ),
+        TareOrigin::File(p) => (TareKind::File, p.clone(), None, None),
     };
     let params = match loaded.config.parameters {
         ParameterSet::InertiaAboutKnownCom { .. } => ParamCount::Six,
@@ -432,6 +455,9 @@ pub fn build_report(
         loaded_bias_effect: loaded.accel_bias_effect.as_ref(),
         tare_bias_effect: tare_effect,
         accel_bias_sigma_m_s2: bias_m_s2,
+        loaded_load_cell_effect: loaded.load_cell_bias_effect.as_ref(),
+        tare_load_cell_effect,
+        load_cell_bias_sigma_n: load_cell_bias_sigma(log)?,
         params,
         truth: payload_truth(log),
         run: RunInfo {

@@ -74,11 +74,15 @@ pub struct TareUsed {
     pub estimate: Quantities,
 }
 
-/// The systematic part of `sigma` (already included in it): the accelerometer bias's effect.
+/// The systematic part of `sigma` (already included in it): the effect of the accelerometer's
+/// bias and of the load cells' zero offsets.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Systematic {
     /// One sigma of the accelerometer bias assumed (datasheet), m/s².
     pub accel_bias_sigma_m_s2: f64,
+    /// One sigma of each load cell's zero offset assumed (datasheet), N.
+    #[serde(default)]
+    pub load_cell_bias_sigma_n: f64,
     /// One sigma of each entry due to that bias alone.
     pub sigma: Quantities,
 }
@@ -196,6 +200,12 @@ pub struct ReportInputs<'a> {
     pub tare_bias_effect: Option<&'a [[f64; 10]; 3]>,
     /// The accelerometer bias's one sigma assumed, m/s².
     pub accel_bias_sigma_m_s2: f64,
+    /// Change of the loaded θ from one sigma of zero offset on each load cell.
+    pub loaded_load_cell_effect: Option<&'a [[f64; 10]; 6]>,
+    /// The same for the tare run.
+    pub tare_load_cell_effect: Option<&'a [[f64; 10]; 6]>,
+    /// The load cells' zero-offset sigma assumed, N.
+    pub load_cell_bias_sigma_n: f64,
     /// 10 or 6 parameters (which ones count for `samples_to_1pct`).
     pub params: ParamCount,
     /// The payload's truth, where known.
@@ -205,10 +215,17 @@ pub struct ReportInputs<'a> {
 }
 
 /// The report of the payload alone: loaded minus tare, with the covariance of both plus the
-/// accelerometer bias's systematic part ([`crate::systematic`]).
+/// systematic part of the accelerometer's bias and the load cells' offsets
+/// ([`crate::systematic`]).
 pub fn build(i: &ReportInputs<'_>) -> Report {
     let tare_params = (i.tare.parameters(), i.tare.covariance_matrix());
-    let systematic = crate::systematic::bias_covariance(i.loaded_bias_effect, i.tare_bias_effect);
+    let systematic = crate::systematic::bias_covariance(
+        i.loaded_bias_effect.map(|e| &e[..]),
+        i.tare_bias_effect.map(|e| &e[..]),
+    ) + crate::systematic::bias_covariance(
+        i.loaded_load_cell_effect.map(|e| &e[..]),
+        i.tare_load_cell_effect.map(|e| &e[..]),
+    );
     let payload = crate::systematic::payload_with_systematics(i.loaded, &tare_params, &systematic);
     let systematic_only = Estimate::from_parameters(payload.parameters, systematic);
     let axes = payload.principal_axes;
@@ -259,6 +276,7 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
         },
         systematic: Systematic {
             accel_bias_sigma_m_s2: i.accel_bias_sigma_m_s2,
+            load_cell_bias_sigma_n: i.load_cell_bias_sigma_n,
             sigma: sigmas(&systematic_only),
         },
         run: i.run.clone(),
@@ -336,6 +354,9 @@ mod tests {
             loaded_bias_effect: Some(&loaded_effect),
             tare_bias_effect: Some(&tare_effect),
             accel_bias_sigma_m_s2: 1e-3,
+            loaded_load_cell_effect: None,
+            tare_load_cell_effect: None,
+            load_cell_bias_sigma_n: 0.0,
             params: ParamCount::Ten,
             truth: None,
             run: RunInfo::default(),

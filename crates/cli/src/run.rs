@@ -100,6 +100,9 @@ pub struct MeasureOutcome {
     /// (rows), from the estimator's first-order sensitivity; `None` without a bias figure
     /// (ideal sensors) or without an excitation. See [`crate::systematic`].
     pub accel_bias_effect: Option<[[f64; 10]; 3]>,
+    /// Change of θ caused by a zero offset of one datasheet sigma on each load cell (rows:
+    /// legs); `None` without a figure or an excitation.
+    pub load_cell_bias_effect: Option<[[f64; 10]; 6]>,
     /// How it ended.
     pub end: End,
 }
@@ -218,6 +221,7 @@ where
                 excitation_s: 0.0,
                 fk_failures: 0,
                 accel_bias_effect: None,
+                load_cell_bias_effect: None,
                 end: End::Interrupted,
             });
         }
@@ -237,6 +241,7 @@ where
     let budget = expected + (120.0 * rate_hz) as u64;
     let mut estimator: Option<OnlineEstimator> = None;
     let bias_sigma = preflight::accel_bias_sigma(config);
+    let load_cell_sigma = crate::systematic::load_cell_bias_sigma(config);
     let mut history = Vec::with_capacity((setup.trajectory.duration_s() * rate_hz) as usize + 16);
     let mut excite_start_s = f64::NAN;
     let mut last_fed_s = f64::NAN;
@@ -258,13 +263,14 @@ where
         // Estimator: from the first excitation sample, while the excitation lasts.
         if out.phase == Phase::Excite && estimator.is_none() && !park_requested {
             let end_s = frame.time_s + setup.trajectory.duration_s();
-            let c = preflight::estimator_config(
+            let mut c = preflight::estimator_config(
                 config,
                 &setup.geometry,
                 setup.measurement,
                 frame.time_s,
                 end_s,
             );
+            c.leg_force_offsets = load_cell_sigma > 0.0;
             estimator = Some(
                 OnlineEstimator::new(c)
                     .map_err(|e| anyhow!("estimator refused its settings: {e}"))?,
@@ -393,6 +399,9 @@ where
                     accel_bias_effect: estimator
                         .as_ref()
                         .and_then(|e| crate::systematic::accel_bias_effect(e, bias_sigma)),
+                    load_cell_bias_effect: estimator
+                        .as_ref()
+                        .and_then(|e| crate::systematic::load_cell_bias_effect(e, load_cell_sigma)),
                     end,
                 });
             }

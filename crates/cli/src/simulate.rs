@@ -326,6 +326,7 @@ fn simulate_logged(
     // Tare: measured now, or from the file.
     let mut measured_tare = None;
     let mut tare_bias_effect = None;
+    let mut tare_load_cell_effect = None;
     let tare = match (tare_file, tare_trajectory) {
         (Some(file), _) => {
             log.write_now(topics::TARE, &file)?;
@@ -369,6 +370,7 @@ fn simulate_logged(
             }
             measured_tare = Some(file.clone());
             tare_bias_effect = outcome.accel_bias_effect;
+            tare_load_cell_effect = outcome.load_cell_bias_effect;
             TareSource::Measured(file)
         }
         (None, None) => unreachable!("a tare file or a tare trajectory is always present"),
@@ -404,7 +406,7 @@ fn simulate_logged(
         loaded,
         &outcome,
         &tare,
-        tare_bias_effect.as_ref(),
+        (tare_bias_effect.as_ref(), tare_load_cell_effect.as_ref()),
         truth,
         log,
     )?;
@@ -433,13 +435,16 @@ fn quantities_of_body(b: &sim::BodyProperties) -> Quantities {
     }
 }
 
+/// The tare run's accelerometer-bias and load-cell-offset effects, when it was measured.
+type TareEffects<'a> = (Option<&'a [[f64; 10]; 3]>, Option<&'a [[f64; 10]; 6]>);
+
 #[allow(clippy::too_many_arguments)]
 fn build_report(
     args: &RunArgs,
     loaded: &LoadedConfig,
     outcome: &MeasureOutcome,
     tare: &TareSource,
-    tare_bias_effect: Option<&[[f64; 10]; 3]>,
+    (tare_bias_effect, tare_load_cell_effect): TareEffects<'_>,
     truth: Option<Quantities>,
     log: &RunLog,
 ) -> anyhow::Result<Report> {
@@ -462,6 +467,9 @@ fn build_report(
         loaded_bias_effect: outcome.accel_bias_effect.as_ref(),
         tare_bias_effect,
         accel_bias_sigma_m_s2: crate::preflight::accel_bias_sigma(config),
+        loaded_load_cell_effect: outcome.load_cell_bias_effect.as_ref(),
+        tare_load_cell_effect,
+        load_cell_bias_sigma_n: crate::systematic::load_cell_bias_sigma(config),
         params: config.estimator.params,
         truth,
         run: RunInfo {

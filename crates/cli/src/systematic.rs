@@ -13,11 +13,14 @@
 //! shifts, d = effect(loaded) − effect(tare) (the same accelerometer in both runs), adds
 //! Σ d dᵀ to the covariance of θ.
 //!
-//! Not covered: the load cells' zero offsets. They mostly cancel with the tare, and the
-//! estimator's residual covariance leaves constant offsets out (they are not noise), but what is
-//! left (measured on the default scenario: about a quarter of the spread of J_C xx and yy, and of
-//! com z) needs the offsets' effect through the pose-dependent leg directions, which the
-//! estimator does not accumulate yet (docs/accuracy.md).
+//! The load cells' zero offsets are treated alike: a constant offset b of one cell moves θ by
+//! [`estimator::OnlineEstimator::leg_force_offset_sensitivity`] · b (exact: it reaches the
+//! wrench through each sample's leg directions, which the estimator conditions alongside), with
+//! b one datasheet sigma of the cell's zero offset ([`load_cell_bias_sigma`]). Most of it cancels
+//! with the tare (the same cells in both runs); the rest — through the pose-dependent leg
+//! directions, about a quarter of the spread of J_C xx and yy and of com z in the default
+//! scenario — adds Σ d dᵀ over the six cells. The estimator's residual covariance leaves
+//! constant offsets out (they are not noise), so nothing is counted twice.
 
 use estimator::{Estimate, InertialParameters, OnlineEstimator, ParameterCovariance};
 
@@ -33,19 +36,43 @@ pub fn accel_bias_effect(estimator: &OnlineEstimator, bias_m_s2: f64) -> Option<
     }))
 }
 
-/// Σ over the axes of d dᵀ, with d = loaded − tare effect (a missing tare effect counts as zero,
-/// which overstates the uncertainty slightly: the tare's share is that of its lighter body).
+/// One sigma of each load cell's zero offset, N: the noise preset's datasheet figure (zero
+/// for ideal sensors).
+pub fn load_cell_bias_sigma(config: &crate::config::Config) -> f64 {
+    sim::SensorConfig::preset(config.sensors.noise.to_sim())
+        .load_cell
+        .bias_sigma_n
+}
+
+/// Change of θ from one sigma `bias_n` of zero offset on each load cell (rows: legs); `None`
+/// without a figure (0) or when the estimator did not accumulate the sensitivity.
+pub fn load_cell_bias_effect(estimator: &OnlineEstimator, bias_n: f64) -> Option<[[f64; 10]; 6]> {
+    if !(bias_n > 0.0 && bias_n.is_finite() && estimator.config().leg_force_offsets) {
+        return None;
+    }
+    let d = estimator.leg_force_offset_sensitivity() * bias_n;
+    Some(core::array::from_fn(|leg| {
+        core::array::from_fn(|i| d[(i, leg)])
+    }))
+}
+
+/// Σ over the sources (accelerometer axes, load cells) of d dᵀ, with d = loaded − tare effect
+/// (a missing tare effect counts as zero, which overstates the uncertainty slightly: the tare's
+/// share is that of its lighter body).
 pub fn bias_covariance(
-    loaded_effect: Option<&[[f64; 10]; 3]>,
-    tare_effect: Option<&[[f64; 10]; 3]>,
+    loaded_effect: Option<&[[f64; 10]]>,
+    tare_effect: Option<&[[f64; 10]]>,
 ) -> ParameterCovariance {
     let mut c = ParameterCovariance::zeros();
     let Some(loaded) = loaded_effect else {
         return c;
     };
-    for axis in 0..3 {
+    for (source, effect) in loaded.iter().enumerate() {
         let d = estimator::ParameterVector::from_fn(|i, _| {
-            loaded[axis][i] - tare_effect.map_or(0.0, |t| t[axis][i])
+            effect[i]
+                - tare_effect
+                    .and_then(|t| t.get(source))
+                    .map_or(0.0, |t| t[i])
         });
         if d.iter().all(|v| v.is_finite()) {
             c += d * d.transpose();
@@ -82,15 +109,15 @@ mod tests {
         loaded[2][0] = 0.2; // a z bias shifts the loaded mass by 0.2 kg ...
         tare[2][0] = 0.05; // ... and the tare's by 0.05 kg: the payload's by 0.15 kg.
         loaded[0][2] = 0.03;
-        let c = bias_covariance(Some(&loaded), Some(&tare));
+        let c = bias_covariance(Some(&loaded[..]), Some(&tare[..]));
         assert!((c[(0, 0)] - 0.15f64 * 0.15).abs() < 1e-15);
         assert!((c[(2, 2)] - 0.03f64 * 0.03).abs() < 1e-15);
         assert_eq!(c[(0, 2)], 0.0);
         assert_eq!(
-            bias_covariance(None, Some(&tare)),
+            bias_covariance(None, Some(&tare[..])),
             ParameterCovariance::zeros()
         );
-        let c = bias_covariance(Some(&loaded), None);
+        let c = bias_covariance(Some(&loaded[..]), None);
         assert!((c[(0, 0)] - 0.04).abs() < 1e-15);
     }
 

@@ -22,7 +22,7 @@ use crate::error::EstimatorError;
 use crate::filter::{Biquad, LowPass};
 use crate::regressor::{rate_products, RegressorSignals};
 use kinematics::Wrench;
-use nalgebra::{SVector, Vector3, Vector6};
+use nalgebra::{Matrix6, SVector, Vector3, Vector6};
 
 /// Channels through the low-pass.
 const CHANNELS: usize = 18;
@@ -55,9 +55,16 @@ pub struct Conditioned {
     pub signals: RegressorSignals,
     /// Measured wrench on the plate about the P origin, in P axes.
     pub wrench: Wrench,
+    /// The leg-force → wrench map (column i: the wrench of a unit force of leg i, about the P
+    /// origin in P axes) through the same conditioning, when the samples carried it
+    /// ([`Conditioner::push_with_leg_map`]): a constant leg-force offset δf adds exactly
+    /// `leg_map · δf` to `wrench`.
+    pub leg_map: Option<Matrix6<f64>>,
 }
 
 /// What one pushed sample produced.
+// No heap, so no boxing: the conditioned sample travels inline.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Step {
     /// One of the first samples after a start or a gap: the stencil's first three, then the
@@ -73,6 +80,8 @@ struct Raw {
     omega: Vector3<f64>,
     /// [ωᵢωⱼ (6), f_r (3), F (3), τ (3)]
     rest: SVector<f64, 15>,
+    /// The leg-force → wrench map, column-major (zero when not given).
+    leg_map: SVector<f64, 36>,
 }
 
 /// Samples in the interpolation stencil.
@@ -83,6 +92,8 @@ const STENCIL: usize = 4;
 pub struct Conditioner {
     config: ConditioningConfig,
     filter: LowPass<CHANNELS>,
+    /// The same low-pass for the 36 entries of the leg-force → wrench map.
+    map_filter: LowPass<36>,
     /// The last samples, oldest first; `held` of them are valid.
     history: [Raw; STENCIL],
     held: usize,
@@ -195,10 +206,12 @@ impl Conditioner {
             time_s: 0.0,
             omega: Vector3::zeros(),
             rest: SVector::zeros(),
+            leg_map: SVector::zeros(),
         };
         Ok(Self {
             config,
             filter: LowPass::new(biquad),
+            map_filter: LowPass::new(biquad),
             history: [empty; STENCIL],
             held: 0,
             primed: false,
@@ -284,6 +297,31 @@ impl Conditioner {
         accel_m_s2: &Vector3<f64>,
         wrench: &Wrench,
     ) -> Result<Step, EstimatorError> {
+        self.push_inner(time_s, gyro_rad_s, accel_m_s2, wrench, None)
+    }
+
+    /// [`Self::push`] with the sample's leg-force → wrench map (column i: the wrench of a unit
+    /// force of leg i about the P origin in P axes), conditioned alike and returned in
+    /// [`Conditioned::leg_map`]. A stream should carry it on every sample or on none.
+    pub fn push_with_leg_map(
+        &mut self,
+        time_s: f64,
+        gyro_rad_s: &Vector3<f64>,
+        accel_m_s2: &Vector3<f64>,
+        wrench: &Wrench,
+        leg_map: &Matrix6<f64>,
+    ) -> Result<Step, EstimatorError> {
+        self.push_inner(time_s, gyro_rad_s, accel_m_s2, wrench, Some(leg_map))
+    }
+
+    fn push_inner(
+        &mut self,
+        time_s: f64,
+        gyro_rad_s: &Vector3<f64>,
+        accel_m_s2: &Vector3<f64>,
+        wrench: &Wrench,
+        leg_map: Option<&Matrix6<f64>>,
+    ) -> Result<Step, EstimatorError> {
         if !time_s.is_finite() {
             return Err(EstimatorError::NonFiniteSample("time"));
         }
@@ -307,10 +345,18 @@ impl Conditioner {
         if !all_bounded(&rest) || !all_bounded(gyro_rad_s) {
             return Err(EstimatorError::Overflow("sample magnitude"));
         }
+        let map = match leg_map {
+            Some(m) => SVector::<f64, 36>::from_iterator(m.iter().copied()),
+            None => SVector::zeros(),
+        };
+        if !all_bounded(&map) {
+            return Err(EstimatorError::Overflow("leg map"));
+        }
         let raw = Raw {
             time_s,
             omega: *gyro_rad_s,
             rest,
+            leg_map: map,
         };
 
         if self.held > 0 {
@@ -334,9 +380,13 @@ impl Conditioner {
         let (value, slope) = midpoint_weights(&window.map(|r| r.time_s));
         let mut omega_dot = Vector3::zeros();
         let mut rest_mid = SVector::<f64, 15>::zeros();
+        let mut map_mid = SVector::<f64, 36>::zeros();
         for k in 0..STENCIL {
             omega_dot += window[k].omega * slope[k];
             rest_mid += window[k].rest * value[k];
+            if leg_map.is_some() {
+                map_mid += window[k].leg_map * value[k];
+            }
         }
         let mut x = SVector::<f64, CHANNELS>::zeros();
         x.fixed_rows_mut::<3>(0).copy_from(&omega_dot);
@@ -347,10 +397,18 @@ impl Conditioner {
 
         if !self.primed {
             self.filter.reset_to(&x);
+            self.map_filter.reset_to(&map_mid);
             self.primed = true;
             self.warming = self.warmup;
         }
         let y = self.filter.step(&x);
+        let map_y = if leg_map.is_some() {
+            Some(Matrix6::from_iterator(
+                self.map_filter.step(&map_mid).iter().copied(),
+            ))
+        } else {
+            None
+        };
         self.hold(raw);
         if self.warming > 0 {
             self.warming -= 1;
@@ -375,6 +433,7 @@ impl Conditioner {
                 force_n: y.fixed_rows::<3>(12).into_owned(),
                 torque_nm: y.fixed_rows::<3>(15).into_owned(),
             },
+            leg_map: map_y,
         }))
     }
 }

@@ -660,6 +660,46 @@ fn offset_and_bias_sensitivities_match_a_second_fit() {
             "axis {axis}: predicted {predicted} vs {effect}"
         );
     }
+    // Constant leg-force offsets (load-cell zero offsets): they reach the wrench through the
+    // pose-dependent leg directions, which the rich motion turns by up to 0.25 rad.
+    let offsets = Vector6::new(4.0, -3.0, 5.0, -4.0, 2.0, 6.0);
+    for parameters in [
+        ParameterSet::Full,
+        ParameterSet::InertiaAboutKnownCom {
+            mass_kg: 1274.0,
+            com_m: Vector3::new(0.1, -0.05, 0.4),
+        },
+    ] {
+        let mut cc = c;
+        cc.parameters = parameters;
+        cc.leg_force_offsets = true;
+        let mut plain = OnlineEstimator::new(cc).unwrap();
+        let mut shifted = plain;
+        let mut rng = StdRng::seed_from_u64(4);
+        for k in 0..6000 {
+            let t = k as f64 * 1e-3;
+            let s = synthetic_sample(&g, &body, &motion, t, &Vector3::zeros(), &noise, &mut rng);
+            let mut p = s;
+            p.leg_forces_n += offsets;
+            plain.update(&s).unwrap();
+            shifted.update(&p).unwrap();
+        }
+        let effect = shifted.theta() - plain.theta();
+        let predicted = plain.leg_force_offset_sensitivity() * offsets;
+        // The home-pose (constant-offset) approximation misses the pose dependence.
+        let home = plain.wrench_offset_sensitivity()
+            * crate::wrench::to_vector(&crate::wrench::measured(&g, &g.home_pose(), &offsets));
+        std::eprintln!(
+            "leg offsets {parameters:?}: miss {:.1e}, home-pose miss {:.1e} of {:.1e}",
+            (predicted - effect).norm(),
+            (home - effect).norm(),
+            effect.norm()
+        );
+        assert!(
+            (predicted - effect).norm() <= 1e-6 * effect.norm(),
+            "{parameters:?}: predicted {predicted} vs {effect}"
+        );
+    }
     // A constant wrench offset, through the six-axis path (no pose dependence).
     let w0 = Vector6::new(12.0, -7.0, 20.0, 3.0, -5.0, 4.0);
     for parameters in [

@@ -131,9 +131,11 @@ pub(super) fn tare_file_of(
 }
 
 /// The report of a loaded run on the rig: as `simulate`'s ([`report::build`]), without truth.
-/// The accelerometer bias's systematic part counts the loaded run's effect only (the tare run's
-/// is not kept through a rig session), which overstates it slightly (see
-/// [`crate::systematic::bias_covariance`]).
+/// The tare run's bias effects are not kept through a rig session, so the systematic part
+/// counts the accelerometer bias's loaded effect only (which overstates it slightly, see
+/// [`crate::systematic::bias_covariance`]) and leaves the load cells' offsets out: most of
+/// their effect cancels with the tare, and the loaded run's alone would overstate it several
+/// times (`stewart estimate` of the rig's log counts both runs).
 pub(super) fn build_report(
     args: &RunArgs,
     loaded: &LoadedConfig,
@@ -161,6 +163,9 @@ pub(super) fn build_report(
         loaded_bias_effect: outcome.accel_bias_effect.as_ref(),
         tare_bias_effect: None,
         accel_bias_sigma_m_s2: crate::preflight::accel_bias_sigma(config),
+        loaded_load_cell_effect: None,
+        tare_load_cell_effect: None,
+        load_cell_bias_sigma_n: crate::systematic::load_cell_bias_sigma(config),
         params: config.estimator.params,
         truth: None,
         run: RunInfo {
