@@ -5,28 +5,33 @@
 //! Sample `k` is read at `t_k = k T` (`T` the sample period, an integer number `N` of physics
 //! substeps `h`). As on a real rig:
 //!
-//! - **load cells, gyro, accelerometer** report the **mean over the sample period**
-//!   `[t_{k−1}, t_k]`, as a sensor behind an anti-alias (integrating) filter does: a
-//!   sigma-delta load-cell ADC, a MEMS IMU's decimation filter. The mean is the trapezoidal rule
-//!   over the period's `N + 1` physics nodes `t_n` (half weight at both ends), each node
-//!   evaluated as below, so these channels are one linear filter of simultaneous values and
-//!   still satisfy the rigid body's equations together: exactly in the linear terms, to
-//!   `O((ω̇ T)²)` ≈ 10⁻⁷ in the products of rates.
+//! - **load cells, gyro, accelerometer** report, when the physics resolves the sample period
+//!   (`N > 1`), their **mean over the period** `[t_{k−1}, t_k]`, as a sensor behind an
+//!   anti-alias (integrating) filter does: a sigma-delta load-cell ADC, a MEMS IMU's
+//!   decimation filter. The mean is the trapezoidal rule over the period's `N + 1` physics nodes
+//!   `t_n` (half weight at both ends), each node evaluated as below, so these channels are one
+//!   linear filter of simultaneous values and still satisfy the rigid body's equations
+//!   together: exactly in the linear terms, to `O((ω̇ T)²)` ≈ 10⁻⁷ in the products of rates.
+//!   With `N = 1` there is no motion inside a sample to filter (the force is one kick, the
+//!   interpolant between nodes is what an ideal filter would see) and they report the node
+//!   at `t_k`, consistent with the encoders and without delay, as before.
 //! - **encoders** (leg lengths) are latched at the instant `t_k`: they need no anti-alias
-//!   filter, and the leg controllers want them without delay (a half-sample delay of the
-//!   lengths made the default PIDs oscillate at 500 Hz).
+//!   filter, and the leg controllers want them without delay (averaged lengths, half a sample
+//!   late, made the default PIDs oscillate at 500 Hz).
 //!
-//! So the filtered channels describe the period's middle `t_k − T/2` (their group delay) and
-//! the lengths `t_k`. An estimator pairs them by taking the pose at the period's middle, e.g.
-//! forward kinematics of `(l_{k−1} + l_k)/2` (second order); with the pose of `l_k` the wrench's
-//! directions are half a sample early, which leaves the fitted parameters within about 10⁻⁵
-//! but raises the fit residual about a hundredfold (DESIGN.md, "Things we measured").
+//! So with `N > 1` the filtered channels describe the period's middle `t_k − T/2` (their group
+//! delay) and the lengths `t_k`. The pose that pairs with a frame's forces is that of the
+//! period's middle, e.g. forward kinematics of `(l_{k−1} + l_k)/2` (second order). With the
+//! pose of `l_k`, as the estimator takes it now, the wrench's directions are half a sample
+//! early: the fitted parameters stay within about 10⁻⁵ of a noise-free truth but the fit
+//! residual rises to about 1 N (DESIGN.md, "Things we measured"), far below the load cells'
+//! noise.
 //!
 //! Why the means: with `N > 1` the lagged actuator force bends inside a sample (its slope jumps
 //! when a new command arrives at `t_k`). A load cell read at the instant misses that, while the
 //! gyro's change over a sample integrates it: such frames disagreed with Newton–Euler by about
-//! 4·10⁻⁴ of the wrench (rms) and biased a noise-free estimate's J_xx by 0.07 %. Means over the
-//! period are smooth and agree to about 10⁻⁵ whatever `N` (test
+//! 4·10⁻⁴ of the wrench (rms) and biased a noise-free estimate's J_xx by 0.07 % with `N = 4`.
+//! Means over the period agree to about 10⁻⁶ (test
 //! `load_cells_with_substeps_report_the_mean_force_of_the_sample`). Sample 0 and a sample right
 //! after [`Simulator::set_state`] or [`Simulator::set_payload`] have no period behind them and
 //! report the node values at the instant.
@@ -568,7 +573,7 @@ impl Simulator {
         let e = self.evaluate(&pose, &legs);
         let node = Node::new(&e, &self.mount_m());
         self.period.add(&node, 0.5);
-        let sensed = if self.period.weight > 0.5 {
+        let sensed = if self.config.substeps > 1 && self.period.weight > 0.5 {
             self.period.mean().unwrap_or(node)
         } else {
             node
