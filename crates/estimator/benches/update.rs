@@ -66,6 +66,9 @@ fn bench(c: &mut Criterion) {
     let est = run("update_full_10_parameters", full, c);
     c.bench_function("estimate_full", |b| b.iter(|| black_box(&est).estimate()));
     c.bench_function("theta_corrected", |b| b.iter(|| black_box(&est).theta()));
+    let mut with_legs = full;
+    with_legs.leg_force_offsets = true;
+    run("update_full_10_parameters_leg_offsets", with_legs, c);
 
     let mut six = EstimatorConfig::new(g, PERIOD_S);
     six.parameters = ParameterSet::InertiaAboutKnownCom {
