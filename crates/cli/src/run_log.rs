@@ -8,7 +8,7 @@ use anyhow::Result;
 use serde::Serialize;
 
 use crate::log_messages::channels;
-use crate::mcap_log::McapLog;
+use crate::mcap_log::{Delivery, McapLog};
 
 /// Rates of the decimated channels, Hz (sensors and commands are logged at every sample).
 pub mod rates {
@@ -34,12 +34,23 @@ impl RunLog {
     /// Creates the file with every channel. `start_unix_ns` is the wall-clock time that the
     /// first sample's time maps to.
     pub fn create(path: &Path, start_unix_ns: u64) -> Result<Self> {
+        Self::create_with(path, start_unix_ns, Delivery::Lossless)
+    }
+
+    /// [`Self::create`] with the given behaviour when the log's writer thread falls behind
+    /// (`stewart rig`: drop and count, never stall the control loop).
+    pub fn create_with(path: &Path, start_unix_ns: u64, delivery: Delivery) -> Result<Self> {
         Ok(Self {
-            log: McapLog::create(path, &channels())?,
+            log: McapLog::create_with(path, &channels(), delivery)?,
             start_unix_ns,
             first_time_s: None,
             last_ns: start_unix_ns,
         })
+    }
+
+    /// Messages dropped because the writer fell behind ([`Delivery::DropWhenFull`]).
+    pub fn dropped(&self) -> u64 {
+        self.log.dropped()
     }
 
     /// The file being written.
