@@ -25,6 +25,7 @@ use std::time::Duration;
 
 use anyhow::anyhow;
 use clap::{Args, Subcommand};
+use control::controller::Controller;
 use control::io::Backend;
 use rig::{Key, RigBackend, RigOptions};
 use serde::{Deserialize, Serialize};
@@ -33,7 +34,7 @@ use crate::args::RunArgs;
 use crate::config_load::{ConfigError, ConfigIssue, LoadedConfig, DEFAULT_CONFIG_NAME};
 use crate::foxglove::SceneGeometry;
 use crate::log_messages::{self as topics, SupervisorMsg};
-use crate::mcap_log::default_log_path;
+use crate::mcap_log::{default_log_path, Delivery};
 use crate::metadata::RunMetadata;
 use crate::preflight::{self, Measurement};
 use crate::run::{self, End, Hooks, MeasureOutcome, MeasureSetup};
@@ -400,10 +401,11 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
     let config = &loaded.config;
     let link = link_settings(&loaded, &common.link)?;
     let geometry = preflight::geometry(&loaded)?;
-    let loaded_trajectory = if plan == Plan::MeasureOnly || plan == Plan::Both {
+    // The controllers are built (and their trajectories checked) here, before the rig is even
+    // contacted: nothing slow remains between samples once a session runs.
+    let loaded_controller = if plan == Plan::MeasureOnly || plan == Plan::Both {
         let t = preflight::trajectory(&loaded, &geometry, config.run.duration_s)?;
-        preflight::controller(&loaded, &geometry, t)?;
-        Some(t)
+        Some(preflight::controller(&loaded, &geometry, t)?)
     } else {
         None
     };
@@ -414,11 +416,10 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
         }
         None => None,
     };
-    let tare_trajectory = if tare_file.is_none() {
+    let tare_controller = if tare_file.is_none() {
         let t = preflight::trajectory(&loaded, &geometry, config.run.tare_duration_s)
             .map_err(|e| rename_duration(e, "run.tare_duration_s"))?;
-        preflight::controller(&loaded, &geometry, t)?;
-        Some(t)
+        Some(preflight::controller(&loaded, &geometry, t)?)
     } else {
         None
     };
@@ -434,7 +435,10 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
         Some(p) => p.clone(),
         None => default_log_path(Path::new("runs"), start_ns / 1_000_000_000),
     };
-    let mut log = RunLog::create(&log_path, start_ns).map_err(CommandError::Run)?;
+    // The log's writer thread must never stall the control loop: when it falls behind (a disk
+    // that blocks), messages are dropped and counted instead.
+    let mut log = RunLog::create_with(&log_path, start_ns, Delivery::DropWhenFull)
+        .map_err(CommandError::Run)?;
     let mut state = Session {
         common,
         plan: &plan,
@@ -445,13 +449,20 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
         interrupt,
         produced: outcome::Produced::default(),
     };
-    let result = state.run(tare_file, tare_trajectory, loaded_trajectory);
+    let result = state.run(tare_file, tare_controller, loaded_controller);
     let produced = std::mem::take(&mut state.produced);
     if !matches!(produced.end, Some(End::Completed)) || result.is_err() {
         // Whatever happened, leave the rig braked.
         let _ = rig_link.lock().safe_stop();
     }
+    let dropped = log.dropped();
     let finished = log.finish();
+    if dropped > 0 {
+        eprintln!(
+            "warning: the log's writer fell behind; {dropped} log messages were dropped rather \
+             than stall the control loop (the gaps show in the MCAP sequence numbers)"
+        );
+    }
     result.map_err(CommandError::Run)?;
     finished.map_err(CommandError::Run)?;
     let info = rig_link.lock().rig.info().clone();
@@ -480,17 +491,17 @@ impl Session<'_> {
     fn run(
         &mut self,
         tare_file: Option<TareFile>,
-        tare_trajectory: Option<control::trajectory::Trajectory>,
-        loaded_trajectory: Option<control::trajectory::Trajectory>,
+        tare_controller: Option<Controller>,
+        loaded_controller: Option<Controller>,
     ) -> anyhow::Result<()> {
         let config = &self.loaded.config;
         let (base_joints, plate_joints) = outcome::joints(&self.geometry);
         let stroke = self.geometry.stroke();
         let mut runs = Vec::new();
-        if tare_trajectory.is_some() {
+        if tare_controller.is_some() {
             runs.push("tare".to_string());
         }
-        if loaded_trajectory.is_some() {
+        if loaded_controller.is_some() {
             runs.push("loaded".to_string());
         }
         self.log.write_now(
@@ -526,24 +537,24 @@ impl Session<'_> {
             plate_radius_m: config.platform.plate_radius_m,
             force_scale_n: config.control.max_force_n,
         };
-        let total = tare_trajectory
+        let total = tare_controller
             .as_ref()
-            .map_or(0, |t| run::expected_samples(config, t))
-            + loaded_trajectory
+            .map_or(0, |c| run::expected_samples(config, c.trajectory()))
+            + loaded_controller
                 .as_ref()
-                .map_or(0, |t| run::expected_samples(config, t));
+                .map_or(0, |c| run::expected_samples(config, c.trajectory()));
         let progress = progress_bar(total, self.common.run.quiet);
         let mut command_sequence = 0u64;
 
-        let tare = match (tare_file, tare_trajectory) {
+        let tare = match (tare_file, tare_controller) {
             (Some(file), _) => {
                 self.log.write_now(topics::TARE, &file)?;
                 outcome::TareSource::File(file)
             }
-            (None, Some(trajectory)) => {
+            (None, Some(controller)) => {
                 let m = self.measure(
                     Measurement::Tare,
-                    trajectory,
+                    controller,
                     None,
                     &scene,
                     &progress,
@@ -573,7 +584,7 @@ impl Session<'_> {
             }
             (None, None) => return Err(anyhow!("neither a tare file nor a tare run")),
         };
-        let Some(loaded_trajectory) = loaded_trajectory else {
+        let Some(loaded_controller) = loaded_controller else {
             progress.finish_and_clear();
             self.produced.end = Some(End::Completed);
             return Ok(());
@@ -599,7 +610,7 @@ impl Session<'_> {
         let tare_params = (tare.file().parameters(), tare.file().covariance_matrix());
         let m = self.measure(
             Measurement::Loaded,
-            loaded_trajectory,
+            loaded_controller,
             Some(tare_params),
             &scene,
             &progress,
@@ -630,7 +641,7 @@ impl Session<'_> {
     fn measure(
         &mut self,
         measurement: Measurement,
-        trajectory: control::trajectory::Trajectory,
+        controller: Controller,
         tare: Option<(
             estimator::InertialParameters,
             estimator::ParameterCovariance,
@@ -655,21 +666,23 @@ impl Session<'_> {
                 session_id: info.session_id,
                 counters: LinkCounters::default(),
                 timing: None,
+                log_dropped: self.log.dropped(),
                 fault: None,
             },
         )?;
         let mut timing = LoopTiming::default();
         let (result, failure, last_time_s) = {
             let mut monitored = Monitored::new(self.link, &mut timing);
-            let result = run::measure(
+            let result = run::measure_with(
                 &mut monitored,
                 &MeasureSetup {
                     config: &self.loaded.config,
                     geometry: self.geometry,
                     measurement,
-                    trajectory,
+                    trajectory: *controller.trajectory(),
                     tare,
                 },
+                controller,
                 &mut Hooks {
                     log: self.log,
                     progress,
@@ -737,6 +750,7 @@ impl Session<'_> {
                 session_id: info.session_id,
                 counters,
                 timing: Some(summary),
+                log_dropped: self.log.dropped(),
                 fault: match &end {
                     End::Fault(cause) => Some(cause.clone()),
                     _ => None,

@@ -3,9 +3,11 @@
 //! and the loop's timing are kept, and the `/rig/link` log record of the link counters.
 //!
 //! **Brake heartbeat.** The run procedure has pauses in which it sends nothing while the
-//! platform is braked: building the controller after the brake hold (its trajectory
-//! feasibility check takes about 0.1 s), saving the tare, waiting for the operator. A rig's
-//! command watchdog (20 ms) would trip in each. While the last command was a brake, a
+//! platform is braked: between the tare and the loaded session (saving the tare, waiting for
+//! the operator to put the payload on) and at the end of a measurement (waiting for the log's
+//! writer thread to flush). A rig's command watchdog (20 ms) would trip in each. (The
+//! controller, whose trajectory check takes about 0.1 s, is built before the session starts,
+//! so nothing slow happens between the brake hold and the motion any more.) While the last command was a brake, a
 //! background thread repeats it (a safe stop) whenever the loop has been quiet for a quarter
 //! of the watchdog time. It never sends anything but a brake, and never while the actuators are
 //! driven: a loop that stalls mid-motion still lets the watchdog brake the rig.
@@ -376,6 +378,9 @@ pub struct LinkMsg {
     pub counters: LinkCounters,
     /// The loop's timing over this measurement (`null` at `"session"`).
     pub timing: Option<TimingSummary>,
+    /// Log messages dropped so far in this run because the log's writer thread fell behind
+    /// (the control loop never waits for the disk).
+    pub log_dropped: u64,
     /// What stopped the measurement, when it faulted.
     pub fault: Option<String>,
 }
@@ -416,6 +421,10 @@ impl LinkMsg {
                         ],
                         "host loop timing (wall clock)",
                     )),
+                ),
+                (
+                    "log_dropped",
+                    int("log messages dropped so far in this run: the log's writer fell behind"),
                 ),
                 ("fault", nullable(string("what stopped the measurement"))),
             ],
@@ -554,6 +563,7 @@ mod tests {
                 ..LinkStats::default()
             }),
             timing: Some(LoopTiming::default().summary(0.001)),
+            log_dropped: 0,
             fault: Some("link silent".into()),
         };
         let value = serde_json::to_value(&msg).unwrap();
