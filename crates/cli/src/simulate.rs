@@ -180,8 +180,9 @@ pub fn simulate(args: &RunArgs, interrupt: &AtomicBool) -> Result<SimulateOutcom
     let loaded = load_config(args)?;
     let config = &loaded.config;
     let geometry = preflight::geometry(&loaded)?;
+    // The controllers checked here are the ones that run (no second feasibility check).
     let loaded_trajectory = preflight::trajectory(&loaded, &geometry, config.run.duration_s)?;
-    preflight::controller(&loaded, &geometry, loaded_trajectory)?;
+    let loaded_controller = preflight::controller(&loaded, &geometry, loaded_trajectory)?;
     let (base_joints, plate_joints) = joints(&geometry);
     let tare_file = match &args.tare {
         Some(path) => {
@@ -189,17 +190,16 @@ pub fn simulate(args: &RunArgs, interrupt: &AtomicBool) -> Result<SimulateOutcom
         }
         None => None,
     };
-    let tare_trajectory = if tare_file.is_none() {
+    let tare_controller = if tare_file.is_none() {
         let t = preflight::trajectory(&loaded, &geometry, config.run.tare_duration_s)
             .map_err(|e| rename_duration(e, "run.tare_duration_s"))?;
-        preflight::controller(&loaded, &geometry, t)?;
-        Some(t)
+        Some(preflight::controller(&loaded, &geometry, t)?)
     } else {
         None
     };
     let fixture = config.fixture.to_sim();
     let payload = config.payload.to_sim();
-    let start_payload = if tare_trajectory.is_some() {
+    let start_payload = if tare_controller.is_some() {
         None
     } else {
         Some(payload)
@@ -212,7 +212,7 @@ pub fn simulate(args: &RunArgs, interrupt: &AtomicBool) -> Result<SimulateOutcom
         config.run.seed,
     )
     .map_err(|e| CommandError::Config(ConfigError::single(sim_issue(&loaded, &e))))?;
-    if tare_trajectory.is_some() {
+    if tare_controller.is_some() {
         // The loaded world must be accepted too, before the tare run moves anything.
         sim::Simulator::new(geometry, fixture, Some(payload), &sim_config(config), 0)
             .map_err(|e| CommandError::Config(ConfigError::single(sim_issue(&loaded, &e))))?;
@@ -232,8 +232,8 @@ pub fn simulate(args: &RunArgs, interrupt: &AtomicBool) -> Result<SimulateOutcom
         &mut sim,
         &mut log,
         tare_file,
-        tare_trajectory,
-        loaded_trajectory,
+        tare_controller,
+        loaded_controller,
         interrupt,
     );
     let finished = log.finish();
@@ -266,15 +266,15 @@ fn simulate_logged(
     sim: &mut sim::Simulator,
     log: &mut RunLog,
     tare_file: Option<TareFile>,
-    tare_trajectory: Option<control::trajectory::Trajectory>,
-    loaded_trajectory: control::trajectory::Trajectory,
+    tare_controller: Option<control::controller::Controller>,
+    loaded_controller: control::controller::Controller,
     interrupt: &AtomicBool,
 ) -> anyhow::Result<Produced> {
     let config = &loaded.config;
     let (base_joints, plate_joints) = joints(&geometry);
     let stroke = geometry.stroke();
     let mut runs = Vec::new();
-    if tare_trajectory.is_some() {
+    if tare_controller.is_some() {
         runs.push("tare".to_string());
     }
     runs.push("loaded".to_string());
@@ -316,10 +316,10 @@ fn simulate_logged(
         plate_radius_m: config.platform.plate_radius_m,
         force_scale_n: config.control.max_force_n,
     };
-    let total = tare_trajectory
+    let total = tare_controller
         .as_ref()
-        .map_or(0, |t| run::expected_samples(config, t))
-        + run::expected_samples(config, &loaded_trajectory);
+        .map_or(0, |c| run::expected_samples(config, c.trajectory()))
+        + run::expected_samples(config, loaded_controller.trajectory());
     let progress = progress_bar(total, args.quiet);
     let mut command_sequence = 0u64;
 
@@ -327,21 +327,22 @@ fn simulate_logged(
     let mut measured_tare = None;
     let mut tare_bias_effect = None;
     let mut tare_load_cell_effect = None;
-    let tare = match (tare_file, tare_trajectory) {
+    let tare = match (tare_file, tare_controller) {
         (Some(file), _) => {
             log.write_now(topics::TARE, &file)?;
             TareSource::File(file)
         }
-        (None, Some(trajectory)) => {
-            let outcome = run::measure(
+        (None, Some(controller)) => {
+            let outcome = run::measure_with(
                 sim,
                 &MeasureSetup {
                     config,
                     geometry,
                     measurement: Measurement::Tare,
-                    trajectory,
+                    trajectory: *controller.trajectory(),
                     tare: None,
                 },
+                controller,
                 &mut Hooks {
                     log,
                     progress: &progress,
@@ -379,15 +380,16 @@ fn simulate_logged(
 
     sim.set_payload(Some(payload))
         .map_err(|e| anyhow!("the simulator refused the payload: {e}"))?;
-    let outcome = run::measure(
+    let outcome = run::measure_with(
         sim,
         &MeasureSetup {
             config,
             geometry,
             measurement: Measurement::Loaded,
-            trajectory: loaded_trajectory,
+            trajectory: *loaded_controller.trajectory(),
             tare: Some(tare_params),
         },
+        loaded_controller,
         &mut Hooks {
             log,
             progress: &progress,
