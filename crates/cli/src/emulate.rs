@@ -356,7 +356,7 @@ pub fn main(args: &EmulateArgs, stop: &AtomicBool) -> u8 {
 pub fn summary(s: &EmulatorStats) -> String {
     format!(
         "{} ticks ({} overruns), {} sessions, {} sensor frames sent ({} dropped, {} corrupted, \
-         {} delayed by injection), {} commands accepted ({} lost, {} duplicate, {} out of \
+         {} delayed by injection; {} refused by the link), {} commands accepted ({} lost, {} duplicate, {} out of \
          sequence), {} foreign, {} auth failed, {} corrupt, {} faults reported",
         s.ticks,
         s.overruns,
@@ -365,6 +365,7 @@ pub fn summary(s: &EmulatorStats) -> String {
         s.dropped_injected,
         s.corrupted_injected,
         s.delayed_injected,
+        s.send_failed,
         s.commands_accepted,
         s.commands_lost,
         s.duplicate,
