@@ -130,7 +130,8 @@ pub struct Report {
     pub consistency: Consistency,
     /// The tare subtracted.
     pub tare: TareUsed,
-    /// The systematic part of `sigma` (accelerometer bias), included in `sigma`.
+    /// The systematic part of `sigma` (accelerometer bias, load-cell offsets), included in
+    /// `sigma`.
     #[serde(default)]
     pub systematic: Systematic,
     /// How the run was made.
@@ -196,13 +197,15 @@ pub struct ReportInputs<'a> {
     pub tare_path: Option<String>,
     /// Change of the loaded θ from one sigma of accelerometer bias along x, y, z.
     pub loaded_bias_effect: Option<&'a [[f64; 10]; 3]>,
-    /// The same for the tare run, when it was measured with the same accelerometer.
+    /// The same for the tare run, when it was measured with the same accelerometer; `None`
+    /// takes the tare file's own sensitivity ([`TareFile::accel_bias_effect`]) if it has one.
     pub tare_bias_effect: Option<&'a [[f64; 10]; 3]>,
     /// The accelerometer bias's one sigma assumed, m/s².
     pub accel_bias_sigma_m_s2: f64,
     /// Change of the loaded θ from one sigma of zero offset on each load cell.
     pub loaded_load_cell_effect: Option<&'a [[f64; 10]; 6]>,
-    /// The same for the tare run.
+    /// The same for the tare run; `None` takes the tare file's own sensitivity
+    /// ([`TareFile::load_cell_bias_effect`]) if it has one.
     pub tare_load_cell_effect: Option<&'a [[f64; 10]; 6]>,
     /// The load cells' zero-offset sigma assumed, N.
     pub load_cell_bias_sigma_n: f64,
@@ -216,15 +219,24 @@ pub struct ReportInputs<'a> {
 
 /// The report of the payload alone: loaded minus tare, with the covariance of both plus the
 /// systematic part of the accelerometer's bias and the load cells' offsets
-/// ([`crate::systematic`]).
+/// ([`crate::systematic`]). The tare's share comes from the tare run's effects when given,
+/// else from the sensitivities a saved tare carries, else counts as zero.
 pub fn build(i: &ReportInputs<'_>) -> Report {
     let tare_params = (i.tare.parameters(), i.tare.covariance_matrix());
+    let tare_bias_effect = i
+        .tare_bias_effect
+        .copied()
+        .or_else(|| i.tare.accel_bias_effect(i.accel_bias_sigma_m_s2));
+    let tare_load_cell_effect = i
+        .tare_load_cell_effect
+        .copied()
+        .or_else(|| i.tare.load_cell_bias_effect(i.load_cell_bias_sigma_n));
     let systematic = crate::systematic::bias_covariance(
         i.loaded_bias_effect.map(|e| &e[..]),
-        i.tare_bias_effect.map(|e| &e[..]),
+        tare_bias_effect.as_ref().map(|e| &e[..]),
     ) + crate::systematic::bias_covariance(
         i.loaded_load_cell_effect.map(|e| &e[..]),
-        i.tare_load_cell_effect.map(|e| &e[..]),
+        tare_load_cell_effect.as_ref().map(|e| &e[..]),
     );
     let payload = crate::systematic::payload_with_systematics(i.loaded, &tare_params, &systematic);
     let systematic_only = Estimate::from_parameters(payload.parameters, systematic);
@@ -374,6 +386,67 @@ mod tests {
         assert!((r.tare.sigma[0] - 1e-2).abs() < 1e-15);
         // Only the last of three samples is within 1 % of the final payload.
         assert_eq!(r.convergence.samples_to_1pct, Some(3));
+    }
+
+    /// A saved tare's sensitivities stand in for the tare run's effects (scaled by the sigma
+    /// the loaded run assumes); an explicit effect wins; without either the share is zero.
+    #[test]
+    fn a_saved_tare_counts_its_share_of_the_load_cell_offsets() {
+        use estimator::{InertialParameters, ParameterCovariance};
+        use nalgebra::{Matrix3, Vector3};
+        let fixture = InertialParameters::from_com(
+            400.0,
+            Vector3::zeros(),
+            Matrix3::from_diagonal(&Vector3::new(240.0, 240.0, 450.0)),
+        );
+        let body = InertialParameters::from_com(
+            1900.0,
+            Vector3::new(0.1, 0.0, 0.4),
+            Matrix3::from_diagonal(&Vector3::new(800.0, 2800.0, 3100.0)),
+        );
+        let stat = ParameterCovariance::identity() * 1e-6;
+        let loaded = Estimate::from_parameters(body, stat);
+        let mut per_sigma = [[0.0; 10]; 6];
+        per_sigma[4][0] = 0.02; // the tare run: 0.02 kg per 2 N on cell 4.
+        let plain = TareFile::from_estimate(
+            &Estimate::from_parameters(fixture, stat),
+            &[[0.0; 3]; 6],
+            &[[0.0; 3]; 6],
+            "x",
+            "rig",
+        );
+        let saved = plain
+            .clone()
+            .with_bias_effects(None, 0.0, Some(&per_sigma), 2.0);
+        let mut loaded_effect = [[0.0; 10]; 6];
+        loaded_effect[4][0] = 0.1; // the loaded run at 4 N: the tare's share is 0.04 kg.
+        let explicit = [[0.0; 10]; 6];
+        let systematic_mass = |tare: &TareFile, tare_effect: Option<&[[f64; 10]; 6]>| {
+            build(&ReportInputs {
+                loaded: &loaded,
+                theta_history: &[],
+                excitation_s: 1.0,
+                fk_failures: 0,
+                tare,
+                tare_kind: TareKind::File,
+                tare_path: None,
+                loaded_bias_effect: None,
+                tare_bias_effect: None,
+                accel_bias_sigma_m_s2: 0.0,
+                loaded_load_cell_effect: Some(&loaded_effect),
+                tare_load_cell_effect: tare_effect,
+                load_cell_bias_sigma_n: 4.0,
+                params: ParamCount::Ten,
+                truth: None,
+                run: RunInfo::default(),
+            })
+            .systematic
+            .sigma
+            .mass
+        };
+        assert!((systematic_mass(&saved, None) - 0.06).abs() < 1e-12);
+        assert!((systematic_mass(&plain, None) - 0.1).abs() < 1e-12);
+        assert!((systematic_mass(&saved, Some(&explicit)) - 0.1).abs() < 1e-12);
     }
 
     #[test]

@@ -565,12 +565,22 @@ impl Session<'_> {
                     self.produced.end = Some(m.end);
                     return Ok(());
                 }
-                let estimate = m
+                let tare_outcome = m
                     .outcome
-                    .and_then(|o| o.estimate)
                     .ok_or_else(|| anyhow!("the tare run produced no estimate"))?;
-                let file =
-                    outcome::tare_file_of(&estimate, self.loaded, &base_joints, &plate_joints);
+                let estimate = tare_outcome
+                    .estimate
+                    .as_ref()
+                    .ok_or_else(|| anyhow!("the tare run produced no estimate"))?;
+                // Its bias effects go with it, to the loaded run's report and the tare file.
+                let effects = outcome::TareEffects::of(&tare_outcome);
+                let file = outcome::tare_file_of(
+                    estimate,
+                    &effects,
+                    self.loaded,
+                    &base_joints,
+                    &plate_joints,
+                );
                 self.log.write_now(topics::TARE, &file)?;
                 let save = match self.plan {
                     Plan::TareOnly(out) => Some(out),
@@ -580,7 +590,7 @@ impl Session<'_> {
                     file.save(path)?;
                 }
                 self.produced.tare = Some(file.clone());
-                outcome::TareSource::Measured(file)
+                outcome::TareSource::Measured(file, Box::new(effects))
             }
             (None, None) => return Err(anyhow!("neither a tare file nor a tare run")),
         };
@@ -590,7 +600,7 @@ impl Session<'_> {
             return Ok(());
         };
 
-        if matches!(tare, outcome::TareSource::Measured(_)) {
+        if matches!(tare, outcome::TareSource::Measured(..)) {
             // The tare's session ends braked; the payload goes on; a new session begins.
             self.link.lock().safe_stop()?;
             let confirmed = progress

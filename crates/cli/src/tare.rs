@@ -7,7 +7,7 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 
-use crate::schema::{array, int, numbers, object, string, Schema};
+use crate::schema::{array, int, nullable, numbers, object, string, Schema};
 
 /// Format tag of a tare file.
 pub const TARE_FORMAT: &str = "stewart-tare/1";
@@ -35,6 +35,15 @@ pub struct TareFile {
     pub config: String,
     /// Where it came from (`"sim"`, `"rig"`).
     pub backend: String,
+    /// The tare run's first-order sensitivity of θ to a constant accelerometer bias along P's
+    /// x, y and z (rows), θ per m/s²: with the loaded run's, it gives the payload's share of
+    /// the bias ([`crate::systematic`]). `null` when not known (ideal sensors, or a file
+    /// written before this field, which still loads: its share then counts as zero).
+    #[serde(default)]
+    pub accel_bias_sensitivity: Option<[[f64; 10]; 3]>,
+    /// The same for a constant zero offset on each load cell (rows: legs), θ per N.
+    #[serde(default)]
+    pub load_cell_offset_sensitivity: Option<[[f64; 10]; 6]>,
 }
 
 impl TareFile {
@@ -54,6 +63,22 @@ impl TareFile {
                 ("plate_joints_m", array(numbers(3, ""), Some(6), "plate joints in P, m")),
                 ("config", string("scenario file")),
                 ("backend", string("sim or rig")),
+                (
+                    "accel_bias_sensitivity",
+                    nullable(array(
+                        numbers(10, ""),
+                        Some(3),
+                        "d theta / d accelerometer bias along x, y, z (rows), per m/s^2",
+                    )),
+                ),
+                (
+                    "load_cell_offset_sensitivity",
+                    nullable(array(
+                        numbers(10, ""),
+                        Some(6),
+                        "d theta / d zero offset of each load cell (rows: legs), per N",
+                    )),
+                ),
             ],
             "The empty fixture's inertial parameters, subtracted from loaded runs",
         )
@@ -101,6 +126,21 @@ impl TareFile {
     ) -> Result<()> {
         if !self.theta.iter().all(|v| v.is_finite()) {
             bail!("`theta` has a non-finite entry");
+        }
+        let finite = |rows: &[[f64; 10]]| rows.iter().flatten().all(|v| v.is_finite());
+        if !self
+            .accel_bias_sensitivity
+            .as_ref()
+            .is_none_or(|s| finite(s))
+        {
+            bail!("`accel_bias_sensitivity` has a non-finite entry");
+        }
+        if !self
+            .load_cell_offset_sensitivity
+            .as_ref()
+            .is_none_or(|s| finite(s))
+        {
+            bail!("`load_cell_offset_sensitivity` has a non-finite entry");
         }
         if self.theta[0].is_nan() || self.theta[0] <= 0.0 {
             bail!("`theta[0]` (mass) must be positive, got {}", self.theta[0]);
@@ -154,7 +194,37 @@ impl TareFile {
             plate_joints_m: *plate_joints_m,
             config: config.into(),
             backend: backend.into(),
+            accel_bias_sensitivity: None,
+            load_cell_offset_sensitivity: None,
         }
+    }
+
+    /// Keeps the tare run's systematic effects (θ change per one sigma, as
+    /// [`crate::run::MeasureOutcome`] gives them, with the sigmas they assumed) as
+    /// sensitivities per unit bias, so that a loaded run made later with this file can count
+    /// the tare's share ([`Self::accel_bias_effect`], [`Self::load_cell_bias_effect`]).
+    pub fn with_bias_effects(
+        mut self,
+        accel: Option<&[[f64; 10]; 3]>,
+        accel_sigma_m_s2: f64,
+        load_cell: Option<&[[f64; 10]; 6]>,
+        load_cell_sigma_n: f64,
+    ) -> Self {
+        self.accel_bias_sensitivity = per_unit(accel, accel_sigma_m_s2);
+        self.load_cell_offset_sensitivity = per_unit(load_cell, load_cell_sigma_n);
+        self
+    }
+
+    /// Change of the tare's θ from one sigma `sigma_m_s2` of accelerometer bias (rows: x, y,
+    /// z); `None` without a stored sensitivity or a positive sigma.
+    pub fn accel_bias_effect(&self, sigma_m_s2: f64) -> Option<[[f64; 10]; 3]> {
+        scaled(self.accel_bias_sensitivity.as_ref(), sigma_m_s2)
+    }
+
+    /// Change of the tare's θ from one sigma `sigma_n` of zero offset on each load cell (rows:
+    /// legs); `None` without a stored sensitivity or a positive sigma.
+    pub fn load_cell_bias_effect(&self, sigma_n: f64) -> Option<[[f64; 10]; 6]> {
+        scaled(self.load_cell_offset_sensitivity.as_ref(), sigma_n)
     }
 
     /// θ as nalgebra.
@@ -168,6 +238,23 @@ impl TareFile {
     pub fn covariance_matrix(&self) -> estimator::ParameterCovariance {
         estimator::ParameterCovariance::from_fn(|r, c| self.covariance[r][c])
     }
+}
+
+fn positive(sigma: f64) -> bool {
+    sigma > 0.0 && sigma.is_finite()
+}
+
+fn per_unit<const N: usize>(effect: Option<&[[f64; 10]; N]>, sigma: f64) -> Option<[[f64; 10]; N]> {
+    let e = effect.filter(|_| positive(sigma))?;
+    Some(e.map(|row| row.map(|v| v / sigma)))
+}
+
+fn scaled<const N: usize>(
+    sensitivity: Option<&[[f64; 10]; N]>,
+    sigma: f64,
+) -> Option<[[f64; 10]; N]> {
+    let s = sensitivity.filter(|_| positive(sigma))?;
+    Some(s.map(|row| row.map(|v| v * sigma)))
 }
 
 #[cfg(test)]
@@ -198,6 +285,8 @@ mod tests {
             plate_joints_m: p,
             config: "x.toml".into(),
             backend: "sim".into(),
+            accel_bias_sensitivity: None,
+            load_cell_offset_sensitivity: None,
         }
     }
 
@@ -241,5 +330,51 @@ mod tests {
     fn matches_its_schema() {
         let v = serde_json::to_value(tare()).unwrap();
         TareFile::schema().check(&v).unwrap();
+        let mut load_cell = [[0.0; 10]; 6];
+        load_cell[5][3] = 0.25;
+        let t = tare().with_bias_effects(None, 1e-3, Some(&load_cell), 4.0);
+        TareFile::schema()
+            .check(&serde_json::to_value(t).unwrap())
+            .unwrap();
+    }
+
+    /// Effects go in per sigma and come out per the sigma of the run that uses the file; a
+    /// file written before the sensitivities existed still loads, with none.
+    #[test]
+    fn keeps_the_sensitivities_and_loads_files_without_them() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("tare.json");
+        let (b, p) = joints();
+        let mut accel = [[0.0; 10]; 3];
+        accel[2][0] = 0.05; // 0.05 kg per 2e-3 m/s²: 25 kg per m/s².
+        let mut load_cell = [[0.0; 10]; 6];
+        load_cell[1][3] = -0.2; // per 4 N.
+        let t = tare().with_bias_effects(Some(&accel), 2e-3, Some(&load_cell), 4.0);
+        t.save(&path).unwrap();
+        let back = TareFile::load(&path, &b, &p).unwrap();
+        assert_eq!(back.accel_bias_sensitivity.unwrap()[2][0], 25.0);
+        assert!((back.accel_bias_effect(1e-3).unwrap()[2][0] - 0.025).abs() < 1e-15);
+        assert!((back.load_cell_bias_effect(8.0).unwrap()[1][3] + 0.4).abs() < 1e-15);
+        assert_eq!(back.accel_bias_effect(0.0), None);
+        assert_eq!(
+            tare()
+                .with_bias_effects(Some(&accel), 0.0, None, 4.0)
+                .accel_bias_sensitivity,
+            None
+        );
+
+        // The file as written before: no sensitivity fields at all.
+        let mut old = serde_json::to_value(tare()).unwrap();
+        let map = old.as_object_mut().unwrap();
+        map.remove("accel_bias_sensitivity");
+        map.remove("load_cell_offset_sensitivity");
+        std::fs::write(&path, old.to_string()).unwrap();
+        let old = TareFile::load(&path, &b, &p).unwrap();
+        assert_eq!(old, tare());
+        assert_eq!(old.load_cell_bias_effect(4.0), None);
+
+        let mut bad = t.clone();
+        bad.load_cell_offset_sensitivity.as_mut().unwrap()[0][0] = f64::NAN;
+        assert!(bad.check(&b, &p).is_err());
     }
 }

@@ -99,16 +99,42 @@ impl Produced {
     }
 }
 
+/// The tare run's accelerometer-bias and load-cell-offset effects (θ change per one sigma),
+/// kept through the session change so that the loaded run's report counts the tare's share.
+#[derive(Clone, Copy, Default)]
+pub(super) struct TareEffects {
+    pub accel: Option<[[f64; 10]; 3]>,
+    pub load_cell: Option<[[f64; 10]; 6]>,
+}
+
+impl TareEffects {
+    pub fn of(outcome: &MeasureOutcome) -> Self {
+        Self {
+            accel: outcome.accel_bias_effect,
+            load_cell: outcome.load_cell_bias_effect,
+        }
+    }
+}
+
 /// Where the subtracted tare came from.
 pub(super) enum TareSource {
-    Measured(TareFile),
+    /// Measured in this invocation (the effects boxed: the variants stay about one size).
+    Measured(TareFile, Box<TareEffects>),
+    /// A saved tare (its sensitivities, if it has them, give its share).
     File(TareFile),
 }
 
 impl TareSource {
     pub fn file(&self) -> &TareFile {
         match self {
-            Self::Measured(f) | Self::File(f) => f,
+            Self::Measured(f, _) | Self::File(f) => f,
+        }
+    }
+
+    fn effects(&self) -> TareEffects {
+        match self {
+            Self::Measured(_, e) => **e,
+            Self::File(_) => TareEffects::default(),
         }
     }
 }
@@ -121,21 +147,31 @@ pub(super) fn joints(g: &Geometry) -> ([[f64; 3]; 6], [[f64; 3]; 6]) {
     )
 }
 
+/// The tare file of a tare run, with the run's bias sensitivities (so that `rig measure
+/// --tare FILE` counts the tare's share of the systematic part as a same-session tare does).
 pub(super) fn tare_file_of(
     estimate: &Estimate,
+    effects: &TareEffects,
     loaded: &LoadedConfig,
     base_joints: &[[f64; 3]; 6],
     plate_joints: &[[f64; 3]; 6],
 ) -> TareFile {
+    let config = &loaded.config;
     TareFile::from_estimate(estimate, base_joints, plate_joints, &loaded.source, "rig")
+        .with_bias_effects(
+            effects.accel.as_ref(),
+            crate::preflight::accel_bias_sigma(config),
+            effects.load_cell.as_ref(),
+            crate::systematic::load_cell_bias_sigma(config),
+        )
 }
 
 /// The report of a loaded run on the rig: as `simulate`'s ([`report::build`]), without truth.
-/// The tare run's bias effects are not kept through a rig session, so the systematic part
-/// counts the accelerometer bias's loaded effect only (which overstates it slightly, see
-/// [`crate::systematic::bias_covariance`]) and leaves the load cells' offsets out: most of
-/// their effect cancels with the tare, and the loaded run's alone would overstate it several
-/// times (`stewart estimate` of the rig's log counts both runs).
+/// The systematic part counts the payload's share of the accelerometer bias and of the load
+/// cells' zero offsets (loaded effect minus the tare's): the tare's effects come from the
+/// tare run of this invocation, or from the sensitivities a saved tare carries (a tare file
+/// written before they were kept counts as zero share, which overstates sigma slightly), as
+/// `stewart estimate` of the rig's log computes them.
 pub(super) fn build_report(
     args: &RunArgs,
     loaded: &LoadedConfig,
@@ -149,6 +185,7 @@ pub(super) fn build_report(
         .estimate
         .as_ref()
         .context("the loaded run produced no estimate")?;
+    let tare_effects = tare.effects();
     Ok(report::build(&ReportInputs {
         loaded: loaded_estimate,
         theta_history: &outcome.theta_history,
@@ -156,15 +193,15 @@ pub(super) fn build_report(
         fk_failures: outcome.fk_failures,
         tare: tare.file(),
         tare_kind: match tare {
-            TareSource::Measured(_) => TareKind::Measured,
+            TareSource::Measured(..) => TareKind::Measured,
             TareSource::File(_) => TareKind::File,
         },
         tare_path: args.tare.as_ref().map(|p| p.display().to_string()),
         loaded_bias_effect: outcome.accel_bias_effect.as_ref(),
-        tare_bias_effect: None,
+        tare_bias_effect: tare_effects.accel.as_ref(),
         accel_bias_sigma_m_s2: crate::preflight::accel_bias_sigma(config),
-        loaded_load_cell_effect: None,
-        tare_load_cell_effect: None,
+        loaded_load_cell_effect: outcome.load_cell_bias_effect.as_ref(),
+        tare_load_cell_effect: tare_effects.load_cell.as_ref(),
         load_cell_bias_sigma_n: crate::systematic::load_cell_bias_sigma(config),
         params: config.estimator.params,
         truth: None,

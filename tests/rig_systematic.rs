@@ -1,0 +1,140 @@
+//! The systematic part of a `stewart rig` report (accelerometer bias and load-cell zero
+//! offsets, the payload's share: loaded effect minus the tare's) is the one `stewart estimate`
+//! computes on the run's log, both with the tare measured in the same invocation and with a
+//! saved tare (`rig measure --tare FILE`, whose file keeps the tare run's sensitivities).
+
+mod log_support;
+mod rig_support;
+
+use log_support::close;
+use rig_support::*;
+use stewart_cli::estimate::{reestimate, SettingsOverride};
+use stewart_cli::log_read::LogContents;
+use stewart_cli::report::{Quantities, Report};
+use stewart_cli::run::End;
+use stewart_cli::tare::TareFile;
+
+fn numbers(q: &Quantities) -> Vec<f64> {
+    let mut v = vec![q.mass];
+    v.extend(q.com);
+    v.extend(q.inertia_com.iter().flatten());
+    v
+}
+
+/// Runs `rig ARGS` (with `--log LOG --quiet` added) to completion and returns its report.
+fn rig_report(args: &[&str], log: &std::path::Path) -> Report {
+    let mut all = args.to_vec();
+    all.extend(["--no-prompt", "--log", log.to_str().unwrap(), "--quiet"]);
+    let outcome = run_rig(&rig_args(&all)).unwrap_or_else(|e| panic!("rig: {e}"));
+    assert_eq!(outcome.end, End::Completed, "{:?}", outcome.failure);
+    outcome
+        .report
+        .expect("a completed measurement has a report")
+}
+
+/// The rig's systematic sigma (and so its sigma) equals `estimate`'s on the same log.
+fn assert_systematic_as_estimate(rig: &Report, log: &std::path::Path) {
+    let log = LogContents::read(log).unwrap();
+    let (offline, ..) = reestimate(&log, &SettingsOverride::default(), None).unwrap();
+    eprintln!(
+        "{} tare: systematic sigma mass {:.4e} kg, com z {:.4e} m, J_C xx {:.4e} kg·m² \
+         (estimate {:.4e}, {:.4e}, {:.4e})",
+        rig.tare.source,
+        rig.systematic.sigma.mass,
+        rig.systematic.sigma.com[2],
+        rig.systematic.sigma.inertia_com[0][0],
+        offline.systematic.sigma.mass,
+        offline.systematic.sigma.com[2],
+        offline.systematic.sigma.inertia_com[0][0],
+    );
+    assert_eq!(rig.tare.source, offline.tare.source);
+    assert_eq!(
+        rig.systematic.load_cell_bias_sigma_n,
+        offline.systematic.load_cell_bias_sigma_n
+    );
+    for (part, online, offline) in [
+        (
+            "systematic",
+            &rig.systematic.sigma,
+            &offline.systematic.sigma,
+        ),
+        ("sigma", &rig.sigma, &offline.sigma),
+    ] {
+        for (i, (a, b)) in numbers(online).iter().zip(numbers(offline)).enumerate() {
+            assert!(close(*a, b, 1e-9), "{part}[{i}]: rig {a:e}, estimate {b:e}");
+        }
+    }
+}
+
+#[test]
+fn the_rig_reports_the_systematic_part_estimate_computes() {
+    let _lock = real_time();
+    let scratch = Scratch::new(&quick());
+    let emulator = start(&emulate_args(&scratch));
+    let tare_path = scratch.path("tare.json");
+
+    // Tare session, payload on, loaded session; the tare saved on the way.
+    let log = scratch.path("rig.mcap");
+    let report = rig_report(
+        &[
+            "--config",
+            scratch.config_str(),
+            "--connect",
+            emulator.address(),
+            "--save-tare",
+            tare_path.to_str().unwrap(),
+        ],
+        &log,
+    );
+    assert!(report.systematic.load_cell_bias_sigma_n > 0.0);
+    assert!(report.systematic.accel_bias_sigma_m_s2 > 0.0);
+    assert_eq!(report.tare.source, "measured");
+    assert_systematic_as_estimate(&report, &log);
+
+    // The saved tare keeps the tare run's sensitivities ...
+    let saved: TareFile =
+        serde_json::from_str(&std::fs::read_to_string(&tare_path).unwrap()).unwrap();
+    let sensitivity = saved
+        .load_cell_offset_sensitivity
+        .expect("the saved tare keeps its load-cell sensitivity");
+    assert!(sensitivity.iter().flatten().any(|v| *v != 0.0));
+    assert!(saved.accel_bias_sensitivity.is_some());
+
+    // ... so a measurement with it counts the tare's share as `estimate` does (session 3:
+    // the payload stays on).
+    let log = scratch.path("measure.mcap");
+    let with_file = rig_report(
+        &[
+            "measure",
+            "--config",
+            scratch.config_str(),
+            "--connect",
+            emulator.address(),
+            "--tare",
+            tare_path.to_str().unwrap(),
+        ],
+        &log,
+    );
+    assert_eq!(with_file.tare.source, "file");
+    assert_systematic_as_estimate(&with_file, &log);
+    // Without the tare's share the payload's systematic sigma would be the loaded run's
+    // effect alone: for the mass, much larger (most of the cells' offset cancels).
+    let mut old = saved.clone();
+    old.accel_bias_sensitivity = None;
+    old.load_cell_offset_sensitivity = None;
+    let old_path = scratch.path("old-tare.json");
+    std::fs::write(&old_path, serde_json::to_string(&old).unwrap()).unwrap();
+    let log = LogContents::read(&log).unwrap();
+    let (zero_share, ..) = reestimate(&log, &SettingsOverride::default(), Some(&old_path)).unwrap();
+    eprintln!(
+        "file tare without sensitivities: systematic sigma mass {:.4e} kg",
+        zero_share.systematic.sigma.mass
+    );
+    assert!(
+        zero_share.systematic.sigma.mass > with_file.systematic.sigma.mass,
+        "zero share {} against {}",
+        zero_share.systematic.sigma.mass,
+        with_file.systematic.sigma.mass
+    );
+    emulator.stop().unwrap();
+}
