@@ -165,6 +165,30 @@ fn tare_path(dir: &Path) -> PathBuf {
     dir.join("tare.json")
 }
 
+/// Regression: `simulate --save-tare` wrote a tare file without the tare run's bias
+/// sensitivities, so a run reusing it counted the tare's share of the systematic part as zero
+/// and reported the mass's systematic sigma several times too large.
+#[test]
+fn a_saved_tare_carries_its_share_of_the_systematic_sigma() {
+    let scenario = "[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n";
+    let (dir, first) = run(scenario, |a, d| a.save_tare = Some(tare_path(d)));
+    let saved = tare_path(dir.path());
+    let file: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&saved).unwrap()).unwrap();
+    for key in ["accel_bias_sensitivity", "load_cell_offset_sensitivity"] {
+        assert!(file[key].is_array(), "{key} missing from the saved tare");
+    }
+    let (_dir2, second) = run(scenario, |a, _| a.tare = Some(saved.clone()));
+    let same_run = report(&first).systematic.sigma.mass;
+    let from_file = report(&second).systematic.sigma.mass;
+    // The loaded runs differ (the second has no tare run before it), so not bit for bit; a
+    // zero tare share would make it about six times larger.
+    assert!(
+        (from_file / same_run - 1.0).abs() < 0.2,
+        "systematic mass sigma {from_file} from the file vs {same_run} in the same run"
+    );
+}
+
 #[test]
 fn tare_is_subtracted_saved_and_reused() {
     let scenario = "[sensors]\nnoise = \"none\"\n[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n";

@@ -358,12 +358,20 @@ fn simulate_logged(
             let estimate = outcome
                 .estimate
                 .ok_or_else(|| anyhow!("the tare run produced no estimate"))?;
+            // With the run's bias sensitivities, so a saved tare reused by `--tare` counts its
+            // share of the systematic part as this same-run tare does (as `rig` writes it).
             let file = TareFile::from_estimate(
                 &estimate,
                 &base_joints,
                 &plate_joints,
                 &loaded.source,
                 "sim",
+            )
+            .with_bias_effects(
+                outcome.accel_bias_effect.as_ref(),
+                crate::preflight::accel_bias_sigma(config),
+                outcome.load_cell_bias_effect.as_ref(),
+                crate::systematic::load_cell_bias_sigma(config),
             );
             log.write_now(topics::TARE, &file)?;
             if let Some(path) = &args.save_tare {
