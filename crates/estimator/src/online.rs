@@ -343,7 +343,7 @@ fn to_com_rows(com_m: &Vector3<f64>) -> SMatrix<f64, 3, 6> {
 /// The leg-force → wrench map at `pose` in P axes: column i the wrench (about the P origin) of
 /// a unit force of leg i, i.e. blockdiag(Rᵀ, Rᵀ) Jᵀ ([`crate::wrench::measured`] is this
 /// times the forces).
-fn leg_map(geometry: &Geometry, pose: &Pose) -> Matrix6<f64> {
+pub(crate) fn leg_map(geometry: &Geometry, pose: &Pose) -> Matrix6<f64> {
     let jt = geometry.jacobian(pose).transpose();
     let rt = pose.rotation.inverse();
     let mut g = Matrix6::zeros();
@@ -540,14 +540,25 @@ impl OnlineEstimator {
         {
             return self.reject(EstimatorError::Overflow("leg forces or pose"));
         }
-        let w = measured(&self.config.geometry, &sample.pose, &sample.leg_forces_n);
-        if !to_vector(&w).iter().all(|v| v.is_finite()) {
-            return self.reject(EstimatorError::Overflow("wrench"));
-        }
+        // With the leg map at hand the wrench is its product with the forces: one Jacobian
+        // per sample, not a second pass over the legs.
         let map = self
             .config
             .leg_force_offsets
             .then(|| leg_map(&self.config.geometry, &sample.pose));
+        let w = match &map {
+            Some(m) => {
+                let v = m * sample.leg_forces_n;
+                Wrench {
+                    force_n: Vector3::new(v[0], v[1], v[2]),
+                    torque_nm: Vector3::new(v[3], v[4], v[5]),
+                }
+            }
+            None => measured(&self.config.geometry, &sample.pose, &sample.leg_forces_n),
+        };
+        if !to_vector(&w).iter().all(|v| v.is_finite()) {
+            return self.reject(EstimatorError::Overflow("wrench"));
+        }
         self.update_inner(
             sample.time_s,
             &w,

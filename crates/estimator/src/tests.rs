@@ -663,13 +663,7 @@ fn offset_and_bias_sensitivities_match_a_second_fit() {
     // Constant leg-force offsets (load-cell zero offsets): they reach the wrench through the
     // pose-dependent leg directions, which the rich motion turns by up to 0.25 rad.
     let offsets = Vector6::new(4.0, -3.0, 5.0, -4.0, 2.0, 6.0);
-    for parameters in [
-        ParameterSet::Full,
-        ParameterSet::InertiaAboutKnownCom {
-            mass_kg: 1274.0,
-            com_m: Vector3::new(0.1, -0.05, 0.4),
-        },
-    ] {
+    for parameters in both_parameter_sets() {
         let mut cc = c;
         cc.parameters = parameters;
         cc.leg_force_offsets = true;
@@ -702,13 +696,7 @@ fn offset_and_bias_sensitivities_match_a_second_fit() {
     }
     // A constant wrench offset, through the six-axis path (no pose dependence).
     let w0 = Vector6::new(12.0, -7.0, 20.0, 3.0, -5.0, 4.0);
-    for parameters in [
-        ParameterSet::Full,
-        ParameterSet::InertiaAboutKnownCom {
-            mass_kg: 1274.0,
-            com_m: Vector3::new(0.1, -0.05, 0.4),
-        },
-    ] {
+    for parameters in both_parameter_sets() {
         let mut cc = c;
         cc.parameters = parameters;
         let (plain, shifted) = twin_wrench_run(cc, 5.0, 6000, 5, w0);
@@ -758,4 +746,41 @@ fn low_pass_start_transient_does_not_reach_the_fit() {
     std::eprintln!("start transient: worst relative error {err:.2e}");
     // 3e-4 when the transient reached the fit.
     assert!(err < 1e-6, "worst relative error {err:e}");
+}
+
+/// The leg map the sensitivity uses, times the forces, is the measured wrench (the estimator
+/// computes the wrench that way when it keeps the map): against the sum over the legs.
+#[test]
+fn leg_map_times_forces_is_the_measured_wrench() {
+    use kinematics::Pose;
+    let g = test_geometry();
+    let mut rng = StdRng::seed_from_u64(11);
+    for _ in 0..200 {
+        let pose = Pose::from_rpy(
+            g.home_pose().position_m
+                + Vector3::new(
+                    rng.random_range(-0.05..0.05),
+                    rng.random_range(-0.05..0.05),
+                    rng.random_range(-0.05..0.05),
+                ),
+            rng.random_range(-0.2..0.2),
+            rng.random_range(-0.2..0.2),
+            rng.random_range(-0.3..0.3),
+        );
+        let f = Vector6::from_fn(|_, _| rng.random_range(-5000.0..5000.0));
+        let by_map = crate::online::leg_map(&g, &pose) * f;
+        let w = crate::wrench::to_vector(&crate::wrench::measured(&g, &pose, &f));
+        assert!((by_map - w).norm() <= 1e-9 * w.norm(), "{by_map} vs {w}");
+    }
+}
+
+/// The ten-parameter model and the paper's six-parameter one (about a known centre of mass).
+fn both_parameter_sets() -> [ParameterSet; 2] {
+    [
+        ParameterSet::Full,
+        ParameterSet::InertiaAboutKnownCom {
+            mass_kg: 1274.0,
+            com_m: Vector3::new(0.1, -0.05, 0.4),
+        },
+    ]
 }
