@@ -14,9 +14,10 @@
 //!    `[t_start, t_start + trajectory duration]`, then fed every earlier sample of the
 //!    measurement (they only warm its conditioning: the estimator withholds the low-pass's start
 //!    transient from the fit by itself, and warming it on the brake hold and settle frames keeps
-//!    the whole excitation for the fit) and every later one up to the window's end. Its pose input is the forward kinematics of the measured leg lengths,
-//!    warm-started from the previous sample's solution (the first sample of the measurement from
-//!    the home pose), so `stewart estimate` can rebuild the same inputs from `/sensors` alone.
+//!    the whole excitation for the fit) and every later one up to the window's end. Its pose
+//!    input is the forward kinematics of the measured leg lengths, warm-started from the
+//!    previous sample's solution (the first sample of the measurement from the home pose), so
+//!    `stewart estimate` can rebuild the same inputs from `/sensors` alone.
 //!
 //! The estimator sees only sensor frames; nothing here can read a simulator's truth.
 

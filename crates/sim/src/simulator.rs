@@ -54,9 +54,10 @@
 //!   `f_a = f + ω̇ × r_a + ω × (ω × r_a)`.
 //!
 //! So the load cells, the pose, the gyro and the accelerometer of one node satisfy the rigid
-//! body's equations at one instant, and their means over a period satisfy them on average. A half-step skew between channels (a force held over a step
-//! against a centrally differenced rate) leaves the fitted parameters nearly intact but raises
-//! the fit residual by orders of magnitude (DESIGN.md, "Things we measured").
+//! body's equations at one instant, and their means over a period satisfy them on average. A
+//! half-step skew between channels (a force held over a step against a centrally differenced
+//! rate) leaves the fitted parameters nearly intact but raises the fit residual by orders of
+//! magnitude (DESIGN.md, "Things we measured").
 //!
 //! Measured (tests `sample_channels_are_simultaneous`, `leg_wrench_matches_newton_euler_*`,
 //! `load_cells_with_substeps_*`; 1 kHz, 1.7 t tumbling at up to 1 rad/s): Newton–Euler on
