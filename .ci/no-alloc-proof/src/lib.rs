@@ -1,5 +1,6 @@
-//! Links the three cores into a `no_std` static library without an allocator (see Cargo.toml)
-//! and calls their per-tick functions, so that the linker sees every path a tick can take.
+//! Links the three cores and the shared types into a `no_std` static library without an
+//! allocator (see Cargo.toml) and calls their per-tick functions, so that the linker sees every
+//! path a tick can take.
 #![no_std]
 
 use control::controller::{Controller, ControllerConfig};
@@ -7,6 +8,7 @@ use control::io::SensorFrame;
 use control::trajectory::{MultiSineConfig, Trajectory};
 use estimator::{EstimatorConfig, OnlineEstimator, Sample};
 use kinematics::{FkOptions, Geometry, StrokeLimits, Vector3, Vector6};
+use stewart_types::{InertialParameters, STANDARD_GRAVITY_M_S2};
 
 #[panic_handler]
 fn panic(_: &core::panic::PanicInfo) -> ! {
@@ -67,7 +69,7 @@ pub extern "C" fn proof_full_ticks(ticks: u32, leg_force_n: f64) -> f64 {
             leg_lengths_m: lengths.into(),
             leg_forces_n: [leg_force_n; 6],
             gyro_rad_s: [0.0; 3],
-            accel_m_s2: [0.0, 0.0, 9.80665],
+            accel_m_s2: [0.0, 0.0, STANDARD_GRAVITY_M_S2],
             ..SensorFrame::default()
         };
         let out = controller.tick(&frame);
@@ -81,4 +83,15 @@ pub extern "C" fn proof_full_ticks(ticks: u32, leg_force_n: f64) -> f64 {
         let _ = estimator.update(&sample);
     }
     estimator.estimate().parameters.mass_kg
+}
+
+/// Shared types: the consistency check of a parameter set (eigen-decomposition of J_C) on a
+/// point mass `mass_kg` at height `height_m` above the P origin plus a 1 kg·m² sphere about it.
+/// Returns 1 when consistent, 0 when not.
+#[no_mangle]
+pub extern "C" fn proof_parameters_consistent(mass_kg: f64, height_m: f64) -> u32 {
+    let sphere =
+        InertialParameters::from_com(1.0, Vector3::zeros(), kinematics::Matrix3::identity());
+    let point = InertialParameters::point_mass(mass_kg, Vector3::new(0.0, 0.0, height_m));
+    u32::from((sphere + point).consistency().is_consistent())
 }

@@ -1,14 +1,14 @@
 //! `stewart bench`: can this computer run the loop fast enough?
 //!
 //! Measures, on the user's host and for the configured scenario, the full control-and-estimation
-//! tick ([`TickPipeline::tick`]: sensor checks, forward kinematics, set-point, inverse
+//! tick ([`measure::tick::Tick::step`], the tick `simulate` and `rig` run: sensor checks, forward kinematics, set-point, inverse
 //! kinematics, six PIDs, supervisor gate, then leg-force wrench, conditioning, regressor and
 //! RLS update on the same frame) and the simulator's speed. The platform is driven in closed
 //! loop exactly as in a run (brake hold, settle, excitation, park) and every tick is timed on
 //! its own, so the p99 includes what the host does to a real loop: other processes, cache
 //! pollution by the physics step between ticks, frequency changes.
 //!
-//! The same [`TickPipeline`] and [`Scenario`] serve the criterion benches (`benches/tick.rs`)
+//! The same [`Tick`] and [`Scenario`] serve the criterion benches (`benches/tick.rs`)
 //! and the no-heap test (`tests/no_heap_tick.rs`), so all three measure one definition of
 //! "the tick".
 
@@ -17,16 +17,14 @@ use std::time::{Duration, Instant};
 
 use anyhow::{anyhow, bail, Result};
 use clap::Args;
-use control::controller::Controller;
 use control::io::{Backend, CommandFrame, SensorFrame};
 use control::supervisor::Phase;
-use estimator::{EstimatorError, OnlineEstimator, Outcome, Sample};
-use kinematics::{Vector3, Vector6};
+use measure::feed::Feed;
+use measure::setup::{self, Measurement};
+use measure::tick::{Tick, TickStep};
 use serde::Serialize;
 
-use crate::config::NoisePreset;
-use crate::config_load::LoadedConfig;
-use crate::preflight::{self, Measurement};
+use crate::world::{NoisePreset, Scenario as World};
 
 /// Fraction of the sample period the tick's p99 may use for the loop rate to "fit with
 /// margin": the rest is left for I/O, logging and the operating system's jitter.
@@ -41,10 +39,10 @@ pub struct BenchArgs {
     /// Excitation time of the measured run including the fades, simulated s.
     #[arg(long, value_name = "SECONDS", default_value_t = 20.0)]
     pub duration: f64,
-    /// Sensor noise preset (sensors.noise).
+    /// Sensor grade: `realistic` the rig description's datasheet, `none` ideal, `harsh` ×10.
     #[arg(long, value_enum)]
     pub noise: Option<NoisePreset>,
-    /// Random seed of the simulation (run.seed).
+    /// Random seed of the simulated world (world.seed).
     #[arg(long)]
     pub seed: Option<u64>,
     /// Print the result as JSON instead of a table.
@@ -52,99 +50,53 @@ pub struct BenchArgs {
     pub json: bool,
 }
 
-/// What one [`TickPipeline::tick`] produced.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TickStep {
-    /// The command to write to the backend.
-    pub command: CommandFrame,
-    /// The controller's phase after the tick.
-    pub phase: Phase,
-    /// The estimator's verdict on this frame; `None` when forward kinematics gave no pose.
-    pub estimator: Option<Result<Outcome, EstimatorError>>,
-}
-
-/// One full control-and-estimation tick's state: the controller and an estimator fed on the
-/// same frame with the controller's forward-kinematics pose. Plain `Copy` data, so a snapshot
-/// restores it exactly.
-#[derive(Clone, Copy, Debug)]
-pub struct TickPipeline {
-    /// FK, set-point, IK, PIDs, supervisor.
-    pub controller: Controller,
-    /// Wrench, conditioning, regressor, RLS.
-    pub estimator: OnlineEstimator,
-}
-
-impl TickPipeline {
-    /// One tick: [`Controller::tick`], then [`OnlineEstimator::update`] with the frame's leg
-    /// forces, gyro and accelerometer at the pose FK just found. Allocation-free.
-    #[inline]
-    pub fn tick(&mut self, frame: &SensorFrame) -> TickStep {
-        let out = self.controller.tick(frame);
-        let estimator = out.measured_pose.map(|pose| {
-            self.estimator.update(&Sample {
-                time_s: frame.time_s,
-                pose,
-                leg_forces_n: Vector6::from(frame.leg_forces_n),
-                gyro_rad_s: Vector3::from(frame.gyro_rad_s),
-                accel_m_s2: Vector3::from(frame.accel_m_s2),
-            })
-        });
-        TickStep {
-            command: out.command,
-            phase: out.phase,
-            estimator,
-        }
-    }
-}
-
 /// The configured scenario on the simulator (payload on), after the brake hold, with the
-/// pipeline ready for its first tick.
+/// production tick ([`Tick`]) ready for its first controlled frame.
 pub struct Scenario {
     /// The simulated rig.
     pub sim: sim::Simulator,
-    /// Controller and estimator.
-    pub pipeline: TickPipeline,
+    /// Controller, frame-to-sample rule, estimator: the tick `simulate` and `rig` run.
+    pub tick: Tick,
     /// Excitation duration including the fades, s.
     pub excitation_s: f64,
 }
 
-/// The simulator settings of `config` (the same mapping `stewart simulate` uses).
-pub fn sim_config(config: &crate::config::Config) -> sim::SimConfig {
-    let mut sensors = sim::SensorConfig::preset(config.sensors.noise.to_sim());
-    sensors.accelerometer.mount_m = config.sensors.imu_position_m;
-    sim::SimConfig {
-        sample_rate_hz: config.sensors.sample_rate_hz,
-        substeps: config.sensors.physics_substeps,
-        actuator: config.actuator,
-        sensors,
-        ..sim::SimConfig::default()
-    }
-}
-
 impl Scenario {
-    /// Builds the loaded world of `loaded` with an excitation of `excitation_s`, holds the
-    /// brakes for `run.brake_hold_s` and takes the mean leg forces of the last 0.1 s as the
-    /// PID feed-forward (as a measurement run does), then builds the controller and an
-    /// estimator whose window is unbounded (it is fed on every tick).
-    pub fn new(loaded: &LoadedConfig, excitation_s: f64) -> Result<Self> {
+    /// Builds the loaded world of `scenario` with an excitation of `excitation_s`, holds the
+    /// brakes for `run.brake_hold_s` feeding the estimator's conditioning and takes the mean
+    /// leg forces of the last 0.1 s as the PID feed-forward, as a measurement does.
+    pub fn new(scenario: &World, excitation_s: f64) -> Result<Self> {
+        let loaded = &scenario.loaded;
         let config = &loaded.config;
-        let geometry = preflight::geometry(loaded).map_err(|e| anyhow!("{e}"))?;
+        let geometry = setup::geometry(loaded).map_err(|e| anyhow!("{e}"))?;
         let trajectory =
-            preflight::trajectory(loaded, &geometry, excitation_s).map_err(|e| anyhow!("{e}"))?;
-        let mut sim = sim::Simulator::new(
+            setup::trajectory(loaded, &geometry, excitation_s).map_err(|e| anyhow!("{e}"))?;
+        let controller =
+            setup::controller(loaded, &geometry, trajectory).map_err(|e| anyhow!("{e}"))?;
+        let mut sim = scenario
+            .simulator(geometry, true)
+            .map_err(|e| anyhow!("{e}"))?;
+        let feed = Feed::new(
             geometry,
-            config.fixture.to_sim(),
-            Some(config.payload.to_sim()),
-            &sim_config(config),
-            config.run.seed,
-        )
-        .map_err(|e| anyhow!("the simulator refused the scenario: {e}"))?;
+            setup::controller_config(config).fk,
+            &config.sensors.imu,
+        );
+        let estimator = setup::estimator_config(
+            config,
+            &geometry,
+            Measurement::Loaded,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+        );
+        let mut tick = Tick::new(controller, feed, estimator, trajectory.duration_s())
+            .map_err(|e| anyhow!("the estimator refused its settings: {e}"))?;
         let rate_hz = config.sensors.sample_rate_hz;
         let hold = ((config.run.brake_hold_s * rate_hz).round() as u64).max(1);
         let average = ((0.1 * rate_hz).round() as u64).clamp(1, hold);
         let mut sum = [0.0; 6];
         for i in 0..hold {
             let frame = sim.read()?;
+            tick.hold(&frame);
             if i >= hold - average {
                 for (s, f) in sum.iter_mut().zip(frame.leg_forces_n) {
                     *s += f;
@@ -152,25 +104,13 @@ impl Scenario {
             }
             sim.write(&CommandFrame::safe_stop(i, frame.sequence))?;
         }
-        let mut controller_config = preflight::controller_config(config);
-        controller_config.feedforward_n = sum.map(|s| s / average as f64);
-        let controller = Controller::new(geometry, trajectory, controller_config)
-            .map_err(|e| anyhow!("the controller refused the scenario: {e}"))?;
-        let estimator_config = preflight::estimator_config(
-            config,
-            &geometry,
-            Measurement::Loaded,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-        );
-        let estimator = OnlineEstimator::new(estimator_config)
-            .map_err(|e| anyhow!("the estimator refused its settings: {e}"))?;
+        tick.controller
+            .set_feedforward(sum.map(|s| s / average as f64))
+            .map_err(|e| anyhow!("the controller refused the feed-forward: {e}"))?;
+        tick.controller.set_pose_guess(tick.feed.pose_guess());
         Ok(Self {
             sim,
-            pipeline: TickPipeline {
-                controller,
-                estimator,
-            },
+            tick,
             excitation_s,
         })
     }
@@ -178,8 +118,8 @@ impl Scenario {
     /// Reads a frame, ticks, writes the command; returns the frame and the step.
     pub fn step(&mut self) -> Result<(SensorFrame, TickStep)> {
         let frame = self.sim.read()?;
-        let step = self.pipeline.tick(&frame);
-        self.sim.write(&step.command)?;
+        let step = self.tick.step(&frame);
+        self.sim.write(&step.control.command)?;
         Ok((frame, step))
     }
 
@@ -187,14 +127,11 @@ impl Scenario {
     pub fn run_until(&mut self, phase: Phase, max_samples: u64) -> Result<()> {
         for _ in 0..max_samples {
             let (_, step) = self.step()?;
-            if step.phase == phase {
+            if step.control.phase == phase {
                 return Ok(());
             }
-            if step.phase == Phase::Fault {
-                bail!(
-                    "the supervisor faulted: {:?}",
-                    self.pipeline.controller.fault()
-                );
+            if step.control.phase == Phase::Fault {
+                bail!("the supervisor faulted: {:?}", self.tick.controller.fault());
             }
         }
         bail!(
@@ -209,8 +146,8 @@ impl Scenario {
 /// commands only feed the simulator, which is not replayed).
 #[derive(Clone, Debug)]
 pub struct Recording {
-    /// Pipeline state before `frames[0]`.
-    pub start: TickPipeline,
+    /// Tick state before `frames[0]`.
+    pub start: Tick,
     /// The frames, one per sample period.
     pub frames: Vec<SensorFrame>,
     /// The commands the pipeline sent in reply, one per frame.
@@ -219,28 +156,29 @@ pub struct Recording {
 
 /// Records `frames` samples of the configured scenario, starting `into_excitation_s` seconds
 /// into the excitation (the controller's busiest phase: FK moving, trajectory non-zero).
-pub fn record(loaded: &LoadedConfig, frames: usize, into_excitation_s: f64) -> Result<Recording> {
-    let period_s = 1.0 / loaded.config.sensors.sample_rate_hz;
+pub fn record(world: &World, frames: usize, into_excitation_s: f64) -> Result<Recording> {
+    let config = &world.loaded.config;
+    let period_s = 1.0 / config.sensors.sample_rate_hz;
     let excitation_s =
-        into_excitation_s + frames as f64 * period_s + 2.0 * loaded.config.excitation.fade_s + 1.0;
-    let mut scenario = Scenario::new(loaded, excitation_s)?;
+        into_excitation_s + frames as f64 * period_s + 2.0 * config.excitation.fade_s + 1.0;
+    let mut scenario = Scenario::new(world, excitation_s)?;
     scenario.run_until(Phase::Excite, 600_000)?;
     for _ in 0..(into_excitation_s / period_s).round() as u64 {
         scenario.step()?;
     }
-    let start = scenario.pipeline;
+    let start = scenario.tick;
     let mut out = Vec::with_capacity(frames);
     let mut commands = Vec::with_capacity(frames);
     for _ in 0..frames {
         let (frame, step) = scenario.step()?;
-        if step.phase != Phase::Excite {
+        if step.control.phase != Phase::Excite {
             bail!(
                 "the recording left the excitation (phase {})",
-                step.phase.name()
+                step.control.phase.name()
             );
         }
         out.push(frame);
-        commands.push(step.command);
+        commands.push(step.control.command);
     }
     Ok(Recording {
         start,
@@ -317,9 +255,10 @@ pub fn quantile(sorted: &[Duration], q: f64) -> Duration {
 
 /// Runs the configured scenario once in closed loop, timing every tick and every simulator
 /// step, and judges whether the loop rate fits.
-pub fn measure(loaded: &LoadedConfig, excitation_s: f64) -> Result<BenchReport> {
+pub fn measure(world: &World, excitation_s: f64) -> Result<BenchReport> {
+    let loaded = &world.loaded;
     let config = &loaded.config;
-    let mut scenario = Scenario::new(loaded, excitation_s)?;
+    let mut scenario = Scenario::new(world, excitation_s)?;
     let period_s = 1.0 / config.sensors.sample_rate_hz;
     let c = &config.control;
     let r = &config.run;
@@ -332,14 +271,14 @@ pub fn measure(loaded: &LoadedConfig, excitation_s: f64) -> Result<BenchReport> 
     let mut sim_frame = scenario.sim.read()?;
     for _ in 0..budget {
         let t0 = Instant::now();
-        let step = scenario.pipeline.tick(&sim_frame);
+        let step = scenario.tick.step(&sim_frame);
         let t1 = Instant::now();
-        scenario.sim.write(&step.command)?;
+        scenario.sim.write(&step.control.command)?;
         sim_frame = scenario.sim.read()?;
         let t2 = Instant::now();
         ticks.push(t1 - t0);
         steps.push(t2 - t1);
-        match step.phase {
+        match step.control.phase {
             Phase::Done => {
                 completed = true;
                 break;
@@ -378,8 +317,8 @@ pub fn measure(loaded: &LoadedConfig, excitation_s: f64) -> Result<BenchReport> 
     Ok(BenchReport {
         config: loaded.source.clone(),
         sample_rate_hz: config.sensors.sample_rate_hz,
-        physics_substeps: config.sensors.physics_substeps,
-        noise: config.sensors.noise.name().into(),
+        physics_substeps: world.world.physics_substeps,
+        noise: world.noise.name().into(),
         host_cpus: std::thread::available_parallelism().map_or(1, |n| n.get()),
         release_build: !cfg!(debug_assertions),
         ticks: ticks.len() as u64,
@@ -438,20 +377,16 @@ pub fn render(b: &BenchReport) -> String {
 /// `stewart bench`: loads the configuration, measures, prints. Returns the exit code: 0 when
 /// the loop fits with margin, 1 when it does not, 2 when the input was refused.
 pub fn main(args: &BenchArgs) -> u8 {
-    let run_args = crate::args::RunArgs {
-        config: args.config.clone(),
-        seed: args.seed,
-        noise: args.noise,
-        ..Default::default()
-    };
-    let loaded = match crate::simulate::load_config(&run_args) {
-        Ok(l) => l,
+    let world = match measure::load::load(args.config.as_deref())
+        .and_then(|loaded| World::new(loaded, args.seed, args.noise))
+    {
+        Ok(w) => w,
         Err(e) => {
             eprintln!("error: {e}");
             return 2;
         }
     };
-    match measure(&loaded, args.duration) {
+    match measure(&world, args.duration) {
         Ok(report) => {
             if args.json {
                 println!(
@@ -473,7 +408,7 @@ pub fn main(args: &BenchArgs) -> u8 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config_load::load;
+    use estimator::Outcome;
 
     #[test]
     fn nearest_rank_quantiles() {
@@ -494,15 +429,15 @@ mod tests {
 
     #[test]
     fn replaying_a_recording_reproduces_the_run_bit_for_bit() {
-        let loaded = load(None).unwrap();
-        let rec = record(&loaded, 200, 0.5).unwrap();
+        let world = World::new(measure::load::load(None).unwrap(), None, None).unwrap();
+        let rec = record(&world, 200, 0.5).unwrap();
         let mut replay = rec.start;
-        let steps: Vec<TickStep> = rec.frames.iter().map(|f| replay.tick(f)).collect();
-        let commands: Vec<CommandFrame> = steps.iter().map(|s| s.command).collect();
+        let steps: Vec<TickStep> = rec.frames.iter().map(|f| replay.step(f)).collect();
+        let commands: Vec<CommandFrame> = steps.iter().map(|s| s.control.command).collect();
         assert_eq!(commands, rec.commands);
         assert!(steps
             .iter()
-            .all(|s| s.phase == Phase::Excite && s.command.enable));
+            .all(|s| s.control.phase == Phase::Excite && s.control.command.enable));
         assert!(steps.iter().all(|s| s.estimator == Some(Ok(Outcome::Used))));
         // The legs really move: the commands are not a constant hold.
         let spread = rec

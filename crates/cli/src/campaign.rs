@@ -24,10 +24,11 @@ use nalgebra::{Matrix3, SymmetricEigen};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::args::RunArgs;
-use crate::report::{Quantities, Report};
-use crate::run::End;
-use crate::simulate::{self, CommandError};
+use measure::report::{Quantities, Report};
+use measure::End;
+
+use crate::common::CommandError;
+use crate::simulate::{self, SimulateArgs};
 
 /// One parameter of the payload: name, unit, accessor.
 struct Parameter {
@@ -256,12 +257,13 @@ pub fn statistics(reports: &[Report]) -> Option<Vec<ParameterStats>> {
 }
 
 /// Why the flags cannot make a campaign, if they cannot.
-fn refuse(args: &RunArgs) -> Option<&'static str> {
+fn refuse(args: &SimulateArgs) -> Option<&'static str> {
+    let m = &args.measure;
     if args.runs == Some(0) {
         Some("--runs must be at least 1")
     } else if args.jobs == Some(0) {
         Some("--jobs must be at least 1")
-    } else if args.log.is_some() || args.plot.is_some() || args.save_tare.is_some() {
+    } else if m.log.is_some() || m.plot.is_some() || m.save_tare.is_some() {
         Some("--log, --plot and --save-tare apply to a single run, not to --runs")
     } else {
         None
@@ -284,24 +286,24 @@ fn progress_bar(total: u64, quiet: bool) -> indicatif::ProgressBar {
 
 /// Runs the campaign. Configuration problems are refused before any run starts. `interrupt`
 /// parks the runs in flight and skips the rest.
-pub fn run(args: &RunArgs, interrupt: &AtomicBool) -> Result<CampaignReport, CommandError> {
+pub fn run(args: &SimulateArgs, interrupt: &AtomicBool) -> Result<CampaignReport, CommandError> {
     if let Some(problem) = refuse(args) {
         return Err(CommandError::Input(anyhow::anyhow!(problem)));
     }
-    let loaded = simulate::load_config(args)?;
-    let config = &loaded.config;
+    let scenario = args.scenario()?;
+    let config = &scenario.loaded.config;
     let runs = args.runs.unwrap_or(1);
     let jobs = args
         .jobs
         .unwrap_or_else(|| rayon::current_num_threads().max(1));
-    let first_seed = config.run.seed;
+    let first_seed = scenario.world.seed;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(jobs)
         .build()
         .map_err(|e| CommandError::Run(e.into()))?;
     let log_dir = std::env::temp_dir().join(format!("stewart-campaign-{}", std::process::id()));
     std::fs::create_dir_all(&log_dir).map_err(|e| CommandError::Run(e.into()))?;
-    let progress = progress_bar(u64::from(runs), args.quiet);
+    let progress = progress_bar(u64::from(runs), args.measure.quiet);
     let start = Instant::now();
 
     let outcomes: Vec<(u64, Result<Report, String>)> = pool.install(|| {
@@ -336,11 +338,11 @@ pub fn run(args: &RunArgs, interrupt: &AtomicBool) -> Result<CampaignReport, Com
         }
     }
     Ok(CampaignReport {
-        config: loaded.source.clone(),
-        noise: config.sensors.noise.name().into(),
+        config: scenario.loaded.source.clone(),
+        noise: scenario.noise.name().into(),
         params: config.estimator.params.into(),
         duration_s: config.run.duration_s,
-        tare_duration_s: if args.tare.is_some() {
+        tare_duration_s: if args.measure.tare.is_some() {
             0.0
         } else {
             config.run.tare_duration_s
@@ -358,18 +360,21 @@ pub fn run(args: &RunArgs, interrupt: &AtomicBool) -> Result<CampaignReport, Com
 
 /// One seeded run through the ordinary single-run path; its log is deleted afterwards.
 fn one_run(
-    args: &RunArgs,
+    args: &SimulateArgs,
     seed: u64,
     log: PathBuf,
     interrupt: &AtomicBool,
 ) -> Result<Report, String> {
-    let run_args = RunArgs {
+    let run_args = SimulateArgs {
         seed: Some(seed),
-        log: Some(log.clone()),
-        report: None,
-        quiet: true,
         runs: None,
         jobs: None,
+        measure: crate::common::MeasureArgs {
+            log: Some(log.clone()),
+            report: None,
+            quiet: true,
+            ..args.measure.clone()
+        },
         ..args.clone()
     };
     let outcome = simulate::simulate(&run_args, interrupt);
@@ -444,7 +449,7 @@ pub fn render(c: &CampaignReport) -> String {
 
 /// `stewart simulate --runs N`: runs, prints, writes `--report`. Exit code: 0 when every run
 /// completed, 1 when some did not, 2 when the input was refused, 130 after Ctrl-C.
-pub fn main(args: &RunArgs, interrupt: &AtomicBool) -> u8 {
+pub fn main(args: &SimulateArgs, interrupt: &AtomicBool) -> u8 {
     let report = match run(args, interrupt) {
         Ok(r) => r,
         Err(e) => {
@@ -454,7 +459,7 @@ pub fn main(args: &RunArgs, interrupt: &AtomicBool) -> u8 {
     };
     print!("{}", render(&report));
     let mut code = u8::from(report.completed < report.runs);
-    if let Some(path) = &args.report {
+    if let Some(path) = &args.measure.report {
         match serde_json::to_string_pretty(&report) {
             Ok(text) => match std::fs::write(path, text) {
                 Ok(()) => println!("report: {}", path.display()),
@@ -551,26 +556,32 @@ mod tests {
 
     #[test]
     fn single_run_flags_are_refused() {
-        let base = RunArgs {
+        let base = SimulateArgs {
             runs: Some(3),
-            ..RunArgs::default()
+            ..SimulateArgs::default()
         };
         assert!(refuse(&base).is_none());
         for bad in [
-            RunArgs {
+            SimulateArgs {
                 runs: Some(0),
                 ..base.clone()
             },
-            RunArgs {
+            SimulateArgs {
                 jobs: Some(0),
                 ..base.clone()
             },
-            RunArgs {
-                log: Some("x.mcap".into()),
+            SimulateArgs {
+                measure: crate::common::MeasureArgs {
+                    log: Some("x.mcap".into()),
+                    ..Default::default()
+                },
                 ..base.clone()
             },
-            RunArgs {
-                plot: Some("d".into()),
+            SimulateArgs {
+                measure: crate::common::MeasureArgs {
+                    plot: Some("d".into()),
+                    ..Default::default()
+                },
                 ..base.clone()
             },
         ] {
@@ -584,14 +595,16 @@ mod tests {
         let cfg = dir.path().join("short.toml");
         // Short, so the test stays fast; the statistics themselves are checked above.
         std::fs::write(&cfg, "[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n").unwrap();
-        let args = RunArgs {
-            config: Some(cfg),
-            noise: Some(crate::config::NoisePreset::Realistic),
+        let args = SimulateArgs {
+            measure: crate::common::MeasureArgs {
+                config: Some(cfg),
+                quiet: true,
+                ..Default::default()
+            },
+            noise: Some(crate::world::NoisePreset::Realistic),
             seed: Some(40),
             runs: Some(2),
             jobs: Some(2),
-            quiet: true,
-            ..RunArgs::default()
         };
         let c = run(&args, &AtomicBool::new(false)).unwrap();
         assert_eq!((c.completed, c.runs, c.jobs, c.first_seed), (2, 2, 2, 40));

@@ -32,11 +32,11 @@ use rig::emulator::{Emulator, EmulatorConfig, EmulatorStats, FaultInjection, Ses
 use rig::wire::{Limits, SensorLayout, LEG_COUNT};
 use rig::{Key, RigError};
 
-use crate::args::RunArgs;
-use crate::config::{Config, NoisePreset};
-use crate::config_load::{ConfigError, LoadedConfig};
-use crate::preflight;
-use crate::simulate::{self, CommandError};
+use measure::load::{ConfigError, LoadedConfig};
+use measure::Config;
+
+use crate::common::CommandError;
+use crate::world::{NoisePreset, Scenario, World};
 
 /// Whether the emulated fixture carries the payload.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
@@ -71,10 +71,10 @@ pub struct EmulateArgs {
     /// Scenario TOML, laid over the embedded default (the same file as `simulate`).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
-    /// Random seed of the simulation (run.seed).
+    /// Random seed of the simulated world (world.seed).
     #[arg(long)]
     pub seed: Option<u64>,
-    /// Sensor noise preset (sensors.noise).
+    /// Sensor grade: `realistic` the rig description's datasheet, `none` ideal, `harsh` ×10.
     #[arg(long, value_enum)]
     pub noise: Option<NoisePreset>,
     /// When the payload is on the fixture (see `stewart emulate --help`).
@@ -143,26 +143,15 @@ pub struct Prepared {
     sessions: Arc<Mutex<Vec<SessionStart>>>,
 }
 
-fn sim_config(config: &Config) -> sim::SimConfig {
-    let mut sensors = sim::SensorConfig::preset(config.sensors.noise.to_sim());
-    sensors.accelerometer.mount_m = config.sensors.imu_position_m;
-    sim::SimConfig {
-        sample_rate_hz: config.sensors.sample_rate_hz,
-        substeps: config.sensors.physics_substeps,
-        actuator: config.actuator,
-        sensors,
-        ..sim::SimConfig::default()
-    }
-}
-
-/// The rig limits the emulator announces and enforces for `config`.
-pub fn limits(config: &Config) -> Limits {
+/// The rig limits the emulator announces and enforces: the rig description's stroke and leg
+/// speed, the simulated actuators' force.
+pub fn limits(config: &Config, world: &World) -> Limits {
     Limits {
         stroke_min_m: config.platform.min_leg_length_m,
         stroke_max_m: config.platform.max_leg_length_m,
         speed_max_m_s: config.control.max_leg_speed_m_s,
-        force_min_n: -config.actuator.max_force_n,
-        force_max_n: config.actuator.max_force_n,
+        force_min_n: -world.actuator.max_force_n,
+        force_max_n: world.actuator.max_force_n,
     }
 }
 
@@ -172,12 +161,12 @@ fn refused(e: impl std::fmt::Display) -> CommandError {
 
 /// Loads the configuration, builds the simulator and binds the emulator (nothing runs yet).
 pub fn prepare(args: &EmulateArgs) -> Result<Prepared, CommandError> {
-    let loaded = simulate::load_config(&RunArgs {
-        config: args.config.clone(),
-        seed: args.seed,
-        noise: args.noise,
-        ..RunArgs::default()
-    })?;
+    let scenario = Scenario::new(
+        measure::load::load(args.config.as_deref())?,
+        args.seed,
+        args.noise,
+    )?;
+    let loaded = scenario.loaded.clone();
     let config = &loaded.config;
     let mut rig_config = config.rig.clone();
     if let Some(ms) = args.watchdog_ms {
@@ -195,32 +184,11 @@ pub fn prepare(args: &EmulateArgs) -> Result<Prepared, CommandError> {
                 .collect(),
         }));
     }
-    let geometry = preflight::geometry(&loaded)?;
-    let payload = config.payload.to_sim();
-    let sim_settings = sim_config(config);
-    let sim_refused = |what: &str, e: sim::SimError| {
-        CommandError::Config(ConfigError::single(
-            loaded.issue(what, format!("refused by the simulator: {e}")),
-        ))
-    };
+    let geometry = measure::setup::geometry(&loaded)?;
     // Both worlds must be accepted before a host connects.
-    sim::Simulator::new(
-        geometry,
-        config.fixture.to_sim(),
-        Some(payload),
-        &sim_settings,
-        0,
-    )
-    .map_err(|e| sim_refused("payload", e))?;
-    let initial = args.payload.loaded_in_session(1).then_some(payload);
-    let simulator = sim::Simulator::new(
-        geometry,
-        config.fixture.to_sim(),
-        initial,
-        &sim_settings,
-        config.run.seed,
-    )
-    .map_err(|e| sim_refused("fixture", e))?;
+    scenario.simulator(geometry, true)?;
+    let simulator = scenario.simulator(geometry, args.payload.loaded_in_session(1))?;
+    let payload = scenario.world.payload.to_sim();
 
     let key_path = args
         .key
@@ -251,15 +219,15 @@ pub fn prepare(args: &EmulateArgs) -> Result<Prepared, CommandError> {
         layout: SensorLayout {
             leg_count: LEG_COUNT as u8,
             imu_present: true,
-            accel_position_m: config.sensors.imu_position_m,
+            accel_position_m: config.sensors.imu.position_m,
         },
-        limits: limits(config),
+        limits: limits(config, &scenario.world),
         watchdog,
         key,
         faults,
         lockstep: args.lockstep.then_some(watchdog),
-        seed: config.run.seed,
-        ..EmulatorConfig::new(limits(config))
+        seed: scenario.world.seed,
+        ..EmulatorConfig::new(limits(config, &scenario.world))
     };
     let mut emulator =
         Emulator::bind(&rig_config.address, simulator, emulator_config).map_err(refused)?;
@@ -453,14 +421,14 @@ mod tests {
 
     #[test]
     fn limits_come_from_the_scenario() {
-        let loaded = crate::config_load::load(None).unwrap();
-        let c = &loaded.config;
-        let l = limits(c);
+        let s = Scenario::new(measure::load::load(None).unwrap(), None, None).unwrap();
+        let c = &s.loaded.config;
+        let l = limits(c, &s.world);
         assert_eq!(l.stroke_min_m, c.platform.min_leg_length_m);
         assert_eq!(l.stroke_max_m, c.platform.max_leg_length_m);
         assert_eq!(l.speed_max_m_s, c.control.max_leg_speed_m_s);
-        assert_eq!(l.force_max_n, c.actuator.max_force_n);
-        assert_eq!(l.force_min_n, -c.actuator.max_force_n);
+        assert_eq!(l.force_max_n, s.world.actuator.max_force_n);
+        assert_eq!(l.force_min_n, -s.world.actuator.max_force_n);
     }
 
     #[test]

@@ -1,16 +1,13 @@
 //! `stewart estimate LOG.mcap`: the estimator re-run offline from a log's sensor channel, with
 //! the settings the log recorded or others, and the same table and report as the run.
 //!
-//! The inputs are rebuilt exactly as the online run ([`crate::run`]) built them: every
-//! `/sensors` frame of a measurement, in order, gives its pose by forward kinematics
-//! warm-started from the previous frame's solution (the measurement's first frame from the home
-//! pose); the estimator, configured from that measurement's `/run/estimator` message, is fed
-//! every frame with a pose from the measurement's first frame to its window's end (frames before
-//! the window only warm the conditioning). When the configuration in the log gives an
-//! accelerometer bias, three more estimators are fed the same frames with one sigma of bias
-//! along x, y and z, as the run does ([`crate::systematic`]), and the payload's share of their
-//! shifts joins the reported sigma. With the recorded settings the result is the online report,
-//! to rounding (JSON keeps every f64 exactly, so in practice bit for bit).
+//! The inputs are rebuilt exactly as the online run built them ([`measure::replay`], by the
+//! frame-to-sample rule of [`measure::feed`]); the estimator is configured from each
+//! measurement's `/run/estimator` message. The datasheet figures (the estimator's gyro and
+//! accelerometer noise, the IMU's mounting, the systematic part of sigma) come from the rig
+//! description the log recorded, or from `--rig FILE` instead. With the recorded settings the
+//! result is the online report, to rounding (JSON keeps every f64 exactly, so in practice bit
+//! for bit).
 //!
 //! Options change the settings of every measurement alike: `--cutoff-hz`, `--forgetting-factor`,
 //! `--params` and `--window START:END` (seconds from the start of each measurement's recorded
@@ -20,16 +17,17 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
-use estimator::{Estimate, EstimatorConfig, OnlineEstimator, Outcome, ParameterSet, Sample};
-use kinematics::{FkOptions, Geometry, Pose, Vector3, Vector6};
-
-use crate::config::ParamCount;
-use crate::log_messages as topics;
-use crate::log_read::{LogContents, SensorRecord};
-use crate::metadata::EstimatorSettings;
-use crate::report::{Quantities, Report, ReportInputs, RunInfo, TareKind};
-use crate::run_log::rates;
-use crate::tare::TareFile;
+use control::io::SensorFrame;
+use estimator::{EstimatorConfig, ParameterSet};
+use kinematics::{FkOptions, Vector3};
+use measure::config::ParamCount;
+use measure::replay::{replay, BiasSigmas, ReplayOutcome};
+use measure::report::{Quantities, Report, ReportInputs, RunInfo, TareKind};
+use measure::{setup, LoadedConfig, TareFile};
+use runlog::messages as topics;
+use runlog::metadata::EstimatorSettings;
+use runlog::run_log::rates;
+use runlog::LogContents;
 
 /// `stewart estimate` arguments.
 #[derive(Clone, Debug, Default, Args)]
@@ -60,6 +58,10 @@ pub struct EstimateArgs {
     /// Write SVG and PNG figures (estimates with ±σ and truth, tracking error, excitation) here.
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
+    /// Take the datasheet figures (sensor noise, biases, IMU mounting) from this rig
+    /// description instead of the one the log recorded.
+    #[arg(long, value_name = "FILE")]
+    pub rig: Option<PathBuf>,
     /// No table.
     #[arg(long)]
     pub quiet: bool,
@@ -122,13 +124,7 @@ impl SettingsOverride {
     /// From the command line.
     pub fn from_args(args: &EstimateArgs) -> Self {
         Self {
-            params: args.params.as_deref().map(|p| {
-                if p == "6" {
-                    ParamCount::Six
-                } else {
-                    ParamCount::Ten
-                }
-            }),
+            params: args.params.as_deref().map(crate::common::parse_params),
             cutoff_hz: args.cutoff_hz,
             forgetting_factor: args.forgetting_factor,
             window: args.window,
@@ -141,75 +137,61 @@ impl SettingsOverride {
     }
 }
 
-/// One estimate along the way (at the log's `/estimate` instants).
-#[derive(Clone, Copy, Debug)]
-pub struct TracePoint {
-    /// Backend time, s.
-    pub time_s: f64,
-    /// The estimate of everything on the plate.
-    pub estimate: Estimate,
-}
-
 /// The offline estimate of one measurement.
 #[derive(Clone, Debug)]
 pub struct RunEstimate {
     /// `tare` or `loaded`.
     pub run: String,
-    /// The settings used.
-    pub config: EstimatorConfig,
-    /// The final estimate of everything on the plate.
-    pub estimate: Estimate,
-    /// θ after every used sample.
-    pub theta_history: Vec<[f64; 10]>,
-    /// Estimates at the `/estimate` rate, and the final one.
-    pub trace: Vec<TracePoint>,
-    /// Backend time of the first frame in the window (the excitation's start), s.
-    pub excitation_start_s: f64,
-    /// From there to the last sample used, s.
-    pub excitation_s: f64,
-    /// Frames fed whose forward kinematics failed.
-    pub fk_failures: u64,
-    /// Frames of the measurement in the log.
-    pub frames: u64,
-    /// Change of θ from one sigma of accelerometer bias along x, y, z (rows), when a bias
-    /// figure is known.
-    pub accel_bias_effect: Option<[[f64; 10]; 3]>,
-    /// Change of θ from one sigma of zero offset on each load cell (rows), when a figure is
-    /// known.
-    pub load_cell_bias_effect: Option<[[f64; 10]; 6]>,
+    /// The replay.
+    pub replay: ReplayOutcome,
 }
 
-fn every(rate_hz: f64, sample_rate_hz: f64) -> u64 {
-    ((sample_rate_hz / rate_hz).round() as u64).max(1)
+/// The rig description a log's measurement is re-estimated with: `rig` when given, else the
+/// one the log recorded.
+pub fn rig_description(log: &LogContents, rig: Option<&LoadedConfig>) -> Result<LoadedConfig> {
+    if let Some(r) = rig {
+        return Ok(r.clone());
+    }
+    let meta = log.require_metadata()?;
+    measure::load::load_str(&meta.config_toml, "<rig description in the log>").map_err(|e| {
+        anyhow!(
+            "the log's rig description is refused (a log of an older version? give the rig \
+             description with --rig FILE): {e}"
+        )
+    })
 }
 
-/// The parameter set of `params` for `run`, from the configuration recorded in the log.
-fn parameter_set(log: &LogContents, run: &str, params: ParamCount) -> Result<ParameterSet> {
+/// The parameter set of `params` for `run`, from the rig description.
+fn parameter_set(
+    log: &LogContents,
+    rig: &LoadedConfig,
+    run: &str,
+    params: ParamCount,
+) -> Result<ParameterSet> {
     if params == ParamCount::Ten {
         return Ok(ParameterSet::Full);
     }
-    let meta = log.require_metadata()?;
-    let loaded = crate::config_load::load_str(&meta.config_toml, "<configuration in the log>")
-        .map_err(|e| anyhow!("the log's configuration is refused: {e}"))?;
     let geometry = log.geometry()?;
     let measurement = if run == "tare" {
-        crate::preflight::Measurement::Tare
+        measure::Measurement::Tare
     } else {
-        crate::preflight::Measurement::Loaded
+        measure::Measurement::Loaded
     };
-    let c = crate::preflight::estimator_config(&loaded.config, &geometry, measurement, 0.0, 1.0);
+    let c = setup::estimator_config(&rig.config, &geometry, measurement, 0.0, 1.0);
     match c.parameters {
         ParameterSet::InertiaAboutKnownCom { mass_kg, .. } if mass_kg > 0.0 => Ok(c.parameters),
         _ => bail!(
-            "--params 6 needs the known mass and centre of mass (estimator.known_* in the configuration), \
-             which the log's configuration does not give"
+            "--params 6 needs the known mass and centre of mass (estimator.known_* in the rig \
+             description), which it does not give"
         ),
     }
 }
 
-/// The estimator settings of `run` as recorded, with `o` applied.
+/// The estimator settings of `run` as recorded, the datasheet's figures from `rig`, with `o`
+/// applied.
 pub fn settings_for(
     log: &LogContents,
+    rig: &LoadedConfig,
     run: &str,
     o: &SettingsOverride,
 ) -> Result<(EstimatorConfig, FkOptions)> {
@@ -224,8 +206,14 @@ pub fn settings_for(
         )
     })?;
     let (mut c, fk) = recorded.to_config(log.geometry()?)?;
+    // What the datasheet says: the recorded figures, or another rig description's.
+    let sensors = &rig.config.sensors;
+    c.gyro_noise_rad_s = sensors.gyro_noise_rad_s();
+    c.accel_noise_m_s2 = sensors.accel_noise_m_s2();
+    c.accelerometer_position_m = Vector3::from(sensors.imu.position_m);
+    c.leg_force_offsets = setup::load_cell_bias_sigma(&rig.config) > 0.0;
     if let Some(p) = o.params {
-        c.parameters = parameter_set(log, run, p)?;
+        c.parameters = parameter_set(log, rig, run, p)?;
     }
     if let Some(f) = o.cutoff_hz {
         c.lowpass_cutoff_hz = (f > 0.0).then_some(f);
@@ -247,133 +235,40 @@ pub fn settings_for(
     Ok((c, fk))
 }
 
-/// The accelerometer bias (one sigma, m/s²) the run assumed for the systematic part of sigma:
-/// `estimator.accel_bias_m_s2` of the logged configuration, else its noise preset's figure.
-pub fn accel_bias_sigma(log: &LogContents) -> Result<f64> {
-    let meta = log.require_metadata()?;
-    let loaded = crate::config_load::load_str(&meta.config_toml, "<configuration in the log>")
-        .map_err(|e| anyhow!("the log's configuration is refused: {e}"))?;
-    Ok(crate::preflight::accel_bias_sigma(&loaded.config))
-}
-
-/// One sigma of each load cell's zero offset the run assumed, N (its noise preset's figure).
-pub fn load_cell_bias_sigma(log: &LogContents) -> Result<f64> {
-    let meta = log.require_metadata()?;
-    let loaded = crate::config_load::load_str(&meta.config_toml, "<configuration in the log>")
-        .map_err(|e| anyhow!("the log's configuration is refused: {e}"))?;
-    Ok(crate::systematic::load_cell_bias_sigma(&loaded.config))
-}
-
-/// Re-runs the estimator on measurement `run` of the log; `bias_m_s2` > 0 also gives the
-/// accelerometer bias's effect (see [`crate::systematic`]).
+/// Re-runs the estimator on measurement `run` of the log with the rig description `rig`.
 pub fn reestimate_run(
     log: &LogContents,
+    rig: &LoadedConfig,
     run: &str,
     o: &SettingsOverride,
-    bias_m_s2: f64,
 ) -> Result<RunEstimate> {
     log.require_channel(topics::SENSORS, "the sensor frames the estimator reads")?;
-    let (mut config, fk) = settings_for(log, run, o)?;
-    // As the online run: the load cells' offset sensitivity when their datasheet gives one.
-    let load_cell_sigma = load_cell_bias_sigma(log)?;
-    config.leg_force_offsets = load_cell_sigma > 0.0;
-    let geometry: Geometry = config.geometry;
-    let mut estimator = OnlineEstimator::new(config)
-        .map_err(|e| anyhow!("the estimator refused its settings: {e}"))?;
-    let sample_rate_hz = 1.0 / config.sample_period_s;
-    let estimate_every = every(rates::ESTIMATE_HZ, sample_rate_hz);
-    let mut guess = geometry.home_pose();
-    let mut history = Vec::new();
-    let mut trace = Vec::new();
-    let mut fk_failures = 0;
-    let mut start_s = f64::NAN;
-    let mut last_used_s = f64::NAN;
-    let mut frames = 0u64;
-    let mut last_time_s = f64::NAN;
-    for (tick, frame) in log.sensors_of(run).enumerate() {
-        frames += 1;
-        let pose = forward_kinematics(&geometry, frame, &mut guess, &fk);
-        if start_s.is_nan() && frame.time_s >= config.window_start_s {
-            start_s = frame.time_s;
-        }
-        match pose {
-            // Every frame up to the window's end, as the online run feeds them: frames before
-            // the window only warm the conditioning.
-            Some(p) if frame.time_s <= config.window_end_s => {
-                let sample = Sample {
-                    time_s: frame.time_s,
-                    pose: p,
-                    leg_forces_n: Vector6::from(frame.leg_forces_n),
-                    gyro_rad_s: Vector3::from(frame.gyro_rad_s),
-                    accel_m_s2: Vector3::from(frame.accel_m_s2),
-                };
-                if let Ok(Outcome::Used) = estimator.update(&sample) {
-                    history.push(estimator.theta().into());
-                    last_used_s = frame.time_s;
-                }
-            }
-            Some(_) => {}
-            None => fk_failures += 1,
-        }
-        if start_s.is_finite() && (tick as u64).is_multiple_of(estimate_every) {
-            trace.push(TracePoint {
-                time_s: frame.time_s,
-                estimate: estimator.estimate(),
-            });
-        }
-        last_time_s = frame.time_s;
-    }
-    if start_s.is_nan() {
-        bail!(
+    let (config, fk) = settings_for(log, rig, run, o)?;
+    let frames: Vec<SensorFrame> = log.sensors_of(run).map(|r| r.to_frame()).collect();
+    let trace_every = ((1.0 / config.sample_period_s / rates::ESTIMATE_HZ).round() as u64).max(1);
+    let sigmas = BiasSigmas {
+        accel_m_s2: setup::accel_bias_sigma(&rig.config),
+        load_cell_n: setup::load_cell_bias_sigma(&rig.config),
+    };
+    let replay = replay(
+        &frames,
+        config,
+        fk,
+        &rig.config.sensors.imu,
+        sigmas,
+        trace_every,
+    )
+    .map_err(|e| match e {
+        measure::replay::ReplayError::NoFramesInWindow { .. } => anyhow!(
             "the log has no {} frames of the {run} measurement from its excitation on",
             topics::SENSORS
-        );
-    }
-    let estimate = estimator.estimate();
-    if trace.last().is_none_or(|t| t.time_s != last_time_s) {
-        trace.push(TracePoint {
-            time_s: last_time_s,
-            estimate,
-        });
-    }
+        ),
+        other => anyhow!("{other}"),
+    })?;
     Ok(RunEstimate {
         run: run.to_string(),
-        config,
-        estimate,
-        theta_history: history,
-        trace,
-        excitation_start_s: start_s,
-        excitation_s: if last_used_s.is_finite() {
-            last_used_s - start_s
-        } else {
-            0.0
-        },
-        fk_failures,
-        frames,
-        accel_bias_effect: crate::systematic::accel_bias_effect(&estimator, bias_m_s2),
-        load_cell_bias_effect: crate::systematic::load_cell_bias_effect(
-            &estimator,
-            load_cell_sigma,
-        ),
+        replay,
     })
-}
-
-/// Forward kinematics of the frame's leg lengths, warm-started from (and updating) `guess`, as
-/// the online run does it.
-fn forward_kinematics(
-    geometry: &Geometry,
-    frame: &SensorRecord,
-    guess: &mut Pose,
-    options: &FkOptions,
-) -> Option<Pose> {
-    let lengths = Vector6::from(frame.leg_lengths_m);
-    match geometry.forward_kinematics(&lengths, guess, options) {
-        Ok(s) => {
-            *guess = s.pose;
-            Some(s.pose)
-        }
-        Err(_) => None,
-    }
 }
 
 /// Where the subtracted tare came from.
@@ -400,18 +295,6 @@ pub struct EstimateOutcome {
     pub figures: Vec<PathBuf>,
 }
 
-/// The tare file of a tare estimate, as the run saves it.
-pub fn tare_file_of(e: &Estimate, log: &LogContents) -> Result<TareFile> {
-    let meta = log.require_metadata()?;
-    Ok(TareFile::from_estimate(
-        e,
-        &meta.base_joints_m,
-        &meta.plate_joints_m,
-        &meta.config_source,
-        &meta.backend,
-    ))
-}
-
 /// The payload's truth from `/run/truth`, if logged.
 pub fn payload_truth(log: &LogContents) -> Option<Quantities> {
     log.truth.as_ref().map(|t| Quantities {
@@ -422,42 +305,43 @@ pub fn payload_truth(log: &LogContents) -> Option<Quantities> {
 }
 
 /// The report of a loaded re-run with `tare` subtracted, in `simulate`'s shape
-/// ([`crate::report::build`]).
+/// ([`measure::report::build`]).
 pub fn build_report(
     log: &LogContents,
+    rig: &LoadedConfig,
     loaded: &RunEstimate,
     tare: &TareFile,
     tare_origin: &TareOrigin,
-    bias_m_s2: f64,
 ) -> Result<Report> {
     let meta = log.require_metadata()?;
     let (tare_kind, tare_path, tare_effect, tare_load_cell_effect) = match tare_origin {
         TareOrigin::Measured(r) => (
             TareKind::Measured,
             None,
-            r.accel_bias_effect.as_ref(),
-            r.load_cell_bias_effect.as_ref(),
+            r.replay.accel_bias_effect.as_ref(),
+            r.replay.load_cell_bias_effect.as_ref(),
         ),
         TareOrigin::File(p) => (TareKind::File, p.clone(), None, None),
     };
-    let params = match loaded.config.parameters {
+    let params = match loaded.replay.config.parameters {
         ParameterSet::InertiaAboutKnownCom { .. } => ParamCount::Six,
         ParameterSet::Full => ParamCount::Ten,
     };
-    Ok(crate::report::build(&ReportInputs {
-        loaded: &loaded.estimate,
-        theta_history: &loaded.theta_history,
-        excitation_s: loaded.excitation_s,
-        fk_failures: loaded.fk_failures,
+    let r = &loaded.replay;
+    Ok(measure::report::build(&ReportInputs {
+        loaded: &r.estimate,
+        theta_history: &r.theta_history,
+        excitation_s: r.excitation_s,
+        fk_failures: r.fk_failures,
         tare,
         tare_kind,
         tare_path,
-        loaded_bias_effect: loaded.accel_bias_effect.as_ref(),
+        loaded_bias_effect: r.accel_bias_effect.as_ref(),
         tare_bias_effect: tare_effect,
-        accel_bias_sigma_m_s2: bias_m_s2,
-        loaded_load_cell_effect: loaded.load_cell_bias_effect.as_ref(),
+        accel_bias_sigma_m_s2: setup::accel_bias_sigma(&rig.config),
+        loaded_load_cell_effect: r.load_cell_bias_effect.as_ref(),
         tare_load_cell_effect,
-        load_cell_bias_sigma_n: load_cell_bias_sigma(log)?,
+        load_cell_bias_sigma_n: setup::load_cell_bias_sigma(&rig.config),
         params,
         truth: payload_truth(log),
         run: RunInfo {
@@ -471,12 +355,14 @@ pub fn build_report(
     }))
 }
 
-/// Re-estimates the log's measurements with `o`, subtracts the tare (`tare_path`, else the
-/// log's tare run, else the log's `/run/tare`) and builds the report.
+/// Re-estimates the log's measurements with `o` and the rig description `rig` (the log's when
+/// `None`), subtracts the tare (`tare_path`, else the log's tare run, else the log's
+/// `/run/tare`) and builds the report.
 pub fn reestimate(
     log: &LogContents,
     o: &SettingsOverride,
     tare_path: Option<&Path>,
+    rig: Option<&LoadedConfig>,
 ) -> Result<(Report, RunEstimate, TareFile, TareOrigin)> {
     let meta = log.require_metadata()?;
     log.require_channel(topics::SENSORS, "the sensor frames the estimator reads")?;
@@ -484,13 +370,19 @@ pub fn reestimate(
         topics::ESTIMATOR_SETTINGS,
         "the estimator's settings (stewart.EstimatorSettings)",
     )?;
-    let bias_m_s2 = accel_bias_sigma(log)?;
+    let rig = rig_description(log, rig)?;
     let (tare, origin) = if let Some(path) = tare_path {
         let t = TareFile::load(path, &meta.base_joints_m, &meta.plate_joints_m)?;
         (t, TareOrigin::File(Some(path.display().to_string())))
     } else if log.sensors_of("tare").next().is_some() && log.settings_of("tare").is_some() {
-        let r = reestimate_run(log, "tare", o, bias_m_s2).context("re-estimating the tare run")?;
-        let t = tare_file_of(&r.estimate, log)?;
+        let r = reestimate_run(log, &rig, "tare", o).context("re-estimating the tare run")?;
+        let t = TareFile::from_estimate(
+            &r.replay.estimate,
+            &meta.base_joints_m,
+            &meta.plate_joints_m,
+            &meta.config_source,
+            &meta.backend,
+        );
         (t, TareOrigin::Measured(Box::new(r)))
     } else {
         let t = log.tare.clone().with_context(|| {
@@ -502,14 +394,17 @@ pub fn reestimate(
         })?;
         (t, TareOrigin::File(meta.tare_file.clone()))
     };
-    let loaded =
-        reestimate_run(log, "loaded", o, bias_m_s2).context("re-estimating the loaded run")?;
-    let report = build_report(log, &loaded, &tare, &origin, bias_m_s2)?;
+    let loaded = reestimate_run(log, &rig, "loaded", o).context("re-estimating the loaded run")?;
+    let report = build_report(log, &rig, &loaded, &tare, &origin)?;
     Ok((report, loaded, tare, origin))
 }
 
 /// Runs `stewart estimate`: prints the table (unless quiet), writes the report and figures.
 pub fn estimate(args: &EstimateArgs) -> Result<EstimateOutcome> {
+    let rig = match &args.rig {
+        Some(path) => Some(measure::load::load(Some(path)).map_err(|e| anyhow!("{e}"))?),
+        None => None,
+    };
     let log = LogContents::read(&args.log)?;
     if let Some(why) = &log.truncated {
         eprintln!(
@@ -519,7 +414,8 @@ pub fn estimate(args: &EstimateArgs) -> Result<EstimateOutcome> {
         );
     }
     let o = SettingsOverride::from_args(args);
-    let (report, loaded, tare, tare_origin) = reestimate(&log, &o, args.tare.as_deref())?;
+    let (report, loaded, tare, tare_origin) =
+        reestimate(&log, &o, args.tare.as_deref(), rig.as_ref())?;
     if !args.quiet {
         print!("{}", crate::table::render(&report));
     }

@@ -1,49 +1,63 @@
-//! The `stewart` command line: scenario configuration, the measurement run (settle, tare,
-//! excitation, park) generic over a [`control::io::Backend`], MCAP logging, the result table and
-//! the JSON report.
+//! The `stewart` command line: one module per command, each turning its arguments into the
+//! options of a library operation (the measurement in `measure`, the log in `runlog`, the
+//! simulator in `sim`, the link in `rig`), and the terminal's own concerns (table, progress,
+//! plots, the operator's prompt) in modules of their own.
 #![warn(missing_docs)]
 
-pub mod args;
 pub mod bench;
 pub mod campaign;
-pub mod config;
-pub mod config_load;
+pub mod common;
 pub mod emulate;
 pub mod estimate;
-pub mod foxglove;
-pub mod log_messages;
-pub mod log_read;
-pub mod mcap_log;
-pub mod metadata;
 pub mod plot;
-pub mod preflight;
-pub mod report;
-pub mod rig_cmd;
-pub mod run;
-pub mod run_log;
-pub mod schema;
+pub mod progress;
+pub mod prompt;
+pub mod rig;
 pub mod simulate;
-pub mod systematic;
 pub mod table;
-pub mod tare;
-pub mod validate;
+pub mod world;
+
+use clap::{Parser, Subcommand};
+
+pub use common::{CommandError, EXIT_FAULT, EXIT_INTERRUPTED};
 
 /// Set by the Ctrl-C handler; the run loop parks the platform when it sees it.
 pub static INTERRUPT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
-/// Exit code after Ctrl-C (128 + SIGINT, as shells report it).
-pub const EXIT_INTERRUPTED: u8 = 130;
-/// Exit code after a supervisor fault.
-pub const EXIT_FAULT: u8 = 3;
+/// Measure a vehicle's mass, centre of mass and inertia tensor on a Stewart platform.
+#[derive(Debug, Parser)]
+#[command(name = "stewart", version, about, propagate_version = true)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
 
-/// Entry point of the `stewart` binary: parses the arguments, runs the command, prints the table
-/// and the log path. Exit codes: 0 done, 1 run failed, 2 input refused (nothing ran), 3 fault
-/// (platform safe-stopped), 130 interrupted (parked).
+/// Subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Measure a simulated payload: tare run (empty fixture), loaded run, park; print the table.
+    Simulate(simulate::SimulateArgs),
+    /// Measure on a rig over the wire protocol (default udp://127.0.0.1:7700): tare run,
+    /// payload on, loaded run; or `rig tare --out FILE`, `rig measure --tare FILE`.
+    Rig(Box<rig::RigArgs>),
+    /// Play the rig: the simulator behind the wire protocol in real time, for `stewart rig`.
+    Emulate(emulate::EmulateArgs),
+    /// Re-run the estimator on a log of `simulate` or `rig` (its settings, or others) and print
+    /// the same table and report.
+    Estimate(estimate::EstimateArgs),
+    /// Can this computer run the loop? Times the full control-and-estimation tick (median,
+    /// p99) and the simulator on the configured scenario, and says whether the rate fits.
+    Bench(bench::BenchArgs),
+}
+
+/// Entry point of the `stewart` binary: parses the arguments, runs the command. Exit codes: 0
+/// done, 1 run failed, 2 input refused (nothing ran), 3 fault (platform safe-stopped), 130
+/// interrupted (parked).
 pub fn main_entry() -> std::process::ExitCode {
-    use clap::Parser;
     use std::process::ExitCode;
 
-    let cli = args::Cli::parse();
+    let cli = Cli::parse();
     // A second Ctrl-C while parking exits at once (the log is lost up to its last chunk).
     let _ = ctrlc::set_handler(|| {
         if INTERRUPT.swap(true, std::sync::atomic::Ordering::SeqCst) {
@@ -53,74 +67,109 @@ pub fn main_entry() -> std::process::ExitCode {
             "\ninterrupted: parking the platform and finishing the log (Ctrl-C again to abort)"
         );
     });
-    match cli.command {
-        args::Command::Rig(a) => ExitCode::from(rig_cmd::main(&a, &INTERRUPT)),
-        args::Command::Emulate(a) => ExitCode::from(emulate::main(&a, &INTERRUPT)),
-        args::Command::Estimate(a) => match estimate::estimate(&a) {
-            Ok(_) => ExitCode::SUCCESS,
+    ExitCode::from(match cli.command {
+        Command::Rig(a) => rig::main(&a, &INTERRUPT),
+        Command::Emulate(a) => emulate::main(&a, &INTERRUPT),
+        Command::Estimate(a) => match estimate::estimate(&a) {
+            Ok(_) => 0,
             Err(e) => {
                 eprintln!("error: {e:#}");
-                ExitCode::from(2)
+                2
             }
         },
-        args::Command::Bench(a) => ExitCode::from(bench::main(&a)),
-        args::Command::Simulate(run_args) if run_args.runs.is_some() => {
-            ExitCode::from(campaign::main(&run_args, &INTERRUPT))
-        }
-        args::Command::Simulate(run_args) => match simulate::simulate(&run_args, &INTERRUPT) {
-            Ok(outcome) => {
-                let code = finish(&run_args, &outcome);
-                ExitCode::from(code)
-            }
-            Err(e) => {
-                eprintln!("error: {e}");
-                ExitCode::from(e.exit_code())
-            }
-        },
-    }
+        Command::Bench(a) => bench::main(&a),
+        Command::Simulate(a) => simulate::main(&a, &INTERRUPT),
+    })
 }
 
-/// Prints the outcome, writes the report; returns the exit code.
-fn finish(args: &args::RunArgs, outcome: &simulate::SimulateOutcome) -> u8 {
-    let mut code = 0;
-    match &outcome.end {
-        run::End::Completed => {}
-        run::End::Interrupted => {
-            eprintln!("interrupted: the platform was parked; no report");
-            code = EXIT_INTERRUPTED;
-        }
-        run::End::Fault(f) => {
-            eprintln!("fault: {f}; the platform was stopped; no report");
-            code = EXIT_FAULT;
-        }
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::path::PathBuf;
+
+    #[test]
+    fn parses_every_simulate_flag() {
+        let cli = Cli::try_parse_from([
+            "stewart",
+            "simulate",
+            "--config",
+            "c.toml",
+            "--duration",
+            "12.5",
+            "--seed",
+            "7",
+            "--noise",
+            "harsh",
+            "--params",
+            "6",
+            "--tare",
+            "t.json",
+            "--save-tare",
+            "s.json",
+            "--log",
+            "l.mcap",
+            "--report",
+            "r.json",
+            "--quiet",
+        ])
+        .unwrap();
+        let Command::Simulate(a) = cli.command else {
+            panic!("not simulate")
+        };
+        assert_eq!(a.measure.duration, Some(12.5));
+        assert_eq!(a.seed, Some(7));
+        assert_eq!(a.noise, Some(world::NoisePreset::Harsh));
+        assert_eq!(a.measure.params.as_deref(), Some("6"));
+        assert!(a.measure.quiet);
+        assert_eq!(a.measure.log, Some(PathBuf::from("l.mcap")));
     }
-    if let Some(report) = &outcome.report {
-        if !args.quiet {
-            print!("{}", table::render(report));
-        }
-        if let Some(path) = &args.report {
-            if let Err(e) = std::fs::write(path, report.to_json()) {
-                eprintln!("error: cannot write the report {}: {e}", path.display());
-                code = 1;
-            } else if !args.quiet {
-                println!("report: {}", path.display());
-            }
-        }
+
+    #[test]
+    fn refuses_bad_values() {
+        assert!(Cli::try_parse_from(["stewart", "simulate", "--params", "7"]).is_err());
+        assert!(Cli::try_parse_from(["stewart", "simulate", "--noise", "loud"]).is_err());
+        assert!(Cli::try_parse_from(["stewart", "simulate", "--bogus"]).is_err());
     }
-    if let (Some(path), Some(_)) = (&args.save_tare, &outcome.tare) {
-        if !args.quiet {
-            println!("tare: {}", path.display());
-        }
+
+    #[test]
+    fn no_arguments_is_enough() {
+        let cli = Cli::try_parse_from(["stewart", "simulate"]).unwrap();
+        let Command::Simulate(a) = cli.command else {
+            panic!("not simulate")
+        };
+        assert!(a.measure.config.is_none() && a.measure.duration.is_none());
     }
-    println!("log: {}", outcome.log_path.display());
-    if let Some(dir) = &args.plot {
-        match plot::plot_log(&outcome.log_path, dir) {
-            Ok(files) => println!("figures: {} ({} files)", dir.display(), files.len()),
-            Err(e) => {
-                eprintln!("error: cannot plot the log: {e:#}");
-                code = code.max(1);
-            }
+
+    /// Each command's `--help` lists only the options that act on it.
+    #[test]
+    fn each_command_offers_only_its_own_options() {
+        use clap::CommandFactory;
+        let cli = Cli::command();
+        let long = |name: &str| -> Vec<String> {
+            let mut c = cli.find_subcommand(name).expect("subcommand").clone();
+            c.build();
+            c.get_arguments()
+                .filter_map(|a| a.get_long().map(str::to_string))
+                .collect()
+        };
+        let rig = long("rig");
+        for simulator_only in ["seed", "noise", "runs", "jobs"] {
+            assert!(
+                !rig.iter().any(|l| l == simulator_only),
+                "rig offers --{simulator_only}"
+            );
         }
+        assert!(rig.iter().any(|l| l == "connect"));
+        let simulate = long("simulate");
+        for rig_only in ["connect", "key", "no-prompt", "link-silence-ms"] {
+            assert!(
+                !simulate.iter().any(|l| l == rig_only),
+                "simulate offers --{rig_only}"
+            );
+        }
+        assert!(simulate.iter().any(|l| l == "seed"));
+        let estimate = long("estimate");
+        assert!(estimate.iter().any(|l| l == "rig"));
+        assert!(!estimate.iter().any(|l| l == "seed"));
     }
-    code
 }

@@ -16,9 +16,9 @@ use anyhow::{Context, Result};
 use estimator::{Estimate, InertialParameters, ParameterVector};
 
 use crate::estimate::RunEstimate;
-use crate::log_read::{BodyRecord, LogContents};
-use crate::metadata::BodyTruth;
-use crate::tare::TareFile;
+use measure::TareFile;
+use runlog::metadata::BodyTruth;
+use runlog::read::{BodyRecord, LogContents};
 
 pub use draw::{write_figures, FIGURE_SIZE, OVERVIEW_SIZE};
 
@@ -275,8 +275,9 @@ pub fn figures_from_reestimate(
 ) -> Result<Figures> {
     let t0 = origin_s(log, &loaded.run);
     let (tp, tc) = (tare.parameters(), tare.covariance_matrix());
-    let times: Vec<f64> = loaded.trace.iter().map(|p| p.time_s - t0).collect();
+    let times: Vec<f64> = loaded.replay.trace.iter().map(|p| p.time_s - t0).collect();
     let values: Vec<_> = loaded
+        .replay
         .trace
         .iter()
         .map(|p| of_estimate(&p.estimate.without_tare(&tp, &tc)))

@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use crate::report::{Quantities, Report};
+use measure::report::{Quantities, Report};
 
 /// One row: name, unit, and accessor into [`Quantities`].
 struct Row {

@@ -65,7 +65,7 @@ fn controller_tick(c: &mut Criterion) {
     let mut frame = SensorFrame {
         leg_lengths_m: g.leg_lengths(&g.home_pose()).into(),
         leg_forces_n: [4000.0; LEG_COUNT],
-        accel_m_s2: [0.0, 0.0, 9.80665],
+        accel_m_s2: [0.0, 0.0, stewart_types::STANDARD_GRAVITY_M_S2],
         status: Status(Status::ENABLED),
         ..SensorFrame::default()
     };

@@ -25,8 +25,10 @@ use crate::pid::{PidBank, PidConfig, PidOutput};
 use crate::supervisor::{Fault, Phase, Supervisor, SupervisorConfig};
 use crate::trajectory::{FeasibilityLimits, FeasibilityReport, Ramp, Trajectory, TrajectorySample};
 
-/// Standard gravity, m/s² (DESIGN.md: gravity is (0, 0, −9.80665) in B).
-pub const GRAVITY_M_S2: f64 = 9.80665;
+/// Standard gravity g₀ = 9.80665 m/s²; gravity in the base frame B (z up) is (0, 0, −g₀).
+/// The same constant as `stewart_types::STANDARD_GRAVITY_M_S2`, kept under this name for
+/// existing callers.
+pub use stewart_types::STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2;
 
 /// Everything the controller needs besides the geometry and the trajectory. Plain `Copy` data;
 /// the CLI maps its TOML onto it.

@@ -4,7 +4,7 @@ use core::fmt;
 
 use kinematics::KinematicsError;
 
-use crate::supervisor::Fault;
+use crate::fault::Fault;
 
 /// Everything that can go wrong in the control crate, flat, `Copy`, with [`ControlError::kind`]
 /// for callers that only care about the category (like `embedded-hal`'s `Error::kind`).

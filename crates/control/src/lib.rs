@@ -3,8 +3,10 @@
 //! trait that the simulator and the rig implement.
 //!
 //! `no_std`, no `alloc`: every type is fixed-size, nothing allocates, nothing panics on any input
-//! (invalid data gives a [`ControlError`] or a supervisor [`Fault`](supervisor::Fault)). Units are
-//! SI throughout.
+//! (invalid data gives a [`ControlError`] or a supervisor [`Fault`]). Units are SI throughout.
+//!
+//! What a user needs is re-exported at the crate root; the modules keep their paths
+//! (`control::io::SensorFrame`, `control::controller::Controller`, …) and hold the rest.
 //!
 //! Data flow of one tick (see [`controller::Controller::tick`]):
 //! `sensors -> supervisor watchdog -> FK -> phase (settle / excite / park) -> IK -> PID bank ->
@@ -14,9 +16,16 @@
 
 pub mod controller;
 mod error;
+mod fault;
 pub mod io;
 pub mod pid;
 pub mod supervisor;
 pub mod trajectory;
 
+pub use controller::{Controller, ControllerConfig, TickOutput};
 pub use error::{ControlError, ErrorKind};
+pub use fault::Fault;
+pub use io::{Backend, CommandFrame, SensorFrame, Status, LEG_COUNT};
+pub use pid::{AntiWindup, PidConfig};
+pub use supervisor::{Phase, Supervisor, SupervisorConfig};
+pub use trajectory::{FeasibilityLimits, MultiSineConfig, Trajectory};

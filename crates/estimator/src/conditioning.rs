@@ -6,8 +6,8 @@
 //!    of the middle two, t_m = (tₙ₋₂ + tₙ₋₁)/2, gives every channel's value there and, for ω,
 //!    its derivative ω̇ there. With equal steps these are the fourth-order staggered stencils
 //!    x(t_m) ≈ (−xₙ₋₃ + 9xₙ₋₂ + 9xₙ₋₁ − xₙ)/16 and ω̇(t_m) ≈ (ωₙ₋₃ − 27ωₙ₋₂ + 27ωₙ₋₁ − ωₙ)/(24Δt).
-//!    Value and derivative refer to the same instant, so no channel is skewed (DESIGN.md: a
-//!    half-step skew raises the residual a thousandfold), and their O(Δt⁴) error (≈ 1e-10 at
+//!    Value and derivative refer to the same instant, so no channel is skewed (a half-step skew
+//!    between channels raises the fit residual a thousandfold), and their O(Δt⁴) error (≈ 1e-10 at
 //!    3 Hz and 1 kHz) stays far below any noise; a two-point pair would leave O((ωΔt)²/12) ≈
 //!    2e-5 of the dynamic terms, which biases J by several sigma in a long, quiet run.
 //! 2. the same Butterworth low-pass on all 18 channels: ω̇ (3), the products ωᵢωⱼ (6), the

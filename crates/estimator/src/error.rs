@@ -16,7 +16,10 @@ pub enum ErrorKind {
 
 /// Everything that can go wrong in this crate. Flat and `Copy`, so that it costs nothing on the
 /// per-sample path; the `&'static str` names the offending field or channel.
+///
+/// `#[non_exhaustive]`: match with a wildcard arm, or on [`EstimatorError::kind`].
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum EstimatorError {
     /// A configuration value is out of range; the text names the field and the rule.
     InvalidConfig(&'static str),
@@ -67,6 +70,8 @@ impl fmt::Display for EstimatorError {
         }
     }
 }
+
+impl core::error::Error for EstimatorError {}
 
 #[cfg(test)]
 mod tests {

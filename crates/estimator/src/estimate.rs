@@ -1,11 +1,11 @@
 //! What the estimator reports: parameters, their covariance, the centre-of-mass form with
 //! one-sigma uncertainties, principal moments and axes, consistency, residuals and counts.
 
-use crate::params::{
-    principal_of, Consistency, InertialParameters, ParameterVector, PARAMETER_COUNT,
-};
 use crate::uncertainty::{derive, principal_sigma, sqrt_nonneg};
 use nalgebra::{Matrix3, SMatrix, Vector3, Vector6};
+use stewart_types::{
+    principal_of, Consistency, InertialParameters, ParameterVector, PARAMETER_COUNT,
+};
 
 /// Covariance of θ = [m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz].
 pub type ParameterCovariance = SMatrix<f64, PARAMETER_COUNT, PARAMETER_COUNT>;

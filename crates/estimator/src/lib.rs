@@ -9,8 +9,9 @@
 //! covariance, propagated to c and J_C) → [`Estimate`].
 //!
 //! θ = [m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz] about the P origin in P axes, with
-//! h = m·c and J_O = ∫(‖r‖²𝟙 − r rᵀ) dm (tensor entries; `docs/CONTRACTS.md`). The paper's
-//! six-parameter form (tensor about a known centre of mass, torque rows only) is available as
+//! h = m·c and J_O = ∫(‖r‖²𝟙 − r rᵀ) dm (tensor entries, so the off-diagonal ones are minus the
+//! products of inertia; the layout `docs/CONTRACTS.md` fixes for logs). The paper's six-parameter
+//! form (tensor about a known centre of mass, torque rows only) is available as
 //! [`ParameterSet::InertiaAboutKnownCom`].
 //!
 //! `no_std`, no allocation, no panics on any input: every sample is checked before it touches
@@ -21,9 +22,8 @@
 pub mod conditioning;
 mod error;
 mod estimate;
-pub mod filter;
+mod filter;
 mod online;
-mod params;
 pub mod regressor;
 pub mod rls;
 pub mod uncertainty;
@@ -34,10 +34,13 @@ mod testkit;
 #[cfg(test)]
 mod tests;
 
+pub use conditioning::{Conditioner, ConditioningConfig};
 pub use error::{ErrorKind, EstimatorError};
 pub use estimate::{ConvergenceTolerances, Counts, Estimate, ParameterCovariance};
 pub use online::{EstimatorConfig, OnlineEstimator, Outcome, ParameterSet, Sample};
-pub use params::{
+pub use rls::Rls;
+/// The inertial parameters and their θ layout, defined once in `stewart-types`.
+pub use stewart_types::{
     principal_of, Consistency, Inconsistency, InertialParameters, ParameterVector, Principal,
     PARAMETER_COUNT,
 };

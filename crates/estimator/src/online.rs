@@ -4,13 +4,13 @@
 use crate::conditioning::{Conditioned, Conditioner, ConditioningConfig, Step, MAX_ABS_SIGNAL};
 use crate::error::EstimatorError;
 use crate::estimate::{Counts, Estimate, ParameterCovariance};
-use crate::params::{InertialParameters, ParameterVector};
 use crate::regressor::{from_signals, inertia_columns, RegressorSignals};
 use crate::rls::Rls;
 use crate::uncertainty::ScoreCovariance;
 use crate::wrench::{measured, to_vector};
 use kinematics::{Geometry, Pose, Wrench};
 use nalgebra::{Matrix6, SMatrix, SVector, Vector3, Vector6};
+use stewart_types::{InertialParameters, ParameterVector};
 
 /// Which parameters are estimated.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -498,6 +498,21 @@ impl OnlineEstimator {
     /// The configuration in use.
     pub fn config(&self) -> &EstimatorConfig {
         &self.config
+    }
+
+    /// Sets the fit window `[start_s, end_s]` once it is known (e.g. when the excitation
+    /// starts). Samples already fed before `start_s` only warmed the conditioning, exactly as
+    /// if the window had been set at creation; samples already fitted stay fitted. Refused,
+    /// with nothing changed, unless `start_s < end_s` and neither is NaN.
+    pub fn set_window(&mut self, start_s: f64, end_s: f64) -> Result<(), EstimatorError> {
+        if start_s.is_nan() || end_s.is_nan() || start_s >= end_s {
+            return Err(EstimatorError::InvalidConfig(
+                "window_start_s must be before window_end_s",
+            ));
+        }
+        self.config.window_start_s = start_s;
+        self.config.window_end_s = end_s;
+        Ok(())
     }
 
     /// Sample counters so far.

@@ -10,8 +10,8 @@
 //! Conditioning filters exactly those twelve signals (see [`crate::conditioning`]), so that a
 //! filtered wrench still equals the regressor of the filtered signals times θ.
 
-use crate::params::PARAMETER_COUNT;
 use nalgebra::{SMatrix, Vector3, Vector6};
+use stewart_types::PARAMETER_COUNT;
 
 /// 6×10 regressor: rows are Fx, Fy, Fz (N) and τx, τy, τz about the P origin (N·m).
 pub type Regressor = SMatrix<f64, 6, PARAMETER_COUNT>;
@@ -80,7 +80,8 @@ impl RegressorSignals {
 
 /// Torque rows of J ω̇ + ω × (J ω) for the six tensor entries [Jxx, Jyy, Jzz, Jxy, Jxz, Jyz]
 /// (tensor entries: Jxy = −∫xy dm). With the paper's products of inertia (Ixy = −Jxy) the
-/// columns of Jxy, Jxz, Jyz change sign, which gives ERRATA's corrected Eq. 14.
+/// columns of Jxy, Jxz, Jyz change sign, which gives the paper's Eq. 14 (in the products of
+/// inertia Ixy = ∫xy dm) as derived from τ = J ω̇ + ω × (J ω).
 pub fn inertia_columns(s: &RegressorSignals) -> TorqueRegressor {
     let a = &s.angular_acceleration_rad_s2;
     let q = &s.rate_products_rad2_s2;
@@ -136,8 +137,8 @@ pub fn rigid_body(
     ))
 }
 
-/// The paper's six-parameter form (Eq. 14 as corrected in ERRATA): τ_C = J_C ω̇ + ω × (J_C ω)
-/// about the centre of mass, for [Jxx, Jyy, Jzz, Jxy, Jxz, Jyz] as tensor entries.
+/// The paper's six-parameter form (Eq. 14, derived from the equation below):
+/// τ_C = J_C ω̇ + ω × (J_C ω) about the centre of mass, for [Jxx, Jyy, Jzz, Jxy, Jxz, Jyz] as tensor entries.
 pub fn torque_about_com(
     omega_rad_s: &Vector3<f64>,
     angular_acceleration_rad_s2: &Vector3<f64>,
@@ -152,10 +153,10 @@ pub fn torque_about_com(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::InertialParameters;
     use crate::testkit::{random_body, Motion};
     use nalgebra::Matrix3;
     use rand::{rngs::StdRng, Rng, SeedableRng};
+    use stewart_types::InertialParameters;
 
     fn random_vec(rng: &mut StdRng, scale: f64) -> Vector3<f64> {
         Vector3::new(
@@ -223,23 +224,24 @@ mod tests {
         assert!(worst < 1e-8 * scale, "worst {worst} of {scale}");
     }
 
-    /// ERRATA's corrected Eq. 14 (products of inertia Ixy = ∫xy dm) is the same map.
+    /// The paper's Eq. 14 in the products of inertia Ixy = ∫xy dm, rows derived from
+    /// τ_C = J_C ω̇ + ω × (J_C ω), is the same map up to the sign of the product columns.
     #[test]
-    fn six_parameter_form_equals_errata_eq_14() {
+    fn six_parameter_form_equals_the_papers_eq_14() {
         let mut rng = StdRng::seed_from_u64(3);
         for _ in 0..50 {
             let w = random_vec(&mut rng, 2.0);
             let a = random_vec(&mut rng, 3.0);
             let (x, y, z) = (w.x, w.y, w.z);
             #[rustfmt::skip]
-            let errata = TorqueRegressor::new(
+            let paper = TorqueRegressor::new(
                 a.x, -y * z, y * z, x * z - a.y, -x * y - a.z, z * z - y * y,
                 // Rows 2 and 3 as printed: d/dt of the first matrix minus the second.
                 z * x, a.y, -x * z, -a.x - y * z, -(z * z - x * x), -a.z + x * y,
                 -x * y, x * y, a.z, -(x * x - y * y), -a.x + y * z, -a.y - z * x,
             );
             // Sign of the product columns flips between Ixy (paper) and Jxy (tensor entry).
-            let mut flipped = errata;
+            let mut flipped = paper;
             for c in 3..6 {
                 for r in 0..3 {
                     flipped[(r, c)] = -flipped[(r, c)];

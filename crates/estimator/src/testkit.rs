@@ -1,12 +1,11 @@
 //! Test helpers: an independent rigid-body model (a cloud of point masses, Newton–Euler summed
 //! mass by mass) and smooth platform motions with analytic rates and accelerations.
 
-use crate::params::InertialParameters;
 use nalgebra::{Matrix3, Rotation3, Vector3, Vector6};
 use rand::{rngs::StdRng, Rng};
+use stewart_types::InertialParameters;
 
-/// Standard gravity in B, m/s².
-pub const GRAVITY_B: Vector3<f64> = Vector3::new(0.0, 0.0, -9.80665);
+use stewart_types::GRAVITY_B_M_S2 as GRAVITY_B;
 
 /// A rigid body made of point masses at fixed positions in P.
 #[derive(Clone, Debug)]

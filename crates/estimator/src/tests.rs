@@ -1,7 +1,6 @@
 //! Whole-estimator tests against an independent rigid-body model (`testkit`).
 
 use crate::online::{EstimatorConfig, OnlineEstimator, ParameterSet, Sample};
-use crate::params::ParameterVector;
 use crate::regressor::rigid_body;
 use crate::rls::{NormalEquations, Rls};
 use crate::testkit::{
@@ -10,6 +9,7 @@ use crate::testkit::{
 use nalgebra::{Cholesky, SMatrix, SVector, Vector3, Vector6};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use std::vec::Vec;
+use stewart_types::ParameterVector;
 
 /// Scale of each parameter's group (mass; first moment; tensor), so that a tiny product of
 /// inertia is judged against the size of the tensor rather than against itself.
@@ -336,7 +336,7 @@ fn reported_sigmas_match_the_spread_over_seeds() {
             d[1 + k] = e.com_m[k] - c_true[k];
             ds[1 + k] = e.com_sigma_m[k];
         }
-        for (k, r, col) in crate::params::TENSOR_ENTRIES {
+        for (k, r, col) in stewart_types::TENSOR_ENTRIES {
             d[k] = e.inertia_com_kg_m2[(r, col)] - jc_true[(r, col)];
             ds[k] = e.inertia_com_sigma_kg_m2[(r, col)];
         }

@@ -9,8 +9,8 @@
 //! M = Σ_blocks g gᵀ, g = Σ_(rows in block) φ r — valid whatever the noise colour, provided the
 //! blocks are long compared with it.
 
-use crate::params::{parallel_axis, Principal, TENSOR_ENTRIES};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+use stewart_types::{parallel_axis, Principal, TENSOR_ENTRIES};
 
 /// Block-summed residual scores of an exponentially weighted least-squares fit.
 ///
@@ -419,7 +419,7 @@ pub fn derive(theta: &SVector<f64, 10>, covariance: &SMatrix<f64, 10, 10>) -> Op
     let cov = g * covariance * g.transpose();
     let h = Vector3::new(theta[1], theta[2], theta[3]);
     let c = h / m;
-    let jo = crate::params::InertialParameters::from_vector(theta).inertia_origin_kg_m2;
+    let jo = stewart_types::InertialParameters::from_vector(theta).inertia_origin_kg_m2;
     let jc = jo - parallel_axis(&h) / m;
     let mut jc_sigma = Matrix3::zeros();
     for (row, r, col) in TENSOR_ENTRIES {
@@ -484,7 +484,7 @@ pub fn principal_sigma(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::params::InertialParameters;
+    use stewart_types::InertialParameters;
 
     fn derived_vector(theta: &SVector<f64, 10>) -> SVector<f64, 10> {
         let p = InertialParameters::from_vector(theta);

@@ -18,7 +18,10 @@ pub enum ErrorKind {
 }
 
 /// Everything that can go wrong in this crate. Each variant says why, with the numbers.
+///
+/// `#[non_exhaustive]`: match with a wildcard arm, or on [`KinematicsError::kind`].
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum KinematicsError {
     /// An input (named) contained NaN or infinity.
     NonFinite {
@@ -165,3 +168,5 @@ impl fmt::Display for KinematicsError {
         }
     }
 }
+
+impl core::error::Error for KinematicsError {}

@@ -38,7 +38,9 @@ pub struct Geometry {
 const MIN_JOINT_SPACING_M: f64 = 1e-6;
 
 impl Geometry {
-    /// The usual design: joints in three pairs on each circle (corrected Eq. 1–2, see ERRATA).
+    /// The usual design: joints in three pairs on each circle, the plate's pairs turned 60°
+    /// against the base's (the paper's Eq. 1–2 as printed put both at the same angles, which is
+    /// architecturally singular).
     ///
     /// Base pair k is centred at 120°·k, plate pair k at 120°·k + 60°; the joints of a pair are
     /// `*_pair_separation_rad` apart. Leg 2k+1 joins the base joint at 120°k + s_b/2 to the

@@ -146,7 +146,7 @@ mod tests {
         );
         let mass_kg = 1200.0;
         let c = Vector3::new(0.3, -0.2, 0.5);
-        let weight = Vector3::new(0.0, 0.0, -9.80665 * mass_kg);
+        let weight = stewart_types::GRAVITY_B_M_S2 * mass_kg;
         let arm = pose.rotation * c;
         let mut needed = Vector6::zeros();
         needed.fixed_rows_mut::<3>(0).copy_from(&-weight);

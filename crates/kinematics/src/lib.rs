@@ -3,9 +3,13 @@
 //! singularity checks.
 //!
 //! `no_std`, no allocation, no panics: every function that can meet bad input returns a
-//! [`KinematicsError`]. Conventions follow `DESIGN.md`: base frame B fixed with z up, platform
-//! frame P on the plate, pose (p, R) with R mapping P-vectors into B, leg vector
-//! lᵢ = p + R pᵢ − bᵢ (ERRATA: the paper's Eq. 5 gives the unit vector, not the length).
+//! [`KinematicsError`].
+//!
+//! Conventions: base frame B fixed to the ground with z up; platform frame P fixed to the plate;
+//! a pose (p, R) holds the position p of the P origin in B and the rotation R that maps
+//! P-vectors into B. With bᵢ the base joints in B and pᵢ the plate joints in P, leg i's vector is
+//! lᵢ = p + R pᵢ − bᵢ, its length ‖lᵢ‖ and its unit vector uᵢ = lᵢ/‖lᵢ‖ (the paper's Eq. 5
+//! gives the unit vector, not the length).
 #![cfg_attr(not(test), no_std)]
 #![warn(missing_docs)]
 
@@ -23,9 +27,8 @@ pub use jacobian::Wrench;
 pub use legs::Legs;
 pub use nalgebra::{Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 pub use pose::Pose;
-
-/// Number of legs (and of joints on each plate).
-pub const LEG_COUNT: usize = 6;
+/// Number of legs (and of joints on each plate), defined in `stewart-types`.
+pub use stewart_types::LEG_COUNT;
 
 /// Below this inverse condition number (σmin/σmax of the length-scaled Jacobian) a pose or a
 /// design is treated as singular: leg forces would grow without bound for some wrenches.

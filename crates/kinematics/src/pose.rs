@@ -32,7 +32,9 @@ impl Pose {
     }
 
     /// From position and roll α, pitch β, yaw γ with R = Rx(α)·Ry(β)·Rz(γ), the paper's Eq. 7
-    /// order with Eq. 6's R_β typo fixed (ERRATA).
+    /// order, each factor the right-handed rotation about its axis; in particular
+    /// Ry(β) = [[cos β, 0, sin β], [0, 1, 0], [−sin β, 0, cos β]] (the paper's Eq. 6 misprints
+    /// R_β).
     pub fn from_rpy(position_m: Vector3<f64>, roll_rad: f64, pitch_rad: f64, yaw_rad: f64) -> Self {
         let rx = Rotation3::from_axis_angle(&Vector3::x_axis(), roll_rad);
         let ry = Rotation3::from_axis_angle(&Vector3::y_axis(), pitch_rad);
@@ -92,7 +94,7 @@ mod tests {
     #[test]
     fn rpy_matches_hand_built_matrices() {
         let (a, b, g) = (0.1_f64, -0.2_f64, 0.3_f64);
-        // ERRATA-corrected Eq. 6 matrices, written out by hand.
+        // The right-handed elementary rotations (Eq. 6 with R_β corrected), written out by hand.
         let rx =
             nalgebra::Matrix3::new(1.0, 0.0, 0.0, 0.0, a.cos(), -a.sin(), 0.0, a.sin(), a.cos());
         let ry =

@@ -81,7 +81,7 @@ mod tests {
             leg_lengths_m: [0.5, 0.51, 0.52, 0.53, 0.54, 0.55],
             leg_forces_n: [1.0, -2.0, 3.5, f64::MAX, f64::MIN_POSITIVE, -0.0],
             gyro_rad_s: [0.1, -0.2, 0.3],
-            accel_m_s2: [0.0, 0.0, 9.80665],
+            accel_m_s2: [0.0, 0.0, stewart_types::STANDARD_GRAVITY_M_S2],
             status: Status(Status::ENABLED | 1 << 31),
         };
         let back = SensorFrame::from(&Sensor::from(&frame));

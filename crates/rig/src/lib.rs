@@ -18,7 +18,7 @@ pub mod codec;
 pub mod wire;
 
 #[cfg(feature = "std")]
-pub mod convert;
+mod convert;
 #[cfg(feature = "std")]
 pub mod emulator;
 #[cfg(feature = "std")]
@@ -28,7 +28,7 @@ pub mod host;
 #[cfg(feature = "std")]
 pub mod key;
 #[cfg(feature = "std")]
-pub mod stats;
+mod stats;
 #[cfg(feature = "std")]
 pub mod transport;
 

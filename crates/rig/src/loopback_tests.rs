@@ -57,7 +57,7 @@ impl Backend for FakeBackend {
                 [0.0; LEG_COUNT]
             },
             gyro_rad_s: [0.0; 3],
-            accel_m_s2: [0.0, 0.0, 9.80665],
+            accel_m_s2: [0.0, 0.0, stewart_types::STANDARD_GRAVITY_M_S2],
             status: Status(0),
         })
     }

@@ -14,8 +14,9 @@ use serde::{Deserialize, Serialize};
 /// version refuses the frame (and the session) with a clear error.
 pub const PROTOCOL_VERSION: u8 = 1;
 
-/// Number of legs the protocol carries (a 6-6 Stewart platform).
-pub const LEG_COUNT: usize = 6;
+/// Number of legs the protocol carries (a 6-6 Stewart platform): the shared
+/// `stewart_types::LEG_COUNT`, fixed by [`PROTOCOL_VERSION`].
+pub use stewart_types::LEG_COUNT;
 
 /// Length of the fixed-size rig identity string, bytes (UTF-8, zero padded).
 pub const IDENTITY_LEN: usize = 32;

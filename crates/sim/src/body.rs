@@ -2,11 +2,13 @@
 //!
 //! A body is given the way a user describes it: mass, centre of mass `c` in P and the inertia
 //! tensor about the centre of mass `J_C` in P axes. The estimator works with the parameters about
-//! the P origin, `m`, `h = m c` and `J_O = J_C + m(‖c‖²𝟙 − c cᵀ)` (parallel-axis theorem,
-//! DESIGN.md), which add across bodies; [`InertialParameters`] holds that form.
+//! the P origin, `m`, `h = m c` and `J_O = J_C + m(‖c‖²𝟙 − c cᵀ)` (parallel-axis theorem),
+//! which add across bodies; the shared [`InertialParameters`] holds that form, and
+//! [`InertialParameters::from_body`] takes a [`BodyProperties`] there.
 
 use nalgebra::{Matrix3, Rotation3, SymmetricEigen, Vector3};
 use serde::{Deserialize, Serialize};
+use stewart_types::{InertialParameters, RigidBody};
 
 use crate::error::SimError;
 
@@ -110,7 +112,7 @@ impl BodyProperties {
 
 /// Principal moments and axes of a symmetric tensor: `J = Q diag(λ) Qᵀ` with `Q` a proper
 /// rotation (columns are the principal axes, determinant +1), as rapier's mass properties need.
-pub fn principal_axes(j: &Matrix3<f64>) -> (Vector3<f64>, Rotation3<f64>) {
+pub(crate) fn principal_axes(j: &Matrix3<f64>) -> (Vector3<f64>, Rotation3<f64>) {
     let sym = 0.5 * (j + j.transpose());
     let eig = SymmetricEigen::new(sym);
     let mut q = eig.eigenvectors;
@@ -120,70 +122,30 @@ pub fn principal_axes(j: &Matrix3<f64>) -> (Vector3<f64>, Rotation3<f64>) {
     (eig.eigenvalues, Rotation3::from_matrix_unchecked(q))
 }
 
-/// The ten inertial parameters of one body or of a sum of bodies, about the P origin, in P axes.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct InertialParameters {
-    /// Mass `m`, kg.
-    pub mass_kg: f64,
-    /// First moment `h = m c`, kg·m.
-    pub first_moment_kg_m: Vector3<f64>,
-    /// Inertia tensor about the P origin `J_O`, kg·m².
-    pub inertia_origin_kg_m2: Matrix3<f64>,
+impl RigidBody for BodyProperties {
+    fn mass(&self) -> f64 {
+        self.mass_kg
+    }
+
+    fn com(&self) -> Vector3<f64> {
+        BodyProperties::com(self)
+    }
+
+    fn inertia_com(&self) -> Matrix3<f64> {
+        BodyProperties::inertia_com(self)
+    }
 }
 
-impl InertialParameters {
-    /// Moves a body's tensor to the P origin: `J_O = J_C + m(‖c‖²𝟙 − c cᵀ)`.
-    pub fn from_body(body: &BodyProperties) -> Self {
-        let m = body.mass_kg;
-        let c = body.com();
-        let shift = m * (Matrix3::identity() * c.norm_squared() - c * c.transpose());
-        Self {
-            mass_kg: m,
-            first_moment_kg_m: m * c,
-            inertia_origin_kg_m2: body.inertia_com() + shift,
-        }
-    }
-
-    /// Parameters of two bodies rigidly joined: every entry adds.
-    pub fn plus(&self, other: &Self) -> Self {
-        Self {
-            mass_kg: self.mass_kg + other.mass_kg,
-            first_moment_kg_m: self.first_moment_kg_m + other.first_moment_kg_m,
-            inertia_origin_kg_m2: self.inertia_origin_kg_m2 + other.inertia_origin_kg_m2,
-        }
-    }
-
-    /// Back to mass, centre of mass and tensor about the centre of mass:
-    /// `c = h / m`, `J_C = J_O − m(‖c‖²𝟙 − c cᵀ)`.
-    pub fn to_body(&self) -> BodyProperties {
-        let m = self.mass_kg;
-        let c = self.first_moment_kg_m / m;
-        let j_c = self.inertia_origin_kg_m2
-            - m * (Matrix3::identity() * c.norm_squared() - c * c.transpose());
-        BodyProperties {
-            mass_kg: m,
-            com_m: [c.x, c.y, c.z],
-            inertia_com_kg_m2: matrix_to_rows(&j_c),
-        }
-    }
-
-    /// The parameter vector in the contract's order
-    /// `θ = [m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz]` (tensor entries of `J_O`).
-    pub fn theta(&self) -> [f64; 10] {
-        let h = &self.first_moment_kg_m;
-        let j = &self.inertia_origin_kg_m2;
-        [
-            self.mass_kg,
-            h.x,
-            h.y,
-            h.z,
-            j[(0, 0)],
-            j[(1, 1)],
-            j[(2, 2)],
-            j[(0, 1)],
-            j[(0, 2)],
-            j[(1, 2)],
-        ]
+impl BodyProperties {
+    /// Back from parameters about the P origin to mass, centre of mass and tensor about the
+    /// centre of mass: `c = h / m`, `J_C = J_O − m(‖c‖²𝟙 − c cᵀ)`. `None` unless `m` is positive
+    /// and finite.
+    pub fn from_parameters(p: &InertialParameters) -> Option<Self> {
+        Some(Self {
+            mass_kg: p.mass_kg,
+            com_m: p.com_m()?.into(),
+            inertia_com_kg_m2: matrix_to_rows(&p.inertia_com_kg_m2()?),
+        })
     }
 }
 
@@ -225,7 +187,7 @@ mod tests {
     fn parallel_axis_round_trip_and_addition() {
         let a = InertialParameters::from_body(&tilted());
         let b = InertialParameters::from_body(&BodyProperties::default());
-        let back = a.to_body();
+        let back = BodyProperties::from_parameters(&a).unwrap();
         let orig = tilted();
         assert!((back.com() - orig.com()).amax() < 1e-12);
         assert!((back.inertia_com() - orig.inertia_com()).amax() < 1e-9);
@@ -239,7 +201,7 @@ mod tests {
             p.theta(),
             [2.0, 2.0, 4.0, 6.0, 26.0, 20.0, 10.0, -4.0, -6.0, -12.0]
         );
-        let s = a.plus(&b);
+        let s = a + b;
         for (k, v) in s.theta().iter().enumerate() {
             assert!((v - a.theta()[k] - b.theta()[k]).abs() < 1e-9);
         }

@@ -6,7 +6,7 @@ use crate::actuator::ActuatorConfig;
 use crate::error::{check_positive, SimError};
 use crate::sensors::SensorConfig;
 
-/// Longest physics substep allowed, s (the issue: "time step 1 ms or less").
+/// Longest physics substep allowed, s: the physics runs at a time step of 1 ms or less.
 pub const MAX_SUBSTEP_S: f64 = 1e-3;
 
 /// How the gyroscopic torque `−ω × (J_C ω)` enters the integration.

@@ -1,8 +1,8 @@
 //! Rigid-body Newton–Euler equations about the P origin, in P axes.
 //!
 //! With `f = a_O − g` the specific force of the P origin and `ω`, `ω̇` the plate's angular rate
-//! and acceleration (all in P), the wrench the legs apply about the P origin is (DESIGN.md,
-//! ERRATA "Decoupling"):
+//! and acceleration (all in P), the wrench the legs apply about the P origin is (Newton–Euler
+//! about a point that is not the centre of mass, so force and torque are coupled through h):
 //!
 //! ```text
 //! F   = m f + ω̇ × h + ω × (ω × h)
@@ -17,12 +17,13 @@
 
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 
-use crate::body::InertialParameters;
+use stewart_types::InertialParameters;
 
 /// The Newton–Euler model of one rigid body about the P origin, with its inverse precomputed.
 #[derive(Clone, Copy, Debug)]
 pub struct RigidBodyModel {
     params: InertialParameters,
+    inertia_com: Matrix3<f64>,
     inverse: Matrix6<f64>,
 }
 
@@ -40,11 +41,17 @@ fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
 }
 
 impl RigidBodyModel {
-    /// Builds the model; `None` when the spatial inertia is not positive definite.
+    /// Builds the model; `None` when the spatial inertia is not positive definite (which
+    /// includes m ≤ 0).
     pub fn new(params: InertialParameters) -> Option<Self> {
         let m = Self::spatial_inertia(&params);
         let inverse = m.cholesky()?.inverse();
-        Some(Self { params, inverse })
+        let inertia_com = params.inertia_com_kg_m2()?;
+        Some(Self {
+            params,
+            inertia_com,
+            inverse,
+        })
     }
 
     /// The spatial inertia `M = [[m𝟙, −[h]×], [[h]×, J_O]]`.
@@ -63,6 +70,11 @@ impl RigidBodyModel {
     /// The parameters this model was built from.
     pub fn params(&self) -> &InertialParameters {
         &self.params
+    }
+
+    /// The tensor about the centre of mass, `J_C = J_O − m(‖c‖²𝟙 − c cᵀ)` with `c = h / m`.
+    pub fn inertia_com(&self) -> Matrix3<f64> {
+        self.inertia_com
     }
 
     /// Velocity terms `b(ω) = [ω × (ω × h); ω × (J_O ω)]`.
@@ -146,7 +158,7 @@ mod tests {
     fn body_at_rest_on_legs_feels_one_g_up() {
         // Legs holding the body still against gravity: F = −m g, τ_O = h × (−g) (P level).
         let m = model();
-        let g = Vector3::new(0.0, 0.0, -9.80665);
+        let g = stewart_types::GRAVITY_B_M_S2;
         let p = m.params();
         let a = m.acceleration(
             &(-p.mass_kg * g),

@@ -1,18 +1,25 @@
 //! A simulated 6-6 Stewart platform on `rapier3d-f64`, as a [`control::io::Backend`].
 //!
-//! - [`world`]: a fixed base and one dynamic body (plate + payload) built from two colliders
+//! - The world: a fixed base and one dynamic body (plate + payload) built from two colliders
 //!   with explicit mass properties; the tare world is the same without the payload collider.
-//!   Gyroscopic forces on, gravity `(0, 0, −9.80665)`, substeps of at most 1 ms.
+//!   Gyroscopic forces on, gravity [`GRAVITY_M_S2`] = (0, 0, −9.80665) m/s² in B (z up),
+//!   substeps of at most [`MAX_SUBSTEP_S`].
 //! - Legs are massless axial force elements: every substep the forces are reset and each
 //!   actuator's force is applied along the current leg line at its plate joint. (Rapier's joint
-//!   reaction impulses do not serve as load cells, DESIGN.md.)
-//! - [`actuator`]: first-order lag, saturation, viscous and Coulomb friction, and a brake.
-//! - [`sensors`]: encoders, load cells, gyro and accelerometer with seeded noise, bias and
-//!   quantization; presets `none`, `realistic`, `harsh`.
+//!   reaction impulses do not serve as load cells.)
+//! - Actuators ([`ActuatorConfig`]): first-order lag, saturation, viscous and Coulomb friction,
+//!   and a brake.
+//! - Sensors ([`SensorConfig`]): encoders, load cells, gyro and accelerometer with seeded noise,
+//!   bias and quantization; presets `none`, `realistic`, `harsh` ([`NoisePreset`]).
 //! - [`Simulator`]: the backend; load cells, gyro and accelerometer report their mean over the
 //!   sample period, as behind an anti-alias filter, and the encoders the instant (see the
-//!   [`simulator`] module docs). Ground truth is exposed through `true_*` methods, for
-//!   reports and tests only.
+//!   [`Simulator`] docs). Ground truth is exposed through `true_*` methods, for reports and
+//!   tests only.
+//! - [`RigidBodyModel`]: Newton–Euler about the P origin, the simulator's accelerometer model.
+//!
+//! Body inertia: a [`BodyProperties`] (mass, centre of mass, tensor about the centre of mass, in
+//! P) becomes the shared [`InertialParameters`] about the P origin by
+//! [`InertialParameters::from_body`] (parallel-axis theorem J_O = J_C + m(‖c‖²𝟙 − c cᵀ)).
 //!
 //! Configuration structs ([`SimConfig`], [`ActuatorConfig`], [`SensorConfig`],
 //! [`BodyProperties`]) derive serde with `deny_unknown_fields`, so a front end can embed them
@@ -20,23 +27,25 @@
 
 #![warn(missing_docs)]
 
-pub mod actuator;
-pub mod body;
-pub mod config;
-pub mod dynamics;
-pub mod error;
-pub mod sensors;
-pub mod simulator;
-pub mod world;
+mod actuator;
+mod body;
+mod config;
+mod dynamics;
+mod error;
+mod sensors;
+mod simulator;
+mod world;
 
 pub use actuator::ActuatorConfig;
-pub use body::{BodyProperties, InertialParameters};
-pub use config::{GyroscopicModel, SimConfig};
+pub use body::BodyProperties;
+pub use config::{GyroscopicModel, SimConfig, MAX_SUBSTEP_S};
 pub use dynamics::{Acceleration, RigidBodyModel};
 pub use error::{SimError, SimErrorKind};
 pub use sensors::{
     AccelerometerConfig, GyroConfig, LegLengthSensorConfig, LoadCellConfig, NoisePreset,
-    SensorConfig,
+    SensorConfig, UnknownPreset,
 };
 pub use simulator::{PlateVelocity, Simulator};
+/// The ten inertial parameters about the P origin, defined once in `stewart-types`.
+pub use stewart_types::InertialParameters;
 pub use world::GRAVITY_M_S2;

@@ -61,7 +61,7 @@ pub struct AccelerometerConfig {
     pub noise_density_m_s2_sqrt_hz: f64,
     /// Standard deviation of each axis' constant bias, m/s².
     pub bias_sigma_m_s2: f64,
-    /// Mounting point in P, m (DESIGN.md: default the P origin).
+    /// Mounting point in P, m (default: the P origin).
     pub mount_m: [f64; 3],
 }
 
@@ -355,7 +355,7 @@ mod tests {
             );
             let clean = SensorFrame {
                 leg_forces_n: [5000.0; 6],
-                accel_m_s2: [0.0, 0.0, 9.80665],
+                accel_m_s2: [0.0, 0.0, stewart_types::STANDARD_GRAVITY_M_S2],
                 ..Default::default()
             };
             let n = 20_000;
@@ -366,7 +366,7 @@ mod tests {
                 let f = m.measure(&clean);
                 force.push(f.leg_forces_n[2] - 5000.0);
                 gyro.push(f.gyro_rad_s[1]);
-                accel.push(f.accel_m_s2[2] - 9.80665);
+                accel.push(f.accel_m_s2[2] - stewart_types::STANDARD_GRAVITY_M_S2);
             }
             // Sample standard deviation within 3 % (its own standard error is 0.5 % here);
             // quantization adds step²/12 to the variance.

@@ -1,90 +1,13 @@
-//! The simulated rig as a [`control::io::Backend`].
-//!
-//! # What a sample describes
-//!
-//! Sample `k` is read at `t_k = k T` (`T` the sample period, an integer number `N` of physics
-//! substeps `h`). As on a real rig:
-//!
-//! - **load cells, gyro, accelerometer** report, when the physics resolves the sample period
-//!   (`N > 1`), their **mean over the period** `[t_{k−1}, t_k]`, as a sensor behind an
-//!   anti-alias (integrating) filter does: a sigma-delta load-cell ADC, a MEMS IMU's
-//!   decimation filter. The mean is the trapezoidal rule over the period's `N + 1` physics nodes
-//!   `t_n` (half weight at both ends), each node evaluated as below, so these channels are one
-//!   linear filter of simultaneous values and still satisfy the rigid body's equations
-//!   together: exactly in the linear terms, to `O((ω̇ T)²)` ≈ 10⁻⁷ in the products of rates.
-//!   With `N = 1` there is no motion inside a sample to filter (the force is one kick, the
-//!   interpolant between nodes is what an ideal filter would see) and they report the node
-//!   at `t_k`, consistent with the encoders and without delay, as before.
-//! - **encoders** (leg lengths) are latched at the instant `t_k`: they need no anti-alias
-//!   filter, and the leg controllers want them without delay (averaged lengths, half a sample
-//!   late, made the default PIDs oscillate at 500 Hz).
-//!
-//! So with `N > 1` the filtered channels describe the period's middle `t_k − T/2` (their group
-//! delay) and the lengths `t_k`. The pose that pairs with a frame's forces is that of the
-//! period's middle, e.g. forward kinematics of `(l_{k−1} + l_k)/2` (second order). With the
-//! pose of `l_k`, as the estimator takes it now, the wrench's directions are half a sample
-//! early: the fitted parameters stay within about 10⁻⁵ of a noise-free truth but the fit
-//! residual rises to about 1 N (DESIGN.md, "Things we measured"), far below the load cells'
-//! noise.
-//!
-//! Why the means: with `N > 1` the lagged actuator force bends inside a sample (its slope jumps
-//! when a new command arrives at `t_k`). A load cell read at the instant misses that, while the
-//! gyro's change over a sample integrates it: such frames disagreed with Newton–Euler by about
-//! 4·10⁻⁴ of the wrench (rms) and biased a noise-free estimate's J_xx by 0.07 % with `N = 4`.
-//! Means over the period agree to about 10⁻⁶ (test
-//! `load_cells_with_substeps_report_the_mean_force_of_the_sample`). Sample 0 and a sample right
-//! after [`Simulator::set_state`] or [`Simulator::set_payload`] have no period behind them and
-//! report the node values at the instant.
-//!
-//! Each node `t_n` is evaluated *at that instant*:
-//!
-//! - **pose, leg lengths**: rapier's pose after `n` steps (positions live on step boundaries).
-//! - **load cells**: the axial force each actuator applies at `t_n`, i.e. the force rapier
-//!   integrates over the next substep. At `t_k` it depends only on the actuator state (the lag
-//!   applies its state, then advances), never on the command written after the read, so it is
-//!   known when the sample is taken.
-//! - **gyro**: rapier's stored velocity is that of the half step *before* `t_k` (symplectic
-//!   Euler read as leapfrog: `v_{n+½} = v_{n−½} + h a(x_n)`). We report
-//!   `ω(t_k) = ω_{k−½} + (h/2) ω̇(t_k)`, i.e. the mean of the velocities on either side, which
-//!   is what rapier's trajectory passes through at `t_k` to second order.
-//! - **accelerometer**: the specific force `f = a_O − g` and `ω̇` that the wrench of those leg
-//!   forces produces on the body at `t_k` by Newton–Euler with the true (rapier's own) inertial
-//!   parameters and `ω(t_k)` — exactly the acceleration of rapier's next kick with the default
-//!   [`GyroscopicModel::Midpoint`] — moved to the mounting point:
-//!   `f_a = f + ω̇ × r_a + ω × (ω × r_a)`.
-//!
-//! So the load cells, the pose, the gyro and the accelerometer of one node satisfy the rigid
-//! body's equations at one instant, and their means over a period satisfy them on average. A
-//! half-step skew between channels (a force held over a step against a centrally differenced
-//! rate) leaves the fitted parameters nearly intact but raises the fit residual by orders of
-//! magnitude (DESIGN.md, "Things we measured").
-//!
-//! Measured (tests `sample_channels_are_simultaneous`, `leg_wrench_matches_newton_euler_*`,
-//! `load_cells_with_substeps_*`; 1 kHz, 1.7 t tumbling at up to 1 rad/s): Newton–Euler on
-//! rapier's motion matches the leg wrench to 3·10⁻⁸ per substep (midpoint gyroscopic torque)
-//! or 3·10⁻⁴ (rapier's). Newton–Euler on the frames alone (pose by forward kinematics of the
-//! mean of two successive frames' leg lengths, `ω̇` from a 4th-order central difference of the
-//! gyro), with the default 100 Hz actuator: 1.6·10⁻⁵ rms with one substep, 1.3·10⁻⁶ with
-//! four, against 3.9·10⁻⁴ with four when the load cells were read at the instant.
-//!
-//! # Gyroscopic torque
-//!
-//! Rapier 0.36's gyroscopic forces (`RigidBodyBuilder::gyroscopic_forces_enabled`, on by
-//! default) are an explicit correction applied *after* the force kick, with the angular
-//! momentum's norm capped: first order, 3·10⁻⁴ of the torque at 1 rad/s. By default we switch
-//! them off and apply `−ω × (J_C ω)` ourselves as a torque, evaluated at `ω(t_n)`, which makes
-//! the kick the Newton–Euler acceleration at the instant (second order).
-//! [`GyroscopicModel::Rapier`] restores rapier's.
-//!
-//! Exception: a brake engaging or releasing takes effect from the next substep, so the force of
-//! the sample taken just before such a command differs by the brake's damping term.
+//! The simulated rig as a [`control::io::Backend`]: [`Simulator`], whose docs say what a sample
+//! describes and how the physics is integrated.
 
 use control::io::{Backend, CommandFrame, SensorFrame, Status, LEG_COUNT};
 use kinematics::{Geometry, Pose};
 use nalgebra::{Matrix3, Matrix6, SymmetricEigen, Vector3, Vector6};
+use stewart_types::InertialParameters;
 
 use crate::actuator::Actuators;
-use crate::body::{BodyProperties, InertialParameters};
+use crate::body::BodyProperties;
 use crate::config::{GyroscopicModel, SimConfig};
 use crate::dynamics::{Acceleration, RigidBodyModel};
 use crate::error::SimError;
@@ -186,7 +109,86 @@ impl PeriodSum {
     }
 }
 
-/// The simulated Stewart platform: rapier physics, actuators and sensors.
+/// The simulated Stewart platform: rapier physics, actuators and sensors, as a
+/// [`Backend`].
+///
+/// # What a sample describes
+///
+/// Sample `k` is read at `t_k = k T` (`T` the sample period, an integer number `N` of physics
+/// substeps `h`). As on a real rig:
+///
+/// - **load cells, gyro, accelerometer** report, when the physics resolves the sample period
+///   (`N > 1`), their **mean over the period** `[t_{k−1}, t_k]`, as a sensor behind an
+///   anti-alias (integrating) filter does: a sigma-delta load-cell ADC, a MEMS IMU's
+///   decimation filter. The mean is the trapezoidal rule over the period's `N + 1` physics nodes
+///   `t_n` (half weight at both ends), each node evaluated as below, so these channels are one
+///   linear filter of simultaneous values and still satisfy the rigid body's equations
+///   together: exactly in the linear terms, to `O((ω̇ T)²)` ≈ 10⁻⁷ in the products of rates.
+///   With `N = 1` there is no motion inside a sample to filter (the force is one kick, the
+///   interpolant between nodes is what an ideal filter would see) and they report the node
+///   at `t_k`, consistent with the encoders and without delay, as before.
+/// - **encoders** (leg lengths) are latched at the instant `t_k`: they need no anti-alias
+///   filter, and the leg controllers want them without delay (averaged lengths, half a sample
+///   late, made the default PIDs oscillate at 500 Hz).
+///
+/// So with `N > 1` the filtered channels describe the period's middle `t_k − T/2` (their group
+/// delay) and the lengths `t_k`. The pose that pairs with a frame's forces is that of the
+/// period's middle, e.g. forward kinematics of `(l_{k−1} + l_k)/2` (second order). With the
+/// pose of `l_k`, as the estimator takes it now, the wrench's directions are half a sample
+/// early: the fitted parameters stay within about 10⁻⁵ of a noise-free truth but the fit
+/// residual rises to about 1 N (measured with this simulator), far below the load cells' noise.
+///
+/// Why the means: with `N > 1` the lagged actuator force bends inside a sample (its slope jumps
+/// when a new command arrives at `t_k`). A load cell read at the instant misses that, while the
+/// gyro's change over a sample integrates it: such frames disagreed with Newton–Euler by about
+/// 4·10⁻⁴ of the wrench (rms) and biased a noise-free estimate's J_xx by 0.07 % with `N = 4`.
+/// Means over the period agree to about 10⁻⁶ (test
+/// `load_cells_with_substeps_report_the_mean_force_of_the_sample`). Sample 0 and a sample right
+/// after [`Simulator::set_state`] or [`Simulator::set_payload`] have no period behind them and
+/// report the node values at the instant.
+///
+/// Each node `t_n` is evaluated *at that instant*:
+///
+/// - **pose, leg lengths**: rapier's pose after `n` steps (positions live on step boundaries).
+/// - **load cells**: the axial force each actuator applies at `t_n`, i.e. the force rapier
+///   integrates over the next substep. At `t_k` it depends only on the actuator state (the lag
+///   applies its state, then advances), never on the command written after the read, so it is
+///   known when the sample is taken.
+/// - **gyro**: rapier's stored velocity is that of the half step *before* `t_k` (symplectic
+///   Euler read as leapfrog: `v_{n+½} = v_{n−½} + h a(x_n)`). We report
+///   `ω(t_k) = ω_{k−½} + (h/2) ω̇(t_k)`, i.e. the mean of the velocities on either side, which
+///   is what rapier's trajectory passes through at `t_k` to second order.
+/// - **accelerometer**: the specific force `f = a_O − g` and `ω̇` that the wrench of those leg
+///   forces produces on the body at `t_k` by Newton–Euler with the true (rapier's own) inertial
+///   parameters and `ω(t_k)` — exactly the acceleration of rapier's next kick with the default
+///   [`GyroscopicModel::Midpoint`] — moved to the mounting point:
+///   `f_a = f + ω̇ × r_a + ω × (ω × r_a)`.
+///
+/// So the load cells, the pose, the gyro and the accelerometer of one node satisfy the rigid
+/// body's equations at one instant, and their means over a period satisfy them on average. A
+/// half-step skew between channels (a force held over a step against a centrally differenced
+/// rate) leaves the fitted parameters nearly intact but raises the fit residual by orders of
+/// magnitude (measured with this simulator, as below).
+///
+/// Measured (tests `sample_channels_are_simultaneous`, `leg_wrench_matches_newton_euler_*`,
+/// `load_cells_with_substeps_*`; 1 kHz, 1.7 t tumbling at up to 1 rad/s): Newton–Euler on
+/// rapier's motion matches the leg wrench to 3·10⁻⁸ per substep (midpoint gyroscopic torque)
+/// or 3·10⁻⁴ (rapier's). Newton–Euler on the frames alone (pose by forward kinematics of the
+/// mean of two successive frames' leg lengths, `ω̇` from a 4th-order central difference of the
+/// gyro), with the default 100 Hz actuator: 1.6·10⁻⁵ rms with one substep, 1.3·10⁻⁶ with
+/// four, against 3.9·10⁻⁴ with four when the load cells were read at the instant.
+///
+/// # Gyroscopic torque
+///
+/// Rapier 0.36's gyroscopic forces (`RigidBodyBuilder::gyroscopic_forces_enabled`, on by
+/// default) are an explicit correction applied *after* the force kick, with the angular
+/// momentum's norm capped: first order, 3·10⁻⁴ of the torque at 1 rad/s. By default we switch
+/// them off and apply `−ω × (J_C ω)` ourselves as a torque, evaluated at `ω(t_n)`, which makes
+/// the kick the Newton–Euler acceleration at the instant (second order).
+/// [`GyroscopicModel::Rapier`] restores rapier's.
+///
+/// Exception: a brake engaging or releasing takes effect from the next substep, so the force of
+/// the sample taken just before such a command differs by the brake's damping term.
 pub struct Simulator {
     geometry: Geometry,
     config: SimConfig,
@@ -221,7 +223,7 @@ fn total_model(
 ) -> Result<RigidBodyModel, SimError> {
     let mut p = InertialParameters::from_body(fixture);
     if let Some(b) = payload {
-        p = p.plus(&InertialParameters::from_body(b));
+        p = p + InertialParameters::from_body(b);
     }
     RigidBodyModel::new(p).ok_or(SimError::InvalidBody {
         body: "plate + payload",
@@ -263,7 +265,7 @@ impl Simulator {
             config: *config,
             fixture,
             payload,
-            inertia_com: model.params().to_body().inertia_com(),
+            inertia_com: model.inertia_com(),
             model,
             world,
             actuators: placeholder,
@@ -337,7 +339,7 @@ impl Simulator {
             self.model = old;
             return Err(e);
         }
-        self.inertia_com = self.model.params().to_body().inertia_com();
+        self.inertia_com = self.model.inertia_com();
         self.payload = payload;
         self.world.set_payload(self.payload.as_ref());
         self.period = PeriodSum::default();

@@ -22,8 +22,9 @@ use rapier3d_f64::prelude::{
 use crate::body::{principal_axes, BodyProperties};
 use kinematics::Pose;
 
-/// Standard gravity in B, m/s² (DESIGN.md).
-pub const GRAVITY_M_S2: Vector3<f64> = Vector3::new(0.0, 0.0, -9.80665);
+/// Gravity in the base frame B (z up), (0, 0, −9.80665) m/s²: the shared
+/// `stewart_types::GRAVITY_B_M_S2`, kept under this name for existing callers.
+pub use stewart_types::GRAVITY_B_M_S2 as GRAVITY_M_S2;
 
 pub(crate) fn to_glam(v: &Vector3<f64>) -> DVec3 {
     DVec3::new(v.x, v.y, v.z)

@@ -1,6 +1,7 @@
 //! Every fault path trips, commands the safe stop and names its cause.
 
 use super::*;
+use kinematics::KinematicsError;
 
 const STROKE: StrokeLimits = StrokeLimits {
     min_length_m: 1.0,

@@ -9,7 +9,7 @@ pub(crate) fn example_sensor() -> Sensor {
         leg_lengths_m: [0.5; LEG_COUNT],
         leg_forces_n: [100.0, 100.0, 100.0, 100.0, 100.0, 100.0],
         gyro_rad_s: [0.0, 0.0, 0.0],
-        accel_m_s2: [0.0, 0.0, 9.80665],
+        accel_m_s2: [0.0, 0.0, stewart_types::STANDARD_GRAVITY_M_S2],
         status: 0b11,
     }
 }

@@ -4,8 +4,9 @@ use super::*;
 use crate::sensors::{NoisePreset, SensorConfig};
 use kinematics::StrokeLimits;
 use nalgebra::Rotation3;
+use stewart_types::STANDARD_GRAVITY_M_S2;
 
-const G: Vector3<f64> = Vector3::new(0.0, 0.0, -9.80665);
+const G: Vector3<f64> = stewart_types::GRAVITY_B_M_S2;
 
 pub(crate) fn geometry() -> Geometry {
     Geometry::from_radii(
@@ -77,7 +78,7 @@ fn command(seq: u64, forces: [f64; 6], enable: bool) -> CommandFrame {
 fn truth(payload: bool) -> InertialParameters {
     let fixture = InertialParameters::from_body(&BodyProperties::default());
     if payload {
-        fixture.plus(&InertialParameters::from_body(&car()))
+        fixture + InertialParameters::from_body(&car())
     } else {
         fixture
     }
@@ -103,7 +104,7 @@ fn rel(a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
 #[test]
 fn rapier_body_has_the_true_mass_properties() {
     let s = sim(NoisePreset::None, 0);
-    let want = truth(true).to_body();
+    let want = BodyProperties::from_parameters(&truth(true)).unwrap();
     let got = s.rapier_body();
     assert!((got.mass_kg - want.mass_kg).abs() < 1e-9);
     assert!((got.com() - want.com()).amax() < 1e-12);
@@ -133,7 +134,7 @@ fn tare_world_has_only_the_fixture_and_its_load_cells_weigh_it() {
     let frame = s.read().unwrap();
     let forces = Vector6::from(frame.leg_forces_n);
     let w = s.geometry().wrench_in_platform(&s.true_pose(), &forces);
-    let mass = w.force_n.z / 9.80665;
+    let mass = w.force_n.z / STANDARD_GRAVITY_M_S2;
     assert!((mass - 200.0).abs() < 1e-6, "weighed {mass} kg");
     assert!(w.force_n.xy().norm() < 1e-6);
     // And the payload world weighs fixture + car.
@@ -145,7 +146,7 @@ fn tare_world_has_only_the_fixture_and_its_load_cells_weigh_it() {
     let w = s
         .geometry()
         .wrench_in_platform(&s.true_pose(), &Vector6::from(frame.leg_forces_n));
-    let mass = w.force_n.norm() / 9.80665;
+    let mass = w.force_n.norm() / STANDARD_GRAVITY_M_S2;
     assert!((mass - 1700.0).abs() < 1e-3, "weighed {mass} kg");
 }
 

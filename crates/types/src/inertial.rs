@@ -8,11 +8,14 @@ use nalgebra::{Matrix3, SVector, SymmetricEigen, Vector3};
 /// Number of inertial parameters of a rigid body.
 pub const PARAMETER_COUNT: usize = 10;
 
-/// θ = [m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz] (docs/CONTRACTS.md).
+/// θ = [m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz]: mass, first moment h = m·c and the six
+/// independent entries of the inertia tensor J_O about the P origin in P axes (the layout
+/// `docs/CONTRACTS.md` fixes for logs and reports).
 pub type ParameterVector = SVector<f64, PARAMETER_COUNT>;
 
-/// Positions of the tensor entries in θ, as (θ index, row, column).
-pub(crate) const TENSOR_ENTRIES: [(usize, usize, usize); 6] = [
+/// Positions of the inertia-tensor entries in θ, as (θ index, row, column) of J_O:
+/// Jxx = θ₄, Jyy = θ₅, Jzz = θ₆, Jxy = θ₇, Jxz = θ₈, Jyz = θ₉.
+pub const TENSOR_ENTRIES: [(usize, usize, usize); 6] = [
     (4, 0, 0),
     (5, 1, 1),
     (6, 2, 2),
@@ -70,6 +73,18 @@ impl fmt::Display for Inconsistency {
     }
 }
 
+/// A rigid body described the way a user gives it: mass m, centre of mass c in P and the inertia
+/// tensor J_C = ∫(‖r‖²𝟙 − r rᵀ) dm about the centre of mass, in P axes. Implemented by front
+/// ends' body descriptions so that [`InertialParameters::from_body`] accepts them.
+pub trait RigidBody {
+    /// Mass m, kg.
+    fn mass(&self) -> f64;
+    /// Centre of mass c in P, m.
+    fn com(&self) -> Vector3<f64>;
+    /// Inertia tensor about the centre of mass J_C, in P axes, kg·m².
+    fn inertia_com(&self) -> Matrix3<f64>;
+}
+
 /// Physical-consistency verdict: what a real body must satisfy. Each rule is evaluated on its
 /// own (a later one is `false` when it cannot be evaluated because an earlier one failed).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -103,8 +118,9 @@ impl Consistency {
     }
 }
 
-/// ‖c‖²𝟙 − c cᵀ: the tensor of a unit point mass at c (parallel-axis term).
-pub(crate) fn parallel_axis(c: &Vector3<f64>) -> Matrix3<f64> {
+/// ‖c‖²𝟙 − c cᵀ: the tensor of a unit point mass at c, the term of the parallel-axis theorem
+/// J_O = J_C + m(‖c‖²𝟙 − c cᵀ).
+pub fn parallel_axis(c: &Vector3<f64>) -> Matrix3<f64> {
     Matrix3::identity() * c.norm_squared() - c * c.transpose()
 }
 
@@ -197,6 +213,17 @@ impl InertialParameters {
             inertia_origin_kg_m2: symmetric_part(&inertia_com_kg_m2)
                 + parallel_axis(&com_m) * mass_kg,
         }
+    }
+
+    /// Of a body given by mass, centre of mass and J_C: [`Self::from_com`] with its values.
+    pub fn from_body<B: RigidBody + ?Sized>(body: &B) -> Self {
+        Self::from_com(body.mass(), body.com(), body.inertia_com())
+    }
+
+    /// θ as a plain array, in the order of [`Self::to_vector`]:
+    /// [m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz].
+    pub fn theta(&self) -> [f64; PARAMETER_COUNT] {
+        self.to_vector().into()
     }
 
     /// A point mass at `position_m` (in P).
@@ -368,6 +395,29 @@ mod tests {
         let mut nan = good;
         nan.first_moment_kg_m.x = f64::NAN;
         assert!(!nan.consistency().is_consistent());
+    }
+
+    struct Cuboid;
+
+    impl RigidBody for Cuboid {
+        fn mass(&self) -> f64 {
+            2.0
+        }
+        fn com(&self) -> Vector3<f64> {
+            Vector3::new(1.0, 2.0, 3.0)
+        }
+        fn inertia_com(&self) -> Matrix3<f64> {
+            Matrix3::zeros()
+        }
+    }
+
+    #[test]
+    fn a_body_moves_to_the_p_origin_by_the_parallel_axis_theorem() {
+        // A point mass at c has J_O = m(‖c‖²𝟙 − c cᵀ): Jxx = m(cy² + cz²), Jxy = −m cx cy.
+        assert_eq!(
+            InertialParameters::from_body(&Cuboid).theta(),
+            [2.0, 2.0, 4.0, 6.0, 26.0, 20.0, 10.0, -4.0, -6.0, -12.0]
+        );
     }
 
     #[test]

@@ -200,7 +200,7 @@ impl TareFile {
     }
 
     /// Keeps the tare run's systematic effects (θ change per one sigma, as
-    /// [`crate::run::MeasureOutcome`] gives them, with the sigmas they assumed) as
+    /// [`crate::measurement::MeasureOutcome`] gives them, with the sigmas they assumed) as
     /// sensitivities per unit bias, so that a loaded run made later with this file can count
     /// the tare's share ([`Self::accel_bias_effect`], [`Self::load_cell_bias_effect`]).
     pub fn with_bias_effects(

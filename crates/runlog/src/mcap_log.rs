@@ -30,7 +30,7 @@ use std::thread::JoinHandle;
 use anyhow::{anyhow, Context, Result};
 use serde::Serialize;
 
-use crate::schema::Schema;
+use measure::schema::Schema;
 
 /// One channel of the log.
 #[derive(Clone, Debug)]
@@ -454,7 +454,7 @@ pub fn utc_stamp(unix_s: u64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::schema::{num, object};
+    use measure::schema::{num, object};
 
     #[test]
     fn utc_stamps() {

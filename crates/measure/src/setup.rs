@@ -14,7 +14,7 @@ use kinematics::{FkOptions, Geometry, KinematicsError, StrokeLimits};
 use nalgebra::{Vector3, Vector6};
 
 use crate::config::{AxisName, Config, ExcitationKind, ParamCount, SpectrumConfig};
-use crate::config_load::{ConfigError, ConfigIssue, LoadedConfig};
+use crate::load::{ConfigError, ConfigIssue, LoadedConfig};
 
 /// The platform design of `config`, or the reason it cannot be built (singular, unreachable
 /// home, coincident joints).
@@ -42,7 +42,7 @@ fn geometry_issue(loaded: &LoadedConfig, e: &KinematicsError) -> ConfigIssue {
                  the plate could move with no change of leg length. The plate's joint pairs must be \
                  turned against the base's: change platform.base_pair_separation_deg / \
                  platform.plate_pair_separation_deg (equal joint angles on both circles, e.g. \
-                 separations adding up to 120°, are singular; see ERRATA Eq. 1–2)"
+                 separations adding up to 120°, are singular)"
             ),
         ),
         KinematicsError::HomeUnreachable => (
@@ -233,14 +233,16 @@ pub fn controller(
     })
 }
 
-/// One sigma of the accelerometer's bias, m/s² (its datasheet figure): the config's
-/// `estimator.accel_bias_m_s2`, else the noise preset's. Zero for ideal sensors.
+/// One sigma of the accelerometer's bias, m/s²: the rig description's datasheet figure
+/// (`sensors.accelerometer.bias_m_s2`). Zero for ideal sensors.
 pub fn accel_bias_sigma(config: &Config) -> f64 {
-    config.estimator.accel_bias_m_s2.unwrap_or_else(|| {
-        sim::SensorConfig::preset(config.sensors.noise.to_sim())
-            .accelerometer
-            .bias_sigma_m_s2
-    })
+    config.sensors.accelerometer.bias_m_s2
+}
+
+/// One sigma of each load cell's zero offset, N: the rig description's datasheet figure
+/// (`sensors.load_cell.zero_offset_n`). Zero for ideal sensors.
+pub fn load_cell_bias_sigma(config: &Config) -> f64 {
+    config.sensors.load_cell.zero_offset_n
 }
 
 /// Which measurement an estimator is for.
@@ -287,17 +289,12 @@ pub fn estimator_config(
         est.torque_sigma_nm,
     );
     c.prior_sigma = est.prior_sigma;
-    // What the IMU's datasheet says (the preset's figures unless the config gives them): the
-    // same per-sample convention as the simulator, density × √(sample rate).
-    let datasheet = sim::SensorConfig::preset(config.sensors.noise.to_sim());
-    let root_rate = config.sensors.sample_rate_hz.sqrt();
-    c.gyro_noise_rad_s = est
-        .gyro_noise_rad_s
-        .unwrap_or(datasheet.gyro.noise_density_rad_s_sqrt_hz * root_rate);
-    c.accel_noise_m_s2 = est
-        .accel_noise_m_s2
-        .unwrap_or(datasheet.accelerometer.noise_density_m_s2_sqrt_hz * root_rate);
-    c.accelerometer_position_m = Vector3::from(config.sensors.imu_position_m);
+    // What the IMU's datasheet says, per sample: density × √(sample rate).
+    c.gyro_noise_rad_s = config.sensors.gyro_noise_rad_s();
+    c.accel_noise_m_s2 = config.sensors.accel_noise_m_s2();
+    c.accelerometer_position_m = Vector3::from(config.sensors.imu.position_m);
+    // The load cells' offset sensitivity is kept when their datasheet gives an offset.
+    c.leg_force_offsets = load_cell_bias_sigma(config) > 0.0;
     c.window_start_s = window_start_s;
     c.window_end_s = window_end_s;
     if est.params == ParamCount::Six {
@@ -320,7 +317,7 @@ pub fn estimator_config(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config_load::{load, load_str};
+    use crate::load::{load, load_str};
 
     #[test]
     fn default_config_passes_preflight() {

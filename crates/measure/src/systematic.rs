@@ -9,14 +9,14 @@
 //! ([`estimator::OnlineEstimator::accel_bias_sensitivity`], from its accumulated normal-equation
 //! terms; it matches three more estimators fed the samples with one sigma of bias added to
 //! about 1e-4 of the effect) times one sigma along x, y and z
-//! ([`crate::run::MeasureOutcome::accel_bias_effect`]), and the payload's share of the three
+//! ([`crate::measurement::MeasureOutcome::accel_bias_effect`]), and the payload's share of the three
 //! shifts, d = effect(loaded) − effect(tare) (the same accelerometer in both runs), adds
 //! Σ d dᵀ to the covariance of θ.
 //!
 //! The load cells' zero offsets are treated alike: a constant offset b of one cell moves θ by
 //! [`estimator::OnlineEstimator::leg_force_offset_sensitivity`] · b (exact: it reaches the
 //! wrench through each sample's leg directions, which the estimator conditions alongside), with
-//! b one datasheet sigma of the cell's zero offset ([`load_cell_bias_sigma`]). Most of it cancels
+//! b one datasheet sigma of the cell's zero offset ([`crate::setup::load_cell_bias_sigma`]). Most of it cancels
 //! with the tare (the same cells in both runs); the rest — through the pose-dependent leg
 //! directions, about a quarter of the spread of J_C xx and yy and of com z in the default
 //! scenario — adds Σ d dᵀ over the six cells. The estimator's residual covariance leaves
@@ -34,14 +34,6 @@ pub fn accel_bias_effect(estimator: &OnlineEstimator, bias_m_s2: f64) -> Option<
     Some(core::array::from_fn(|axis| {
         core::array::from_fn(|i| d[(i, axis)])
     }))
-}
-
-/// One sigma of each load cell's zero offset, N: the noise preset's datasheet figure (zero
-/// for ideal sensors).
-pub fn load_cell_bias_sigma(config: &crate::config::Config) -> f64 {
-    sim::SensorConfig::preset(config.sensors.noise.to_sim())
-        .load_cell
-        .bias_sigma_n
 }
 
 /// Change of θ from one sigma `bias_n` of zero offset on each load cell (rows: legs); `None`

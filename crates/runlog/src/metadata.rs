@@ -6,7 +6,7 @@ use anyhow::{bail, Result};
 use nalgebra::{Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
-use crate::schema::{array, int, nullable, num, numbers, object, string, Schema};
+use measure::schema::{array, int, nullable, num, numbers, object, string, Schema};
 
 /// `stewart.RunMetadata` on `/run/metadata`, written once at the start.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -18,15 +18,16 @@ pub struct RunMetadata {
     pub command: String,
     /// `sim` or `rig`.
     pub backend: String,
-    /// Scenario file as named by the user, or the embedded default.
+    /// Rig description / scenario file as named by the user, or the embedded default.
     pub config_source: String,
-    /// The scenario file's text as read.
+    /// That file's text as read.
     pub config_text: String,
-    /// The effective configuration (default merged with the file and the command line) as TOML.
+    /// The effective rig description (default merged with the file and the command line) as
+    /// TOML: what `stewart estimate` takes its datasheet figures from, unless `--rig` says.
     pub config_toml: String,
-    /// Random seed.
+    /// Seed of the simulated world (0 on a rig).
     pub seed: u64,
-    /// Noise preset.
+    /// Sensor grade of the simulated world (`none`, `realistic`, `harsh`), `rig` on a rig.
     pub noise: String,
     /// 10 or 6.
     pub params: u8,
@@ -312,13 +313,16 @@ impl BodyTruth {
 }
 
 /// `stewart.Truth` on `/run/truth` (simulation only).
-#[derive(Clone, Copy, Debug, Default, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TruthMsg {
     /// The plate and fixture.
     pub fixture: BodyTruth,
     /// The payload.
     pub payload: BodyTruth,
+    /// The whole simulated world (`[world]`: bodies, actuators, seed) as TOML.
+    #[serde(default)]
+    pub world_toml: String,
 }
 
 impl TruthMsg {
@@ -328,6 +332,10 @@ impl TruthMsg {
             vec![
                 ("fixture", BodyTruth::schema("plate and fixture")),
                 ("payload", BodyTruth::schema("the payload")),
+                (
+                    "world_toml",
+                    string("the simulated world ([world]: bodies, actuators, seed) as TOML"),
+                ),
             ],
             "The simulator's ground truth; never read by the estimator",
         )

@@ -1,28 +1,30 @@
 //! Range checks on a deserialized [`Config`]: every value a physical meaning allows, nothing
 //! else. Each problem is returned as (dotted key, what is wrong) so the loader can add the file
 //! and line. Checks that need the kinematics (reachability, singularity) run later, before any
-//! motion, in [`crate::preflight`].
+//! motion, in [`crate::setup`].
 
-use crate::config::{BodyConfig, Config, ExcitationKind, MultisineConfig, ParamCount, SineConfig};
+use crate::config::{Config, ExcitationKind, MultisineConfig, ParamCount, SineConfig};
 
-/// Collects problems as (dotted key, message).
+/// Collects problems as (dotted key, message); other layers (the simulated world) check their
+/// own tables with it.
 #[derive(Default)]
-struct Problems(Vec<(String, String)>);
+pub struct Problems(pub Vec<(String, String)>);
 
 impl Problems {
-    fn push(&mut self, key: impl Into<String>, problem: impl Into<String>) {
+    /// Adds a problem.
+    pub fn push(&mut self, key: impl Into<String>, problem: impl Into<String>) {
         self.0.push((key.into(), problem.into()));
     }
 
     /// `value` must be finite and strictly positive.
-    fn positive(&mut self, key: &str, value: f64) {
+    pub fn positive(&mut self, key: &str, value: f64) {
         if !(value.is_finite() && value > 0.0) {
             self.push(key, format!("must be positive and finite, got {value}"));
         }
     }
 
     /// `value` must be finite and not negative.
-    fn non_negative(&mut self, key: &str, value: f64) {
+    pub fn non_negative(&mut self, key: &str, value: f64) {
         if !(value.is_finite() && value >= 0.0) {
             self.push(
                 key,
@@ -32,7 +34,7 @@ impl Problems {
     }
 
     /// `value` must lie in `[lo, hi]`.
-    fn within(&mut self, key: &str, value: f64, lo: f64, hi: f64, unit: &str) {
+    pub fn within(&mut self, key: &str, value: f64, lo: f64, hi: f64, unit: &str) {
         if !(value.is_finite() && value >= lo && value <= hi) {
             self.push(
                 key,
@@ -41,7 +43,8 @@ impl Problems {
         }
     }
 
-    fn finite3(&mut self, key: &str, v: &[f64; 3], limit: f64) {
+    /// Each entry of `v` must be finite and within ±`limit`.
+    pub fn finite3(&mut self, key: &str, v: &[f64; 3], limit: f64) {
         for (i, x) in v.iter().enumerate() {
             if !(x.is_finite() && x.abs() <= limit) {
                 self.push(
@@ -86,20 +89,6 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
         );
     }
 
-    body(&mut p, "fixture", &config.fixture);
-    body(&mut p, "payload", &config.payload);
-
-    if let Err(e) = config.actuator.validate() {
-        match e {
-            sim::SimError::InvalidConfig {
-                field,
-                value,
-                reason,
-            } => p.push(field, format!("{reason}, got {value}")),
-            other => p.push("actuator", other.to_string()),
-        }
-    }
-
     let s = &config.sensors;
     p.within(
         "sensors.sample_rate_hz",
@@ -108,17 +97,41 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
         20_000.0,
         "Hz",
     );
-    let substep_s = 1.0 / (s.sample_rate_hz * f64::from(s.physics_substeps.max(1)));
-    if s.physics_substeps == 0 || substep_s > 1e-3 * (1.0 + 1e-12) {
-        p.push(
-            "sensors.physics_substeps",
-            format!(
-                "must be at least 1 and make the physics step 1/(sample_rate_hz·physics_substeps) at most 1 ms, got {}",
-                s.physics_substeps
-            ),
-        );
-    }
-    p.finite3("sensors.imu_position_m", &s.imu_position_m, 10.0);
+    p.non_negative("sensors.encoder.noise_m", s.encoder.noise_m);
+    p.non_negative("sensors.encoder.resolution_m", s.encoder.resolution_m);
+    p.non_negative("sensors.load_cell.noise_n", s.load_cell.noise_n);
+    p.non_negative("sensors.load_cell.zero_offset_n", s.load_cell.zero_offset_n);
+    p.non_negative("sensors.load_cell.resolution_n", s.load_cell.resolution_n);
+    p.within(
+        "sensors.gyro.noise_density_rad_s_sqrt_hz",
+        s.gyro.noise_density_rad_s_sqrt_hz,
+        0.0,
+        0.1,
+        "rad/s/√Hz",
+    );
+    p.within(
+        "sensors.gyro.bias_rad_s",
+        s.gyro.bias_rad_s,
+        0.0,
+        1.0,
+        "rad/s",
+    );
+    p.within(
+        "sensors.accelerometer.noise_density_m_s2_sqrt_hz",
+        s.accelerometer.noise_density_m_s2_sqrt_hz,
+        0.0,
+        10.0,
+        "m/s²/√Hz",
+    );
+    p.within(
+        "sensors.accelerometer.bias_m_s2",
+        s.accelerometer.bias_m_s2,
+        0.0,
+        1.0,
+        "m/s²",
+    );
+    p.finite3("sensors.imu.position_m", &s.imu.position_m, 10.0);
+    p.finite3("sensors.imu.orientation_deg", &s.imu.orientation_deg, 180.0);
 
     let c = &config.control;
     p.positive("control.kp_n_per_m", c.kp_n_per_m);
@@ -202,15 +215,6 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
     p.positive("estimator.force_sigma_n", est.force_sigma_n);
     p.positive("estimator.torque_sigma_nm", est.torque_sigma_nm);
     p.within("estimator.prior_sigma", est.prior_sigma, 1e-6, 1e12, "");
-    if let Some(v) = est.gyro_noise_rad_s {
-        p.within("estimator.gyro_noise_rad_s", v, 0.0, 1.0, "rad/s");
-    }
-    if let Some(v) = est.accel_noise_m_s2 {
-        p.within("estimator.accel_noise_m_s2", v, 0.0, 100.0, "m/s²");
-    }
-    if let Some(v) = est.accel_bias_m_s2 {
-        p.within("estimator.accel_bias_m_s2", v, 0.0, 1.0, "m/s²");
-    }
     if est.params == ParamCount::Six {
         known(
             &mut p,
@@ -275,68 +279,6 @@ fn highest_excitation_hz(config: &Config) -> f64 {
             .iter()
             .map(|s| s.frequency_hz)
             .fold(f64::NAN, f64::max),
-    }
-}
-
-/// Checks a body's mass, centre of mass and inertia tensor for physical consistency.
-fn body(p: &mut Problems, section: &str, b: &BodyConfig) {
-    p.positive(&format!("{section}.mass_kg"), b.mass_kg);
-    p.finite3(&format!("{section}.com_m"), &b.com_m, 10.0);
-    let key = format!("{section}.inertia_com_kg_m2");
-    let j = &b.inertia_com_kg_m2;
-    let mut finite = true;
-    for (r, row) in j.iter().enumerate() {
-        for (c, v) in row.iter().enumerate() {
-            if !v.is_finite() {
-                p.push(
-                    format!("{key}[{r}][{c}]"),
-                    format!("must be finite, got {v}"),
-                );
-                finite = false;
-            }
-        }
-    }
-    if !finite {
-        return;
-    }
-    let scale = j[0][0]
-        .abs()
-        .max(j[1][1].abs())
-        .max(j[2][2].abs())
-        .max(1e-12);
-    for (r, c) in [(0, 1), (0, 2), (1, 2)] {
-        if (j[r][c] - j[c][r]).abs() > 1e-9 * scale {
-            p.push(
-                format!("{key}[{r}][{c}]"),
-                format!(
-                    "the tensor must be symmetric: [{r}][{c}] = {} but [{c}][{r}] = {}",
-                    j[r][c], j[c][r]
-                ),
-            );
-            return;
-        }
-    }
-    let m = nalgebra::Matrix3::from_fn(|r, c| j[r][c]);
-    let eig = m.symmetric_eigenvalues();
-    let (lo, hi) = (eig.min(), eig.max());
-    if lo <= 0.0 {
-        p.push(
-            key,
-            format!("must be positive definite (principal moments {eig:?} kg·m²)"),
-        );
-        return;
-    }
-    // A real body's principal moments obey the triangle inequality I1 + I2 ≥ I3.
-    let sum = eig.sum();
-    if 2.0 * hi > sum * (1.0 + 1e-9) {
-        p.push(
-            key,
-            format!(
-                "is not a physical body: principal moments {:.4}, {:.4}, {:.4} kg·m² break \
-                 the triangle inequality (the largest must not exceed the sum of the others)",
-                eig[0], eig[1], eig[2]
-            ),
-        );
     }
 }
 

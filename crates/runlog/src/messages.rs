@@ -11,7 +11,7 @@ use serde::Serialize;
 
 use crate::foxglove;
 use crate::mcap_log::ChannelSpec;
-use crate::schema::{array, boolean, int, nullable, num, numbers, object, string, Schema};
+use measure::schema::{array, boolean, int, nullable, num, numbers, object, string, Schema};
 
 /// Raw sensor frames, every sample.
 pub const SENSORS: &str = "/sensors";
@@ -510,7 +510,7 @@ pub fn channels() -> Vec<ChannelSpec> {
         ChannelSpec {
             topic: TARE,
             schema_name: "stewart.Tare",
-            schema: crate::tare::TareFile::schema(),
+            schema: measure::tare::TareFile::schema(),
         },
         ChannelSpec {
             topic: TRUTH,
@@ -568,9 +568,9 @@ pub fn channels() -> Vec<ChannelSpec> {
             schema: foxglove::scene_update_schema(),
         },
         ChannelSpec {
-            topic: crate::rig_cmd::link::LINK,
-            schema_name: crate::rig_cmd::link::LINK_SCHEMA_NAME,
-            schema: crate::rig_cmd::link::LinkMsg::schema(),
+            topic: crate::link::LINK,
+            schema_name: crate::link::LINK_SCHEMA_NAME,
+            schema: crate::link::LinkMsg::schema(),
         },
     ]
 }

@@ -1,4 +1,4 @@
-//! The run's log: the MCAP writer with every channel of [`crate::log_messages`] registered, a
+//! The run's log: the MCAP writer with every channel of [`crate::messages`] registered, a
 //! time base (Unix nanoseconds, monotonic across runs), and the decimation of the derived
 //! channels.
 
@@ -7,8 +7,8 @@ use std::path::Path;
 use anyhow::Result;
 use serde::Serialize;
 
-use crate::log_messages::channels;
 use crate::mcap_log::{Delivery, McapLog};
+use crate::messages::channels;
 
 /// Rates of the decimated channels, Hz (sensors and commands are logged at every sample).
 pub mod rates {

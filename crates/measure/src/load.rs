@@ -1,5 +1,6 @@
-//! Reading a scenario file: TOML text → [`Config`], refusing anything wrong with the file, the
-//! dotted key and what is wrong.
+//! Reading a rig description (or a scenario file, which adds the simulated world's `[world]`
+//! table): TOML text → [`Config`], refusing anything wrong with the file, the dotted key and
+//! what is wrong.
 //!
 //! A scenario file is laid over the embedded default (`configs/default.toml`): tables merge key
 //! by key, any other value (numbers, strings, arrays) replaces the default's. So a scenario need
@@ -15,6 +16,10 @@ use crate::config::Config;
 
 /// The default scenario, compiled in so that `stewart simulate` needs no arguments.
 pub const DEFAULT_CONFIG_TOML: &str = include_str!("../../../configs/default.toml");
+
+/// The table of a scenario file that describes the simulated world; the rig description leaves
+/// it to the simulator's layer ([`LoadedConfig::section`]).
+pub const WORLD_TABLE: &str = "world";
 
 /// Name used for the embedded default in messages.
 pub const DEFAULT_CONFIG_NAME: &str = "<embedded configs/default.toml>";
@@ -82,18 +87,41 @@ impl ConfigError {
 /// A configuration together with where it came from.
 #[derive(Clone, Debug)]
 pub struct LoadedConfig {
-    /// The merged, validated configuration.
+    /// The merged, validated rig description.
     pub config: Config,
     /// The file name for messages ([`DEFAULT_CONFIG_NAME`] for the embedded default).
     pub source: String,
     /// The user's file text as read (the default's text when no file was given).
     pub text: String,
+    /// The whole merged document, tables this schema does not read included (`[world]`).
+    merged: toml::Table,
 }
 
 impl LoadedConfig {
-    /// The effective configuration (default merged with the file) as TOML, for logs.
+    /// The effective rig description (default merged with the file) as TOML, for logs.
     pub fn effective_toml(&self) -> String {
         toml::to_string(&self.config).unwrap_or_default()
+    }
+
+    /// Another layer's table of the merged document (e.g. the simulator's `[world]`),
+    /// deserialized with the same messages as the rig description: file, line, dotted key.
+    pub fn section<T: serde::de::DeserializeOwned>(&self, table: &str) -> Result<T, ConfigError> {
+        let value = self
+            .merged
+            .get(table)
+            .cloned()
+            .unwrap_or_else(|| toml::Value::Table(toml::Table::new()));
+        serde_path_to_error::deserialize(value).map_err(|e| {
+            let inner = e.path().to_string();
+            let path = if inner == "." {
+                table.to_string()
+            } else {
+                format!("{table}.{inner}")
+            };
+            let message = e.inner().message().trim().to_string();
+            let (key, problem) = explain_serde_error(&path, &message);
+            ConfigError::single(self.issue(&key, problem))
+        })
     }
 
     /// Locates `key` in the user's file (1-based line), for messages about values checked after
@@ -113,10 +141,6 @@ impl LoadedConfig {
 pub struct Overrides {
     /// `--duration` → `run.duration_s`.
     pub duration_s: Option<f64>,
-    /// `--seed` → `run.seed`.
-    pub seed: Option<u64>,
-    /// `--noise` → `sensors.noise`.
-    pub noise: Option<crate::config::NoisePreset>,
     /// `--params` → `estimator.params`.
     pub params: Option<crate::config::ParamCount>,
 }
@@ -132,12 +156,6 @@ impl LoadedConfig {
         if let Some(d) = o.duration_s {
             self.config.run.duration_s = d;
             flags.push(("run.duration_s", "--duration"));
-        }
-        if let Some(s) = o.seed {
-            self.config.run.seed = s;
-        }
-        if let Some(n) = o.noise {
-            self.config.sensors.noise = n;
         }
         if let Some(p) = o.params {
             self.config.estimator.params = p;
@@ -209,8 +227,19 @@ pub fn load_str(text: &str, source: &str) -> Result<LoadedConfig, ConfigError> {
             problem: format!("embedded default is not valid TOML: {}", e.message()),
         })
     })?;
+    let moved = moved_keys(&user);
+    if !moved.is_empty() {
+        return Err(ConfigError {
+            issues: moved
+                .into_iter()
+                .map(|(key, problem)| issue(locate_key(text, &key), key, problem))
+                .collect(),
+        });
+    }
     merge(&mut merged, user);
-    let config: Config = serde_path_to_error::deserialize(merged).map_err(|e| {
+    let mut description = merged.clone();
+    description.remove(WORLD_TABLE);
+    let config: Config = serde_path_to_error::deserialize(description).map_err(|e| {
         let key = e.path().to_string();
         let key = if key == "." { String::new() } else { key };
         let message = e.inner().message().trim().to_string();
@@ -230,7 +259,43 @@ pub fn load_str(text: &str, source: &str) -> Result<LoadedConfig, ConfigError> {
         config,
         source: source.to_string(),
         text: text.to_string(),
+        merged,
     })
+}
+
+/// Keys of older scenario files that moved when the rig description was separated from the
+/// simulated world, with where each went.
+const MOVED: [(&str, &str); 10] = [
+    ("fixture", "moved to [world.fixture]: the fixture's true mass properties belong to the simulated world, not to the rig description"),
+    ("payload", "moved to [world.payload]: the payload's truth belongs to the simulated world, not to the rig description"),
+    ("actuator", "moved to [world.actuator]: the actuator model belongs to the simulated world"),
+    ("sensors.noise", "removed: the rig description's [sensors.encoder], [sensors.load_cell], [sensors.gyro] and [sensors.accelerometer] give the datasheet figures; `stewart simulate --noise none|harsh` scales them"),
+    ("sensors.physics_substeps", "moved to world.physics_substeps (a setting of the simulator, not of the rig)"),
+    ("sensors.imu_position_m", "moved to sensors.imu.position_m (beside the IMU's orientation_deg)"),
+    ("run.seed", "moved to world.seed (the simulated world's random draws)"),
+    ("estimator.gyro_noise_rad_s", "removed: the estimator takes the gyro's noise from sensors.gyro.noise_density_rad_s_sqrt_hz (× √sample rate)"),
+    ("estimator.accel_noise_m_s2", "removed: the estimator takes the accelerometer's noise from sensors.accelerometer.noise_density_m_s2_sqrt_hz (× √sample rate)"),
+    ("estimator.accel_bias_m_s2", "moved to sensors.accelerometer.bias_m_s2"),
+];
+
+/// The keys of `user` that an older scenario format had, as (key, where it went).
+fn moved_keys(user: &toml::Table) -> Vec<(String, String)> {
+    MOVED
+        .iter()
+        .filter(|(key, _)| {
+            let mut table = user;
+            let parts: Vec<&str> = key.split('.').collect();
+            for (i, part) in parts.iter().enumerate() {
+                match table.get(*part) {
+                    Some(toml::Value::Table(t)) if i + 1 < parts.len() => table = t,
+                    Some(_) if i + 1 == parts.len() => return true,
+                    _ => return false,
+                }
+            }
+            false
+        })
+        .map(|(key, why)| (key.to_string(), why.to_string()))
+        .collect()
 }
 
 /// Lays `over` onto `base`: tables merge recursively, anything else replaces.
@@ -408,68 +473,95 @@ mod tests {
     fn embedded_default_loads() {
         let loaded = load(None).expect("default config must be valid");
         assert_eq!(loaded.source, DEFAULT_CONFIG_NAME);
-        assert!(loaded.config.payload.mass_kg > 0.0);
+        assert!(loaded.config.sensors.sample_rate_hz > 0.0);
     }
 
     #[test]
     fn partial_file_inherits_the_default() {
-        let loaded = load_str("[payload]\nmass_kg = 900.0\n", "x.toml").unwrap();
+        let loaded = load_str("[platform]\nbase_radius_m = 1.6\n", "x.toml").unwrap();
         let default = load(None).unwrap();
-        assert_eq!(loaded.config.payload.mass_kg, 900.0);
-        assert_eq!(loaded.config.payload.com_m, default.config.payload.com_m);
-        assert_eq!(loaded.config.platform, default.config.platform);
+        assert_eq!(loaded.config.platform.base_radius_m, 1.6);
+        assert_eq!(
+            loaded.config.platform.plate_radius_m,
+            default.config.platform.plate_radius_m
+        );
+        assert_eq!(loaded.config.sensors, default.config.sensors);
     }
 
     #[test]
     fn unknown_key_names_file_line_key_and_the_right_unit() {
-        let err = load_str("[payload]\n\nmass_lb = 3300.0\n", "car.toml").unwrap_err();
+        let err = load_str("[platform]\n\nbase_radius_in = 60.0\n", "car.toml").unwrap_err();
         let issue = &err.issues[0];
         assert_eq!(issue.file, "car.toml");
-        assert_eq!(issue.key, "payload.mass_lb");
+        assert_eq!(issue.key, "platform.base_radius_in");
         assert_eq!(issue.line, Some(3));
         assert!(issue.problem.contains("unknown key"), "{issue}");
-        assert!(issue.problem.contains("mass_kg"), "{issue}");
+        assert!(issue.problem.contains("base_radius_m"), "{issue}");
     }
 
     #[test]
     fn unknown_section_is_refused() {
-        let err = load_str("[payloda]\nmass_kg = 1.0\n", "car.toml").unwrap_err();
-        assert_eq!(err.issues[0].key, "payloda");
-        assert!(err.issues[0].problem.contains("payload"), "{}", err);
+        let err = load_str("[platfrom]\nbase_radius_m = 1.0\n", "car.toml").unwrap_err();
+        assert_eq!(err.issues[0].key, "platfrom");
+        assert!(err.issues[0].problem.contains("platform"), "{}", err);
     }
 
     #[test]
     fn wrong_type_names_the_key() {
-        let err = load_str("[payload]\nmass_kg = \"1500 kg\"\n", "car.toml").unwrap_err();
+        let err = load_str("[platform]\nbase_radius_m = \"1.5 m\"\n", "car.toml").unwrap_err();
         let issue = &err.issues[0];
-        assert_eq!(issue.key, "payload.mass_kg");
+        assert_eq!(issue.key, "platform.base_radius_m");
         assert_eq!(issue.line, Some(2));
         assert!(issue.problem.contains("wrong type"), "{issue}");
     }
 
     #[test]
     fn wrong_array_length_names_the_key() {
-        let err = load_str("[payload]\ncom_m = [0.1, 0.2]\n", "car.toml").unwrap_err();
-        assert_eq!(err.issues[0].key, "payload.com_m");
+        let err = load_str("[sensors.imu]\nposition_m = [0.1, 0.2]\n", "car.toml").unwrap_err();
+        assert_eq!(err.issues[0].key, "sensors.imu.position_m");
     }
 
     #[test]
     fn syntax_error_gives_the_line() {
-        let err = load_str("[payload]\nmass_kg = = 3\n", "car.toml").unwrap_err();
+        let err = load_str("[platform]\nbase_radius_m = = 3\n", "car.toml").unwrap_err();
         assert_eq!(err.issues[0].line, Some(2));
         assert!(err.to_string().contains("car.toml:2"), "{err}");
     }
 
     #[test]
     fn out_of_range_value_is_refused_with_its_line() {
-        let err = load_str("[payload]\n\nmass_kg = -1500.0\n", "car.toml").unwrap_err();
+        let err = load_str("[platform]\n\nbase_radius_m = -1.5\n", "car.toml").unwrap_err();
         let issue = err
             .issues
             .iter()
-            .find(|i| i.key == "payload.mass_kg")
-            .expect("mass issue");
+            .find(|i| i.key == "platform.base_radius_m")
+            .expect("radius issue");
         assert_eq!(issue.line, Some(3));
         assert!(issue.problem.contains("positive"), "{issue}");
+    }
+
+    #[test]
+    fn keys_of_the_older_format_say_where_they_moved() {
+        let text = "[payload]\nmass_kg = 900.0\n[sensors]\nnoise = \"harsh\"\n[run]\nseed = 3\n";
+        let err = load_str(text, "old.toml").unwrap_err();
+        let keys: Vec<&str> = err.issues.iter().map(|i| i.key.as_str()).collect();
+        assert_eq!(keys, ["payload", "sensors.noise", "run.seed"]);
+        assert!(err.issues[0].problem.contains("[world.payload]"), "{err}");
+        assert_eq!(err.issues[2].line, Some(6));
+        assert!(err.issues[2].problem.contains("world.seed"), "{err}");
+    }
+
+    #[test]
+    fn the_world_table_is_left_to_its_own_layer() {
+        #[derive(serde::Deserialize)]
+        struct World {
+            seed: u64,
+        }
+        let loaded = load_str("[world]\nseed = 7\n", "w.toml").unwrap();
+        let w: World = loaded.section("world").unwrap();
+        assert_eq!(w.seed, 7);
+        // The rig description itself ignores the table: a scenario's world does not reach it.
+        assert_eq!(loaded.config, load(None).unwrap().config);
     }
 
     #[test]

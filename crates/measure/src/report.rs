@@ -1,5 +1,7 @@
-//! The JSON report (`--report FILE.json`), in exactly the shape DESIGN.md gives, plus extra
-//! fields (residual, rejected samples, consistency verdict, the tare used, run settings).
+//! The JSON report (`--report FILE.json`): `estimate`, `sigma`, `truth` (when known),
+//! `principal`, `samples`, `excitation_s`, `convergence`, `residual_rms` (docs/log-schema.md
+//! gives every field), plus rejected samples, the consistency verdict, the tare used, the
+//! systematic part and the run's settings.
 //!
 //! Everything is for the payload alone (tare removed), `com` in metres in P, `inertia_com` = J_C
 //! in kg·m² in P axes, `sigma` one standard deviation of each entry.
@@ -104,7 +106,8 @@ pub struct RunInfo {
     pub backend: String,
 }
 
-/// The report. Field order and names follow DESIGN.md; fields after `convergence` are extras.
+/// The report. Field order and names are the report convention of docs/log-schema.md; fields
+/// after `convergence` are extras.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Report {
     /// The payload's estimate.
@@ -254,11 +257,7 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
         samples: i.loaded.counts.used,
         excitation_s: i.excitation_s,
         convergence: Convergence {
-            samples_to_1pct: crate::run::samples_to_1pct(
-                i.theta_history,
-                Some(&i.tare.theta),
-                i.params,
-            ),
+            samples_to_1pct: samples_to_1pct(i.theta_history, Some(&i.tare.theta), i.params),
         },
         residual_rms: ResidualRms {
             force_n: [0, 1, 2].map(|k| i.loaded.residual_rms[k]),
@@ -295,11 +294,44 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
     }
 }
 
+/// samples_to_1pct: the 1-based index of the first sample after which every estimated parameter
+/// stays within 1 % of its final value (`None` without samples). `tare` is subtracted from each
+/// θ; with the 6-parameter model only the tensor entries count (m and h are not estimated).
+pub fn samples_to_1pct(
+    history: &[[f64; 10]],
+    tare: Option<&[f64; 10]>,
+    params: ParamCount,
+) -> Option<u64> {
+    let last = history.last()?;
+    let sub = |t: &[f64; 10]| -> [f64; 10] {
+        match tare {
+            Some(z) => core::array::from_fn(|i| t[i] - z[i]),
+            None => *t,
+        }
+    };
+    let fin = sub(last);
+    let range = match params {
+        ParamCount::Ten => 0..10,
+        ParamCount::Six => 4..10,
+    };
+    let within = |t: &[f64; 10]| {
+        let t = sub(t);
+        range
+            .clone()
+            .all(|i| (t[i] - fin[i]).abs() <= 0.01 * fin[i].abs())
+    };
+    let last_outside = history.iter().rposition(|t| !within(t));
+    Some(match last_outside {
+        None => 1,
+        Some(k) => k as u64 + 2,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// The DESIGN.md shape: these keys, these nestings, these array sizes.
+    /// The documented shape: these keys, these nestings, these array sizes.
     #[test]
     fn json_has_the_design_shape() {
         let report = Report {
@@ -462,5 +494,30 @@ mod tests {
         report.convergence.samples_to_1pct = Some(42);
         let back: Report = serde_json::from_str(&report.to_json()).unwrap();
         assert_eq!(back, report);
+    }
+
+    #[test]
+    fn samples_to_1pct_finds_the_last_excursion() {
+        let mut h = vec![[1.0; 10]; 10];
+        h[3][5] = 1.2;
+        h[6][0] = 0.985;
+        // Sample 7 (index 6) is outside, so from sample 8 on all stay within 1 %.
+        assert_eq!(samples_to_1pct(&h, None, ParamCount::Ten), Some(8));
+        // Only the tensor entries count with six parameters: index 3's entry 5 is the last.
+        assert_eq!(samples_to_1pct(&h, None, ParamCount::Six), Some(5));
+        assert_eq!(samples_to_1pct(&[], None, ParamCount::Ten), None);
+        assert_eq!(samples_to_1pct(&h[..1], None, ParamCount::Ten), Some(1));
+    }
+
+    #[test]
+    fn samples_to_1pct_subtracts_the_tare() {
+        // Loaded θ 102 → 100 with a tare of 99: the payload goes 3 → 1, far outside 1 %.
+        let h = vec![[102.0; 10], [100.0; 10], [100.0; 10]];
+        let tare = [99.0; 10];
+        assert_eq!(samples_to_1pct(&h, Some(&tare), ParamCount::Ten), Some(2));
+        assert_eq!(samples_to_1pct(&h, None, ParamCount::Ten), Some(2));
+        let h = vec![[100.5; 10], [100.0; 10]];
+        assert_eq!(samples_to_1pct(&h, None, ParamCount::Ten), Some(1));
+        assert_eq!(samples_to_1pct(&h, Some(&tare), ParamCount::Ten), Some(2));
     }
 }

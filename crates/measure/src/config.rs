@@ -1,26 +1,27 @@
-//! The scenario file's schema: one struct per TOML table, units in the key names.
+//! The rig description's schema: one struct per TOML table, units in the key names.
+//!
+//! The rig description is what a rig's owner can know and write down: the platform's geometry
+//! and stroke, the sample rate, each sensor's datasheet figures and the IMU's mounting, the
+//! control gains and safety limits, the excitation, the estimator's settings, the run's phases
+//! and the link to the rig. It never holds anything about the simulated world (the true
+//! payload, the actuator model, the seed): a scenario file may carry that too, in its `[world]`
+//! table, which this schema leaves to the simulator's layer (see [`crate::load::LoadedConfig::section`]).
 //!
 //! Every table refuses unknown keys (`deny_unknown_fields`) so that a misspelt key or a key with
 //! the wrong unit is an error, never a silently ignored setting. Ranges are checked in
-//! [`crate::validate`]; loading and messages are in [`crate::config_load`]; the checks that need
-//! the kinematics (singular design, unreachable trajectory) in [`crate::preflight`].
+//! [`crate::validate`]; loading and messages are in [`crate::load`]; the checks that need the
+//! kinematics (singular design, unreachable trajectory) in [`crate::setup`].
 
 use serde::{Deserialize, Serialize};
 
-/// A whole scenario: the machine, the bodies on it, the sensors, the controller, the excitation,
-/// the estimator and the run's phases.
+/// The rig description: the machine, its sensors' datasheets, the controller, the excitation,
+/// the estimator, the run's phases and the link.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Config {
     /// Joint layout and leg stroke.
     pub platform: PlatformConfig,
-    /// The plate and the fixture that holds the payload (always on the platform).
-    pub fixture: BodyConfig,
-    /// The body to be measured (a car).
-    pub payload: BodyConfig,
-    /// The simulated actuators between command and leg force (the simulator's own section).
-    pub actuator: sim::ActuatorConfig,
-    /// Sensor quality and rates.
+    /// Sample rate, the sensors' datasheet figures and the IMU's mounting.
     pub sensors: SensorsConfig,
     /// Leg position control and the safety supervisor's limits.
     pub control: ControlConfig,
@@ -32,11 +33,12 @@ pub struct Config {
     pub run: RunConfig,
     /// The link to a rig (`stewart rig`, `stewart emulate`); optional, every key defaulted.
     #[serde(default)]
-    pub rig: crate::rig_cmd::RigLinkConfig,
+    pub rig: crate::link::RigLinkConfig,
 }
 
-/// A 6-6 platform with joints in three pairs on each circle (ERRATA Eq. 1–2: the plate's pairs
-/// turned 60° against the base's).
+/// A 6-6 platform with joints in three pairs on each circle, the plate's pairs turned 60° against
+/// the base's (the seed paper's Eq. 1–2 as printed put equal joint angles on both circles, which
+/// is architecturally singular).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PlatformConfig {
@@ -54,20 +56,6 @@ pub struct PlatformConfig {
     pub max_leg_length_m: f64,
 }
 
-/// A rigid body's inertial properties, given the way a datasheet or CAD gives them: mass, centre
-/// of mass in P, inertia tensor about the centre of mass in P axes.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct BodyConfig {
-    /// Mass, kg.
-    pub mass_kg: f64,
-    /// Centre of mass in the platform frame P, metres.
-    pub com_m: [f64; 3],
-    /// Inertia tensor J_C about the centre of mass, P axes, kg·m² (symmetric; off-diagonal
-    /// entries are minus the products of inertia).
-    pub inertia_com_kg_m2: [[f64; 3]; 3],
-}
-
 impl ExcitationConfig {
     /// The fade-out time, s.
     pub fn fade_out(&self) -> f64 {
@@ -75,61 +63,126 @@ impl ExcitationConfig {
     }
 }
 
-impl BodyConfig {
-    /// As the simulator's body description.
-    pub fn to_sim(&self) -> sim::BodyProperties {
-        sim::BodyProperties {
-            mass_kg: self.mass_kg,
-            com_m: self.com_m,
-            inertia_com_kg_m2: self.inertia_com_kg_m2,
-        }
-    }
-}
-
-/// Sensor noise level.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum NoisePreset {
-    /// Ideal sensors.
-    None,
-    /// Industrial grade: load cells ~0.02 % of 20 kN, encoders ~1 µm, tactical-grade IMU.
-    Realistic,
-    /// About ten times worse than realistic.
-    Harsh,
-}
-
-impl NoisePreset {
-    /// The preset's name as written in configs and on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::None => "none",
-            Self::Realistic => "realistic",
-            Self::Harsh => "harsh",
-        }
-    }
-
-    /// The simulator's preset.
-    pub fn to_sim(self) -> sim::NoisePreset {
-        match self {
-            Self::None => sim::NoisePreset::None,
-            Self::Realistic => sim::NoisePreset::Realistic,
-            Self::Harsh => sim::NoisePreset::Harsh,
-        }
-    }
-}
-
-/// Sensors on the platform.
+/// The sensors on the platform as their datasheets and the rig's build describe them.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SensorsConfig {
-    /// Noise preset (overridden by `--noise`).
-    pub noise: NoisePreset,
     /// Sampling (and control loop) rate, Hz.
     pub sample_rate_hz: f64,
-    /// Physics substeps per sample in the simulator (substep ≤ 1 ms).
-    pub physics_substeps: u32,
-    /// Accelerometer mounting point in P, metres.
-    pub imu_position_m: [f64; 3],
+    /// The leg-length encoders.
+    pub encoder: EncoderDatasheet,
+    /// The load cell in each leg.
+    pub load_cell: LoadCellDatasheet,
+    /// The gyroscope.
+    pub gyro: GyroDatasheet,
+    /// The accelerometer.
+    pub accelerometer: AccelerometerDatasheet,
+    /// Where the IMU (gyroscope and accelerometer) sits on the plate and how it is turned.
+    pub imu: ImuMounting,
+}
+
+/// Leg-length encoders (joint centre to joint centre).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct EncoderDatasheet {
+    /// White noise, one standard deviation, m.
+    pub noise_m: f64,
+    /// Resolution (quantisation step), m; 0 = continuous.
+    pub resolution_m: f64,
+}
+
+/// The axial load cells.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LoadCellDatasheet {
+    /// White noise, one standard deviation, N.
+    pub noise_n: f64,
+    /// One standard deviation of each cell's zero offset left after its calibration, N. Its
+    /// effect enters the reported sigma as a systematic part ([`crate::systematic`]).
+    pub zero_offset_n: f64,
+    /// Resolution (quantisation step), N; 0 = continuous.
+    pub resolution_n: f64,
+}
+
+/// The gyroscope.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GyroDatasheet {
+    /// Rate noise density (angle random walk), rad/s/√Hz. The per-sample sigma the estimator's
+    /// errors-in-variables correction assumes is this times √(sample rate).
+    pub noise_density_rad_s_sqrt_hz: f64,
+    /// One standard deviation of each axis' constant bias (bias stability), rad/s.
+    pub bias_rad_s: f64,
+}
+
+/// The accelerometer, reading specific force `a − g`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AccelerometerDatasheet {
+    /// Noise density (velocity random walk), m/s²/√Hz; per sample × √(sample rate).
+    pub noise_density_m_s2_sqrt_hz: f64,
+    /// One standard deviation of each axis' constant bias, m/s². Its effect does not cancel
+    /// with the tare (it is proportional to the mass on the plate) and enters the reported
+    /// sigma as a systematic part ([`crate::systematic`]).
+    pub bias_m_s2: f64,
+}
+
+/// The IMU's mounting on the plate (`Default`: at the P origin, axes along P's).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImuMounting {
+    /// The accelerometer's position in P, m.
+    pub position_m: [f64; 3],
+    /// The IMU's axes against P as roll, pitch, yaw, degrees: a vector v given in the IMU's
+    /// axes is `R v` in P with `R = Rx(roll) Ry(pitch) Rz(yaw)` (the pose convention).
+    pub orientation_deg: [f64; 3],
+}
+
+impl ImuMounting {
+    /// The rotation from the IMU's axes into P.
+    pub fn rotation(&self) -> nalgebra::Rotation3<f64> {
+        let [r, p, y] = self.orientation_deg.map(f64::to_radians);
+        nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::x_axis(), r)
+            * nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::y_axis(), p)
+            * nalgebra::Rotation3::from_axis_angle(&nalgebra::Vector3::z_axis(), y)
+    }
+}
+
+impl SensorsConfig {
+    /// Every datasheet figure times `k` (0: ideal sensors; the mounting is kept).
+    pub fn scaled(&self, k: f64) -> Self {
+        Self {
+            sample_rate_hz: self.sample_rate_hz,
+            encoder: EncoderDatasheet {
+                noise_m: k * self.encoder.noise_m,
+                resolution_m: k * self.encoder.resolution_m,
+            },
+            load_cell: LoadCellDatasheet {
+                noise_n: k * self.load_cell.noise_n,
+                zero_offset_n: k * self.load_cell.zero_offset_n,
+                resolution_n: k * self.load_cell.resolution_n,
+            },
+            gyro: GyroDatasheet {
+                noise_density_rad_s_sqrt_hz: k * self.gyro.noise_density_rad_s_sqrt_hz,
+                bias_rad_s: k * self.gyro.bias_rad_s,
+            },
+            accelerometer: AccelerometerDatasheet {
+                noise_density_m_s2_sqrt_hz: k * self.accelerometer.noise_density_m_s2_sqrt_hz,
+                bias_m_s2: k * self.accelerometer.bias_m_s2,
+            },
+            imu: self.imu,
+        }
+    }
+
+    /// Per-sample gyro noise, rad/s: density × √(sample rate).
+    pub fn gyro_noise_rad_s(&self) -> f64 {
+        self.gyro.noise_density_rad_s_sqrt_hz * self.sample_rate_hz.sqrt()
+    }
+
+    /// Per-sample accelerometer noise, m/s²: density × √(sample rate).
+    pub fn accel_noise_m_s2(&self) -> f64 {
+        self.accelerometer.noise_density_m_s2_sqrt_hz * self.sample_rate_hz.sqrt()
+    }
 }
 
 /// Leg position control (a PID per leg on leg length) and the supervisor's limits.
@@ -314,19 +367,6 @@ pub struct EstimatorSection {
     pub torque_sigma_nm: f64,
     /// Prior one-sigma of every parameter about zero (SI units; large = uninformative).
     pub prior_sigma: f64,
-    /// Per-sample noise of each gyro axis, rad/s, from the IMU's datasheet, for the
-    /// errors-in-variables correction. Omitted: the noise preset's datasheet figure
-    /// (noise density × √sample rate).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub gyro_noise_rad_s: Option<f64>,
-    /// Per-sample noise of each accelerometer axis, m/s² (omitted: from the noise preset).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub accel_noise_m_s2: Option<f64>,
-    /// One sigma of the accelerometer's bias, m/s², from its datasheet (omitted: from the noise
-    /// preset). Its effect on the estimate is added to the reported uncertainty: it does not
-    /// cancel with the tare, being proportional to the mass on the plate.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub accel_bias_m_s2: Option<f64>,
     /// Known payload mass for `params = 6` (weighed beforehand), kg.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub known_payload_mass_kg: Option<f64>,
@@ -357,6 +397,4 @@ pub struct RunConfig {
     pub tare_duration_s: f64,
     /// Ramp back home after the excitation, s.
     pub park_s: f64,
-    /// Seed of every random number in the simulation (overridden by `--seed`).
-    pub seed: u64,
 }

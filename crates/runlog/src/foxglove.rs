@@ -9,7 +9,7 @@
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use serde::Serialize;
 
-use crate::schema::{array, boolean, int, num, object, string, Schema};
+use measure::schema::{array, boolean, int, num, object, string, Schema};
 
 /// Name of the fixed frame.
 pub const BASE_FRAME: &str = "base";

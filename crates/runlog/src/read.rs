@@ -13,9 +13,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Deserializer};
 
-use crate::log_messages as topics;
+use crate::messages as topics;
 use crate::metadata::{EstimatorSettings, RunMetadata, TruthMsg};
-use crate::tare::TareFile;
+use measure::tare::TareFile;
 
 /// What the log holds on one channel.
 #[derive(Clone, Debug, PartialEq)]
@@ -373,8 +373,8 @@ impl LogContents {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::log_messages::{channels, SensorMsg};
     use crate::mcap_log::McapLog;
+    use crate::messages::{channels, SensorMsg};
 
     fn frame(i: u64) -> control::io::SensorFrame {
         control::io::SensorFrame {

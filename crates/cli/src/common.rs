@@ -1,0 +1,175 @@
+//! What the measurement commands (`simulate`, `rig`) share: their common flags, the error type
+//! of every command and its exit codes, and the end of a command (table, report, log, figures).
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+use measure::load::{ConfigError, LoadedConfig, Overrides};
+use measure::{End, Report};
+
+/// Exit code after Ctrl-C (128 + SIGINT, as shells report it).
+pub const EXIT_INTERRUPTED: u8 = 130;
+/// Exit code after a supervisor fault.
+pub const EXIT_FAULT: u8 = 3;
+
+/// Flags of every measurement (`simulate`, `rig`, `rig tare`, `rig measure`).
+#[derive(Clone, Debug, Default, Args)]
+pub struct MeasureArgs {
+    /// Rig description / scenario TOML, laid over the embedded default (configs/default.toml).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Excitation time of the loaded run including the fades, s (run.duration_s).
+    #[arg(long, value_name = "SECONDS")]
+    pub duration: Option<f64>,
+    /// 10: mass, centre of mass and inertia; 6: the paper's inertia-only model (estimator.params).
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["10", "6"]))]
+    pub params: Option<String>,
+    /// Use this saved tare (JSON) instead of a tare run.
+    #[arg(long, value_name = "FILE")]
+    pub tare: Option<PathBuf>,
+    /// Save the measured tare (JSON) for later `--tare` runs.
+    #[arg(long, value_name = "FILE")]
+    pub save_tare: Option<PathBuf>,
+    /// MCAP log file (default: runs/<UTC time>.mcap).
+    #[arg(long, value_name = "FILE.mcap")]
+    pub log: Option<PathBuf>,
+    /// Write the JSON report here.
+    #[arg(long, value_name = "FILE.json")]
+    pub report: Option<PathBuf>,
+    /// No progress bar and no table.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Write SVG and PNG figures (estimates with ±σ, tracking error, excitation) here.
+    #[arg(long, value_name = "DIR")]
+    pub plot: Option<PathBuf>,
+}
+
+impl MeasureArgs {
+    /// The rig description of `--config` with `--duration` and `--params` applied, validated.
+    pub fn load_config(&self) -> Result<LoadedConfig, ConfigError> {
+        measure::load::load(self.config.as_deref())?.with_overrides(&Overrides {
+            duration_s: self.duration,
+            params: self.params.as_deref().map(parse_params),
+        })
+    }
+}
+
+/// `--params` as the schema's value (the parser admits only "10" and "6").
+pub fn parse_params(p: &str) -> measure::config::ParamCount {
+    if p == "6" {
+        measure::config::ParamCount::Six
+    } else {
+        measure::config::ParamCount::Ten
+    }
+}
+
+/// Why a command failed.
+#[derive(Debug, thiserror::Error)]
+pub enum CommandError {
+    /// The configuration was refused before anything ran.
+    #[error("{0}")]
+    Config(ConfigError),
+    /// An input other than the configuration (a tare file, a key, the rig's handshake) was
+    /// refused before anything moved.
+    #[error("{0:#}")]
+    Input(anyhow::Error),
+    /// The run failed (backend, log).
+    #[error("{0:#}")]
+    Run(anyhow::Error),
+}
+
+impl CommandError {
+    /// Process exit code: 2 for refused inputs (nothing ran), 1 for a failed run.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            Self::Config(_) | Self::Input(_) => 2,
+            Self::Run(_) => 1,
+        }
+    }
+}
+
+impl From<ConfigError> for CommandError {
+    fn from(e: ConfigError) -> Self {
+        Self::Config(e)
+    }
+}
+
+/// A refusal of an input, in words.
+pub fn refuse(message: String) -> CommandError {
+    CommandError::Input(anyhow::anyhow!(message))
+}
+
+/// `e` with every issue about `run.duration_s` said of `key` instead (the tare run's duration).
+pub fn rename_duration(mut e: ConfigError, key: &str) -> ConfigError {
+    for issue in &mut e.issues {
+        if issue.key == "run.duration_s" {
+            issue.key = key.to_string();
+        }
+    }
+    e
+}
+
+/// Wall-clock time, ns since the Unix epoch.
+pub fn unix_ns() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_nanos() as u64)
+        .unwrap_or(0)
+}
+
+/// `--log`, or `runs/<UTC time>.mcap`.
+pub fn log_path(args: &MeasureArgs, start_ns: u64) -> PathBuf {
+    match &args.log {
+        Some(p) => p.clone(),
+        None => runlog::mcap_log::default_log_path(Path::new("runs"), start_ns / 1_000_000_000),
+    }
+}
+
+/// The exit code of `end`, with its message on standard error.
+pub fn end_code(end: &End, fault_detail: &str) -> u8 {
+    match end {
+        End::Completed => 0,
+        End::Interrupted => {
+            eprintln!("interrupted: the platform was parked and braked; no report");
+            EXIT_INTERRUPTED
+        }
+        End::Fault(cause) => {
+            eprintln!("fault: {cause}{fault_detail}; a safe stop was commanded; no report");
+            EXIT_FAULT
+        }
+    }
+}
+
+/// Prints the table, writes the report (`json`, the report's JSON with any extras), says where
+/// the log is and draws the figures; returns the exit code after `code`.
+pub fn finish_measurement(
+    args: &MeasureArgs,
+    report: Option<(&Report, String)>,
+    log: &Path,
+    mut code: u8,
+) -> u8 {
+    if let Some((report, json)) = report {
+        if !args.quiet {
+            print!("{}", crate::table::render(report));
+        }
+        if let Some(path) = &args.report {
+            if let Err(e) = std::fs::write(path, json) {
+                eprintln!("error: cannot write the report {}: {e}", path.display());
+                code = code.max(1);
+            } else if !args.quiet {
+                println!("report: {}", path.display());
+            }
+        }
+    }
+    println!("log: {}", log.display());
+    if let Some(dir) = &args.plot {
+        match crate::plot::plot_log(log, dir) {
+            Ok(files) => println!("figures: {} ({} files)", dir.display(), files.len()),
+            Err(e) => {
+                eprintln!("error: cannot plot the log: {e:#}");
+                code = code.max(1);
+            }
+        }
+    }
+    code
+}

@@ -1,0 +1,507 @@
+//! `stewart rig`: the measurement on a rig behind the wire protocol (a real platform's I/O
+//! controller, or `stewart emulate`), with the same procedure, log and report as `simulate`
+//! minus the truth, plus the link's counters and the loop's timing.
+//!
+//! Modes: `rig` (tare run, the operator puts the payload on, loaded run), `rig tare --out FILE`
+//! (tare only) and `rig measure --tare FILE` (loaded run with a saved tare; `rig --tare FILE`
+//! is the same). Each measurement is one session of the protocol: the tare's session ends
+//! braked, and the loaded run opens a new one once the operator confirms the payload is on.
+//!
+//! Before anything moves: the configuration, the trajectories, the tare file and the key are
+//! checked, then the handshake (protocol version, sensor layout, sample period, accelerometer
+//! position, and the rig's stroke and speed limits against the configuration). After that,
+//! any link silence longer than `rig.link_silence_ms`, an invalid sensor value, a fault
+//! reported by the rig or a supervisor limit ends the measurement with a safe stop, a message
+//! naming the cause, the log finished, and exit code 3. Ctrl-C parks, finishes the log and
+//! exits with 130. Commands are clamped to the tighter of the rig's force limits and
+//! `control.max_force_n` whatever the controller computes.
+
+pub mod link;
+mod outcome;
+mod station;
+
+use std::path::PathBuf;
+use std::sync::atomic::AtomicBool;
+use std::time::Duration;
+
+use clap::{Args, Subcommand};
+use control::io::Backend;
+use measure::load::{ConfigError, ConfigIssue, LoadedConfig};
+use measure::report::RunInfo;
+use measure::session::{self, SessionPlan, TarePlan};
+use measure::{setup, TareFile};
+use rig::{Key, RigBackend, RigOptions};
+use runlog::mcap_log::Delivery;
+use runlog::messages as topics;
+use runlog::metadata::RunMetadata;
+use runlog::{LogObserver, RunLog};
+
+use crate::common::{self, refuse, CommandError, MeasureArgs};
+use crate::progress::Progress;
+
+pub use outcome::{finish, link_lines, LinkReport, RigOutcome};
+
+use link::{Failure, Link};
+use runlog::link::TimingSummary;
+
+/// The link flags of `stewart rig`.
+#[derive(Clone, Debug, Default, Args)]
+pub struct LinkArgs {
+    /// The rig's address: udp://HOST:PORT or serial:///dev/DEVICE?baud=N [default: rig.address,
+    /// udp://127.0.0.1:7700].
+    #[arg(long, value_name = "ADDR")]
+    pub connect: Option<String>,
+    /// Shared-key file (hex), instead of rig.key_file.
+    #[arg(long, value_name = "FILE")]
+    pub key: Option<PathBuf>,
+    /// Fault when no valid sensor frame arrived for this long, ms (rig.link_silence_ms,
+    /// default 50).
+    #[arg(long, value_name = "MS")]
+    pub link_silence_ms: Option<f64>,
+    /// Start the loaded run right after the tare run, without waiting for the operator to put
+    /// the payload on and press Enter (scripts, the emulator).
+    #[arg(long)]
+    pub no_prompt: bool,
+}
+
+/// Link and run flags, accepted by `rig`, `rig tare` and `rig measure`.
+#[derive(Clone, Debug, Default, Args)]
+pub struct RigRunArgs {
+    /// How to reach the rig.
+    #[command(flatten)]
+    pub link: LinkArgs,
+    /// The measurement's flags.
+    #[command(flatten)]
+    pub run: MeasureArgs,
+}
+
+/// `stewart rig`.
+#[derive(Clone, Debug, Default, Args)]
+#[command(args_conflicts_with_subcommands = true)]
+pub struct RigArgs {
+    /// Tare only or measurement only; without one: tare run, payload on, loaded run.
+    #[command(subcommand)]
+    pub mode: Option<RigMode>,
+    /// Flags of the two-run mode.
+    #[command(flatten)]
+    pub common: RigRunArgs,
+}
+
+/// The single-run modes of `stewart rig`.
+#[derive(Clone, Debug, Subcommand)]
+pub enum RigMode {
+    /// Measure the empty fixture (tare) and save it for `rig measure --tare FILE`.
+    Tare(RigTareArgs),
+    /// Measure the payload, subtracting a saved tare (`--tare FILE`, required).
+    Measure(RigRunArgs),
+}
+
+/// `stewart rig tare`.
+#[derive(Clone, Debug, Args)]
+pub struct RigTareArgs {
+    /// Save the tare here (JSON).
+    #[arg(long, value_name = "FILE")]
+    pub out: PathBuf,
+    /// Link and run flags.
+    #[command(flatten)]
+    pub common: RigRunArgs,
+}
+
+/// `stewart rig ARGS` parsed as the command line parses it (for tests and tools).
+pub fn parse(args: &[&str]) -> Result<RigArgs, clap::Error> {
+    use clap::Parser;
+    let all = ["stewart", "rig"].iter().chain(args);
+    match crate::Cli::try_parse_from(all)?.command {
+        crate::Command::Rig(a) => Ok(*a),
+        _ => Err(clap::Error::raw(
+            clap::error::ErrorKind::InvalidSubcommand,
+            "not a rig command",
+        )),
+    }
+}
+
+/// What a `stewart rig` invocation will do.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Plan {
+    /// Tare run, payload on, loaded run.
+    Both,
+    /// Tare run only, saved to the path.
+    TareOnly(PathBuf),
+    /// Loaded run with the saved tare of `--tare`.
+    MeasureOnly,
+}
+
+/// The plan and flags of `args`, or why they do not go together.
+pub fn resolve(args: &RigArgs) -> Result<(Plan, &RigRunArgs), CommandError> {
+    let (plan, common) = match &args.mode {
+        None if args.common.run.tare.is_some() => (Plan::MeasureOnly, &args.common),
+        None => (Plan::Both, &args.common),
+        Some(RigMode::Tare(t)) => (Plan::TareOnly(t.out.clone()), &t.common),
+        Some(RigMode::Measure(m)) => (Plan::MeasureOnly, m),
+    };
+    let run = &common.run;
+    match &plan {
+        Plan::TareOnly(_) => {
+            if run.tare.is_some() {
+                return Err(refuse(
+                    "`rig tare` measures the tare: --tare does not apply".into(),
+                ));
+            }
+            if run.save_tare.is_some() {
+                return Err(refuse(
+                    "`rig tare` saves the tare with --out: drop --save-tare".into(),
+                ));
+            }
+            if run.report.is_some() {
+                return Err(refuse(
+                    "`rig tare` writes its result with --out; --report belongs to a measurement"
+                        .into(),
+                ));
+            }
+        }
+        Plan::MeasureOnly if run.tare.is_none() => {
+            return Err(refuse(
+                "`rig measure` needs --tare FILE (saved by `rig tare --out FILE`)".into(),
+            ))
+        }
+        Plan::MeasureOnly if run.save_tare.is_some() => {
+            return Err(refuse(
+                "--save-tare needs a tare run; this run uses --tare".into(),
+            ))
+        }
+        _ => {}
+    }
+    Ok((plan, common))
+}
+
+/// The link settings of a run: the address and the host's options.
+#[derive(Clone, Debug)]
+pub struct LinkSettings {
+    /// The rig's address.
+    pub address: String,
+    /// The host's options (key loaded).
+    pub options: RigOptions,
+}
+
+/// The `[rig]` table with the flags applied, checked, and the key read.
+pub fn link_settings(
+    loaded: &LoadedConfig,
+    flags: &LinkArgs,
+) -> Result<LinkSettings, CommandError> {
+    let config = &loaded.config;
+    let mut rig_config = config.rig.clone();
+    let mut issues = Vec::new();
+    if let Some(address) = &flags.connect {
+        if let Err(e) = address.parse::<rig::transport::Address>() {
+            issues.push(flag_issue("--connect", e.to_string()));
+        }
+        rig_config.address = address.clone();
+    }
+    if let Some(ms) = flags.link_silence_ms {
+        if !(ms.is_finite() && (1.0..=10_000.0).contains(&ms)) {
+            issues.push(flag_issue(
+                "--link-silence-ms",
+                format!("must be between 1 and 10000 ms, got {ms}"),
+            ));
+        }
+        rig_config.link_silence_ms = ms;
+    }
+    if issues.is_empty() {
+        issues.extend(
+            rig_config
+                .problems()
+                .into_iter()
+                .map(|(key, problem)| loaded.issue(&key, problem)),
+        );
+    }
+    if !issues.is_empty() {
+        return Err(CommandError::Config(ConfigError { issues }));
+    }
+    let key_path = match &flags.key {
+        Some(path) => Some(path.clone()),
+        None => rig_config.key_path(&loaded.source),
+    };
+    let key = match key_path {
+        Some(path) => Some(Key::from_file(&path).map_err(|e| refuse(format!("shared key: {e}")))?),
+        None => None,
+    };
+    let options = RigOptions {
+        link_silence: Duration::from_secs_f64(rig_config.link_silence_ms * 1e-3),
+        handshake_timeout: Duration::from_secs_f64(rig_config.handshake_timeout_s),
+        key,
+        require_imu: true,
+        accel_position_m: Some(config.sensors.imu.position_m),
+        sample_period_s: Some(1.0 / config.sensors.sample_rate_hz),
+        force_limit_n: Some(config.control.max_force_n),
+        ..RigOptions::default()
+    };
+    Ok(LinkSettings {
+        address: rig_config.address,
+        options,
+    })
+}
+
+fn flag_issue(flag: &str, problem: String) -> ConfigIssue {
+    ConfigIssue {
+        file: measure::load::COMMAND_LINE_NAME.into(),
+        line: None,
+        key: flag.into(),
+        problem,
+    }
+}
+
+/// Refuses a rig whose limits do not fit the configuration the trajectories were checked
+/// against (before any command is sent).
+pub fn check_rig(info: &rig::host::RigInfo, loaded: &LoadedConfig) -> Result<(), CommandError> {
+    let c = &loaded.config;
+    let l = &info.limits;
+    let (min_m, max_m) = (c.platform.min_leg_length_m, c.platform.max_leg_length_m);
+    if (l.stroke_min_m - min_m).abs() > 1e-3 || (l.stroke_max_m - max_m).abs() > 1e-3 {
+        return Err(refuse(format!(
+            "rig layout mismatch: the rig's legs stroke from {} to {} m, the configuration's \
+             from {min_m} to {max_m} m (platform.min_leg_length_m, platform.max_leg_length_m); \
+             refusing the session",
+            l.stroke_min_m, l.stroke_max_m
+        )));
+    }
+    let speed = c.excitation.max_leg_speed_m_s;
+    if l.speed_max_m_s < speed {
+        return Err(refuse(format!(
+            "rig layout mismatch: the excitation may move a leg at {speed} m/s \
+             (excitation.max_leg_speed_m_s) but the rig allows {} m/s; refusing the session",
+            l.speed_max_m_s
+        )));
+    }
+    Ok(())
+}
+
+/// Runs `stewart rig`. `interrupt` is the Ctrl-C flag: when set, the platform parks, the log
+/// is finished and the outcome says [`measure::End::Interrupted`]. A refused input or handshake
+/// is an error (nothing moved); a fault is an outcome with [`measure::End::Fault`] naming the
+/// cause.
+pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, CommandError> {
+    let (plan, common) = resolve(args)?;
+    let loaded = common.run.load_config()?;
+    let config = &loaded.config;
+    let link = link_settings(&loaded, &common.link)?;
+    let geometry = setup::geometry(&loaded)?;
+    // The controllers are built (and their trajectories checked) here, before the rig is even
+    // contacted: nothing slow remains between samples once a session runs.
+    let loaded_controller = if plan == Plan::MeasureOnly || plan == Plan::Both {
+        let t = setup::trajectory(&loaded, &geometry, config.run.duration_s)?;
+        Some(setup::controller(&loaded, &geometry, t)?)
+    } else {
+        None
+    };
+    let (base_joints, plate_joints) = session::joints(&geometry);
+    let tare = match &common.run.tare {
+        Some(path) => TarePlan::File(
+            TareFile::load(path, &base_joints, &plate_joints).map_err(CommandError::Input)?,
+            path.display().to_string(),
+        ),
+        None => {
+            let t = setup::trajectory(&loaded, &geometry, config.run.tare_duration_s)
+                .map_err(|e| common::rename_duration(e, "run.tare_duration_s"))?;
+            TarePlan::Measure(setup::controller(&loaded, &geometry, t)?)
+        }
+    };
+
+    // The handshake: refusals end here, before the log and before any command.
+    let backend = RigBackend::connect(&link.address, link.options.clone())
+        .map_err(|e| refuse(format!("{e}")))?;
+    check_rig(backend.info(), &loaded)?;
+    let rig_link = Link::start(backend);
+
+    let start_ns = common::unix_ns();
+    let log_path = common::log_path(&common.run, start_ns);
+    // The log's writer thread must never stall the control loop: when it falls behind (a disk
+    // that blocks), messages are dropped and counted instead.
+    let mut log = RunLog::create_with(&log_path, start_ns, Delivery::DropWhenFull)
+        .map_err(CommandError::Run)?;
+    let mut runs = Vec::new();
+    if matches!(tare, TarePlan::Measure(_)) {
+        runs.push("tare".to_string());
+    }
+    if loaded_controller.is_some() {
+        runs.push("loaded".to_string());
+    }
+    let total = match &tare {
+        TarePlan::Measure(c) => measure::measurement::expected_samples(config, c.trajectory()),
+        TarePlan::File(..) => 0,
+    } + loaded_controller.as_ref().map_or(0, |c| {
+        measure::measurement::expected_samples(config, c.trajectory())
+    });
+    let stroke = geometry.stroke();
+    let header = log.write_now(
+        topics::METADATA,
+        &RunMetadata {
+            tool_version: env!("CARGO_PKG_VERSION").into(),
+            command: "rig".into(),
+            backend: "rig".into(),
+            config_source: loaded.source.clone(),
+            config_text: loaded.text.clone(),
+            config_toml: loaded.effective_toml(),
+            seed: 0,
+            noise: outcome::NOISE.into(),
+            params: config.estimator.params.into(),
+            sample_period_s: rig_link.lock().rig.sample_period_s(),
+            start_unix_ns: log.start_unix_ns(),
+            runs,
+            tare_file: common.run.tare.as_ref().map(|p| p.display().to_string()),
+            base_joints_m: base_joints,
+            plate_joints_m: plate_joints,
+            stroke_m: [stroke.min_length_m, stroke.max_length_m],
+        },
+    );
+    let save_tare = match &plan {
+        Plan::TareOnly(out) => Some(out.as_path()),
+        _ => common.run.save_tare.as_deref(),
+    };
+    let mut progress = Progress::new(total, common.run.quiet);
+    let mut station =
+        station::RigStation::new(&rig_link, &loaded, progress.handle(), common.link.no_prompt);
+    let result = header.and_then(|()| {
+        let mut observer =
+            measure::observer::Both(LogObserver::new(&mut log, &geometry, config), &mut progress);
+        session::run(
+            SessionPlan {
+                config: &loaded,
+                geometry,
+                tare,
+                loaded: loaded_controller,
+                save_tare,
+                backend: "rig",
+            },
+            &mut station,
+            &mut observer,
+            interrupt,
+        )
+    });
+    let (link_reports, failure) = station.into_reports();
+    progress.finish();
+    if !matches!(result, Ok(ref o) if o.end == measure::End::Completed) {
+        // Whatever happened, leave the rig braked.
+        let _ = rig_link.lock().safe_stop();
+    }
+    let dropped = log.dropped();
+    let finished = log.finish();
+    if dropped > 0 {
+        eprintln!(
+            "warning: the log's writer fell behind; {dropped} log messages were dropped rather \
+             than stall the control loop (the gaps show in the MCAP sequence numbers)"
+        );
+    }
+    let outcome = result.map_err(CommandError::Run)?;
+    finished.map_err(CommandError::Run)?;
+    let info = rig_link.lock().rig.info().clone();
+    let report = outcome.report(
+        config,
+        RunInfo {
+            config: loaded.source.clone(),
+            seed: 0,
+            noise: outcome::NOISE.into(),
+            params: config.estimator.params.into(),
+            log: Some(log_path.display().to_string()),
+            backend: "rig".into(),
+        },
+        None,
+    );
+    Ok(RigOutcome {
+        report,
+        log_path,
+        end: outcome.end.clone(),
+        tare: outcome.measured_tare().cloned(),
+        link: link_reports,
+        failure,
+        rig: info,
+    })
+}
+
+/// `stewart rig` from the command line: runs, prints, writes the report; returns the exit
+/// code (0 done, 1 failed, 2 refused before anything moved, 3 fault, 130 interrupted).
+pub fn main(args: &RigArgs, interrupt: &AtomicBool) -> u8 {
+    match rig(args, interrupt) {
+        Ok(outcome) => outcome::finish(args, &outcome),
+        Err(e) => {
+            eprintln!("error: {e}");
+            e.exit_code()
+        }
+    }
+}
+
+/// Failures seen by the host, for callers that time them.
+pub fn failure_of(outcome: &RigOutcome) -> Option<&Failure> {
+    outcome.failure.as_ref()
+}
+
+/// The timing summary of measurement `run` (`"tare"` or `"loaded"`).
+pub fn timing_of<'a>(outcome: &'a RigOutcome, run: &str) -> Option<&'a TimingSummary> {
+    outcome
+        .link
+        .iter()
+        .find(|l| l.run == run)
+        .map(|l| &l.timing)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Debug, Parser)]
+    struct Cli {
+        #[command(flatten)]
+        rig: RigArgs,
+    }
+
+    fn parse(args: &[&str]) -> Result<RigArgs, clap::Error> {
+        let mut all = vec!["rig"];
+        all.extend_from_slice(args);
+        Cli::try_parse_from(all).map(|c| c.rig)
+    }
+
+    #[test]
+    fn modes_and_flags_parse() {
+        let a = parse(&[]).unwrap();
+        assert_eq!(resolve(&a).unwrap().0, Plan::Both);
+        let a = parse(&[
+            "--connect",
+            "udp://10.0.0.2:7700",
+            "--duration",
+            "5",
+            "--no-prompt",
+        ])
+        .unwrap();
+        let (plan, c) = resolve(&a).unwrap();
+        assert_eq!(plan, Plan::Both);
+        assert_eq!(c.link.connect.as_deref(), Some("udp://10.0.0.2:7700"));
+        assert!(c.link.no_prompt);
+        assert_eq!(c.run.duration, Some(5.0));
+        let a = parse(&["tare", "--out", "t.json", "--quiet"]).unwrap();
+        assert_eq!(
+            resolve(&a).unwrap().0,
+            Plan::TareOnly(PathBuf::from("t.json"))
+        );
+        let a = parse(&["measure", "--tare", "t.json", "--report", "r.json"]).unwrap();
+        assert_eq!(resolve(&a).unwrap().0, Plan::MeasureOnly);
+        let a = parse(&["--tare", "t.json"]).unwrap();
+        assert_eq!(resolve(&a).unwrap().0, Plan::MeasureOnly);
+    }
+
+    #[test]
+    fn contradictions_are_refused_by_name() {
+        let message = |args: &[&str]| match resolve(&parse(args).unwrap()) {
+            Err(e) => e.to_string(),
+            Ok(_) => String::new(),
+        };
+        assert!(message(&["measure"]).contains("--tare FILE"));
+        assert!(message(&["tare", "--out", "t", "--tare", "x"]).contains("--tare does not apply"));
+        assert!(message(&["tare", "--out", "t", "--report", "r"]).contains("--report"));
+        // The simulator's flags are not the rig's: `rig --help` does not offer them.
+        assert!(parse(&["--seed", "3"]).is_err());
+        assert!(parse(&["measure", "--tare", "t", "--noise", "harsh"]).is_err());
+        assert!(parse(&["--runs", "3"]).is_err());
+        assert!(parse(&["tare"]).is_err(), "--out is required");
+        assert!(parse(&["--duration", "5", "tare", "--out", "t"]).is_err());
+    }
+}

@@ -1,0 +1,173 @@
+//! The rig as a session's station: each measurement runs on the monitored link (first failure
+//! and loop timing kept) between two `/rig/link` records, and the payload change brakes the rig,
+//! asks the operator and opens the loaded run's session.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use anyhow::anyhow;
+use control::io::Backend;
+use measure::observer::Observer;
+use measure::session::{Job, Station};
+use measure::{End, LoadedConfig, MeasureOutcome};
+use runlog::link::{LinkCounters, LinkMsg, LINK};
+use runlog::messages::{self as topics, SupervisorMsg};
+
+use super::link::{counters_of, Failure, Link, LoopTiming, Monitored};
+use super::outcome::LinkReport;
+
+/// See the [module docs](self).
+pub struct RigStation<'a> {
+    link: &'a Link,
+    loaded: &'a LoadedConfig,
+    progress: indicatif::ProgressBar,
+    no_prompt: bool,
+    reports: Vec<LinkReport>,
+    failure: Option<Failure>,
+}
+
+impl<'a> RigStation<'a> {
+    /// The station on `link` for the rig `loaded` describes; `progress` leaves the screen while
+    /// the operator is asked; `no_prompt` goes on without asking.
+    pub fn new(
+        link: &'a Link,
+        loaded: &'a LoadedConfig,
+        progress: indicatif::ProgressBar,
+        no_prompt: bool,
+    ) -> Self {
+        Self {
+            link,
+            loaded,
+            progress,
+            no_prompt,
+            reports: Vec::new(),
+            failure: None,
+        }
+    }
+
+    /// The link over each measurement made, and the failure that ended the session, if any.
+    pub fn into_reports(self) -> (Vec<LinkReport>, Option<Failure>) {
+        (self.reports, self.failure)
+    }
+}
+
+fn record<O: Observer>(observer: &mut O, time_s: f64, msg: &LinkMsg) -> anyhow::Result<()> {
+    observer.record(LINK, time_s, &serde_json::to_value(msg)?)
+}
+
+impl Station for RigStation<'_> {
+    fn measure<O: Observer>(
+        &mut self,
+        job: Job<'_>,
+        observer: &mut O,
+    ) -> anyhow::Result<MeasureOutcome> {
+        let run = job.measurement().name();
+        let stop = job.stop;
+        let (info, before) = {
+            let held = self.link.lock();
+            (held.rig.info().clone(), *held.rig.stats())
+        };
+        let mut msg = LinkMsg {
+            run,
+            time_s: 0.0,
+            event: "session",
+            address: info.address.clone(),
+            identity: info.identity.clone(),
+            session_id: info.session_id,
+            counters: LinkCounters::default(),
+            timing: None,
+            log_dropped: 0,
+            fault: None,
+        };
+        record(observer, 0.0, &msg)?;
+        let mut timing = LoopTiming::default();
+        let (result, failure, last_time_s) = {
+            let mut monitored = Monitored::new(self.link, &mut timing);
+            let result = job.run(&mut monitored, observer);
+            (
+                result,
+                monitored.failure().cloned(),
+                monitored.last_time_s(),
+            )
+        };
+        let (counters, period_s) = {
+            let held = self.link.lock();
+            (
+                counters_of(held.rig.stats().since(&before)),
+                held.rig.sample_period_s(),
+            )
+        };
+        let summary = timing.summary(period_s);
+        let outcome = match result {
+            Ok(o) => o,
+            // The link, the sensors or the rig failed: the backend has sent a safe stop.
+            Err(e) => match &failure {
+                Some(f) => MeasureOutcome {
+                    estimate: None,
+                    theta_history: Vec::new(),
+                    estimator_config: None,
+                    excitation_s: 0.0,
+                    fk_failures: 0,
+                    accel_bias_effect: None,
+                    load_cell_bias_effect: None,
+                    end: End::Fault(f.cause.clone()),
+                },
+                None => {
+                    let _ = self.link.lock().safe_stop();
+                    return Err(e);
+                }
+            },
+        };
+        if outcome.end != End::Completed {
+            self.link.lock().safe_stop()?;
+        }
+        let time_s = last_time_s.unwrap_or(0.0);
+        if let (Some(f), End::Fault(cause)) = (&failure, &outcome.end) {
+            let supervisor = SupervisorMsg {
+                run,
+                time_s,
+                phase: "fault".into(),
+                fault: Some(cause.clone()),
+                clamped: false,
+                interrupted: stop.load(Ordering::SeqCst),
+            };
+            observer.record(
+                topics::SUPERVISOR,
+                time_s,
+                &serde_json::to_value(&supervisor)?,
+            )?;
+            self.failure = Some(f.clone());
+        }
+        msg.time_s = time_s;
+        msg.event = "end";
+        msg.counters = counters;
+        msg.timing = Some(summary);
+        msg.fault = match &outcome.end {
+            End::Fault(cause) => Some(cause.clone()),
+            _ => None,
+        };
+        record(observer, time_s, &msg)?;
+        self.reports.push(LinkReport {
+            run: run.to_string(),
+            counters,
+            timing: summary,
+        });
+        Ok(outcome)
+    }
+
+    fn load_payload<O: Observer>(&mut self, _: &mut O, stop: &AtomicBool) -> anyhow::Result<bool> {
+        // The tare's session ends braked; the payload goes on; a new session begins.
+        self.link.lock().safe_stop()?;
+        let confirmed = self
+            .progress
+            .suspend(|| crate::prompt::operator_loads_payload(self.no_prompt, stop))?;
+        if !confirmed {
+            return Ok(false);
+        }
+        let mut held = self.link.lock();
+        held.rig
+            .restart_session()
+            .map_err(|e| anyhow!("cannot open the loaded run's session: {e}"))?;
+        super::check_rig(held.rig.info(), self.loaded).map_err(|e| anyhow!("{e}"))?;
+        Ok(true)
+    }
+}

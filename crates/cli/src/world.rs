@@ -1,0 +1,363 @@
+//! The simulated world: what `simulate`, `emulate` and `bench` put behind the rig description —
+//! the true fixture and payload, the actuator model, the physics step and the seed of every
+//! random draw — read from a scenario file's `[world]` table, and the simulator built from it.
+//!
+//! The simulated sensors draw their errors from the rig description's datasheet
+//! (`[sensors.*]`): the estimator and the simulator read the same figures, as a real rig's
+//! sensors are what their datasheet says to within its sigmas. The estimator never sees this
+//! module's truth.
+
+use serde::{Deserialize, Serialize};
+
+use measure::load::{ConfigError, LoadedConfig, WORLD_TABLE};
+use measure::report::Quantities;
+use measure::validate::Problems;
+
+/// A rigid body's inertial properties, given the way a datasheet or CAD gives them: mass, centre
+/// of mass in P, inertia tensor about the centre of mass in P axes.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodyConfig {
+    /// Mass, kg.
+    pub mass_kg: f64,
+    /// Centre of mass in the platform frame P, metres.
+    pub com_m: [f64; 3],
+    /// Inertia tensor J_C about the centre of mass, P axes, kg·m² (symmetric; off-diagonal
+    /// entries are minus the products of inertia).
+    pub inertia_com_kg_m2: [[f64; 3]; 3],
+}
+
+impl BodyConfig {
+    /// As the simulator's body description.
+    pub fn to_sim(self) -> sim::BodyProperties {
+        sim::BodyProperties {
+            mass_kg: self.mass_kg,
+            com_m: self.com_m,
+            inertia_com_kg_m2: self.inertia_com_kg_m2,
+        }
+    }
+
+    /// As the report's quantities (the truth column).
+    pub fn quantities(self) -> Quantities {
+        Quantities {
+            mass: self.mass_kg,
+            com: self.com_m,
+            inertia_com: self.inertia_com_kg_m2,
+        }
+    }
+}
+
+/// The `[world]` table.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct World {
+    /// Seed of every random draw (sensor errors and noise); `--seed` overrides it.
+    pub seed: u64,
+    /// Physics substeps per sample (substep ≤ 1 ms).
+    pub physics_substeps: u32,
+    /// The plate and the fixture that holds the payload (always on the platform).
+    pub fixture: BodyConfig,
+    /// The body to be measured.
+    pub payload: BodyConfig,
+    /// The actuators between command and leg force.
+    pub actuator: sim::ActuatorConfig,
+}
+
+/// The sensors' grade on a simulated rig: the rig description's datasheet as written, scaled to
+/// ideal, or made ten times worse. Both the rig description the estimator reads and the
+/// simulated sensors follow it, so the estimator knows what it is given.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum NoisePreset {
+    /// Ideal sensors: every datasheet figure zero.
+    None,
+    /// The datasheet as written (the default).
+    Realistic,
+    /// Every datasheet figure times ten.
+    Harsh,
+}
+
+impl NoisePreset {
+    /// The name on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::None => "none",
+            Self::Realistic => "realistic",
+            Self::Harsh => "harsh",
+        }
+    }
+
+    /// The factor on every datasheet figure.
+    pub fn scale(self) -> f64 {
+        match self {
+            Self::None => 0.0,
+            Self::Realistic => 1.0,
+            Self::Harsh => 10.0,
+        }
+    }
+}
+
+/// A rig description with the simulated world behind it.
+#[derive(Clone, Debug)]
+pub struct Scenario {
+    /// The rig description (its datasheet scaled by the grade).
+    pub loaded: LoadedConfig,
+    /// The simulated world.
+    pub world: World,
+    /// The sensors' grade.
+    pub noise: NoisePreset,
+}
+
+impl Scenario {
+    /// The world of `loaded` with `seed` and `noise` applied, checked.
+    pub fn new(
+        mut loaded: LoadedConfig,
+        seed: Option<u64>,
+        noise: Option<NoisePreset>,
+    ) -> Result<Self, ConfigError> {
+        let mut world: World = loaded.section(WORLD_TABLE)?;
+        if let Some(s) = seed {
+            world.seed = s;
+        }
+        let noise = noise.unwrap_or(NoisePreset::Realistic);
+        loaded.config.sensors = loaded.config.sensors.scaled(noise.scale());
+        let problems = validate(&world, loaded.config.sensors.sample_rate_hz);
+        if !problems.is_empty() {
+            return Err(ConfigError {
+                issues: problems
+                    .into_iter()
+                    .map(|(key, problem)| loaded.issue(&key, problem))
+                    .collect(),
+            });
+        }
+        Ok(Self {
+            loaded,
+            world,
+            noise,
+        })
+    }
+
+    /// The simulator's settings: the world's physics and actuators, sensors drawing from the
+    /// rig description's datasheet.
+    pub fn sim_config(&self) -> sim::SimConfig {
+        let s = &self.loaded.config.sensors;
+        let sensors = sim::SensorConfig {
+            leg_length: sim::LegLengthSensorConfig {
+                noise_sigma_m: s.encoder.noise_m,
+                resolution_m: s.encoder.resolution_m,
+            },
+            load_cell: sim::LoadCellConfig {
+                noise_sigma_n: s.load_cell.noise_n,
+                bias_sigma_n: s.load_cell.zero_offset_n,
+                resolution_n: s.load_cell.resolution_n,
+            },
+            gyro: sim::GyroConfig {
+                noise_density_rad_s_sqrt_hz: s.gyro.noise_density_rad_s_sqrt_hz,
+                bias_sigma_rad_s: s.gyro.bias_rad_s,
+            },
+            accelerometer: sim::AccelerometerConfig {
+                noise_density_m_s2_sqrt_hz: s.accelerometer.noise_density_m_s2_sqrt_hz,
+                bias_sigma_m_s2: s.accelerometer.bias_m_s2,
+                mount_m: s.imu.position_m,
+            },
+        };
+        sim::SimConfig {
+            sample_rate_hz: s.sample_rate_hz,
+            substeps: self.world.physics_substeps,
+            actuator: self.world.actuator,
+            sensors,
+            ..sim::SimConfig::default()
+        }
+    }
+
+    /// The simulator on `geometry` with the payload on or off, refused (naming the key) when
+    /// the simulator does not accept the world.
+    pub fn simulator(
+        &self,
+        geometry: kinematics::Geometry,
+        payload_on: bool,
+    ) -> Result<sim::Simulator, ConfigError> {
+        sim::Simulator::new(
+            geometry,
+            self.world.fixture.to_sim(),
+            payload_on.then(|| self.world.payload.to_sim()),
+            &self.sim_config(),
+            self.world.seed,
+        )
+        .map_err(|e| ConfigError::single(self.sim_issue(&e)))
+    }
+
+    /// Maps a simulator refusal to the key it names.
+    fn sim_issue(&self, e: &sim::SimError) -> measure::ConfigIssue {
+        let loaded = &self.loaded;
+        match e {
+            sim::SimError::InvalidConfig {
+                field,
+                reason,
+                value,
+            } => {
+                let key = if let Some(rest) = field.strip_prefix("actuator.") {
+                    format!("world.actuator.{rest}")
+                } else if *field == "substeps" {
+                    "world.physics_substeps".to_string()
+                } else if field.starts_with("sensors.") {
+                    "sensors".to_string()
+                } else {
+                    "platform".to_string()
+                };
+                loaded.issue(
+                    &key,
+                    format!("refused by the simulator: {reason} (value {value})"),
+                )
+            }
+            sim::SimError::InvalidBody { body, reason } => {
+                let key = if *body == "fixture" {
+                    "world.fixture"
+                } else {
+                    "world.payload"
+                };
+                loaded.issue(key, format!("refused by the simulator: {reason}"))
+            }
+            other => loaded.issue("platform", format!("refused by the simulator: {other}")),
+        }
+    }
+
+    /// The world as TOML, for the log.
+    pub fn world_toml(&self) -> String {
+        toml::to_string(&self.world).unwrap_or_default()
+    }
+}
+
+/// Range problems of the world, as (dotted key, what is wrong).
+fn validate(world: &World, sample_rate_hz: f64) -> Vec<(String, String)> {
+    let mut p = Problems::default();
+    body(&mut p, "world.fixture", &world.fixture);
+    body(&mut p, "world.payload", &world.payload);
+    if let Err(e) = world.actuator.validate() {
+        match e {
+            sim::SimError::InvalidConfig {
+                field,
+                value,
+                reason,
+            } => p.push(format!("world.{field}"), format!("{reason}, got {value}")),
+            other => p.push("world.actuator", other.to_string()),
+        }
+    }
+    let substeps = world.physics_substeps;
+    let substep_s = 1.0 / (sample_rate_hz * f64::from(substeps.max(1)));
+    if substeps == 0 || substep_s > 1e-3 * (1.0 + 1e-12) {
+        p.push(
+            "world.physics_substeps",
+            format!(
+                "must be at least 1 and make the physics step 1/(sensors.sample_rate_hz·physics_substeps) at most 1 ms, got {substeps}"
+            ),
+        );
+    }
+    p.0
+}
+
+/// Checks a body's mass, centre of mass and inertia tensor for physical consistency.
+fn body(p: &mut Problems, section: &str, b: &BodyConfig) {
+    p.positive(&format!("{section}.mass_kg"), b.mass_kg);
+    p.finite3(&format!("{section}.com_m"), &b.com_m, 10.0);
+    let key = format!("{section}.inertia_com_kg_m2");
+    let j = &b.inertia_com_kg_m2;
+    let mut finite = true;
+    for (r, row) in j.iter().enumerate() {
+        for (c, v) in row.iter().enumerate() {
+            if !v.is_finite() {
+                p.push(
+                    format!("{key}[{r}][{c}]"),
+                    format!("must be finite, got {v}"),
+                );
+                finite = false;
+            }
+        }
+    }
+    if !finite {
+        return;
+    }
+    let scale = j[0][0]
+        .abs()
+        .max(j[1][1].abs())
+        .max(j[2][2].abs())
+        .max(1e-12);
+    for (r, c) in [(0, 1), (0, 2), (1, 2)] {
+        if (j[r][c] - j[c][r]).abs() > 1e-9 * scale {
+            p.push(
+                format!("{key}[{r}][{c}]"),
+                format!(
+                    "the tensor must be symmetric: [{r}][{c}] = {} but [{c}][{r}] = {}",
+                    j[r][c], j[c][r]
+                ),
+            );
+            return;
+        }
+    }
+    let m = nalgebra::Matrix3::from_fn(|r, c| j[r][c]);
+    let eig = m.symmetric_eigenvalues();
+    let (lo, hi) = (eig.min(), eig.max());
+    if lo <= 0.0 {
+        p.push(
+            key,
+            format!("must be positive definite (principal moments {eig:?} kg·m²)"),
+        );
+        return;
+    }
+    // A real body's principal moments obey the triangle inequality I1 + I2 ≥ I3.
+    let sum = eig.sum();
+    if 2.0 * hi > sum * (1.0 + 1e-9) {
+        p.push(
+            key,
+            format!(
+                "is not a physical body: principal moments {:.4}, {:.4}, {:.4} kg·m² break \
+                 the triangle inequality (the largest must not exceed the sum of the others)",
+                eig[0], eig[1], eig[2]
+            ),
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use measure::load::{load, load_str};
+
+    #[test]
+    fn the_default_world_is_a_car_on_a_fixture() {
+        let s = Scenario::new(load(None).unwrap(), None, None).unwrap();
+        assert_eq!(s.world.payload.mass_kg, 1500.0);
+        assert_eq!(s.world.seed, 1);
+        assert_eq!(s.noise, NoisePreset::Realistic);
+        let s = Scenario::new(load(None).unwrap(), Some(9), Some(NoisePreset::None)).unwrap();
+        assert_eq!(s.world.seed, 9);
+        assert_eq!(s.loaded.config.sensors.load_cell.zero_offset_n, 0.0);
+    }
+
+    #[test]
+    fn the_simulated_sensors_follow_the_rig_descriptions_datasheet() {
+        let text = "[sensors.load_cell]\nzero_offset_n = 7.5\n[sensors.imu]\nposition_m = [0.1, 0.0, 0.2]\n";
+        let harsh = Scenario::new(
+            load_str(text, "s.toml").unwrap(),
+            None,
+            Some(NoisePreset::Harsh),
+        )
+        .unwrap();
+        let sim = harsh.sim_config();
+        assert_eq!(sim.sensors.load_cell.bias_sigma_n, 75.0);
+        assert_eq!(harsh.loaded.config.sensors.load_cell.zero_offset_n, 75.0);
+        assert_eq!(sim.sensors.accelerometer.mount_m, [0.1, 0.0, 0.2]);
+    }
+
+    #[test]
+    fn a_bad_world_is_refused_with_its_key_and_line() {
+        let text = "[world.payload]\n\nmass_kg = -3.0\n";
+        let err = Scenario::new(load_str(text, "w.toml").unwrap(), None, None).unwrap_err();
+        assert_eq!(err.issues[0].key, "world.payload.mass_kg");
+        assert_eq!(err.issues[0].line, Some(3));
+        let text = "[world]\nsed = 3\n";
+        let err = Scenario::new(load_str(text, "w.toml").unwrap(), None, None).unwrap_err();
+        assert_eq!(err.issues[0].key, "world.sed");
+        assert_eq!(err.issues[0].line, Some(2));
+        assert!(err.issues[0].problem.contains("seed"), "{err}");
+    }
+}

@@ -1,0 +1,164 @@
+//! The one rule that turns a sensor frame into the estimator's [`Sample`], used alike by the
+//! online measurement ([`crate::measurement`]), the replay of a log ([`crate::replay`]), the
+//! benches and the zero-allocation test.
+//!
+//! - **Pose**: forward kinematics of the measured leg lengths, warm-started from the previous
+//!   frame's solution (the first frame of a measurement from the home pose). A frame whose
+//!   forward kinematics fails gives no sample and leaves the warm start where it was. While the
+//!   controller runs, it has solved exactly this (same options, same warm start, set from here
+//!   with [`control::controller::Controller::set_pose_guess`]): its pose is taken with
+//!   [`Feed::accept`] instead of solving twice.
+//! - **IMU axes**: the gyro's rate and the accelerometer's specific force are turned from the
+//!   IMU's axes into P by the rig description's mounting rotation (`sensors.imu.orientation_deg`;
+//!   none when it is zero, so an aligned IMU's numbers pass bit for bit).
+//! - Leg forces and time pass unchanged.
+
+use control::io::SensorFrame;
+use estimator::Sample;
+use kinematics::{FkOptions, Geometry, Pose, Rotation3, Vector3, Vector6};
+
+use crate::config::ImuMounting;
+
+/// The frame-to-sample rule's state: the warm start of forward kinematics and the IMU's
+/// mounting. Plain `Copy` data.
+#[derive(Clone, Copy, Debug)]
+pub struct Feed {
+    geometry: Geometry,
+    fk: FkOptions,
+    guess: Pose,
+    imu_to_p: Option<Rotation3<f64>>,
+}
+
+impl Feed {
+    /// A feed for `geometry` starting from its home pose, with the controller's forward
+    /// kinematics options and the IMU's mounting.
+    pub fn new(geometry: Geometry, fk: FkOptions, imu: &ImuMounting) -> Self {
+        let aligned = imu.orientation_deg.iter().all(|a| *a == 0.0);
+        Self {
+            geometry,
+            fk,
+            guess: geometry.home_pose(),
+            imu_to_p: (!aligned).then(|| imu.rotation()),
+        }
+    }
+
+    /// The warm start of the next forward kinematics (the last pose found).
+    pub fn pose_guess(&self) -> Pose {
+        self.guess
+    }
+
+    /// The pose of `frame` by forward kinematics from the warm start, which it then becomes;
+    /// `None` (warm start kept) when the solver finds no trustworthy pose.
+    pub fn solve(&mut self, frame: &SensorFrame) -> Option<Pose> {
+        let lengths = Vector6::from(frame.leg_lengths_m);
+        let solution = self
+            .geometry
+            .forward_kinematics(&lengths, &self.guess, &self.fk)
+            .ok()?;
+        self.guess = solution.pose;
+        Some(solution.pose)
+    }
+
+    /// Takes a pose the controller solved for the current frame from the same warm start.
+    pub fn accept(&mut self, pose: Pose) {
+        self.guess = pose;
+    }
+
+    /// The estimator's input of `frame` at `pose`, the IMU's readings turned into P.
+    pub fn sample(&self, frame: &SensorFrame, pose: Pose) -> Sample {
+        let gyro = Vector3::from(frame.gyro_rad_s);
+        let accel = Vector3::from(frame.accel_m_s2);
+        let (gyro_rad_s, accel_m_s2) = match &self.imu_to_p {
+            Some(r) => (r * gyro, r * accel),
+            None => (gyro, accel),
+        };
+        Sample {
+            time_s: frame.time_s,
+            pose,
+            leg_forces_n: Vector6::from(frame.leg_forces_n),
+            gyro_rad_s,
+            accel_m_s2,
+        }
+    }
+
+    /// [`Feed::solve`] then [`Feed::sample`]: the sample of a frame nobody solved yet.
+    pub fn next(&mut self, frame: &SensorFrame) -> Option<Sample> {
+        self.solve(frame).map(|pose| self.sample(frame, pose))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use kinematics::StrokeLimits;
+
+    fn geometry() -> Geometry {
+        Geometry::from_radii(
+            1.5,
+            1.2,
+            20f64.to_radians(),
+            20f64.to_radians(),
+            StrokeLimits {
+                min_length_m: 1.5,
+                max_length_m: 2.3,
+            },
+        )
+        .expect("reference design")
+    }
+
+    fn frame_at(g: &Geometry, pose: &Pose) -> SensorFrame {
+        let lengths = g.leg_lengths(pose);
+        SensorFrame {
+            time_s: 0.5,
+            leg_lengths_m: lengths.into(),
+            leg_forces_n: [1.0, 2.0, 3.0, 4.0, 5.0, 6.0],
+            gyro_rad_s: [0.1, 0.0, 0.0],
+            accel_m_s2: [0.0, 0.0, 9.80665],
+            ..SensorFrame::default()
+        }
+    }
+
+    #[test]
+    fn an_aligned_imu_passes_its_readings_bit_for_bit() {
+        let g = geometry();
+        let mut feed = Feed::new(g, FkOptions::default(), &ImuMounting::default());
+        let mut pose = g.home_pose();
+        pose.position_m.x += 0.01;
+        let frame = frame_at(&g, &pose);
+        let s = feed.next(&frame).expect("pose found");
+        assert!((s.pose.position_m - pose.position_m).norm() < 1e-9);
+        assert_eq!(s.gyro_rad_s, Vector3::new(0.1, 0.0, 0.0));
+        assert_eq!(s.accel_m_s2, Vector3::new(0.0, 0.0, 9.80665));
+        assert_eq!(s.leg_forces_n, Vector6::from(frame.leg_forces_n));
+        assert_eq!(feed.pose_guess().position_m, s.pose.position_m);
+    }
+
+    #[test]
+    fn a_turned_imu_is_read_in_platform_axes() {
+        let g = geometry();
+        // Yawed 90°: the IMU's x axis is P's y axis.
+        let imu = ImuMounting {
+            position_m: [0.0; 3],
+            orientation_deg: [0.0, 0.0, 90.0],
+        };
+        let mut feed = Feed::new(g, FkOptions::default(), &imu);
+        let s = feed
+            .next(&frame_at(&g, &g.home_pose()))
+            .expect("pose found");
+        assert!((s.gyro_rad_s - Vector3::new(0.0, 0.1, 0.0)).norm() < 1e-15);
+        assert!((s.accel_m_s2 - Vector3::new(0.0, 0.0, 9.80665)).norm() < 1e-15);
+    }
+
+    #[test]
+    fn a_frame_without_a_pose_keeps_the_warm_start() {
+        let g = geometry();
+        let mut feed = Feed::new(g, FkOptions::default(), &ImuMounting::default());
+        let before = feed.pose_guess();
+        let bad = SensorFrame {
+            leg_lengths_m: [f64::NAN; 6],
+            ..SensorFrame::default()
+        };
+        assert!(feed.next(&bad).is_none());
+        assert_eq!(feed.pose_guess().position_m, before.position_m);
+    }
+}

@@ -1,0 +1,53 @@
+//! The inertia measurement as a library: what a rig's owner writes down about their rig, the
+//! cores (kinematics, control, estimator) set up from it, and the whole procedure — brake hold,
+//! settle, excitation, park; tare, payload change, loaded run; report with its uncertainty —
+//! on any [`control::io::Backend`], reporting to an [`Observer`] as it goes.
+//!
+//! Layers (docs/architecture.md): the `no_std` cores below, this crate in the middle, and
+//! above it the log (`runlog`: MCAP, Foxglove), the simulator (`sim`), the rig link (`rig`) and
+//! the `stewart` command line. Nothing here depends on a terminal, a log format, a plotting
+//! library or a physics engine.
+//!
+//! - [`config`], [`load`], [`validate`], [`link`]: the rig description, read from TOML with
+//!   refusals that name the file, line and key.
+//! - [`setup`]: geometry, trajectory, controller and estimator settings from it, every check
+//!   that can refuse a run made before anything moves.
+//! - [`feed`] and [`tick`]: the one rule from sensor frame to estimator sample, and the one
+//!   per-sample tick the product runs.
+//! - [`measurement`] (one measurement), [`session`] (tare, payload change, loaded run) and
+//!   [`observer`] (where they report).
+//! - [`tare`], [`systematic`], [`report`]: the tare file, the datasheet part of the
+//!   uncertainty, the report.
+//! - [`replay`]: the estimator re-run on recorded frames.
+#![warn(missing_docs)]
+
+pub mod config;
+pub mod feed;
+pub mod link;
+pub mod load;
+pub mod measurement;
+pub mod observer;
+pub mod replay;
+pub mod report;
+pub mod schema;
+pub mod session;
+pub mod setup;
+pub mod systematic;
+pub mod tare;
+pub mod tick;
+pub mod validate;
+
+pub use config::Config;
+pub use load::{ConfigError, ConfigIssue, LoadedConfig};
+pub use measurement::{measure, End, MeasureOutcome, MeasureSetup};
+pub use observer::{Observer, TickEvent};
+pub use report::Report;
+pub use session::{Station, TarePlan};
+pub use setup::Measurement;
+pub use tare::TareFile;
+
+/// A tare as the estimator subtracts it: the fixture's parameters and their covariance.
+pub type TareEstimate = (
+    estimator::InertialParameters,
+    estimator::ParameterCovariance,
+);

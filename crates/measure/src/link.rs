@@ -1,0 +1,127 @@
+//! The `[rig]` table of the rig description: how the host reaches the rig (`stewart rig`) and
+//! how the emulator listens (`stewart emulate`).
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::load::DEFAULT_CONFIG_NAME;
+
+/// Where `stewart rig` looks for the rig and `stewart emulate` listens, unless the
+/// configuration's `rig.address` or `--connect`/`--listen` say otherwise.
+pub const DEFAULT_ADDRESS: &str = "udp://127.0.0.1:7700";
+
+/// The `[rig]` table of the scenario file: the link to the rig. Every key is optional.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RigLinkConfig {
+    /// The rig's address: `udp://HOST:PORT` or `serial:///dev/DEVICE?baud=N`.
+    pub address: String,
+    /// File holding the shared key in hex (HMAC-SHA256 on every frame, docs/protocol.md
+    /// section 3), relative to the scenario file; absent: no key.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub key_file: Option<String>,
+    /// The host faults when no valid sensor frame arrived for this long, ms.
+    pub link_silence_ms: f64,
+    /// The emulator brakes when no valid command arrived for this long, ms (a real rig sends
+    /// its own in the handshake).
+    pub watchdog_ms: f64,
+    /// How long the host tries the handshake, s.
+    pub handshake_timeout_s: f64,
+}
+
+impl Default for RigLinkConfig {
+    fn default() -> Self {
+        Self {
+            address: DEFAULT_ADDRESS.into(),
+            key_file: None,
+            link_silence_ms: 50.0,
+            watchdog_ms: 20.0,
+            handshake_timeout_s: 2.0,
+        }
+    }
+}
+
+impl RigLinkConfig {
+    /// Range problems as (key, problem), like [`crate::validate::validate`].
+    pub fn problems(&self) -> Vec<(String, String)> {
+        let mut out = Vec::new();
+        let mut check = |key: &str, value: f64, min: f64, max: f64, unit: &str| {
+            if !(value.is_finite() && value >= min && value <= max) {
+                out.push((
+                    format!("rig.{key}"),
+                    format!("must be between {min} and {max} {unit}, got {value}"),
+                ));
+            }
+        };
+        check("link_silence_ms", self.link_silence_ms, 1.0, 10_000.0, "ms");
+        check("watchdog_ms", self.watchdog_ms, 1.0, 10_000.0, "ms");
+        check(
+            "handshake_timeout_s",
+            self.handshake_timeout_s,
+            0.1,
+            600.0,
+            "s",
+        );
+        if let Err(e) = self.address.parse::<rig::transport::Address>() {
+            out.push(("rig.address".into(), e.to_string()));
+        }
+        out
+    }
+
+    /// The key file, relative paths taken from the scenario file's directory (`source`, the
+    /// name [`LoadedConfig::source`] gives; the working directory for the embedded default).
+    pub fn key_path(&self, source: &str) -> Option<PathBuf> {
+        let file = Path::new(self.key_file.as_ref()?);
+        if file.is_absolute() || source == DEFAULT_CONFIG_NAME {
+            return Some(file.to_path_buf());
+        }
+        let dir = Path::new(source).parent().unwrap_or(Path::new(""));
+        Some(dir.join(file))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn link_config_defaults_and_ranges() {
+        let c = RigLinkConfig::default();
+        assert!(c.problems().is_empty());
+        assert_eq!(c.address, DEFAULT_ADDRESS);
+        let bad = RigLinkConfig {
+            link_silence_ms: 0.0,
+            address: "tcp://x:1".into(),
+            ..RigLinkConfig::default()
+        };
+        let keys: Vec<String> = bad.problems().into_iter().map(|(k, _)| k).collect();
+        assert_eq!(keys, ["rig.link_silence_ms", "rig.address"]);
+    }
+
+    #[test]
+    fn key_files_are_found_next_to_the_scenario() {
+        let c = RigLinkConfig {
+            key_file: Some("rig.key".into()),
+            ..RigLinkConfig::default()
+        };
+        assert_eq!(
+            c.key_path("configs/lab.toml"),
+            Some(PathBuf::from("configs/rig.key"))
+        );
+        assert_eq!(c.key_path("lab.toml"), Some(PathBuf::from("rig.key")));
+        assert_eq!(
+            c.key_path(DEFAULT_CONFIG_NAME),
+            Some(PathBuf::from("rig.key"))
+        );
+        let abs = RigLinkConfig {
+            key_file: Some("/etc/rig.key".into()),
+            ..RigLinkConfig::default()
+        };
+        assert_eq!(
+            abs.key_path("configs/lab.toml"),
+            Some(PathBuf::from("/etc/rig.key"))
+        );
+        assert_eq!(RigLinkConfig::default().key_path("x.toml"), None);
+    }
+}

@@ -1,0 +1,335 @@
+//! One measurement on any [`Backend`] (the simulator, a rig behind a link, or a user's own
+//! hardware): brake hold, settle, excitation, park — with the online estimator fed on every
+//! tick, an [`Observer`] told everything, and a controlled stop on request or fault.
+//!
+//! The sequence, per measurement:
+//!
+//! 1. **Brake hold** (`run.brake_hold_s`): safe-stop commands while the braked platform carries
+//!    its load; the mean leg forces of the last 0.1 s become the PID feed-forward, so the
+//!    integrators need not build up the static load (no model of the load is needed: what the
+//!    load cells read is what the legs must push).
+//! 2. **Controller** ([`control::controller::Controller`]): ramp to home and hold
+//!    (`run.settle_s`), the excitation, the park ramp and hold, then brakes on.
+//! 3. **Estimator**: fed every frame from the first one by the rule of [`crate::feed`], through
+//!    [`crate::tick::Tick`]; frames before the excitation only warm its conditioning, the fit
+//!    window opens on the first frame of the excitation and closes a trajectory's length later.
+//!
+//! The estimator sees only sensor frames; nothing here can read a simulator's truth. Nothing in
+//! the per-frame loop allocates: the history of θ is reserved for the whole window up front.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+use anyhow::{anyhow, bail, Result};
+use control::controller::Controller;
+use control::io::{Backend, CommandFrame, SensorFrame};
+use control::supervisor::Phase;
+use control::trajectory::Trajectory;
+use estimator::{Estimate, EstimatorConfig, Outcome};
+use kinematics::Geometry;
+
+use crate::config::Config;
+use crate::feed::Feed;
+use crate::observer::{EstimatorStarted, MeasurementEnded, Observer, TickEvent};
+use crate::setup::{self, Measurement};
+use crate::tick::Tick;
+use crate::TareEstimate;
+
+/// What a measurement needs besides the backend and the controller.
+#[derive(Clone, Copy, Debug)]
+pub struct MeasureSetup<'a> {
+    /// The rig description.
+    pub config: &'a Config,
+    /// The platform design.
+    pub geometry: Geometry,
+    /// Tare or loaded.
+    pub measurement: Measurement,
+    /// The tare to subtract for the observer's payload estimate (loaded runs).
+    pub tare: Option<&'a TareEstimate>,
+}
+
+/// How a measurement ended.
+#[derive(Clone, Debug, PartialEq)]
+pub enum End {
+    /// Excitation completed and the platform parked.
+    Completed,
+    /// Stop requested (Ctrl-C): parked early.
+    Interrupted,
+    /// The supervisor latched a fault, or the backend failed (the safe stop was sent).
+    Fault(String),
+}
+
+/// What a measurement produced.
+#[derive(Clone, Debug)]
+pub struct MeasureOutcome {
+    /// The final estimate of everything on the plate (None if the excitation never started).
+    pub estimate: Option<Estimate>,
+    /// θ after every used sample (everything on the plate, not tare-corrected).
+    pub theta_history: Vec<[f64; 10]>,
+    /// The estimator's settings (None if the excitation never started).
+    pub estimator_config: Option<EstimatorConfig>,
+    /// Backend time from the first excitation sample to the last one fed, s.
+    pub excitation_s: f64,
+    /// Frames that gave no pose (forward kinematics failed or the controller refused the
+    /// frame's sensors): not fed to the estimator.
+    pub fk_failures: u64,
+    /// Change of θ caused by an accelerometer bias of one datasheet sigma along P's x, y and z
+    /// (rows), from the estimator's first-order sensitivity; `None` without a bias figure
+    /// (ideal sensors) or without an excitation. See [`crate::systematic`].
+    pub accel_bias_effect: Option<[[f64; 10]; 3]>,
+    /// Change of θ caused by a zero offset of one datasheet sigma on each load cell (rows:
+    /// legs); `None` without a figure or an excitation.
+    pub load_cell_bias_effect: Option<[[f64; 10]; 6]>,
+    /// How it ended.
+    pub end: End,
+}
+
+impl MeasureOutcome {
+    fn ended_early(end: End, fk_failures: u64) -> Self {
+        Self {
+            estimate: None,
+            theta_history: Vec::new(),
+            estimator_config: None,
+            excitation_s: 0.0,
+            fk_failures,
+            accel_bias_effect: None,
+            load_cell_bias_effect: None,
+            end,
+        }
+    }
+}
+
+/// Expected number of samples of a measurement of `trajectory`, for progress displays.
+pub fn expected_samples(config: &Config, trajectory: &Trajectory) -> u64 {
+    let c = &config.control;
+    let r = &config.run;
+    let total_s = r.brake_hold_s
+        + c.settle_ramp_s
+        + r.settle_s
+        + trajectory.duration_s()
+        + r.park_s
+        + c.park_hold_s;
+    (total_s * config.sensors.sample_rate_hz).ceil() as u64
+}
+
+/// Runs one measurement with `controller`, built (and so checked) beforehand for the
+/// measurement's trajectory, e.g. by [`setup::controller`]: nothing slow happens between
+/// samples once the backend runs (a rig's watchdog counts). Its feed-forward is replaced by the
+/// brake hold's load. When `stop` is set the platform parks and the outcome says
+/// [`End::Interrupted`]. Errors are backend or observer failures (after a best-effort safe
+/// stop); a supervisor fault ends the measurement normally with [`End::Fault`].
+pub fn measure<B, O>(
+    backend: &mut B,
+    setup: &MeasureSetup<'_>,
+    controller: Controller,
+    observer: &mut O,
+    stop: &AtomicBool,
+) -> Result<MeasureOutcome>
+where
+    B: Backend,
+    B::Error: std::fmt::Display,
+    O: Observer + ?Sized,
+{
+    let measurement = setup.measurement;
+    let run = measurement.name();
+    let config = setup.config;
+    let rate_hz = config.sensors.sample_rate_hz;
+    let period_s = 1.0 / rate_hz;
+    let trajectory = *controller.trajectory();
+    let fk_options = setup::controller_config(config).fk;
+    let estimator_config = setup::estimator_config(
+        config,
+        &setup.geometry,
+        measurement,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+    );
+    let feed = Feed::new(setup.geometry, fk_options, &config.sensors.imu);
+    let mut tick = Tick::new(controller, feed, estimator_config, trajectory.duration_s())
+        .map_err(|e| anyhow!("the estimator refused its settings: {e}"))?;
+    let bias_sigma = setup::accel_bias_sigma(config);
+    let load_cell_sigma = setup::load_cell_bias_sigma(config);
+    // θ after every used sample, reserved for the whole window so the loop never allocates.
+    let mut history: Vec<[f64; 10]> =
+        Vec::with_capacity((trajectory.duration_s() * rate_hz).ceil() as usize + 16);
+    let mut command_sequence = 0u64;
+    let mut fk_failures = 0u64;
+
+    observer.measurement_started(measurement)?;
+
+    // 1. Brake hold: read the static load.
+    let hold_samples = ((config.run.brake_hold_s * rate_hz).round() as u64).max(1);
+    let average_samples = ((0.1 * rate_hz).round() as u64).clamp(1, hold_samples);
+    let mut force_sum = [0.0; 6];
+    let mut index = 0u64;
+    for i in 0..hold_samples {
+        let frame = read(backend)?;
+        let sample = tick.hold(&frame);
+        if sample.is_none() {
+            fk_failures += 1;
+        }
+        let command = CommandFrame::safe_stop(next(&mut command_sequence), frame.sequence);
+        write(backend, &command)?;
+        if i >= hold_samples - average_samples {
+            for (s, f) in force_sum.iter_mut().zip(frame.leg_forces_n) {
+                *s += f;
+            }
+        }
+        let pose = tick.feed.pose_guess();
+        let interrupted = stop.load(Ordering::SeqCst);
+        observer.tick(&TickEvent {
+            measurement,
+            index,
+            frame: &frame,
+            command: &command,
+            phase: Phase::Idle,
+            control: None,
+            pose: sample.as_ref().map(|_| &pose),
+            estimator: None,
+            tare: setup.tare,
+            interrupted,
+        })?;
+        index += 1;
+        if interrupted {
+            observer.measurement_ended(&MeasurementEnded {
+                measurement,
+                time_s: frame.time_s,
+                estimate: None,
+                tare: setup.tare,
+            })?;
+            return Ok(MeasureOutcome::ended_early(End::Interrupted, fk_failures));
+        }
+    }
+    let feedforward = force_sum.map(|s| s / average_samples as f64);
+    if !feedforward.iter().all(|f| f.is_finite()) {
+        bail!("the load cells gave non-finite forces during the brake hold");
+    }
+
+    // 2. The controller, with the static load as feed-forward and the hold's pose as its
+    //    forward kinematics' warm start.
+    tick.controller
+        .set_feedforward(feedforward)
+        .map_err(|e| anyhow!("controller refused the feed-forward: {e}"))?;
+    tick.controller.set_pose_guess(tick.feed.pose_guess());
+
+    let budget = expected_samples(config, &trajectory) + (120.0 * rate_hz) as u64;
+    let mut park_requested = false;
+    let mut last_pose = tick.feed.pose_guess();
+    let mut last_fed_s = f64::NAN;
+    for _ in 0..budget {
+        let frame = read(backend)?;
+        let interrupted = stop.load(Ordering::SeqCst);
+        if interrupted && !park_requested {
+            tick.controller.request_park();
+            park_requested = true;
+        }
+        let step = tick.step(&frame);
+        let command = step.control.command;
+        write(backend, &command)?;
+        match step.sample {
+            Some(s) => last_pose = s.pose,
+            None => fk_failures += 1,
+        }
+        if let Some(Ok(Outcome::Used)) = step.estimator {
+            history.push(tick.estimator.theta().into());
+            last_fed_s = frame.time_s;
+        }
+        if step.window_opened {
+            observer.estimator_started(&EstimatorStarted {
+                measurement,
+                time_s: frame.time_s,
+                config: tick.estimator.config(),
+                fk: &fk_options,
+            })?;
+        }
+        let estimator = tick.window.map(|_| &tick.estimator);
+        observer.tick(&TickEvent {
+            measurement,
+            index,
+            frame: &frame,
+            command: &command,
+            phase: step.control.phase,
+            control: Some(&step.control),
+            pose: Some(&last_pose),
+            estimator,
+            tare: setup.tare,
+            interrupted,
+        })?;
+        index += 1;
+
+        if matches!(step.control.phase, Phase::Done | Phase::Fault) {
+            let end = match step.control.fault {
+                Some(f) => End::Fault(f.to_string()),
+                None if park_requested => End::Interrupted,
+                None => End::Completed,
+            };
+            let estimate = tick.window.map(|_| tick.estimator.estimate());
+            observer.measurement_ended(&MeasurementEnded {
+                measurement,
+                time_s: frame.time_s,
+                estimate: estimate.as_ref(),
+                tare: setup.tare,
+            })?;
+            let Some((start_s, _)) = tick.window else {
+                return Ok(MeasureOutcome::ended_early(end, fk_failures));
+            };
+            let estimator = &tick.estimator;
+            return Ok(MeasureOutcome {
+                estimate,
+                theta_history: history,
+                estimator_config: Some(*estimator.config()),
+                excitation_s: if last_fed_s.is_finite() {
+                    last_fed_s - start_s
+                } else {
+                    0.0
+                },
+                fk_failures,
+                accel_bias_effect: crate::systematic::accel_bias_effect(estimator, bias_sigma),
+                load_cell_bias_effect: crate::systematic::load_cell_bias_effect(
+                    estimator,
+                    load_cell_sigma,
+                ),
+                end,
+            });
+        }
+    }
+    // The procedure overran its time budget: stop the platform and give up.
+    let frame = read(backend)?;
+    let stop_command = CommandFrame::safe_stop(next(&mut command_sequence), frame.sequence);
+    write(backend, &stop_command)?;
+    bail!(
+        "the {run} measurement did not finish within {:.0} s of backend time; the brakes were applied",
+        budget as f64 * period_s
+    )
+}
+
+fn read<B: Backend>(backend: &mut B) -> Result<SensorFrame>
+where
+    B::Error: std::fmt::Display,
+{
+    backend
+        .read()
+        .map_err(|e| anyhow!("backend read failed: {e}"))
+}
+
+fn write<B: Backend>(backend: &mut B, command: &CommandFrame) -> Result<()>
+where
+    B::Error: std::fmt::Display,
+{
+    backend
+        .write(command)
+        .map_err(|e| anyhow!("backend write failed: {e}"))
+}
+
+fn next(sequence: &mut u64) -> u64 {
+    let s = *sequence;
+    *sequence += 1;
+    s
+}
+
+/// The payload alone (tare subtracted) when a tare is known, else everything on the plate.
+pub fn payload_estimate(loaded: &Estimate, tare: Option<&TareEstimate>) -> Estimate {
+    match tare {
+        Some((p, c)) => loaded.without_tare(p, c),
+        None => *loaded,
+    }
+}

@@ -1,0 +1,26 @@
+//! The run log: every measurement streamed to an MCAP file that opens in Foxglove and that
+//! `stewart estimate` re-reads.
+//!
+//! - [`messages`]: the channel catalogue and the `stewart.*` message types with their JSON
+//!   schemas; [`metadata`] the run's metadata, estimator settings and (simulation) truth;
+//!   [`link`] the rig link's records.
+//! - [`foxglove`]: the 3D scene and transforms in Foxglove's well-known schemas.
+//! - [`mcap_log`] (the MCAP writer on its own thread) and [`run_log`] (topics and time);
+//!   [`observer`]: the [`measure::Observer`] that writes a measurement into it.
+//! - [`read`]: a log read back, tolerant of a file cut short.
+//!
+//! docs/log-schema.md documents every channel.
+#![warn(missing_docs)]
+
+pub mod foxglove;
+pub mod link;
+pub mod mcap_log;
+pub mod messages;
+pub mod metadata;
+pub mod observer;
+pub mod read;
+pub mod run_log;
+
+pub use observer::LogObserver;
+pub use read::LogContents;
+pub use run_log::RunLog;
