@@ -447,6 +447,54 @@ pub fn estimate(args: &EstimateArgs) -> Result<EstimateOutcome> {
 mod tests {
     use super::*;
 
+    /// `estimate --rig FILE` takes the datasheet from FILE: its accelerometer bias figure sets
+    /// the systematic sigma, its gyro noise the estimator's settings; without it, the log's own
+    /// rig description reproduces the run's report.
+    #[test]
+    fn another_rig_description_changes_the_estimators_settings_and_the_systematic_sigma() {
+        use crate::common::MeasureArgs;
+        use crate::simulate::{simulate, SimulateArgs};
+        let dir = tempfile::tempdir().unwrap();
+        let short = dir.path().join("short.toml");
+        std::fs::write(&short, "[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n").unwrap();
+        let log_path = dir.path().join("run.mcap");
+        let args = SimulateArgs {
+            measure: MeasureArgs {
+                config: Some(short.clone()),
+                log: Some(log_path.clone()),
+                quiet: true,
+                ..MeasureArgs::default()
+            },
+            ..SimulateArgs::default()
+        };
+        let online = simulate(&args, &std::sync::atomic::AtomicBool::new(false))
+            .unwrap()
+            .report
+            .unwrap();
+        let log = LogContents::read(&log_path).unwrap();
+        let o = SettingsOverride::default();
+        let (same, ..) = reestimate(&log, &o, None, None).unwrap();
+        assert!((same.sigma.mass - online.sigma.mass).abs() < 1e-9 * online.sigma.mass);
+        let other = dir.path().join("other.toml");
+        std::fs::write(
+            &other,
+            "[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n\
+             [sensors.accelerometer]\nbias_m_s2 = 0.01\n\
+             [sensors.gyro]\nnoise_density_rad_s_sqrt_hz = 2.0e-4\n",
+        )
+        .unwrap();
+        let rig = measure::load::load(Some(&other)).unwrap();
+        let (changed, loaded, ..) = reestimate(&log, &o, None, Some(&rig)).unwrap();
+        assert_eq!(changed.systematic.accel_bias_sigma_m_s2, 0.01);
+        let ratio = changed.systematic.sigma.mass / online.systematic.sigma.mass;
+        assert!(
+            (5.0..20.0).contains(&ratio),
+            "systematic mass sigma ratio {ratio}"
+        );
+        let gyro = loaded.replay.config.gyro_noise_rad_s;
+        assert!((gyro - 2e-4 * 1000f64.sqrt()).abs() < 1e-12, "{gyro}");
+    }
+
     #[test]
     fn windows_parse() {
         assert_eq!(

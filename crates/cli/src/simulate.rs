@@ -248,3 +248,77 @@ pub fn main(args: &SimulateArgs, interrupt: &AtomicBool) -> u8 {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A short simulate run of `extra` laid over a short default, in `dir`.
+    fn short_run(dir: &std::path::Path, name: &str, extra: &str) -> SimulateOutcome {
+        let config = dir.join(format!("{name}.toml"));
+        let text = format!("[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n{extra}");
+        std::fs::write(&config, text).unwrap();
+        let args = SimulateArgs {
+            measure: MeasureArgs {
+                config: Some(config),
+                log: Some(dir.join(format!("{name}.mcap"))),
+                quiet: true,
+                ..MeasureArgs::default()
+            },
+            ..SimulateArgs::default()
+        };
+        simulate(&args, &AtomicBool::new(false)).unwrap()
+    }
+
+    /// The estimator's assumptions and the systematic sigma come from the rig description's
+    /// datasheet: a worse accelerometer bias figure widens the reported sigma, and the logged
+    /// estimator settings carry the datasheet's gyro noise.
+    #[test]
+    fn a_datasheet_figure_reaches_the_estimator_and_the_systematic_sigma() {
+        let dir = tempfile::tempdir().unwrap();
+        let base = short_run(dir.path(), "base", "");
+        let worse = short_run(
+            dir.path(),
+            "worse",
+            "[sensors.accelerometer]\nbias_m_s2 = 0.01\n[sensors.gyro]\nnoise_density_rad_s_sqrt_hz = 2.0e-4\n",
+        );
+        let (b, w) = (base.report.clone().unwrap(), worse.report.clone().unwrap());
+        assert_eq!(b.systematic.accel_bias_sigma_m_s2, 1e-3);
+        assert_eq!(w.systematic.accel_bias_sigma_m_s2, 1e-2);
+        // The bias's effect on the mass is about m·b_z/g: ten times the figure, ten times it.
+        let ratio = w.systematic.sigma.mass / b.systematic.sigma.mass;
+        assert!(
+            (5.0..20.0).contains(&ratio),
+            "systematic mass sigma ratio {ratio}"
+        );
+        assert!(w.sigma.mass > b.sigma.mass);
+        for (outcome, gyro) in [(&base, 5e-5), (&worse, 2e-4)] {
+            let log = runlog::LogContents::read(&outcome.log_path).unwrap();
+            let settings = log.settings_of("loaded").unwrap();
+            let expected = gyro * 1000f64.sqrt();
+            assert!(
+                (settings.gyro_noise_rad_s - expected).abs() < 1e-12,
+                "{} vs {expected}",
+                settings.gyro_noise_rad_s
+            );
+        }
+    }
+
+    #[test]
+    fn an_older_scenario_file_is_refused_saying_where_its_keys_went() {
+        let dir = tempfile::tempdir().unwrap();
+        let config = dir.path().join("old.toml");
+        std::fs::write(&config, "[payload]\nmass_kg = 900.0\n").unwrap();
+        let args = SimulateArgs {
+            measure: MeasureArgs {
+                config: Some(config),
+                quiet: true,
+                ..MeasureArgs::default()
+            },
+            ..SimulateArgs::default()
+        };
+        let err = simulate(&args, &AtomicBool::new(false)).unwrap_err();
+        assert_eq!(err.exit_code(), 2);
+        assert!(err.to_string().contains("[world.payload]"), "{err}");
+    }
+}
