@@ -18,12 +18,12 @@ struct MyRig {
 }
 
 impl Backend for MyRig {
-    type Error = String;
-    fn read(&mut self) -> Result<SensorFrame, String> {
-        self.hardware.read().map_err(|e| e.to_string())
+    type Error = sim::SimError; // your driver's own error type
+    fn read(&mut self) -> Result<SensorFrame, Self::Error> {
+        self.hardware.read()
     }
-    fn write(&mut self, command: &CommandFrame) -> Result<(), String> {
-        self.hardware.write(command).map_err(|e| e.to_string())
+    fn write(&mut self, command: &CommandFrame) -> Result<(), Self::Error> {
+        self.hardware.write(command)
     }
     fn sample_period_s(&self) -> f64 {
         self.hardware.sample_period_s()
@@ -36,9 +36,7 @@ impl Station for MyRig {
     }
     fn load_payload<O: Observer>(&mut self, _: &mut O, _: &AtomicBool) -> anyhow::Result<bool> {
         println!("tare done: the crane puts the car on");
-        self.hardware
-            .set_payload(Some(self.payload))
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        self.hardware.set_payload(Some(self.payload))?;
         Ok(true)
     }
 }
@@ -50,12 +48,8 @@ impl Observer for Display {
     fn tick(&mut self, e: &TickEvent<'_>) -> anyhow::Result<()> {
         if e.index % 1000 == 0 {
             let mass = e.estimator.map(|est| est.estimate().parameters.mass_kg);
-            println!(
-                "{:>6} {:>7.1} s  {:<7} on the plate: {mass:.1?} kg",
-                e.measurement.name(),
-                e.frame.time_s,
-                e.phase.name()
-            );
+            let (run, phase, t) = (e.measurement.name(), e.phase.name(), e.frame.time_s);
+            println!("{run:>6} {t:>5.1} s {phase:<7} on the plate: {mass:.1?} kg");
         }
         Ok(())
     }
@@ -69,25 +63,12 @@ fn main() -> anyhow::Result<()> {
     let controller = |s| {
         setup::trajectory(&rig, &geometry, s).and_then(|t| setup::controller(&rig, &geometry, t))
     };
-    let fixture = sim::BodyProperties {
-        mass_kg: 400.0,
-        com_m: [0.0, 0.0, 0.05],
-        inertia_com_kg_m2: [[240.0, 0.0, 0.0], [0.0, 240.0, 0.0], [0.0, 0.0, 450.0]],
-    };
-    let payload = sim::BodyProperties {
-        mass_kg: 1500.0,
-        com_m: [0.15, -0.08, 0.5],
-        inertia_com_kg_m2: [
-            [600.0, -25.0, 60.0],
-            [-25.0, 2500.0, -15.0],
-            [60.0, -15.0, 2700.0],
-        ],
-    };
-    let settings = sim::SimConfig {
-        substeps: 1,
-        ..sim::SimConfig::default()
-    };
-    let hardware = sim::Simulator::new(geometry, fixture, None, &settings, 1)?;
+    // The stand-in hardware: the default scenario's simulated world, empty fixture first.
+    let world = stewart_cli::world::Scenario::new(rig.clone(), None, None)?;
+    let (hardware, payload) = (
+        world.simulator(geometry, false)?,
+        world.world.payload.to_sim(),
+    );
     let plan = SessionPlan {
         config: &rig,
         geometry,
@@ -96,23 +77,18 @@ fn main() -> anyhow::Result<()> {
         save_tare: None,
         backend: "mine",
     };
-    let outcome = session::run(
-        plan,
-        &mut MyRig { hardware, payload },
-        &mut Display,
-        &AtomicBool::new(false),
-    )?;
+    let mut station = MyRig { hardware, payload };
+    let outcome = session::run(plan, &mut station, &mut Display, &AtomicBool::new(false))?;
     let report = outcome
         .report(&rig.config, Default::default(), None)
-        .context("no report")?;
+        .with_context(|| format!("no report: the session ended {:?}", outcome.end))?;
     let (e, s) = (&report.estimate, &report.sigma);
     println!(
-        "payload: {:.2} ± {:.2} kg, centre of mass {:.4?} ± {:.4?} m",
+        "payload {:.2} ± {:.2} kg, com {:.4?} ± {:.4?} m",
         e.mass, s.mass, e.com, s.com
     );
-    println!(
-        "inertia about the centre of mass (kg·m²): {:.1?}",
-        e.inertia_com
-    );
-    Ok(())
+    Ok(println!(
+        "J_C {:.1?} kg·m² (truth: {:.1?})",
+        e.inertia_com, payload.inertia_com_kg_m2
+    ))
 }

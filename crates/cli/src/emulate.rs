@@ -166,6 +166,15 @@ pub fn prepare(args: &EmulateArgs) -> Result<Prepared, CommandError> {
         args.seed,
         args.noise,
     )?;
+    if scenario.noise != NoisePreset::Realistic && !args.quiet {
+        eprintln!(
+            "note: the emulated sensors are `{}` (the rig description's datasheet × {}); give \
+             `stewart rig` a rig description with those figures, or its sigmas describe other \
+             sensors than these",
+            scenario.noise.name(),
+            scenario.noise.scale()
+        );
+    }
     let loaded = scenario.loaded.clone();
     let config = &loaded.config;
     let mut rig_config = config.rig.clone();

@@ -120,7 +120,15 @@ impl Scenario {
         }
         let noise = noise.unwrap_or(NoisePreset::Realistic);
         loaded.config.sensors = loaded.config.sensors.scaled(noise.scale());
-        let problems = validate(&world, loaded.config.sensors.sample_rate_hz);
+        let mut problems = validate(&world, loaded.config.sensors.sample_rate_hz);
+        if loaded.config.sensors.imu.orientation_deg != [0.0; 3] {
+            problems.push((
+                "sensors.imu.orientation_deg".into(),
+                "the simulator mounts its IMU with its axes along P's: a turned IMU can be \
+                 described for a real rig, but not simulated yet (set it to [0.0, 0.0, 0.0])"
+                    .into(),
+            ));
+        }
         if !problems.is_empty() {
             return Err(ConfigError {
                 issues: problems
@@ -346,6 +354,15 @@ mod tests {
         assert_eq!(sim.sensors.load_cell.bias_sigma_n, 75.0);
         assert_eq!(harsh.loaded.config.sensors.load_cell.zero_offset_n, 75.0);
         assert_eq!(sim.sensors.accelerometer.mount_m, [0.1, 0.0, 0.2]);
+    }
+
+    #[test]
+    fn a_turned_imu_is_refused_where_it_cannot_be_simulated() {
+        let text = "[sensors.imu]\norientation_deg = [0.0, 0.0, 90.0]\n";
+        let loaded = load_str(text, "t.toml").unwrap();
+        let err = Scenario::new(loaded, None, None).unwrap_err();
+        assert_eq!(err.issues[0].key, "sensors.imu.orientation_deg");
+        assert_eq!(err.issues[0].line, Some(2));
     }
 
     #[test]

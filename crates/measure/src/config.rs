@@ -29,7 +29,7 @@ pub struct Config {
     pub excitation: ExcitationConfig,
     /// The online estimator.
     pub estimator: EstimatorSection,
-    /// Durations of the run's phases and the random seed.
+    /// Durations of the run's phases.
     pub run: RunConfig,
     /// The link to a rig (`stewart rig`, `stewart emulate`); optional, every key defaulted.
     #[serde(default)]

@@ -129,6 +129,35 @@ where
     B::Error: std::fmt::Display,
     O: Observer + ?Sized,
 {
+    let mut last_sensor_sequence = 0;
+    let result = run(
+        backend,
+        setup,
+        controller,
+        observer,
+        stop,
+        &mut last_sensor_sequence,
+    );
+    if result.is_err() {
+        // Whatever failed (the backend, the observer), the platform must not keep moving.
+        let _ = backend.write(&CommandFrame::safe_stop(u64::MAX, last_sensor_sequence));
+    }
+    result
+}
+
+fn run<B, O>(
+    backend: &mut B,
+    setup: &MeasureSetup<'_>,
+    controller: Controller,
+    observer: &mut O,
+    stop: &AtomicBool,
+    last_sensor_sequence: &mut u64,
+) -> Result<MeasureOutcome>
+where
+    B: Backend,
+    B::Error: std::fmt::Display,
+    O: Observer + ?Sized,
+{
     let measurement = setup.measurement;
     let run = measurement.name();
     let config = setup.config;
@@ -163,6 +192,7 @@ where
     let mut index = 0u64;
     for i in 0..hold_samples {
         let frame = read(backend)?;
+        *last_sensor_sequence = frame.sequence;
         let sample = tick.hold(&frame);
         if sample.is_none() {
             fk_failures += 1;
@@ -217,6 +247,7 @@ where
     let mut last_fed_s = f64::NAN;
     for _ in 0..budget {
         let frame = read(backend)?;
+        *last_sensor_sequence = frame.sequence;
         let interrupted = stop.load(Ordering::SeqCst);
         if interrupted && !park_requested {
             tick.controller.request_park();
@@ -331,5 +362,88 @@ pub fn payload_estimate(loaded: &Estimate, tare: Option<&TareEstimate>) -> Estim
     match tare {
         Some((p, c)) => loaded.without_tare(p, c),
         None => *loaded,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::load::load;
+    use crate::observer::TickEvent;
+
+    /// A platform resting at home whatever it is told, recording the commands.
+    struct Resting {
+        lengths_m: [f64; 6],
+        sequence: u64,
+        commands: Vec<CommandFrame>,
+    }
+
+    impl Backend for Resting {
+        type Error = String;
+        fn read(&mut self) -> Result<SensorFrame, String> {
+            self.sequence += 1;
+            Ok(SensorFrame {
+                sequence: self.sequence,
+                time_s: self.sequence as f64 * 1e-3,
+                leg_lengths_m: self.lengths_m,
+                leg_forces_n: [3000.0; 6],
+                accel_m_s2: [0.0, 0.0, 9.80665],
+                ..SensorFrame::default()
+            })
+        }
+        fn write(&mut self, command: &CommandFrame) -> Result<(), String> {
+            self.commands.push(*command);
+            Ok(())
+        }
+        fn sample_period_s(&self) -> f64 {
+            1e-3
+        }
+    }
+
+    /// Fails on its `n`th tick, as a full disk would.
+    struct FailsAt(u64);
+
+    impl Observer for FailsAt {
+        fn tick(&mut self, e: &TickEvent<'_>) -> Result<()> {
+            if e.index + 1 == self.0 {
+                bail!("disk full");
+            }
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn an_observer_failure_mid_motion_ends_with_a_safe_stop() {
+        let loaded = load(None).unwrap();
+        let geometry = setup::geometry(&loaded).unwrap();
+        let trajectory = setup::trajectory(&loaded, &geometry, 10.0).unwrap();
+        let controller = setup::controller(&loaded, &geometry, trajectory).unwrap();
+        let home = geometry.leg_lengths(&geometry.home_pose());
+        let mut backend = Resting {
+            lengths_m: home.into(),
+            sequence: 0,
+            commands: Vec::new(),
+        };
+        let setup = MeasureSetup {
+            config: &loaded.config,
+            geometry,
+            measurement: Measurement::Tare,
+            tare: None,
+        };
+        // 500 brake-hold ticks, then the controller drives the legs.
+        let err = measure(
+            &mut backend,
+            &setup,
+            controller,
+            &mut FailsAt(600),
+            &AtomicBool::new(false),
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("disk full"), "{err}");
+        let n = backend.commands.len();
+        assert_eq!(n, 601, "600 ticks and the safe stop");
+        assert!(backend.commands[n - 2].enable, "the legs were driven");
+        assert!(!backend.commands[n - 1].enable, "then braked");
+        assert_eq!(backend.commands[n - 1].leg_forces_n, [0.0; 6]);
     }
 }

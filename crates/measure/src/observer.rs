@@ -4,7 +4,7 @@
 //! procedure never waits on anything but the observer's return.
 //!
 //! Every method but [`Observer::tick`] has a default that does nothing. An error from any of
-//! them ends the measurement with a safe stop, as a backend failure does.
+//! them ends the measurement with a best-effort safe stop, as a backend failure does.
 
 use control::controller::TickOutput;
 use control::io::{CommandFrame, SensorFrame};
@@ -42,7 +42,8 @@ pub struct TickEvent<'a> {
     pub interrupted: bool,
 }
 
-/// The estimator was created, on the first frame of the excitation.
+/// The estimator's fit window opened, on the first frame of the excitation (the estimator
+/// itself exists from the measurement's first frame, warming its conditioning).
 #[derive(Clone, Copy, Debug)]
 pub struct EstimatorStarted<'a> {
     /// Tare or loaded.
@@ -79,7 +80,7 @@ pub trait Observer {
     /// One tick happened: the frame was read and the command written.
     fn tick(&mut self, event: &TickEvent<'_>) -> anyhow::Result<()>;
 
-    /// The estimator was created at the start of the excitation.
+    /// The estimator's fit window opened at the start of the excitation.
     fn estimator_started(&mut self, event: &EstimatorStarted<'_>) -> anyhow::Result<()> {
         let _ = event;
         Ok(())

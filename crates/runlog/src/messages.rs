@@ -75,9 +75,9 @@ pub struct SensorMsg {
     pub leg_lengths_m: [f64; 6],
     /// Axial leg forces at the plate joints, N (positive pushes the plate away).
     pub leg_forces_n: [f64; 6],
-    /// Angular rate in P, rad/s.
+    /// Angular rate in the IMU's axes, rad/s.
     pub gyro_rad_s: [f64; 3],
-    /// Specific force at the accelerometer, in P, m/s².
+    /// Specific force at the accelerometer, in the IMU's axes, m/s².
     pub accel_m_s2: [f64; 3],
     /// Backend status bits.
     pub status: u32,
@@ -127,11 +127,11 @@ impl SensorMsg {
                 ),
                 (
                     "gyro_rad_s",
-                    three("angular rate of the plate in P axes, rad/s"),
+                    three("angular rate of the plate in the IMU's axes (P's when aligned), rad/s"),
                 ),
                 (
                     "accel_m_s2",
-                    three("specific force (a - g) at the accelerometer, P axes, m/s^2"),
+                    three("specific force (a - g) at the accelerometer, IMU axes, m/s^2"),
                 ),
                 ("status", int("backend status bits (control::io::Status)")),
             ],

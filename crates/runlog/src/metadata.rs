@@ -66,10 +66,13 @@ impl RunMetadata {
                 ("config_text", string("the scenario file's text as read")),
                 (
                     "config_toml",
-                    string("effective configuration (default + file + command line), TOML"),
+                    string("effective rig description (default + file + command line), TOML"),
                 ),
-                ("seed", int("random seed")),
-                ("noise", string("none, realistic or harsh")),
+                ("seed", int("seed of the simulated world (0 on a rig)")),
+                (
+                    "noise",
+                    string("sensor grade of the simulated world (none, realistic, harsh), or rig"),
+                ),
                 ("params", int("10 or 6")),
                 ("sample_period_s", num("nominal sample period, s")),
                 (

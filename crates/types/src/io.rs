@@ -46,9 +46,10 @@ pub struct SensorFrame {
     /// Measured axial leg forces at the plate joints, newtons; positive pushes the plate away
     /// from the base.
     pub leg_forces_n: [f64; LEG_COUNT],
-    /// Angular rate of the plate, in P axes, rad/s.
+    /// Angular rate of the plate, in the IMU's axes (P's when the IMU is aligned; the rig
+    /// description's `sensors.imu.orientation_deg` turns them into P), rad/s.
     pub gyro_rad_s: [f64; 3],
-    /// Specific force (a − g) at the accelerometer's mounting point, in P axes, m/s².
+    /// Specific force (a − g) at the accelerometer's mounting point, in the IMU's axes, m/s².
     pub accel_m_s2: [f64; 3],
     /// Backend status bits.
     pub status: Status,
