@@ -72,7 +72,7 @@ fn main() -> anyhow::Result<()> {
     let plan = SessionPlan {
         config: &rig,
         geometry,
-        tare: TarePlan::Measure(controller(rig.config.run.tare_duration_s)?),
+        tare: TarePlan::Measure(Box::new(controller(rig.config.run.tare_duration_s)?)),
         loaded: Some(controller(rig.config.run.duration_s)?),
         save_tare: None,
         backend: "mine",

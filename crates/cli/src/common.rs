@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use clap::Args;
 use measure::load::{ConfigError, LoadedConfig, Overrides};
-use measure::{End, Report};
+use measure::End;
 
 /// Exit code after Ctrl-C (128 + SIGINT, as shells report it).
 pub const EXIT_INTERRUPTED: u8 = 130;
@@ -138,38 +138,4 @@ pub fn end_code(end: &End, fault_detail: &str) -> u8 {
             EXIT_FAULT
         }
     }
-}
-
-/// Prints the table, writes the report (`json`, the report's JSON with any extras), says where
-/// the log is and draws the figures; returns the exit code after `code`.
-pub fn finish_measurement(
-    args: &MeasureArgs,
-    report: Option<(&Report, String)>,
-    log: &Path,
-    mut code: u8,
-) -> u8 {
-    if let Some((report, json)) = report {
-        if !args.quiet {
-            print!("{}", crate::table::render(report));
-        }
-        if let Some(path) = &args.report {
-            if let Err(e) = std::fs::write(path, json) {
-                eprintln!("error: cannot write the report {}: {e}", path.display());
-                code = code.max(1);
-            } else if !args.quiet {
-                println!("report: {}", path.display());
-            }
-        }
-    }
-    println!("log: {}", log.display());
-    if let Some(dir) = &args.plot {
-        match crate::plot::plot_log(log, dir) {
-            Ok(files) => println!("figures: {} ({} files)", dir.display(), files.len()),
-            Err(e) => {
-                eprintln!("error: cannot plot the log: {e:#}");
-                code = code.max(1);
-            }
-        }
-    }
-    code
 }

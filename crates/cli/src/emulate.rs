@@ -202,7 +202,7 @@ pub fn prepare(args: &EmulateArgs) -> Result<Prepared, CommandError> {
     let key_path = args
         .key
         .clone()
-        .or_else(|| rig_config.key_path(&loaded.source));
+        .or_else(|| rig_config.key_path(&loaded.directory()));
     let key = match key_path {
         Some(path) => Some(Key::from_file(&path).map_err(|e| refused(format!("shared key: {e}")))?),
         None => None,

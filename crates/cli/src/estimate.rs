@@ -428,7 +428,7 @@ pub fn estimate(args: &EstimateArgs) -> Result<EstimateOutcome> {
     }
     let mut figures = Vec::new();
     if let Some(dir) = &args.plot {
-        let f = crate::plot::figures_from_reestimate(&log, &loaded, &tare)?;
+        let f = crate::plot::figures_from_reestimate(&log, &loaded.run, &loaded.replay, &tare)?;
         figures = crate::plot::write_figures(dir, &f)?;
         if !args.quiet {
             println!("figures: {} ({} files)", dir.display(), figures.len());

@@ -9,6 +9,7 @@ pub mod campaign;
 pub mod common;
 pub mod emulate;
 pub mod estimate;
+pub mod output;
 pub mod plot;
 pub mod progress;
 pub mod prompt;
@@ -78,6 +79,7 @@ pub fn main_entry() -> std::process::ExitCode {
             }
         },
         Command::Bench(a) => bench::main(&a),
+        Command::Simulate(a) if a.runs.is_some() => campaign::main(&a, &INTERRUPT),
         Command::Simulate(a) => simulate::main(&a, &INTERRUPT),
     })
 }

@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use estimator::{Estimate, InertialParameters, ParameterVector};
 
-use crate::estimate::RunEstimate;
+use measure::replay::ReplayOutcome;
 use measure::TareFile;
 use runlog::metadata::BodyTruth;
 use runlog::read::{BodyRecord, LogContents};
@@ -267,25 +267,25 @@ fn subject(run: &str, payload: bool) -> String {
     }
 }
 
-/// Figures from an offline re-run of the loaded measurement, with `tare` subtracted.
+/// Figures from an offline re-run (`replay`) of measurement `run`, with `tare` subtracted.
 pub fn figures_from_reestimate(
     log: &LogContents,
-    loaded: &RunEstimate,
+    run: &str,
+    replay: &ReplayOutcome,
     tare: &TareFile,
 ) -> Result<Figures> {
-    let t0 = origin_s(log, &loaded.run);
+    let t0 = origin_s(log, run);
     let (tp, tc) = (tare.parameters(), tare.covariance_matrix());
-    let times: Vec<f64> = loaded.replay.trace.iter().map(|p| p.time_s - t0).collect();
-    let values: Vec<_> = loaded
-        .replay
+    let times: Vec<f64> = replay.trace.iter().map(|p| p.time_s - t0).collect();
+    let values: Vec<_> = replay
         .trace
         .iter()
         .map(|p| of_estimate(&p.estimate.without_tare(&tp, &tc)))
         .collect();
-    let (tracking, excitation) = tracking_and_excitation(log, &loaded.run, t0);
+    let (tracking, excitation) = tracking_and_excitation(log, run, t0);
     Ok(Figures {
-        subject: subject(&loaded.run, true),
-        parameters: series(&times, &values, truth_of(log, &loaded.run, true)),
+        subject: subject(run, true),
+        parameters: series(&times, &values, truth_of(log, run, true)),
         tracking,
         excitation,
     })

@@ -219,7 +219,7 @@ pub fn link_settings(
     }
     let key_path = match &flags.key {
         Some(path) => Some(path.clone()),
-        None => rig_config.key_path(&loaded.source),
+        None => rig_config.key_path(&loaded.directory()),
     };
     let key = match key_path {
         Some(path) => Some(Key::from_file(&path).map_err(|e| refuse(format!("shared key: {e}")))?),
@@ -296,13 +296,15 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
     let (base_joints, plate_joints) = session::joints(&geometry);
     let tare = match &common.run.tare {
         Some(path) => TarePlan::File(
-            TareFile::load(path, &base_joints, &plate_joints).map_err(CommandError::Input)?,
+            Box::new(
+                TareFile::load(path, &base_joints, &plate_joints).map_err(CommandError::Input)?,
+            ),
             path.display().to_string(),
         ),
         None => {
             let t = setup::trajectory(&loaded, &geometry, config.run.tare_duration_s)
                 .map_err(|e| common::rename_duration(e, "run.tare_duration_s"))?;
-            TarePlan::Measure(setup::controller(&loaded, &geometry, t)?)
+            TarePlan::Measure(Box::new(setup::controller(&loaded, &geometry, t)?))
         }
     };
 

@@ -118,13 +118,15 @@ pub fn simulate(
     let (base_joints, plate_joints) = session::joints(&geometry);
     let tare = match &args.measure.tare {
         Some(path) => TarePlan::File(
-            TareFile::load(path, &base_joints, &plate_joints).map_err(CommandError::Input)?,
+            Box::new(
+                TareFile::load(path, &base_joints, &plate_joints).map_err(CommandError::Input)?,
+            ),
             path.display().to_string(),
         ),
         None => {
             let t = setup::trajectory(loaded, &geometry, config.run.tare_duration_s)
                 .map_err(|e| common::rename_duration(e, "run.tare_duration_s"))?;
-            TarePlan::Measure(setup::controller(loaded, &geometry, t)?)
+            TarePlan::Measure(Box::new(setup::controller(loaded, &geometry, t)?))
         }
     };
     let tare_run = matches!(tare, TarePlan::Measure(_));
@@ -228,9 +230,6 @@ pub fn simulate(
 /// `stewart simulate` from the command line: runs, prints, writes the report; returns the
 /// exit code (0 done, 1 failed, 2 refused before anything ran, 3 fault, 130 interrupted).
 pub fn main(args: &SimulateArgs, interrupt: &AtomicBool) -> u8 {
-    if args.runs.is_some() {
-        return crate::campaign::main(args, interrupt);
-    }
     match simulate(args, interrupt) {
         Ok(outcome) => {
             let code = common::end_code(&outcome.end, "");
@@ -240,7 +239,7 @@ pub fn main(args: &SimulateArgs, interrupt: &AtomicBool) -> u8 {
                 }
             }
             let report = outcome.report.as_ref().map(|r| (r, r.to_json()));
-            common::finish_measurement(&args.measure, report, &outcome.log_path, code)
+            crate::output::finish_measurement(&args.measure, report, &outcome.log_path, code)
         }
         Err(e) => {
             eprintln!("error: {e}");

@@ -5,8 +5,6 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
-use crate::load::DEFAULT_CONFIG_NAME;
-
 /// Where `stewart rig` looks for the rig and `stewart emulate` listens, unless the
 /// configuration's `rig.address` or `--connect`/`--listen` say otherwise.
 pub const DEFAULT_ADDRESS: &str = "udp://127.0.0.1:7700";
@@ -69,15 +67,14 @@ impl RigLinkConfig {
         out
     }
 
-    /// The key file, relative paths taken from the scenario file's directory (`source`, the
-    /// name [`LoadedConfig::source`] gives; the working directory for the embedded default).
-    pub fn key_path(&self, source: &str) -> Option<PathBuf> {
+    /// The key file, a relative path taken from `directory` (the rig description's, as
+    /// [`crate::load::LoadedConfig::directory`] gives it).
+    pub fn key_path(&self, directory: &Path) -> Option<PathBuf> {
         let file = Path::new(self.key_file.as_ref()?);
-        if file.is_absolute() || source == DEFAULT_CONFIG_NAME {
+        if file.is_absolute() {
             return Some(file.to_path_buf());
         }
-        let dir = Path::new(source).parent().unwrap_or(Path::new(""));
-        Some(dir.join(file))
+        Some(directory.join(file))
     }
 }
 
@@ -106,22 +103,18 @@ mod tests {
             ..RigLinkConfig::default()
         };
         assert_eq!(
-            c.key_path("configs/lab.toml"),
+            c.key_path(Path::new("configs")),
             Some(PathBuf::from("configs/rig.key"))
         );
-        assert_eq!(c.key_path("lab.toml"), Some(PathBuf::from("rig.key")));
-        assert_eq!(
-            c.key_path(DEFAULT_CONFIG_NAME),
-            Some(PathBuf::from("rig.key"))
-        );
+        assert_eq!(c.key_path(Path::new("")), Some(PathBuf::from("rig.key")));
         let abs = RigLinkConfig {
             key_file: Some("/etc/rig.key".into()),
             ..RigLinkConfig::default()
         };
         assert_eq!(
-            abs.key_path("configs/lab.toml"),
+            abs.key_path(Path::new("configs")),
             Some(PathBuf::from("/etc/rig.key"))
         );
-        assert_eq!(RigLinkConfig::default().key_path("x.toml"), None);
+        assert_eq!(RigLinkConfig::default().key_path(Path::new("x")), None);
     }
 }

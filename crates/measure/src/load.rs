@@ -98,6 +98,18 @@ pub struct LoadedConfig {
 }
 
 impl LoadedConfig {
+    /// The directory that paths in the rig description are relative to: the file's own, or
+    /// the working directory for the embedded default.
+    pub fn directory(&self) -> std::path::PathBuf {
+        if self.source == DEFAULT_CONFIG_NAME {
+            return std::path::PathBuf::new();
+        }
+        std::path::Path::new(&self.source)
+            .parent()
+            .map(std::path::Path::to_path_buf)
+            .unwrap_or_default()
+    }
+
     /// The effective rig description (default merged with the file) as TOML, for logs.
     pub fn effective_toml(&self) -> String {
         toml::to_string(&self.config).unwrap_or_default()

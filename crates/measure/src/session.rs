@@ -68,9 +68,9 @@ pub trait Station {
 /// Where the session's tare comes from.
 pub enum TarePlan {
     /// A tare run with this controller.
-    Measure(Controller),
+    Measure(Box<Controller>),
     /// A saved tare, read from this path.
-    File(TareFile, String),
+    File(Box<TareFile>, String),
 }
 
 /// The tare run's effects of one datasheet sigma of accelerometer bias and of load-cell
@@ -87,7 +87,7 @@ pub struct TareEffects {
 #[derive(Clone, Debug)]
 pub enum TareSource {
     /// Measured in this session, with its effects.
-    Measured(TareFile, TareEffects),
+    Measured(TareFile, Box<TareEffects>),
     /// A saved tare, from this path.
     File(TareFile, String),
 }
@@ -153,7 +153,7 @@ impl SessionOutcome {
         let estimate = loaded.estimate.as_ref()?;
         let tare = self.tare.as_ref()?;
         let (kind, path, effects) = match tare {
-            TareSource::Measured(_, e) => (TareKind::Measured, None, *e),
+            TareSource::Measured(_, e) => (TareKind::Measured, None, **e),
             TareSource::File(_, p) => (TareKind::File, Some(p.clone()), TareEffects::default()),
         };
         Some(report::build(&ReportInputs {
@@ -204,13 +204,13 @@ pub fn run<S: Station, O: Observer>(
     let (tare, measured) = match plan.tare {
         TarePlan::File(file, path) => {
             observer.tare(&file)?;
-            (TareSource::File(file, path), false)
+            (TareSource::File(*file, path), false)
         }
         TarePlan::Measure(controller) => {
             let outcome = station.measure(
                 Job {
                     setup: setup(Measurement::Tare, None),
-                    controller,
+                    controller: *controller,
                     stop,
                 },
                 observer,
@@ -245,7 +245,7 @@ pub fn run<S: Station, O: Observer>(
             if let Some(path) = plan.save_tare {
                 file.save(path)?;
             }
-            (TareSource::Measured(file, effects), true)
+            (TareSource::Measured(file, Box::new(effects)), true)
         }
     };
     let Some(controller) = plan.loaded else {

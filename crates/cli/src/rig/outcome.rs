@@ -143,5 +143,5 @@ pub fn finish(args: &RigArgs, outcome: &RigOutcome) -> u8 {
         .and_then(|v| serde_json::to_string_pretty(&v).ok())
         .unwrap_or_default();
     let report = outcome.report.as_ref().map(|r| (r, json));
-    crate::common::finish_measurement(run_args, report, &outcome.log_path, code)
+    crate::output::finish_measurement(run_args, report, &outcome.log_path, code)
 }
