@@ -18,9 +18,11 @@
 //!   [`observer`] (where they report).
 //! - [`tare`], [`systematic`], [`report`]: the tare file, the datasheet part of the
 //!   uncertainty, the report.
-//! - [`replay`]: the estimator re-run on recorded frames.
+//! - [`replay`]: the estimator re-run on recorded frames; [`accuracy`]: error statistics of
+//!   a campaign against a known truth.
 #![warn(missing_docs)]
 
+pub mod accuracy;
 pub mod config;
 pub mod feed;
 pub mod link;
