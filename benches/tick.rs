@@ -3,7 +3,7 @@
 //!
 //! The stream: 4096 sensor frames recorded from the simulator 2 s into the default excitation
 //! (realistic noise), with the controller and estimator state just before the first frame
-//! (`stewart_cli::bench::record`). Each benchmark replays the ring through a copy of that state
+//! (`stewart_cli::bench::record`, on the production tick `measure::tick::Tick`). Each benchmark replays the ring through a copy of that state
 //! and restores the copy (outside the timed window) when the ring wraps, so every timed tick
 //! is a real tick of a real run: FK warm-started one sample away, a moving set-point, PIDs
 //! tracking, an estimator with thousands of samples behind it.
@@ -13,8 +13,9 @@
 //! tick is also timed on the wall clock (`full_tick/wall`), which includes it. On an idle host
 //! the two agree.
 //!
-//! - `full_tick`: `TickPipeline::tick` = `Controller::tick` (sensor checks, FK, trajectory,
-//!   IK, Jacobian, six PIDs, supervisor gate) + `OnlineEstimator::update` (wrench,
+//! - `full_tick`: `Tick::step`, the tick `simulate` and `rig` run = `Controller::tick` (sensor
+//!   checks, FK, trajectory, IK, Jacobian, six PIDs, supervisor gate) + the frame-to-sample
+//!   rule (`measure::feed`) at the controller's pose + `OnlineEstimator::update` (wrench,
 //!   conditioning, regressor, weighted U-D RLS, residual scores) on the same frame.
 //! - `full_tick/wall`: the same on the wall clock.
 //! - `full_tick/controller_part`, `full_tick/estimator_part`: the two halves on the same stream.
@@ -34,14 +35,15 @@ use control::io::SensorFrame;
 use control::supervisor::{Phase, Supervisor};
 use criterion::{criterion_group, criterion_main, Criterion};
 use estimator::{OnlineEstimator, Sample};
-use kinematics::{Vector3, Vector6};
 use stewart_cli::bench::{record, Recording};
+use stewart_cli::world::Scenario;
 
 const FRAMES: usize = 4096;
 
 fn recording() -> Recording {
-    let loaded = stewart_cli::config_load::load(None).expect("embedded default config");
-    record(&loaded, FRAMES, 2.0).expect("record the default scenario")
+    let loaded = measure::load::load(None).expect("embedded default config");
+    let world = Scenario::new(loaded, None, None).expect("the default world");
+    record(&world, FRAMES, 2.0).expect("record the default scenario")
 }
 
 #[derive(Clone, Copy)]
@@ -110,16 +112,16 @@ fn bench(c: &mut Criterion) {
 
     c.bench_function("full_tick", |b| {
         b.iter_custom(|iters| {
-            ring(Clock::Cpu, iters, &rec.start, &rec.frames, |p, f| {
-                black_box(p.tick(black_box(f)));
+            ring(Clock::Cpu, iters, &rec.start, &rec.frames, |t, f| {
+                black_box(t.step(black_box(f)));
             })
         })
     });
 
     c.bench_function("full_tick/wall", |b| {
         b.iter_custom(|iters| {
-            ring(Clock::Wall, iters, &rec.start, &rec.frames, |p, f| {
-                black_box(p.tick(black_box(f)));
+            ring(Clock::Wall, iters, &rec.start, &rec.frames, |t, f| {
+                black_box(t.step(black_box(f)));
             })
         })
     });
@@ -138,21 +140,13 @@ fn bench(c: &mut Criterion) {
         })
     });
 
-    // The estimator's inputs exactly as the full tick builds them.
-    let mut controller = rec.start.controller;
+    // The estimator's inputs exactly as the full tick builds them (it builds them: the same
+    // tick, replayed).
+    let mut tick = rec.start;
     let samples: Vec<Sample> = rec
         .frames
         .iter()
-        .map(|f| Sample {
-            time_s: f.time_s,
-            pose: controller
-                .tick(f)
-                .measured_pose
-                .expect("FK converges on the stream"),
-            leg_forces_n: Vector6::from(f.leg_forces_n),
-            gyro_rad_s: Vector3::from(f.gyro_rad_s),
-            accel_m_s2: Vector3::from(f.accel_m_s2),
-        })
+        .map(|f| tick.step(f).sample.expect("FK converges on the stream"))
         .collect();
     let estimator: OnlineEstimator = rec.start.estimator;
     c.bench_function("full_tick/estimator_part", |b| {

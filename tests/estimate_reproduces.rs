@@ -2,14 +2,12 @@
 //! report to 1e-9 relative (in practice bit for bit), other settings change the estimate, and a
 //! log without a needed channel is refused with the channel's name.
 
-mod log_support;
+mod support;
 
-use std::path::Path;
-
-use log_support::close;
+use measure::report::{Quantities, Report};
+use runlog::LogContents;
 use stewart_cli::estimate::{reestimate, EstimateArgs, SettingsOverride, Window};
-use stewart_cli::log_read::LogContents;
-use stewart_cli::report::{Quantities, Report};
+use support::close;
 
 fn numbers(q: &Quantities) -> Vec<f64> {
     let mut v = vec![q.mass];
@@ -57,7 +55,7 @@ fn assert_reproduces(online: &Report, offline: &Report) {
 
 #[test]
 fn estimate_reproduces_the_online_report_and_refuses_a_missing_channel() {
-    let run = log_support::simulate();
+    let run = support::simulate();
     let dir = run.dir.path();
     let report_path = dir.join("offline.json");
     let outcome = stewart_cli::estimate::estimate(&EstimateArgs {
@@ -85,6 +83,7 @@ fn estimate_reproduces_the_online_report_and_refuses_a_missing_channel() {
             ..SettingsOverride::default()
         },
         None,
+        None,
     )
     .unwrap();
     assert!(other.samples < run.report.samples);
@@ -94,7 +93,7 @@ fn estimate_reproduces_the_online_report_and_refuses_a_missing_channel() {
     // Without /sensors, or without the estimator's settings, the log is refused by name.
     for topic in ["/sensors", "/run/estimator", "/run/metadata"] {
         let cut = dir.join(format!("without{}.mcap", topic.replace('/', "_")));
-        copy_without(&run.log, &cut, topic);
+        support::copy_without(&run.log, &cut, topic);
         let err = stewart_cli::estimate::estimate(&EstimateArgs {
             log: cut,
             quiet: true,
@@ -104,18 +103,4 @@ fn estimate_reproduces_the_online_report_and_refuses_a_missing_channel() {
         let text = format!("{err:#}");
         assert!(text.contains(topic), "{topic}: {text}");
     }
-}
-
-/// Copies a log without one channel's messages (channels and schemas are kept).
-fn copy_without(from: &Path, to: &Path, topic: &str) {
-    let bytes = std::fs::read(from).unwrap();
-    let mut out =
-        mcap::Writer::new(std::io::BufWriter::new(std::fs::File::create(to).unwrap())).unwrap();
-    for m in mcap::MessageStream::new(&bytes).unwrap() {
-        let m = m.unwrap();
-        if m.channel.topic != topic {
-            out.write(&m).unwrap();
-        }
-    }
-    out.finish().unwrap();
 }

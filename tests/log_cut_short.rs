@@ -2,15 +2,15 @@
 //! `stewart estimate` uses what is there: the estimate it makes at the last logged `/estimate`
 //! instant is the one the run logged there.
 
-mod log_support;
+mod support;
 
-use log_support::close;
-use stewart_cli::estimate::{reestimate_run, EstimateArgs, SettingsOverride};
-use stewart_cli::log_read::LogContents;
+use runlog::LogContents;
+use stewart_cli::estimate::{reestimate_run, rig_description, EstimateArgs, SettingsOverride};
+use support::close;
 
 #[test]
 fn a_log_cut_short_opens_and_estimate_uses_what_is_there() {
-    let run = log_support::simulate();
+    let run = support::simulate();
     let bytes = std::fs::read(&run.log).unwrap();
     let full = LogContents::from_bytes(&bytes).unwrap();
     let loaded_end_s = full.settings_of("loaded").unwrap().window_end_s.unwrap();
@@ -41,10 +41,7 @@ fn a_log_cut_short_opens_and_estimate_uses_what_is_there() {
     );
 
     // The mcap crate's own stream gives the same messages before its error.
-    let ok = mcap::MessageStream::new(&bytes[..n])
-        .unwrap()
-        .take_while(|m| m.is_ok())
-        .count() as u64;
+    let ok = support::readable_records(&bytes[..n]);
     assert_eq!(ok, log.channels.values().map(|c| c.count).sum::<u64>());
 
     // Re-estimating the cut loaded run reproduces its last logged estimate.
@@ -54,14 +51,10 @@ fn a_log_cut_short_opens_and_estimate_uses_what_is_there() {
         .rev()
         .find(|e| e.run == "loaded")
         .unwrap();
-    let offline = reestimate_run(
-        &log,
-        "loaded",
-        &SettingsOverride::default(),
-        stewart_cli::estimate::accel_bias_sigma(&log).unwrap(),
-    )
-    .unwrap();
+    let rig = rig_description(&log, None).unwrap();
+    let offline = reestimate_run(&log, &rig, "loaded", &SettingsOverride::default()).unwrap();
     let at = offline
+        .replay
         .trace
         .iter()
         .find(|p| p.time_s == last.time_s)

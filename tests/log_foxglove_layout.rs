@@ -16,7 +16,7 @@ fn layout() -> Value {
 }
 
 fn schemas() -> BTreeMap<String, (String, Value)> {
-    stewart_cli::log_messages::channels()
+    runlog::messages::channels()
         .into_iter()
         .map(|c| {
             (
@@ -102,15 +102,15 @@ fn the_layout_places_configured_panels_and_plots_real_paths() {
 
     // The 3D panel shows the scene and both transforms, fixed to the base frame.
     let three_d = &configs["3D!platform"];
-    assert_eq!(three_d["followTf"], stewart_cli::foxglove::BASE_FRAME);
+    assert_eq!(three_d["followTf"], runlog::foxglove::BASE_FRAME);
     for topic in three_d["topics"].as_object().unwrap().keys() {
         let (name, _) = &schemas[topic];
         assert!(name.starts_with("foxglove."), "{topic}: {name}");
     }
     for frame in [
-        stewart_cli::foxglove::BASE_FRAME,
-        stewart_cli::foxglove::PLATFORM_FRAME,
-        stewart_cli::foxglove::PAYLOAD_FRAME,
+        runlog::foxglove::BASE_FRAME,
+        runlog::foxglove::PLATFORM_FRAME,
+        runlog::foxglove::PAYLOAD_FRAME,
     ] {
         assert!(
             three_d["transforms"][format!("frame:{frame}")].is_object(),

@@ -1,7 +1,7 @@
 //! `--plot DIR` writes non-empty, valid SVG and PNG figures: from a `simulate` log (what
 //! `simulate --plot` and `rig --plot` call) and from `estimate --plot`.
 
-mod log_support;
+mod support;
 
 use std::path::Path;
 
@@ -86,7 +86,7 @@ fn simulate_and_estimate_plot_valid_svg_and_png() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let config = d.join("short.toml");
-    std::fs::write(&config, log_support::SHORT).unwrap();
+    std::fs::write(&config, support::SHORT).unwrap();
     let log = d.join("run.mcap");
     let run_figures = d.join("figures-run");
     let stdout = stewart(&[

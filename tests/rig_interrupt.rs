@@ -1,13 +1,13 @@
 //! Ctrl-C during a rig run: the platform parks (the controller's park ramp, then the brakes),
 //! the log is finished, the exit code is 130, and no tare is saved.
 
-mod rig_support;
+mod support;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use rig_support::*;
-use stewart_cli::run::End;
+use measure::End;
+use support::*;
 
 #[test]
 fn ctrl_c_parks_the_platform_and_finishes_the_log() {
@@ -31,7 +31,7 @@ fn ctrl_c_parks_the_platform_and_finishes_the_log() {
     static INTERRUPT: AtomicBool = AtomicBool::new(false);
     let host = std::thread::spawn({
         let args = args.clone();
-        move || stewart_cli::rig_cmd::rig(&args, &INTERRUPT)
+        move || stewart_cli::rig::rig(&args, &INTERRUPT)
     });
     let deadline = Instant::now() + Duration::from_secs(10);
     while emulator.sessions().is_empty() {
@@ -46,7 +46,7 @@ fn ctrl_c_parks_the_platform_and_finishes_the_log() {
 
     assert_eq!(outcome.end, End::Interrupted);
     assert_eq!(
-        stewart_cli::rig_cmd::finish(&args, &outcome),
+        stewart_cli::rig::finish(&args, &outcome),
         stewart_cli::EXIT_INTERRUPTED
     );
     assert!(!out.exists(), "an interrupted tare is not saved");

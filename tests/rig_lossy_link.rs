@@ -2,16 +2,16 @@
 //! (and well-formed frames from a stranger) sprayed at both sockets. The run completes, the
 //! damage is counted and reported, nothing panics.
 
-mod rig_support;
+mod support;
 
 use std::net::{SocketAddr, UdpSocket};
 use std::time::{Duration, Instant};
 
+use measure::End;
 use rig::codec::{self, CRC32, MAX_FRAME_LEN};
 use rig::transport::Peer;
 use rig::wire::{Command, Message, Sensor};
-use rig_support::*;
-use stewart_cli::run::End;
+use support::*;
 
 /// xorshift64*: enough randomness for junk datagrams, without a dependency.
 struct Junk(u64);
@@ -100,7 +100,7 @@ fn dropped_and_corrupted_frames_are_counted_and_the_run_completes() {
     let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));
     let stopped = emulator.stop().unwrap();
     assert_eq!(outcome.end, End::Completed, "{:?}", outcome.failure);
-    assert_eq!(stewart_cli::rig_cmd::finish(&args, &outcome), 0);
+    assert_eq!(stewart_cli::rig::finish(&args, &outcome), 0);
     assert!(scratch.path("tare.json").exists());
 
     let c = outcome.link[0].counters;
@@ -124,7 +124,7 @@ fn dropped_and_corrupted_frames_are_counted_and_the_run_completes() {
     assert!(stopped.faults().is_empty(), "{:?}", stopped.faults());
 
     // Reported: in the printed lines and in the log.
-    let lines = stewart_cli::rig_cmd::link_lines(&outcome.link);
+    let lines = stewart_cli::rig::link_lines(&outcome.link);
     assert!(
         lines[0].contains(&format!("lost {}", c.lost)),
         "{}",
@@ -136,7 +136,7 @@ fn dropped_and_corrupted_frames_are_counted_and_the_run_completes() {
         lines[0]
     );
     let messages = read_log(&scratch.path("rig.mcap"));
-    let end = on(&messages, stewart_cli::rig_cmd::link::LINK)
+    let end = on(&messages, runlog::link::LINK)
         .last()
         .copied()
         .unwrap()
@@ -224,5 +224,5 @@ fn random_datagrams_at_both_sockets_are_counted_and_harmless() {
         c.commands_sent
     );
     assert!(stopped.faults().is_empty(), "{:?}", stopped.faults());
-    assert_eq!(stewart_cli::rig_cmd::finish(&args, &outcome), 0);
+    assert_eq!(stewart_cli::rig::finish(&args, &outcome), 0);
 }

@@ -2,11 +2,11 @@
 //! `stewart emulate` on loopback UDP, compared with `stewart simulate` on the same scenario:
 //! the rig's estimate must agree with the emulator's truth as well as the simulation's does.
 
-mod rig_support;
+mod support;
 
-use rig_support::*;
-use stewart_cli::rig_cmd::link::LINK;
-use stewart_cli::run::End;
+use measure::End;
+use runlog::link::LINK;
+use support::*;
 
 /// (name, estimate, sigma) of every reported quantity.
 fn quantities(report: &serde_json::Value) -> Vec<(String, f64, f64)> {
@@ -46,17 +46,12 @@ fn truth_values(scenario: &std::path::Path) -> Vec<f64> {
 #[test]
 fn a_rig_measurement_agrees_with_truth_as_well_as_simulate() {
     let _lock = real_time();
-    let scratch = Scratch::new(SHORT);
+    let scratch = Scratch::new(RIG_SHORT);
     let truth = truth_values(&scratch.config);
 
     // The reference: simulate on the same scenario.
     let sim_report = scratch.path("sim.json");
-    let sim_args = stewart_cli::args::RunArgs {
-        config: Some(scratch.config.clone()),
-        log: Some(scratch.path("sim.mcap")),
-        quiet: true,
-        ..Default::default()
-    };
+    let sim_args = simulate_args(Some(scratch.config.clone()), scratch.path("sim.mcap"));
     let sim =
         stewart_cli::simulate::simulate(&sim_args, &std::sync::atomic::AtomicBool::new(false))
             .unwrap();
@@ -85,7 +80,7 @@ fn a_rig_measurement_agrees_with_truth_as_well_as_simulate() {
     let sessions = emulator.sessions();
     let stopped = emulator.stop().unwrap();
     assert_eq!(outcome.end, End::Completed, "{:?}", outcome.failure);
-    assert_eq!(stewart_cli::rig_cmd::finish(&args, &outcome), 0);
+    assert_eq!(stewart_cli::rig::finish(&args, &outcome), 0);
     let figures = std::fs::read_dir(scratch.path("figures")).unwrap().count();
     assert!(figures > 0, "--plot wrote no figures");
     // Two sessions from one host: the tare with the fixture empty, then loaded.

@@ -3,17 +3,17 @@
 //! second sender cannot move the platform while a session runs; with a key, unkeyed and
 //! wrongly keyed frames from the session's own address are dropped.
 
-mod rig_support;
+mod support;
 
 use std::net::{SocketAddr, UdpSocket};
 use std::time::{Duration, Instant};
 
+use measure::End;
 use rig::codec::{self, Auth, CRC32, MAX_FRAME_LEN};
 use rig::transport::Peer;
 use rig::wire::{Command, FaultCode, Hello, Message, PROTOCOL_VERSION};
 use rig::{Key, RigBackend, RigOptions};
-use rig_support::*;
-use stewart_cli::run::End;
+use support::*;
 
 fn socket_of(address: &str) -> SocketAddr {
     address.trim_start_matches("udp://").parse().unwrap()
@@ -64,7 +64,7 @@ fn command(sequence: u64, force_n: f64) -> Message {
     })
 }
 
-fn tare_args(scratch: &Scratch, address: &str, extra: &[&str]) -> stewart_cli::rig_cmd::RigArgs {
+fn tare_args(scratch: &Scratch, address: &str, extra: &[&str]) -> stewart_cli::rig::RigArgs {
     let out = scratch.path("tare.json");
     let log = scratch.path("rig.mcap");
     let mut args = vec![

@@ -2,14 +2,14 @@
 //! (link silence limit 50 ms, the default), commands a safe stop, ends with a fault naming the
 //! cause and exit code 3, and its MCAP log is finished and readable to the last frame.
 
-mod rig_support;
+mod support;
 
 use std::time::Duration;
 
+use measure::End;
 use rig::transport::Peer;
-use rig_support::*;
-use stewart_cli::rig_cmd::link::LINK;
-use stewart_cli::run::End;
+use runlog::link::LINK;
+use support::*;
 
 #[test]
 fn the_emulator_going_silent_is_a_fault_within_100_ms() {
@@ -53,7 +53,7 @@ fn the_emulator_going_silent_is_a_fault_within_100_ms() {
         "{cause}"
     );
     assert_eq!(
-        stewart_cli::rig_cmd::finish(&args, &outcome),
+        stewart_cli::rig::finish(&args, &outcome),
         stewart_cli::EXIT_FAULT
     );
     assert!(

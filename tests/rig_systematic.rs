@@ -3,16 +3,14 @@
 //! computes on the run's log, both with the tare measured in the same invocation and with a
 //! saved tare (`rig measure --tare FILE`, whose file keeps the tare run's sensitivities).
 
-mod log_support;
-mod rig_support;
+mod support;
 
-use log_support::close;
-use rig_support::*;
+use measure::report::{Quantities, Report};
+use measure::End;
+use measure::TareFile;
+use runlog::LogContents;
 use stewart_cli::estimate::{reestimate, SettingsOverride};
-use stewart_cli::log_read::LogContents;
-use stewart_cli::report::{Quantities, Report};
-use stewart_cli::run::End;
-use stewart_cli::tare::TareFile;
+use support::*;
 
 fn numbers(q: &Quantities) -> Vec<f64> {
     let mut v = vec![q.mass];
@@ -35,7 +33,7 @@ fn rig_report(args: &[&str], log: &std::path::Path) -> Report {
 /// The rig's systematic sigma (and so its sigma) equals `estimate`'s on the same log.
 fn assert_systematic_as_estimate(rig: &Report, log: &std::path::Path) {
     let log = LogContents::read(log).unwrap();
-    let (offline, ..) = reestimate(&log, &SettingsOverride::default(), None).unwrap();
+    let (offline, ..) = reestimate(&log, &SettingsOverride::default(), None, None).unwrap();
     eprintln!(
         "{} tare: systematic sigma mass {:.4e} kg, com z {:.4e} m, J_C xx {:.4e} kg·m² \
          (estimate {:.4e}, {:.4e}, {:.4e})",
@@ -125,7 +123,8 @@ fn the_rig_reports_the_systematic_part_estimate_computes() {
     let old_path = scratch.path("old-tare.json");
     std::fs::write(&old_path, serde_json::to_string(&old).unwrap()).unwrap();
     let log = LogContents::read(&log).unwrap();
-    let (zero_share, ..) = reestimate(&log, &SettingsOverride::default(), Some(&old_path)).unwrap();
+    let (zero_share, ..) =
+        reestimate(&log, &SettingsOverride::default(), Some(&old_path), None).unwrap();
     eprintln!(
         "file tare without sensitivities: systematic sigma mass {:.4e} kg",
         zero_share.systematic.sigma.mass

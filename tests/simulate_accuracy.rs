@@ -5,30 +5,33 @@
 //!
 //! Every figure is checked against the simulator's truth, which only the report carries.
 
+mod support;
+
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
-use stewart_cli::args::RunArgs;
-use stewart_cli::report::{Quantities, Report};
+use measure::report::{Quantities, Report};
+use measure::End;
 use stewart_cli::simulate::{simulate, SimulateOutcome};
+use stewart_cli::world::NoisePreset;
+use support::{simulate_args, Scratch, SimulateArgs};
 
 /// Runs `simulate` on `scenario` (laid over the default) in a fresh directory.
 fn run(
     scenario: &str,
-    extra: impl FnOnce(&mut RunArgs, &Path),
+    extra: impl FnOnce(&mut SimulateArgs, &Path),
 ) -> (tempfile::TempDir, SimulateOutcome) {
-    let dir = tempfile::tempdir().unwrap();
-    let config = dir.path().join("scenario.toml");
-    std::fs::write(&config, scenario).unwrap();
-    let mut args = RunArgs {
-        config: Some(config),
-        log: Some(dir.path().join("run.mcap")),
-        quiet: true,
-        ..RunArgs::default()
-    };
-    extra(&mut args, dir.path());
+    let scratch = Scratch::new(scenario);
+    let mut args = simulate_args(Some(scratch.config.clone()), scratch.path("run.mcap"));
+    extra(&mut args, scratch.dir.path());
     let outcome = simulate(&args, &AtomicBool::new(false)).unwrap_or_else(|e| panic!("{e}"));
-    (dir, outcome)
+    (scratch.dir, outcome)
+}
+
+/// `--noise GRADE`: the rig description's datasheet scaled (0 for `none`), for the simulated
+/// sensors and the estimator alike.
+fn noise(grade: NoisePreset) -> impl FnOnce(&mut SimulateArgs, &Path) {
+    move |a, _| a.noise = Some(grade)
 }
 
 fn report(outcome: &SimulateOutcome) -> &Report {
@@ -96,8 +99,8 @@ fn check_accuracy(r: &Report, factor: f64, k: f64) {
 fn default_car_with_realistic_noise() {
     // 15 s of excitation instead of 60: sigmas about twice as large, so twice the tolerance.
     let (_dir, outcome) = run(
-        "[sensors]\nnoise = \"realistic\"\n[run]\nduration_s = 15.0\ntare_duration_s = 10.0\n",
-        |_, _| {},
+        "[run]\nduration_s = 15.0\ntare_duration_s = 10.0\n",
+        noise(NoisePreset::Realistic),
     );
     let r = report(&outcome);
     check_accuracy(r, 2.0, 4.0);
@@ -113,8 +116,8 @@ fn default_car_with_realistic_noise() {
 #[test]
 fn default_car_without_noise_is_exact() {
     let (_dir, outcome) = run(
-        "[sensors]\nnoise = \"none\"\n[run]\nduration_s = 10.0\ntare_duration_s = 6.0\n",
-        |_, _| {},
+        "[run]\nduration_s = 10.0\ntare_duration_s = 6.0\n",
+        noise(NoisePreset::None),
     );
     let r = report(&outcome);
     // The acceptance for ideal sensors: every entry within 0.05 %; off-diagonal entries
@@ -171,14 +174,14 @@ fn tare_path(dir: &Path) -> PathBuf {
 #[test]
 fn a_saved_tare_carries_its_share_of_the_systematic_sigma() {
     let scenario = "[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n";
-    let (dir, first) = run(scenario, |a, d| a.save_tare = Some(tare_path(d)));
+    let (dir, first) = run(scenario, |a, d| a.measure.save_tare = Some(tare_path(d)));
     let saved = tare_path(dir.path());
     let file: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&saved).unwrap()).unwrap();
     for key in ["accel_bias_sensitivity", "load_cell_offset_sensitivity"] {
         assert!(file[key].is_array(), "{key} missing from the saved tare");
     }
-    let (_dir2, second) = run(scenario, |a, _| a.tare = Some(saved.clone()));
+    let (_dir2, second) = run(scenario, |a, _| a.measure.tare = Some(saved.clone()));
     let same_run = report(&first).systematic.sigma.mass;
     let from_file = report(&second).systematic.sigma.mass;
     // The loaded runs differ (the second has no tare run before it), so not bit for bit; a
@@ -191,8 +194,11 @@ fn a_saved_tare_carries_its_share_of_the_systematic_sigma() {
 
 #[test]
 fn tare_is_subtracted_saved_and_reused() {
-    let scenario = "[sensors]\nnoise = \"none\"\n[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n";
-    let (dir, first) = run(scenario, |a, d| a.save_tare = Some(tare_path(d)));
+    let scenario = "[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n";
+    let (dir, first) = run(scenario, |a, d| {
+        a.noise = Some(NoisePreset::None);
+        a.measure.save_tare = Some(tare_path(d));
+    });
     let r1 = report(&first).clone();
     // The tare is the empty fixture (400 kg, centre of mass 5 cm above the P origin), and the
     // payload is the loaded estimate minus it.
@@ -205,7 +211,10 @@ fn tare_is_subtracted_saved_and_reused() {
 
     // A second run that reuses the saved tare skips the tare run and agrees.
     let saved = tare_path(dir.path());
-    let (_dir2, second) = run(scenario, |a, _| a.tare = Some(saved.clone()));
+    let (_dir2, second) = run(scenario, |a, _| {
+        a.noise = Some(NoisePreset::None);
+        a.measure.tare = Some(saved.clone());
+    });
     let r2 = report(&second);
     assert_eq!(r2.tare.source, "file");
     assert_eq!(r2.tare.theta, r1.tare.theta);
@@ -218,13 +227,8 @@ fn tare_is_subtracted_saved_and_reused() {
     let other = "[platform]\nbase_radius_m = 1.6\n[run]\nduration_s = 6.0\n";
     let cfg = dir.path().join("other.toml");
     std::fs::write(&cfg, other).unwrap();
-    let args = RunArgs {
-        config: Some(cfg),
-        tare: Some(saved),
-        log: Some(dir.path().join("never.mcap")),
-        quiet: true,
-        ..RunArgs::default()
-    };
+    let mut args = simulate_args(Some(cfg), dir.path().join("never.mcap"));
+    args.measure.tare = Some(saved);
     let err = simulate(&args, &AtomicBool::new(false)).expect_err("another rig's tare");
     assert_eq!(err.exit_code(), 2);
     assert!(err.to_string().contains("tare.json"), "{err}");
@@ -239,12 +243,8 @@ fn tare_is_subtracted_saved_and_reused() {
 fn interrupt_parks_and_finishes_the_log() {
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("run.mcap");
-    let args = RunArgs {
-        log: Some(log.clone()),
-        quiet: true,
-        duration: Some(30.0),
-        ..RunArgs::default()
-    };
+    let mut args = simulate_args(None, log.clone());
+    args.measure.duration = Some(30.0);
     let stop = AtomicBool::new(false);
     let outcome = std::thread::scope(|s| {
         s.spawn(|| {
@@ -262,25 +262,21 @@ fn interrupt_parks_and_finishes_the_log() {
         });
         simulate(&args, &stop).unwrap()
     });
-    assert_eq!(outcome.end, stewart_cli::run::End::Interrupted);
+    assert_eq!(outcome.end, End::Interrupted);
     assert!(outcome.report.is_none());
-    // The log is complete (summary and footer) and says the platform parked.
-    let bytes = std::fs::read(&log).unwrap();
-    let summary = mcap::Summary::read(&bytes)
-        .unwrap()
-        .expect("a finished log has a summary");
-    assert!(summary.stats.unwrap().message_count > 0);
-    let mut phases = Vec::new();
-    for m in mcap::MessageStream::new(&bytes).unwrap() {
-        let m = m.unwrap();
-        if m.channel.topic == "/supervisor" {
-            let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
-            phases.push((
+    // The log is complete (summary and footer, every record readable: the reader checks) and
+    // says the platform parked.
+    let messages = support::read_log(&log);
+    assert!(!messages.is_empty());
+    let phases: Vec<(String, bool)> = support::on(&messages, "/supervisor")
+        .iter()
+        .map(|v| {
+            (
                 v["phase"].as_str().unwrap().to_string(),
                 v["interrupted"].as_bool().unwrap(),
-            ));
-        }
-    }
+            )
+        })
+        .collect();
     let (last, interrupted) = phases.last().unwrap();
     assert!(*interrupted);
     assert!(last == "done" || last == "idle", "ended in {last}");

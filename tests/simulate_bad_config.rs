@@ -1,6 +1,6 @@
 //! `stewart simulate` refuses a bad scenario before anything runs: unknown key, wrong unit,
-//! wrong type, out-of-range value, unreachable trajectory, singular geometry, and a bad flag
-//! value. Each through the built binary: exit code 2, a message naming the file (with the line)
+//! wrong type, out-of-range value, unreachable trajectory, singular geometry, a key of the older
+//! format, and a bad flag value, in the rig description and in the simulated `[world]` alike. Each through the built binary: exit code 2, a message naming the file (with the line)
 //! and the dotted key, and no log written.
 
 use std::path::Path;
@@ -48,29 +48,53 @@ fn assert_names(stderr: &str, dir: &Path, line: Option<usize>, key: &str, what: 
 
 #[test]
 fn unknown_key() {
-    let (code, err, dir) = refuse("[payload]\nmass_kg = 1500.0\ncolour = \"red\"\n", &[]);
+    let (code, err, dir) = refuse("[world.payload]\nmass_kg = 1500.0\ncolour = \"red\"\n", &[]);
     assert_eq!(code, 2, "{err}");
-    assert_names(&err, dir.path(), Some(3), "payload.colour", "unknown key");
+    assert_names(
+        &err,
+        dir.path(),
+        Some(3),
+        "world.payload.colour",
+        "unknown key",
+    );
+    let (code, err, dir) = refuse("[platform]\nbase_radius_m = 1.5\ncolour = \"red\"\n", &[]);
+    assert_eq!(code, 2, "{err}");
+    assert_names(&err, dir.path(), Some(3), "platform.colour", "unknown key");
 }
 
 #[test]
 fn unknown_section() {
-    let (code, err, dir) = refuse("[paylod]\nmass_kg = 1500.0\n", &[]);
+    let (code, err, dir) = refuse("[world.paylod]\nmass_kg = 1500.0\n", &[]);
     assert_eq!(code, 2, "{err}");
     assert_names(
         &err,
         dir.path(),
         Some(1),
-        "paylod",
+        "world.paylod",
         "did you mean `payload`",
+    );
+    let (code, err, dir) = refuse("[platfrom]\nbase_radius_m = 1.5\n", &[]);
+    assert_eq!(code, 2, "{err}");
+    assert_names(
+        &err,
+        dir.path(),
+        Some(1),
+        "platfrom",
+        "did you mean `platform`",
     );
 }
 
 #[test]
 fn wrong_unit() {
-    let (code, err, dir) = refuse("[payload]\n\nmass_lb = 3300.0\n", &[]);
+    let (code, err, dir) = refuse("[world.payload]\n\nmass_lb = 3300.0\n", &[]);
     assert_eq!(code, 2, "{err}");
-    assert_names(&err, dir.path(), Some(3), "payload.mass_lb", "mass_kg");
+    assert_names(
+        &err,
+        dir.path(),
+        Some(3),
+        "world.payload.mass_lb",
+        "mass_kg",
+    );
     assert!(err.contains("unit"), "{err}");
 }
 
@@ -90,18 +114,30 @@ fn wrong_unit_in_a_sine_component() {
 
 #[test]
 fn wrong_type() {
-    let (code, err, dir) = refuse("[payload]\nmass_kg = \"1500 kg\"\n", &[]);
+    let (code, err, dir) = refuse("[world.payload]\nmass_kg = \"1500 kg\"\n", &[]);
     assert_eq!(code, 2, "{err}");
-    assert_names(&err, dir.path(), Some(2), "payload.mass_kg", "wrong type");
+    assert_names(
+        &err,
+        dir.path(),
+        Some(2),
+        "world.payload.mass_kg",
+        "wrong type",
+    );
 }
 
 #[test]
 fn out_of_range_values() {
-    let text = "[payload]\nmass_kg = -1500.0\n[estimator]\nforgetting_factor = 1.5\n";
+    // Every problem of the rig description is reported at once ...
+    let text = "[platform]\nbase_radius_m = -1.5\n[estimator]\nforgetting_factor = 1.5\n";
     let (code, err, dir) = refuse(text, &[]);
     assert_eq!(code, 2, "{err}");
-    assert_names(&err, dir.path(), Some(2), "payload.mass_kg", "positive");
-    // Every problem is reported at once.
+    assert_names(
+        &err,
+        dir.path(),
+        Some(2),
+        "platform.base_radius_m",
+        "positive",
+    );
     assert_names(
         &err,
         dir.path(),
@@ -109,18 +145,52 @@ fn out_of_range_values() {
         "estimator.forgetting_factor",
         "between",
     );
-}
-
-#[test]
-fn unphysical_inertia() {
-    let text = "[payload]\ninertia_com_kg_m2 = [[100.0, 0.0, 0.0], [0.0, 100.0, 0.0], [0.0, 0.0, 500.0]]\n";
+    // ... and every problem of the simulated world (checked once the rig description passes).
+    let text = "[world.payload]\nmass_kg = -1500.0\n[world.fixture]\nmass_kg = -400.0\n";
     let (code, err, dir) = refuse(text, &[]);
     assert_eq!(code, 2, "{err}");
     assert_names(
         &err,
         dir.path(),
         Some(2),
-        "payload.inertia_com_kg_m2",
+        "world.payload.mass_kg",
+        "positive",
+    );
+    assert_names(
+        &err,
+        dir.path(),
+        Some(4),
+        "world.fixture.mass_kg",
+        "positive",
+    );
+}
+
+#[test]
+fn keys_of_the_older_format_say_where_they_moved() {
+    let text = "[payload]\nmass_kg = 1500.0\n[sensors]\nnoise = \"none\"\nphysics_substeps = 2\n";
+    let (code, err, dir) = refuse(text, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert_names(&err, dir.path(), Some(1), "payload", "[world.payload]");
+    assert_names(&err, dir.path(), Some(4), "sensors.noise", "--noise");
+    assert_names(
+        &err,
+        dir.path(),
+        Some(5),
+        "sensors.physics_substeps",
+        "world.physics_substeps",
+    );
+}
+
+#[test]
+fn unphysical_inertia() {
+    let text = "[world.payload]\ninertia_com_kg_m2 = [[100.0, 0.0, 0.0], [0.0, 100.0, 0.0], [0.0, 0.0, 500.0]]\n";
+    let (code, err, dir) = refuse(text, &[]);
+    assert_eq!(code, 2, "{err}");
+    assert_names(
+        &err,
+        dir.path(),
+        Some(2),
+        "world.payload.inertia_com_kg_m2",
         "triangle",
     );
 }

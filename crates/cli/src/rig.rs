@@ -16,7 +16,6 @@
 //! exits with 130. Commands are clamped to the tighter of the rig's force limits and
 //! `control.max_force_n` whatever the controller computes.
 
-pub mod link;
 mod outcome;
 mod station;
 
@@ -41,7 +40,7 @@ use crate::progress::Progress;
 
 pub use outcome::{finish, link_lines, LinkReport, RigOutcome};
 
-use link::{Failure, Link};
+use rig::link::{Failure, Link};
 use runlog::link::TimingSummary;
 
 /// The link flags of `stewart rig`.

@@ -28,6 +28,8 @@ pub mod host;
 #[cfg(feature = "std")]
 pub mod key;
 #[cfg(feature = "std")]
+pub mod link;
+#[cfg(feature = "std")]
 mod stats;
 #[cfg(feature = "std")]
 pub mod transport;

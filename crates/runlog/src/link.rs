@@ -11,26 +11,7 @@ pub const LINK: &str = "/rig/link";
 /// Schema name of [`LinkMsg`].
 pub const LINK_SCHEMA_NAME: &str = "stewart.RigLink";
 
-/// Summary of [`LoopTiming`] against the nominal period `T`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct TimingSummary {
-    /// Loop periods measured.
-    pub periods: u64,
-    /// Nominal sample period T, s.
-    pub nominal_period_s: f64,
-    /// Median loop period, s.
-    pub median_period_s: f64,
-    /// Median of |period − T|, s.
-    pub jitter_median_s: f64,
-    /// 99th percentile of |period − T|, s.
-    pub jitter_p99_s: f64,
-    /// Largest |period − T|, s.
-    pub jitter_max_s: f64,
-    /// Median time from receiving a frame to sending its command, s.
-    pub work_median_s: f64,
-    /// 99th percentile of that time, s.
-    pub work_p99_s: f64,
-}
+pub use rig::link::TimingSummary;
 
 /// The link counters in the log and the report (`rig::LinkStats` with names that say what
 /// each counts).
@@ -91,6 +72,26 @@ impl LinkCounters {
             ],
             "link counters over the measurement",
         )
+    }
+}
+
+impl From<rig::LinkStats> for LinkCounters {
+    fn from(s: rig::LinkStats) -> Self {
+        Self {
+            received: s.received,
+            accepted: s.accepted,
+            lost: s.lost,
+            late: s.late,
+            duplicate: s.duplicate,
+            out_of_sequence: s.out_of_sequence,
+            corrupt: s.corrupt,
+            foreign: s.foreign_sender,
+            auth_failed: s.auth_failed,
+            version_mismatch: s.version_mismatch,
+            unexpected: s.unexpected,
+            commands_sent: s.commands_sent,
+            commands_clamped: s.commands_clamped,
+        }
     }
 }
 

@@ -7,8 +7,8 @@ use measure::{End, Report, TareFile};
 use runlog::link::{LinkCounters, TimingSummary};
 use serde::Serialize;
 
-use super::link::Failure;
 use super::RigArgs;
+use rig::link::Failure;
 
 /// What the metadata and the report give as the noise preset: the rig's sensors are what they
 /// are.

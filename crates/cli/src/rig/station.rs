@@ -12,8 +12,8 @@ use measure::{End, LoadedConfig, MeasureOutcome};
 use runlog::link::{LinkCounters, LinkMsg, LINK};
 use runlog::messages::{self as topics, SupervisorMsg};
 
-use super::link::{counters_of, Failure, Link, LoopTiming, Monitored};
 use super::outcome::LinkReport;
+use rig::link::{Failure, Link, LoopTiming, Monitored};
 
 /// See the [module docs](self).
 pub struct RigStation<'a> {
@@ -92,7 +92,7 @@ impl Station for RigStation<'_> {
         let (counters, period_s) = {
             let held = self.link.lock();
             (
-                counters_of(held.rig.stats().since(&before)),
+                LinkCounters::from(held.rig.stats().since(&before)),
                 held.rig.sample_period_s(),
             )
         };

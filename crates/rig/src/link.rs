@@ -1,4 +1,4 @@
-//! The host's side of the link as `stewart rig` holds it: the rig backend shared with a brake
+//! The host's side of the link as a measurement holds it: the rig backend shared with a brake
 //! heartbeat, wrapped for the run loop so that the first failure (its cause, kind and instant)
 //! and the loop's timing are kept.
 //!
@@ -18,8 +18,9 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use control::io::{Backend, CommandFrame, SensorFrame};
-use rig::{ErrorKind, LinkStats, RigBackend, RigError};
-use runlog::link::{LinkCounters, TimingSummary};
+use serde::Serialize;
+
+use crate::{ErrorKind, RigBackend, RigError};
 
 /// The first failure of the link, the rig or its sensors, as the host saw it.
 #[derive(Clone, Debug)]
@@ -32,6 +33,27 @@ pub struct Failure {
     pub at: Instant,
     /// Time from the last valid sensor frame to noticing, s (`None` before the first frame).
     pub after_last_frame_s: Option<f64>,
+}
+
+/// Summary of [`LoopTiming`] against the nominal period `T`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct TimingSummary {
+    /// Loop periods measured.
+    pub periods: u64,
+    /// Nominal sample period T, s.
+    pub nominal_period_s: f64,
+    /// Median loop period, s.
+    pub median_period_s: f64,
+    /// Median of |period − T|, s.
+    pub jitter_median_s: f64,
+    /// 99th percentile of |period − T|, s.
+    pub jitter_p99_s: f64,
+    /// Largest |period − T|, s.
+    pub jitter_max_s: f64,
+    /// Median time from receiving a frame to sending its command, s.
+    pub work_median_s: f64,
+    /// 99th percentile of that time, s.
+    pub work_p99_s: f64,
 }
 
 /// The host loop's timing over a measurement: the wall-clock time between successive sensor
@@ -247,25 +269,6 @@ impl Backend for Monitored<'_> {
     }
 }
 
-/// The link counters of `rig`'s statistics, under the names the log gives them.
-pub fn counters_of(s: LinkStats) -> LinkCounters {
-    LinkCounters {
-        received: s.received,
-        accepted: s.accepted,
-        lost: s.lost,
-        late: s.late,
-        duplicate: s.duplicate,
-        out_of_sequence: s.out_of_sequence,
-        corrupt: s.corrupt,
-        foreign: s.foreign_sender,
-        auth_failed: s.auth_failed,
-        version_mismatch: s.version_mismatch,
-        unexpected: s.unexpected,
-        commands_sent: s.commands_sent,
-        commands_clamped: s.commands_clamped,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -297,8 +300,8 @@ mod tests {
 
     #[test]
     fn the_heartbeat_keeps_a_braked_rig_quiet_and_a_driven_one_watched() {
-        use rig::emulator::{Emulator, EmulatorConfig};
-        use rig::wire::Limits;
+        use crate::emulator::{Emulator, EmulatorConfig};
+        use crate::wire::Limits;
         let limits = Limits {
             stroke_min_m: 0.4,
             stroke_max_m: 0.7,
@@ -321,9 +324,9 @@ mod tests {
             emulator.run(&flag).unwrap();
             emulator
         });
-        let options = rig::RigOptions {
+        let options = crate::RigOptions {
             link_silence: Duration::from_secs(1),
-            ..rig::RigOptions::default()
+            ..crate::RigOptions::default()
         };
         let link = Link::start(RigBackend::connect(&address, options).unwrap());
         let frame = link.lock().rig.read().unwrap();
@@ -351,7 +354,7 @@ mod tests {
         assert_eq!(after_driving, heartbeats, "no heartbeat while driven");
         let faults = emulator.faults();
         assert_eq!(faults.len(), 1, "{faults:?}");
-        assert_eq!(faults[0].code, rig::wire::FaultCode::WATCHDOG);
+        assert_eq!(faults[0].code, crate::wire::FaultCode::WATCHDOG);
         // It tripped after the driven command (wire sequence 1 the brake, then one per
         // heartbeat, then the driven one), not while braked.
         assert_eq!(faults[0].command_sequence, 2 + heartbeats);

@@ -1,0 +1,306 @@
+//! What the end-to-end tests share, in one place: scenario files and the configurations built
+//! from them, the reference geometry, `stewart simulate` and `stewart rig` run through the CLI
+//! library, an in-process emulator, and the one MCAP reader of the tests.
+//!
+//! Real-time tests on a busy two-core machine: the emulator runs in lockstep (it waits for the
+//! host's answer to each frame before simulating the next, so a descheduled host pauses the
+//! emulated world instead of letting the platform run on a stale command), and link-silence
+//! and watchdog limits are generous except in the test about silence. Tests that run the
+//! emulator in real time take a process-wide lock so that they do not compete with each other.
+
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::{Mutex, MutexGuard};
+
+use measure::LoadedConfig;
+pub use stewart_cli::common::MeasureArgs;
+pub use stewart_cli::emulate::EmulateArgs;
+use stewart_cli::emulate::{self, RunningEmulator};
+use stewart_cli::rig::{self, RigArgs, RigOutcome};
+pub use stewart_cli::simulate::SimulateArgs;
+use stewart_cli::world::{NoisePreset, Scenario};
+use stewart_cli::CommandError;
+
+// ---------------------------------------------------------------------------------------------
+// Scenarios and configurations
+
+/// A short simulate scenario for the log, estimate and plot tests: 6 s of excitation, 4 s of
+/// tare, the datasheet's (realistic) noise.
+pub const SHORT: &str = "[run]\nduration_s = 6.0\ntare_duration_s = 4.0\n";
+
+/// The rig tests' scenario: 500 Hz, a 10 s multi-sine for the tare and the loaded run, two
+/// physics substeps, generous link limits. `[rig]` comes last so that keys appended to the
+/// text land in it.
+pub const RIG_SHORT: &str = r#"
+[sensors]
+sample_rate_hz = 500.0
+
+[world]
+physics_substeps = 2
+
+[control]
+max_sample_gap_s = 0.5
+
+[excitation]
+fade_s = 1.0
+
+[run]
+brake_hold_s = 0.5
+settle_s = 0.5
+duration_s = 10.0
+tare_duration_s = 10.0
+park_s = 1.0
+
+[rig]
+link_silence_ms = 1000.0
+watchdog_ms = 1000.0
+"#;
+
+/// As [`RIG_SHORT`] with 4 s excitations: for tests about the link, not the estimate.
+pub fn quick() -> String {
+    RIG_SHORT
+        .replace("duration_s = 10.0", "duration_s = 4.0")
+        .replace("fade_s = 1.0", "fade_s = 0.5")
+}
+
+/// The embedded default rig description (configs/default.toml).
+pub fn default_config() -> LoadedConfig {
+    measure::load::load(None).expect("the embedded default loads")
+}
+
+/// `text` laid over the default, as a scenario file named `name` would be.
+pub fn config_str(text: &str, name: &str) -> LoadedConfig {
+    measure::load::load_str(text, name).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+/// The simulated world of `loaded` at the given grade (seed from the file).
+pub fn world(loaded: LoadedConfig, noise: Option<NoisePreset>) -> Scenario {
+    Scenario::new(loaded, None, noise).unwrap_or_else(|e| panic!("world: {e}"))
+}
+
+/// The default scenario: the default rig description with its simulated world, realistic noise.
+pub fn default_world() -> Scenario {
+    world(default_config(), None)
+}
+
+/// The reference geometry: the default rig description's platform, as every command builds it.
+pub fn geometry() -> kinematics::Geometry {
+    measure::setup::geometry(&default_config()).expect("the default platform is valid")
+}
+
+/// The payload of the scenario file at `path` (what the simulator and the emulator carry):
+/// mass, com, J_C.
+pub fn truth(path: &Path) -> (f64, [f64; 3], [[f64; 3]; 3]) {
+    let loaded = measure::load::load(Some(path)).unwrap_or_else(|e| panic!("{e}"));
+    let p = world(loaded, None).world.payload;
+    (p.mass_kg, p.com_m, p.inertia_com_kg_m2)
+}
+
+/// |a − b| ≤ tol·max(|a|, |b|), NaN only with NaN.
+pub fn close(a: f64, b: f64, tol: f64) -> bool {
+    if a.is_nan() || b.is_nan() {
+        return a.is_nan() && b.is_nan();
+    }
+    (a - b).abs() <= tol * a.abs().max(b.abs())
+}
+
+/// A scratch directory with a scenario file.
+pub struct Scratch {
+    pub dir: tempfile::TempDir,
+    pub config: PathBuf,
+}
+
+impl Scratch {
+    pub fn new(scenario: &str) -> Self {
+        let dir = tempfile::tempdir().unwrap();
+        let config = dir.path().join("scenario.toml");
+        std::fs::write(&config, scenario).unwrap();
+        Self { dir, config }
+    }
+
+    pub fn path(&self, name: &str) -> PathBuf {
+        self.dir.path().join(name)
+    }
+
+    pub fn config_str(&self) -> &str {
+        self.config.to_str().unwrap()
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// `stewart simulate`
+
+/// `simulate` flags for `config`, logging to `log`, quiet.
+pub fn simulate_args(config: Option<PathBuf>, log: PathBuf) -> SimulateArgs {
+    SimulateArgs {
+        measure: MeasureArgs {
+            config,
+            log: Some(log),
+            quiet: true,
+            ..MeasureArgs::default()
+        },
+        ..SimulateArgs::default()
+    }
+}
+
+/// A finished simulate run: its directory (kept alive), log and report.
+pub struct Simulated {
+    pub dir: tempfile::TempDir,
+    pub log: PathBuf,
+    pub report: measure::Report,
+}
+
+/// Runs `stewart simulate` on `scenario` with `extra` applied to the arguments.
+pub fn simulate_with(scenario: &str, extra: impl FnOnce(&mut SimulateArgs, &Path)) -> Simulated {
+    let scratch = Scratch::new(scenario);
+    let log = scratch.path("run.mcap");
+    let mut args = simulate_args(Some(scratch.config.clone()), log.clone());
+    extra(&mut args, scratch.dir.path());
+    let outcome = stewart_cli::simulate::simulate(&args, &AtomicBool::new(false))
+        .unwrap_or_else(|e| panic!("simulate failed: {e}"));
+    let report = outcome.report.expect("a completed run has a report");
+    Simulated {
+        dir: scratch.dir,
+        log,
+        report,
+    }
+}
+
+/// The short default run.
+pub fn simulate() -> Simulated {
+    simulate_with(SHORT, |_, _| {})
+}
+
+// ---------------------------------------------------------------------------------------------
+// `stewart emulate` and `stewart rig`
+
+static REAL_TIME: Mutex<()> = Mutex::new(());
+
+/// Serialises the real-time tests of one test binary.
+pub fn real_time() -> MutexGuard<'static, ()> {
+    REAL_TIME.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Emulator flags for `scratch`'s scenario on a free loopback port, in lockstep, quiet.
+pub fn emulate_args(scratch: &Scratch) -> EmulateArgs {
+    EmulateArgs {
+        listen: Some("udp://127.0.0.1:0".into()),
+        config: Some(scratch.config.clone()),
+        lockstep: true,
+        quiet: true,
+        ..EmulateArgs::default()
+    }
+}
+
+/// Starts an emulator on its own thread.
+pub fn start(args: &EmulateArgs) -> RunningEmulator {
+    emulate::spawn(args).unwrap_or_else(|e| panic!("emulator: {e}"))
+}
+
+/// `stewart rig ARGS` parsed as the command line would be.
+pub fn rig_args(args: &[&str]) -> RigArgs {
+    rig::parse(args).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Runs `stewart rig` through the library.
+pub fn run_rig(args: &RigArgs) -> Result<RigOutcome, CommandError> {
+    static NEVER: AtomicBool = AtomicBool::new(false);
+    rig::rig(args, &NEVER)
+}
+
+/// A free UDP port's address on loopback nobody listens on.
+pub fn dead_address() -> String {
+    let socket = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let addr = socket.local_addr().unwrap();
+    drop(socket);
+    format!("udp://{addr}")
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reading MCAP logs
+
+/// One message of a log, as the `mcap` crate gives it.
+pub struct LogMessage {
+    pub topic: String,
+    pub schema_name: String,
+    pub schema_encoding: String,
+    pub message_encoding: String,
+    pub log_time: u64,
+    pub value: serde_json::Value,
+}
+
+/// Every message of a finished MCAP log with its channel, in file order; panics if any record
+/// fails to read (the log must be readable to its last frame), if a channel has no schema, or
+/// if the file has no summary (it was not finished).
+pub fn read_messages(path: &Path) -> Vec<LogMessage> {
+    let bytes = std::fs::read(path).unwrap();
+    let summary = mcap::Summary::read(&bytes).expect("summary readable");
+    assert!(
+        summary.is_some(),
+        "the log {} was not finished",
+        path.display()
+    );
+    mcap::MessageStream::new(&bytes)
+        .unwrap()
+        .map(|m| {
+            let m = m.unwrap_or_else(|e| panic!("unreadable record in {}: {e}", path.display()));
+            let schema = m
+                .channel
+                .schema
+                .as_ref()
+                .unwrap_or_else(|| panic!("{} has no schema", m.channel.topic));
+            let value = serde_json::from_slice(&m.data)
+                .unwrap_or_else(|e| panic!("{}: not JSON: {e}", m.channel.topic));
+            LogMessage {
+                topic: m.channel.topic.clone(),
+                schema_name: schema.name.clone(),
+                schema_encoding: schema.encoding.clone(),
+                message_encoding: m.channel.message_encoding.clone(),
+                log_time: m.log_time,
+                value,
+            }
+        })
+        .collect()
+}
+
+/// Every message of a finished MCAP log as (topic, JSON), in file order (see
+/// [`read_messages`]).
+pub fn read_log(path: &Path) -> Vec<(String, serde_json::Value)> {
+    read_messages(path)
+        .into_iter()
+        .map(|m| (m.topic, m.value))
+        .collect()
+}
+
+/// How many records of the MCAP bytes `bytes` (possibly cut short) the `mcap` crate reads
+/// before its first error.
+pub fn readable_records(bytes: &[u8]) -> u64 {
+    mcap::MessageStream::new(bytes)
+        .unwrap()
+        .take_while(|m| m.is_ok())
+        .count() as u64
+}
+
+/// Copies a log without one channel's messages (channels and schemas are kept).
+pub fn copy_without(from: &Path, to: &Path, topic: &str) {
+    let bytes = std::fs::read(from).unwrap();
+    let mut out =
+        mcap::Writer::new(std::io::BufWriter::new(std::fs::File::create(to).unwrap())).unwrap();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        if m.channel.topic != topic {
+            out.write(&m).unwrap();
+        }
+    }
+    out.finish().unwrap();
+}
+
+/// The messages on `topic`.
+pub fn on<'a>(log: &'a [(String, serde_json::Value)], topic: &str) -> Vec<&'a serde_json::Value> {
+    log.iter()
+        .filter(|(t, _)| t == topic)
+        .map(|(_, v)| v)
+        .collect()
+}
