@@ -7,7 +7,8 @@
 //! - [`foxglove`]: the 3D scene and transforms in Foxglove's well-known schemas.
 //! - [`mcap_log`] (the MCAP writer on its own thread) and [`run_log`] (topics and time);
 //!   [`observer`]: the [`measure::Observer`] that writes a measurement into it.
-//! - [`read`]: a log read back, tolerant of a file cut short.
+//! - [`read`]: a log read back, tolerant of a file cut short; [`reestimate`]: its
+//!   measurements re-estimated (`stewart estimate`).
 //!
 //! docs/log-schema.md documents every channel.
 #![warn(missing_docs)]
@@ -19,6 +20,7 @@ pub mod messages;
 pub mod metadata;
 pub mod observer;
 pub mod read;
+pub mod reestimate;
 pub mod run_log;
 
 pub use observer::LogObserver;

@@ -1,0 +1,296 @@
+//! A log's measurements re-estimated offline ([`measure::replay`]) with the settings the log
+//! recorded or others, and the report built as the online run builds it. The datasheet
+//! figures (the estimator's gyro and accelerometer noise, the IMU's mounting, the systematic
+//! part of sigma) come from the rig description the log recorded, or from another one.
+
+use std::path::Path;
+
+use anyhow::{anyhow, bail, Context, Result};
+use control::io::SensorFrame;
+use estimator::{EstimatorConfig, ParameterSet};
+use kinematics::{FkOptions, Vector3};
+use measure::config::ParamCount;
+use measure::replay::{replay, BiasSigmas, ReplayOutcome};
+use measure::report::{Quantities, Report, ReportInputs, RunInfo, TareKind};
+use measure::{setup, LoadedConfig, TareFile};
+
+use crate::messages as topics;
+use crate::metadata::EstimatorSettings;
+use crate::read::LogContents;
+use crate::run_log::rates;
+
+/// A time window relative to the excitation's start, s.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Window {
+    /// Start, s (`None`: the recorded start).
+    pub start_s: Option<f64>,
+    /// End, s (`None`: the recorded end).
+    pub end_s: Option<f64>,
+}
+
+/// Changes to the recorded estimator settings.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SettingsOverride {
+    /// Parameter model.
+    pub params: Option<ParamCount>,
+    /// Low-pass cut-off, Hz (≤ 0: none).
+    pub cutoff_hz: Option<f64>,
+    /// Forgetting factor.
+    pub forgetting_factor: Option<f64>,
+    /// Window relative to the excitation start.
+    pub window: Option<Window>,
+}
+
+impl SettingsOverride {
+    /// True when nothing is changed.
+    pub fn is_empty(&self) -> bool {
+        *self == Self::default()
+    }
+}
+
+/// The offline estimate of one measurement.
+#[derive(Clone, Debug)]
+pub struct RunEstimate {
+    /// `tare` or `loaded`.
+    pub run: String,
+    /// The replay.
+    pub replay: ReplayOutcome,
+}
+
+/// The rig description a log's measurement is re-estimated with: `rig` when given, else the
+/// one the log recorded.
+pub fn rig_description(log: &LogContents, rig: Option<&LoadedConfig>) -> Result<LoadedConfig> {
+    if let Some(r) = rig {
+        return Ok(r.clone());
+    }
+    let meta = log.require_metadata()?;
+    measure::load::load_str(&meta.config_toml, "<rig description in the log>").map_err(|e| {
+        anyhow!(
+            "the log's rig description is refused (a log of an older version? give the rig \
+             description with --rig FILE): {e}"
+        )
+    })
+}
+
+/// The parameter set of `params` for `run`, from the rig description.
+fn parameter_set(
+    log: &LogContents,
+    rig: &LoadedConfig,
+    run: &str,
+    params: ParamCount,
+) -> Result<ParameterSet> {
+    if params == ParamCount::Ten {
+        return Ok(ParameterSet::Full);
+    }
+    let geometry = log.geometry()?;
+    let measurement = if run == "tare" {
+        measure::Measurement::Tare
+    } else {
+        measure::Measurement::Loaded
+    };
+    let c = setup::estimator_config(&rig.config, &geometry, measurement, 0.0, 1.0);
+    match c.parameters {
+        ParameterSet::InertiaAboutKnownCom { mass_kg, .. } if mass_kg > 0.0 => Ok(c.parameters),
+        _ => bail!(
+            "--params 6 needs the known mass and centre of mass (estimator.known_* in the rig \
+             description), which it does not give"
+        ),
+    }
+}
+
+/// The estimator settings of `run` as recorded, the datasheet's figures from `rig`, with `o`
+/// applied.
+pub fn settings_for(
+    log: &LogContents,
+    rig: &LoadedConfig,
+    run: &str,
+    o: &SettingsOverride,
+) -> Result<(EstimatorConfig, FkOptions)> {
+    log.require_channel(
+        topics::ESTIMATOR_SETTINGS,
+        "the estimator's settings (stewart.EstimatorSettings)",
+    )?;
+    let recorded: &EstimatorSettings = log.settings_of(run).with_context(|| {
+        format!(
+            "the log has no {} message for the {run} measurement: its excitation never started",
+            topics::ESTIMATOR_SETTINGS
+        )
+    })?;
+    let (mut c, fk) = recorded.to_config(log.geometry()?)?;
+    // What the datasheet says: the recorded figures, or another rig description's.
+    let sensors = &rig.config.sensors;
+    c.gyro_noise_rad_s = sensors.gyro_noise_rad_s();
+    c.accel_noise_m_s2 = sensors.accel_noise_m_s2();
+    c.accelerometer_position_m = Vector3::from(sensors.imu.position_m);
+    c.leg_force_offsets = setup::load_cell_bias_sigma(&rig.config) > 0.0;
+    if let Some(p) = o.params {
+        c.parameters = parameter_set(log, rig, run, p)?;
+    }
+    if let Some(f) = o.cutoff_hz {
+        c.lowpass_cutoff_hz = (f > 0.0).then_some(f);
+    }
+    if let Some(l) = o.forgetting_factor {
+        c.forgetting_factor = l;
+    }
+    if let Some(w) = o.window {
+        let origin_s = recorded.window_start_s.with_context(|| {
+            format!("the log's {run} settings have no window start to measure --window from")
+        })?;
+        if let Some(s) = w.start_s {
+            c.window_start_s = origin_s + s;
+        }
+        if let Some(e) = w.end_s {
+            c.window_end_s = origin_s + e;
+        }
+    }
+    Ok((c, fk))
+}
+
+/// Re-runs the estimator on measurement `run` of the log with the rig description `rig`.
+pub fn reestimate_run(
+    log: &LogContents,
+    rig: &LoadedConfig,
+    run: &str,
+    o: &SettingsOverride,
+) -> Result<RunEstimate> {
+    log.require_channel(topics::SENSORS, "the sensor frames the estimator reads")?;
+    let (config, fk) = settings_for(log, rig, run, o)?;
+    let frames: Vec<SensorFrame> = log.sensors_of(run).map(|r| r.to_frame()).collect();
+    let trace_every = ((1.0 / config.sample_period_s / rates::ESTIMATE_HZ).round() as u64).max(1);
+    let sigmas = BiasSigmas {
+        accel_m_s2: setup::accel_bias_sigma(&rig.config),
+        load_cell_n: setup::load_cell_bias_sigma(&rig.config),
+    };
+    let replay = replay(
+        &frames,
+        config,
+        fk,
+        &rig.config.sensors.imu,
+        sigmas,
+        trace_every,
+    )
+    .map_err(|e| match e {
+        measure::replay::ReplayError::NoFramesInWindow { .. } => anyhow!(
+            "the log has no {} frames of the {run} measurement from its excitation on",
+            topics::SENSORS
+        ),
+        other => anyhow!("{other}"),
+    })?;
+    Ok(RunEstimate {
+        run: run.to_string(),
+        replay,
+    })
+}
+
+/// Where the subtracted tare came from.
+#[derive(Clone, Debug)]
+pub enum TareOrigin {
+    /// Re-estimated from the log's tare run.
+    Measured(Box<RunEstimate>),
+    /// A tare file (given to `estimate`, or the one the run used, from `/run/tare`).
+    File(Option<String>),
+}
+
+/// The payload's truth from `/run/truth`, if logged.
+pub fn payload_truth(log: &LogContents) -> Option<Quantities> {
+    log.truth.as_ref().map(|t| Quantities {
+        mass: t.payload.mass_kg,
+        com: t.payload.com_m,
+        inertia_com: t.payload.inertia_com_kg_m2,
+    })
+}
+
+/// The report of a loaded re-run with `tare` subtracted, in `simulate`'s shape
+/// ([`measure::report::build`]).
+pub fn build_report(
+    log: &LogContents,
+    rig: &LoadedConfig,
+    loaded: &RunEstimate,
+    tare: &TareFile,
+    tare_origin: &TareOrigin,
+) -> Result<Report> {
+    let meta = log.require_metadata()?;
+    let (tare_kind, tare_path, tare_effect, tare_load_cell_effect) = match tare_origin {
+        TareOrigin::Measured(r) => (
+            TareKind::Measured,
+            None,
+            r.replay.accel_bias_effect.as_ref(),
+            r.replay.load_cell_bias_effect.as_ref(),
+        ),
+        TareOrigin::File(p) => (TareKind::File, p.clone(), None, None),
+    };
+    let params = match loaded.replay.config.parameters {
+        ParameterSet::InertiaAboutKnownCom { .. } => ParamCount::Six,
+        ParameterSet::Full => ParamCount::Ten,
+    };
+    let r = &loaded.replay;
+    Ok(measure::report::build(&ReportInputs {
+        loaded: &r.estimate,
+        theta_history: &r.theta_history,
+        excitation_s: r.excitation_s,
+        fk_failures: r.fk_failures,
+        tare,
+        tare_kind,
+        tare_path,
+        loaded_bias_effect: r.accel_bias_effect.as_ref(),
+        tare_bias_effect: tare_effect,
+        accel_bias_sigma_m_s2: setup::accel_bias_sigma(&rig.config),
+        loaded_load_cell_effect: r.load_cell_bias_effect.as_ref(),
+        tare_load_cell_effect,
+        load_cell_bias_sigma_n: setup::load_cell_bias_sigma(&rig.config),
+        params,
+        truth: payload_truth(log),
+        run: RunInfo {
+            config: meta.config_source.clone(),
+            seed: meta.seed,
+            noise: meta.noise.clone(),
+            params: params.into(),
+            log: Some(log.path.display().to_string()),
+            backend: meta.backend.clone(),
+        },
+    }))
+}
+
+/// Re-estimates the log's measurements with `o` and the rig description `rig` (the log's when
+/// `None`), subtracts the tare (`tare_path`, else the log's tare run, else the log's
+/// `/run/tare`) and builds the report.
+pub fn reestimate(
+    log: &LogContents,
+    o: &SettingsOverride,
+    tare_path: Option<&Path>,
+    rig: Option<&LoadedConfig>,
+) -> Result<(Report, RunEstimate, TareFile, TareOrigin)> {
+    let meta = log.require_metadata()?;
+    log.require_channel(topics::SENSORS, "the sensor frames the estimator reads")?;
+    log.require_channel(
+        topics::ESTIMATOR_SETTINGS,
+        "the estimator's settings (stewart.EstimatorSettings)",
+    )?;
+    let rig = rig_description(log, rig)?;
+    let (tare, origin) = if let Some(path) = tare_path {
+        let t = TareFile::load(path, &meta.base_joints_m, &meta.plate_joints_m)?;
+        (t, TareOrigin::File(Some(path.display().to_string())))
+    } else if log.sensors_of("tare").next().is_some() && log.settings_of("tare").is_some() {
+        let r = reestimate_run(log, &rig, "tare", o).context("re-estimating the tare run")?;
+        let t = TareFile::from_estimate(
+            &r.replay.estimate,
+            &meta.base_joints_m,
+            &meta.plate_joints_m,
+            &meta.config_source,
+            &meta.backend,
+        );
+        (t, TareOrigin::Measured(Box::new(r)))
+    } else {
+        let t = log.tare.clone().with_context(|| {
+            format!(
+                "the log lacks channel {} (and has no tare run), needed for the tare to subtract; \
+                 give one with --tare FILE",
+                topics::TARE
+            )
+        })?;
+        (t, TareOrigin::File(meta.tare_file.clone()))
+    };
+    let loaded = reestimate_run(log, &rig, "loaded", o).context("re-estimating the loaded run")?;
+    let report = build_report(log, &rig, &loaded, &tare, &origin)?;
+    Ok((report, loaded, tare, origin))
+}
