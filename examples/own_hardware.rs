@@ -64,7 +64,7 @@ fn main() -> anyhow::Result<()> {
         setup::trajectory(&rig, &geometry, s).and_then(|t| setup::controller(&rig, &geometry, t))
     };
     // The stand-in hardware: the default scenario's simulated world, empty fixture first.
-    let world = stewart_cli::world::Scenario::new(rig.clone(), None, None)?;
+    let world = sim::scenario::Scenario::new(rig.clone(), None, None)?;
     let (hardware, payload) = (
         world.simulator(geometry, false)?,
         world.world.payload.to_sim(),

@@ -24,7 +24,8 @@ use measure::setup::{self, Measurement};
 use measure::tick::{Tick, TickStep};
 use serde::Serialize;
 
-use crate::world::{NoisePreset, Scenario as World};
+use sim::scenario::Scenario as World;
+use sim::NoisePreset;
 
 /// Fraction of the sample period the tick's p99 may use for the loop rate to "fit with
 /// margin": the rest is left for I/O, logging and the operating system's jitter.
@@ -40,7 +41,7 @@ pub struct BenchArgs {
     #[arg(long, value_name = "SECONDS", default_value_t = 20.0)]
     pub duration: f64,
     /// Sensor grade: `realistic` the rig description's datasheet, `none` ideal, `harsh` ×10.
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = crate::common::noise_preset())]
     pub noise: Option<NoisePreset>,
     /// Random seed of the simulated world (world.seed).
     #[arg(long)]

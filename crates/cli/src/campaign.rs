@@ -337,7 +337,7 @@ mod tests {
                 quiet: true,
                 ..Default::default()
             },
-            noise: Some(crate::world::NoisePreset::Realistic),
+            noise: Some(sim::NoisePreset::Realistic),
             seed: Some(40),
             runs: Some(2),
             jobs: Some(2),

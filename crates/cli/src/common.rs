@@ -63,6 +63,13 @@ pub fn parse_params(p: &str) -> measure::config::ParamCount {
     }
 }
 
+/// The parser of `--noise`: `none`, `realistic` or `harsh` (listed in `--help`).
+pub fn noise_preset() -> impl clap::builder::TypedValueParser<Value = sim::NoisePreset> {
+    use clap::builder::TypedValueParser;
+    clap::builder::PossibleValuesParser::new(sim::NoisePreset::ALL.map(sim::NoisePreset::name))
+        .map(|name| name.parse().unwrap_or(sim::NoisePreset::Realistic))
+}
+
 /// Why a command failed.
 #[derive(Debug, thiserror::Error)]
 pub enum CommandError {

@@ -36,7 +36,8 @@ use measure::load::{ConfigError, LoadedConfig};
 use measure::Config;
 
 use crate::common::CommandError;
-use crate::world::{NoisePreset, Scenario, World};
+use sim::scenario::{Scenario, World};
+use sim::NoisePreset;
 
 /// Whether the emulated fixture carries the payload.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
@@ -75,7 +76,7 @@ pub struct EmulateArgs {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Sensor grade: `realistic` the rig description's datasheet, `none` ideal, `harsh` ×10.
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = crate::common::noise_preset())]
     pub noise: Option<NoisePreset>,
     /// When the payload is on the fixture (see `stewart emulate --help`).
     #[arg(long, value_enum, default_value_t = PayloadMode::TareFirst)]

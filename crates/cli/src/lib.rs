@@ -16,7 +16,6 @@ pub mod prompt;
 pub mod rig;
 pub mod simulate;
 pub mod table;
-pub mod world;
 
 use clap::{Parser, Subcommand};
 
@@ -120,7 +119,7 @@ mod tests {
         };
         assert_eq!(a.measure.duration, Some(12.5));
         assert_eq!(a.seed, Some(7));
-        assert_eq!(a.noise, Some(world::NoisePreset::Harsh));
+        assert_eq!(a.noise, Some(sim::NoisePreset::Harsh));
         assert_eq!(a.measure.params.as_deref(), Some("6"));
         assert!(a.measure.quiet);
         assert_eq!(a.measure.log, Some(PathBuf::from("l.mcap")));

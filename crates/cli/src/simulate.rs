@@ -21,7 +21,8 @@ use runlog::{LogObserver, RunLog};
 
 use crate::common::{self, CommandError, MeasureArgs};
 use crate::progress::Progress;
-use crate::world::{NoisePreset, Scenario};
+use sim::scenario::Scenario;
+use sim::NoisePreset;
 
 /// Flags of `stewart simulate`.
 #[derive(Clone, Debug, Default, Args)]
@@ -34,7 +35,7 @@ pub struct SimulateArgs {
     pub seed: Option<u64>,
     /// Sensor grade of the simulated rig: `realistic` is the rig description's datasheet as
     /// written, `none` ideal sensors, `harsh` ten times every figure (the estimator is told).
-    #[arg(long, value_enum)]
+    #[arg(long, value_parser = crate::common::noise_preset())]
     pub noise: Option<NoisePreset>,
     /// Accuracy campaign: this many runs with seeds seed, seed+1, …, then per-parameter error
     /// statistics (`--report` writes them as JSON).
@@ -92,7 +93,7 @@ impl Station for SimStation {
     }
 }
 
-fn body_truth(b: &crate::world::BodyConfig) -> BodyTruth {
+fn body_truth(b: &sim::scenario::BodyConfig) -> BodyTruth {
     BodyTruth {
         mass_kg: b.mass_kg,
         com_m: b.com_m,

@@ -41,6 +41,8 @@ pub use body::BodyProperties;
 pub use config::{GyroscopicModel, SimConfig, MAX_SUBSTEP_S};
 pub use dynamics::{Acceleration, RigidBodyModel};
 pub use error::{SimError, SimErrorKind};
+pub mod scenario;
+
 pub use sensors::{
     AccelerometerConfig, GyroConfig, LegLengthSensorConfig, LoadCellConfig, NoisePreset,
     SensorConfig, UnknownPreset,

@@ -1,4 +1,5 @@
-//! The simulated world: what `simulate`, `emulate` and `bench` put behind the rig description —
+//! The simulated world: what `stewart simulate`, `emulate` and `bench` put behind the rig
+//! description —
 //! the true fixture and payload, the actuator model, the physics step and the seed of every
 //! random draw — read from a scenario file's `[world]` table, and the simulator built from it.
 //!
@@ -12,6 +13,8 @@ use serde::{Deserialize, Serialize};
 use measure::load::{ConfigError, LoadedConfig, WORLD_TABLE};
 use measure::report::Quantities;
 use measure::validate::Problems;
+
+use crate::NoisePreset;
 
 /// A rigid body's inertial properties, given the way a datasheet or CAD gives them: mass, centre
 /// of mass in P, inertia tensor about the centre of mass in P axes.
@@ -29,8 +32,8 @@ pub struct BodyConfig {
 
 impl BodyConfig {
     /// As the simulator's body description.
-    pub fn to_sim(self) -> sim::BodyProperties {
-        sim::BodyProperties {
+    pub fn to_sim(self) -> crate::BodyProperties {
+        crate::BodyProperties {
             mass_kg: self.mass_kg,
             com_m: self.com_m,
             inertia_com_kg_m2: self.inertia_com_kg_m2,
@@ -60,40 +63,7 @@ pub struct World {
     /// The body to be measured.
     pub payload: BodyConfig,
     /// The actuators between command and leg force.
-    pub actuator: sim::ActuatorConfig,
-}
-
-/// The sensors' grade on a simulated rig: the rig description's datasheet as written, scaled to
-/// ideal, or made ten times worse. Both the rig description the estimator reads and the
-/// simulated sensors follow it, so the estimator knows what it is given.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum NoisePreset {
-    /// Ideal sensors: every datasheet figure zero.
-    None,
-    /// The datasheet as written (the default).
-    Realistic,
-    /// Every datasheet figure times ten.
-    Harsh,
-}
-
-impl NoisePreset {
-    /// The name on the command line and in reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::None => "none",
-            Self::Realistic => "realistic",
-            Self::Harsh => "harsh",
-        }
-    }
-
-    /// The factor on every datasheet figure.
-    pub fn scale(self) -> f64 {
-        match self {
-            Self::None => 0.0,
-            Self::Realistic => 1.0,
-            Self::Harsh => 10.0,
-        }
-    }
+    pub actuator: crate::ActuatorConfig,
 }
 
 /// A rig description with the simulated world behind it.
@@ -103,7 +73,9 @@ pub struct Scenario {
     pub loaded: LoadedConfig,
     /// The simulated world.
     pub world: World,
-    /// The sensors' grade.
+    /// The sensors' grade: the rig description's datasheet as written (`realistic`), scaled
+    /// to ideal (`none`) or ten times worse (`harsh`). Both the rig description the estimator
+    /// reads and the simulated sensors follow it, so the estimator knows what it is given.
     pub noise: NoisePreset,
 }
 
@@ -146,34 +118,34 @@ impl Scenario {
 
     /// The simulator's settings: the world's physics and actuators, sensors drawing from the
     /// rig description's datasheet.
-    pub fn sim_config(&self) -> sim::SimConfig {
+    pub fn sim_config(&self) -> crate::SimConfig {
         let s = &self.loaded.config.sensors;
-        let sensors = sim::SensorConfig {
-            leg_length: sim::LegLengthSensorConfig {
+        let sensors = crate::SensorConfig {
+            leg_length: crate::LegLengthSensorConfig {
                 noise_sigma_m: s.encoder.noise_m,
                 resolution_m: s.encoder.resolution_m,
             },
-            load_cell: sim::LoadCellConfig {
+            load_cell: crate::LoadCellConfig {
                 noise_sigma_n: s.load_cell.noise_n,
                 bias_sigma_n: s.load_cell.zero_offset_n,
                 resolution_n: s.load_cell.resolution_n,
             },
-            gyro: sim::GyroConfig {
+            gyro: crate::GyroConfig {
                 noise_density_rad_s_sqrt_hz: s.gyro.noise_density_rad_s_sqrt_hz,
                 bias_sigma_rad_s: s.gyro.bias_rad_s,
             },
-            accelerometer: sim::AccelerometerConfig {
+            accelerometer: crate::AccelerometerConfig {
                 noise_density_m_s2_sqrt_hz: s.accelerometer.noise_density_m_s2_sqrt_hz,
                 bias_sigma_m_s2: s.accelerometer.bias_m_s2,
                 mount_m: s.imu.position_m,
             },
         };
-        sim::SimConfig {
+        crate::SimConfig {
             sample_rate_hz: s.sample_rate_hz,
             substeps: self.world.physics_substeps,
             actuator: self.world.actuator,
             sensors,
-            ..sim::SimConfig::default()
+            ..crate::SimConfig::default()
         }
     }
 
@@ -183,8 +155,8 @@ impl Scenario {
         &self,
         geometry: kinematics::Geometry,
         payload_on: bool,
-    ) -> Result<sim::Simulator, ConfigError> {
-        sim::Simulator::new(
+    ) -> Result<crate::Simulator, ConfigError> {
+        crate::Simulator::new(
             geometry,
             self.world.fixture.to_sim(),
             payload_on.then(|| self.world.payload.to_sim()),
@@ -195,10 +167,10 @@ impl Scenario {
     }
 
     /// Maps a simulator refusal to the key it names.
-    fn sim_issue(&self, e: &sim::SimError) -> measure::ConfigIssue {
+    fn sim_issue(&self, e: &crate::SimError) -> measure::ConfigIssue {
         let loaded = &self.loaded;
         match e {
-            sim::SimError::InvalidConfig {
+            crate::SimError::InvalidConfig {
                 field,
                 reason,
                 value,
@@ -217,7 +189,7 @@ impl Scenario {
                     format!("refused by the simulator: {reason} (value {value})"),
                 )
             }
-            sim::SimError::InvalidBody { body, reason } => {
+            crate::SimError::InvalidBody { body, reason } => {
                 let key = if *body == "fixture" {
                     "world.fixture"
                 } else {
@@ -242,7 +214,7 @@ fn validate(world: &World, sample_rate_hz: f64) -> Vec<(String, String)> {
     body(&mut p, "world.payload", &world.payload);
     if let Err(e) = world.actuator.validate() {
         match e {
-            sim::SimError::InvalidConfig {
+            crate::SimError::InvalidConfig {
                 field,
                 value,
                 reason,

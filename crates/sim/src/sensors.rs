@@ -100,6 +100,15 @@ impl NoisePreset {
         NoisePreset::Harsh,
     ];
 
+    /// The factor on every datasheet figure: 0, 1 or 10.
+    pub fn scale(self) -> f64 {
+        match self {
+            NoisePreset::None => 0.0,
+            NoisePreset::Realistic => 1.0,
+            NoisePreset::Harsh => 10.0,
+        }
+    }
+
     /// The preset's name as used in configs and on the command line.
     pub fn name(self) -> &'static str {
         match self {
@@ -165,11 +174,7 @@ impl SensorConfig {
     /// 2·10⁻⁵ rad/s (4 °/h) bias; accelerometer 4·10⁻⁴ m/s²/√Hz (40 µg/√Hz) and 10⁻³ m/s²
     /// (100 µg) bias. `harsh` multiplies every figure by ten.
     pub fn preset(preset: NoisePreset) -> Self {
-        let k = match preset {
-            NoisePreset::None => 0.0,
-            NoisePreset::Realistic => 1.0,
-            NoisePreset::Harsh => 10.0,
-        };
+        let k = preset.scale();
         Self {
             leg_length: LegLengthSensorConfig {
                 noise_sigma_m: k * 0.5e-6,
