@@ -15,7 +15,7 @@
 use std::fmt::Write as _;
 use std::time::{Duration, Instant};
 
-use anyhow::{anyhow, bail, Result};
+use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use control::io::{Backend, CommandFrame, SensorFrame};
 use control::supervisor::Phase;
@@ -91,24 +91,10 @@ impl Scenario {
         );
         let mut tick = Tick::new(controller, feed, estimator, trajectory.duration_s())
             .map_err(|e| anyhow!("the estimator refused its settings: {e}"))?;
-        let rate_hz = config.sensors.sample_rate_hz;
-        let hold = ((config.run.brake_hold_s * rate_hz).round() as u64).max(1);
-        let average = ((0.1 * rate_hz).round() as u64).clamp(1, hold);
-        let mut sum = [0.0; 6];
-        for i in 0..hold {
-            let frame = sim.read()?;
-            tick.hold(&frame);
-            if i >= hold - average {
-                for (s, f) in sum.iter_mut().zip(frame.leg_forces_n) {
-                    *s += f;
-                }
-            }
-            sim.write(&CommandFrame::safe_stop(i, frame.sequence))?;
-        }
-        tick.controller
-            .set_feedforward(sum.map(|s| s / average as f64))
-            .map_err(|e| anyhow!("the controller refused the feed-forward: {e}"))?;
-        tick.controller.set_pose_guess(tick.feed.pose_guess());
+        let feedforward =
+            measure::measurement::brake_hold(&mut sim, &mut tick, config, |_, _, _, _| Ok(false))?
+                .context("the brake hold stopped")?;
+        tick.start_control(feedforward)?;
         Ok(Self {
             sim,
             tick,

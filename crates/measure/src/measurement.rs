@@ -180,66 +180,51 @@ where
     // θ after every used sample, reserved for the whole window so the loop never allocates.
     let mut history: Vec<[f64; 10]> =
         Vec::with_capacity((trajectory.duration_s() * rate_hz).ceil() as usize + 16);
-    let mut command_sequence = 0u64;
     let mut fk_failures = 0u64;
 
     observer.measurement_started(measurement)?;
 
     // 1. Brake hold: read the static load.
-    let hold_samples = ((config.run.brake_hold_s * rate_hz).round() as u64).max(1);
-    let average_samples = ((0.1 * rate_hz).round() as u64).clamp(1, hold_samples);
-    let mut force_sum = [0.0; 6];
     let mut index = 0u64;
-    for i in 0..hold_samples {
-        let frame = read(backend)?;
+    let mut interrupted_at = None;
+    let hold = brake_hold(backend, &mut tick, config, |frame, command, posed, tick| {
         *last_sensor_sequence = frame.sequence;
-        let sample = tick.hold(&frame);
-        if sample.is_none() {
+        if !posed {
             fk_failures += 1;
-        }
-        let command = CommandFrame::safe_stop(next(&mut command_sequence), frame.sequence);
-        write(backend, &command)?;
-        if i >= hold_samples - average_samples {
-            for (s, f) in force_sum.iter_mut().zip(frame.leg_forces_n) {
-                *s += f;
-            }
         }
         let pose = tick.feed.pose_guess();
         let interrupted = stop.load(Ordering::SeqCst);
         observer.tick(&TickEvent {
             measurement,
             index,
-            frame: &frame,
-            command: &command,
+            frame,
+            command,
             phase: Phase::Idle,
             control: None,
-            pose: sample.as_ref().map(|_| &pose),
+            pose: posed.then_some(&pose),
             estimator: None,
             tare: setup.tare,
             interrupted,
         })?;
         index += 1;
         if interrupted {
-            observer.measurement_ended(&MeasurementEnded {
-                measurement,
-                time_s: frame.time_s,
-                estimate: None,
-                tare: setup.tare,
-            })?;
-            return Ok(MeasureOutcome::ended_early(End::Interrupted, fk_failures));
+            interrupted_at = Some(frame.time_s);
         }
-    }
-    let feedforward = force_sum.map(|s| s / average_samples as f64);
-    if !feedforward.iter().all(|f| f.is_finite()) {
-        bail!("the load cells gave non-finite forces during the brake hold");
-    }
+        Ok(interrupted)
+    })?;
+    let Some(feedforward) = hold else {
+        observer.measurement_ended(&MeasurementEnded {
+            measurement,
+            time_s: interrupted_at.unwrap_or(f64::NAN),
+            estimate: None,
+            tare: setup.tare,
+        })?;
+        return Ok(MeasureOutcome::ended_early(End::Interrupted, fk_failures));
+    };
 
     // 2. The controller, with the static load as feed-forward and the hold's pose as its
     //    forward kinematics' warm start.
-    tick.controller
-        .set_feedforward(feedforward)
-        .map_err(|e| anyhow!("controller refused the feed-forward: {e}"))?;
-    tick.controller.set_pose_guess(tick.feed.pose_guess());
+    tick.start_control(feedforward)?;
 
     let budget = expected_samples(config, &trajectory) + (120.0 * rate_hz) as u64;
     let mut park_requested = false;
@@ -325,12 +310,51 @@ where
     }
     // The procedure overran its time budget: stop the platform and give up.
     let frame = read(backend)?;
-    let stop_command = CommandFrame::safe_stop(next(&mut command_sequence), frame.sequence);
+    let stop_command = CommandFrame::safe_stop(u64::MAX, frame.sequence);
     write(backend, &stop_command)?;
     bail!(
         "the {run} measurement did not finish within {:.0} s of backend time; the brakes were applied",
         budget as f64 * period_s
     )
+}
+
+/// The brake hold (`run.brake_hold_s`): safe stops while the braked platform carries its load,
+/// each frame fed to the tick's estimator conditioning. `each` sees every frame, its command,
+/// whether the frame had a pose, and the tick, and returns `true` to stop there. Gives the mean
+/// leg forces of the last 0.1 s (the PID feed-forward: what the load cells read is what the
+/// legs must push), or `None` when stopped.
+pub fn brake_hold<B: Backend>(
+    backend: &mut B,
+    tick: &mut Tick,
+    config: &Config,
+    mut each: impl FnMut(&SensorFrame, &CommandFrame, bool, &Tick) -> Result<bool>,
+) -> Result<Option<[f64; 6]>>
+where
+    B::Error: std::fmt::Display,
+{
+    let rate_hz = config.sensors.sample_rate_hz;
+    let hold_samples = ((config.run.brake_hold_s * rate_hz).round() as u64).max(1);
+    let average_samples = ((0.1 * rate_hz).round() as u64).clamp(1, hold_samples);
+    let mut force_sum = [0.0; 6];
+    for i in 0..hold_samples {
+        let frame = read(backend)?;
+        let posed = tick.hold(&frame).is_some();
+        let command = CommandFrame::safe_stop(i, frame.sequence);
+        write(backend, &command)?;
+        if i >= hold_samples - average_samples {
+            for (s, f) in force_sum.iter_mut().zip(frame.leg_forces_n) {
+                *s += f;
+            }
+        }
+        if each(&frame, &command, posed, tick)? {
+            return Ok(None);
+        }
+    }
+    let feedforward = force_sum.map(|s| s / average_samples as f64);
+    if !feedforward.iter().all(|f| f.is_finite()) {
+        bail!("the load cells gave non-finite forces during the brake hold");
+    }
+    Ok(Some(feedforward))
 }
 
 fn read<B: Backend>(backend: &mut B) -> Result<SensorFrame>
@@ -349,12 +373,6 @@ where
     backend
         .write(command)
         .map_err(|e| anyhow!("backend write failed: {e}"))
-}
-
-fn next(sequence: &mut u64) -> u64 {
-    let s = *sequence;
-    *sequence += 1;
-    s
 }
 
 /// The payload alone (tare subtracted) when a tare is known, else everything on the plate.

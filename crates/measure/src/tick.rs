@@ -78,6 +78,16 @@ impl Tick {
         Some(sample)
     }
 
+    /// After the brake hold: the static load `feedforward_n` as the PIDs' feed-forward and the
+    /// hold's last pose as the controller's forward-kinematics warm start.
+    pub fn start_control(&mut self, feedforward_n: [f64; 6]) -> anyhow::Result<()> {
+        self.controller
+            .set_feedforward(feedforward_n)
+            .map_err(|e| anyhow::anyhow!("controller refused the feed-forward: {e}"))?;
+        self.controller.set_pose_guess(self.feed.pose_guess());
+        Ok(())
+    }
+
     /// One tick on `frame`. See the [module docs](self).
     #[inline]
     pub fn step(&mut self, frame: &SensorFrame) -> TickStep {
