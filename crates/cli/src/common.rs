@@ -106,24 +106,6 @@ pub fn refuse(message: String) -> CommandError {
     CommandError::Input(anyhow::anyhow!(message))
 }
 
-/// `e` with every issue about `run.duration_s` said of `key` instead (the tare run's duration).
-pub fn rename_duration(mut e: ConfigError, key: &str) -> ConfigError {
-    for issue in &mut e.issues {
-        if issue.key == "run.duration_s" {
-            issue.key = key.to_string();
-        }
-    }
-    e
-}
-
-/// Wall-clock time, ns since the Unix epoch.
-pub fn unix_ns() -> u64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_nanos() as u64)
-        .unwrap_or(0)
-}
-
 /// `--log`, or `runs/<UTC time>.mcap`.
 pub fn log_path(args: &MeasureArgs, start_ns: u64) -> PathBuf {
     match &args.log {

@@ -40,8 +40,7 @@ use crate::progress::Progress;
 
 pub use outcome::{finish, link_lines, LinkReport, RigOutcome};
 
-use rig::link::{Failure, Link};
-use runlog::link::TimingSummary;
+use rig::link::Link;
 
 /// The link flags of `stewart rig`.
 #[derive(Clone, Debug, Default, Args)]
@@ -301,8 +300,7 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
             path.display().to_string(),
         ),
         None => {
-            let t = setup::trajectory(&loaded, &geometry, config.run.tare_duration_s)
-                .map_err(|e| common::rename_duration(e, "run.tare_duration_s"))?;
+            let t = setup::tare_trajectory(&loaded, &geometry)?;
             TarePlan::Measure(Box::new(setup::controller(&loaded, &geometry, t)?))
         }
     };
@@ -313,7 +311,7 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
     check_rig(backend.info(), &loaded)?;
     let rig_link = Link::start(backend);
 
-    let start_ns = common::unix_ns();
+    let start_ns = runlog::run_log::unix_now_ns();
     let log_path = common::log_path(&common.run, start_ns);
     // The log's writer thread must never stall the control loop: when it falls behind (a disk
     // that blocks), messages are dropped and counted instead.
@@ -428,20 +426,6 @@ pub fn main(args: &RigArgs, interrupt: &AtomicBool) -> u8 {
             e.exit_code()
         }
     }
-}
-
-/// Failures seen by the host, for callers that time them.
-pub fn failure_of(outcome: &RigOutcome) -> Option<&Failure> {
-    outcome.failure.as_ref()
-}
-
-/// The timing summary of measurement `run` (`"tare"` or `"loaded"`).
-pub fn timing_of<'a>(outcome: &'a RigOutcome, run: &str) -> Option<&'a TimingSummary> {
-    outcome
-        .link
-        .iter()
-        .find(|l| l.run == run)
-        .map(|l| &l.timing)
 }
 
 #[cfg(test)]

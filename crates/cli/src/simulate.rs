@@ -125,8 +125,7 @@ pub fn simulate(
             path.display().to_string(),
         ),
         None => {
-            let t = setup::trajectory(loaded, &geometry, config.run.tare_duration_s)
-                .map_err(|e| common::rename_duration(e, "run.tare_duration_s"))?;
+            let t = setup::tare_trajectory(loaded, &geometry)?;
             TarePlan::Measure(Box::new(setup::controller(loaded, &geometry, t)?))
         }
     };
@@ -139,7 +138,7 @@ pub fn simulate(
         loaded_world
     };
 
-    let start_ns = common::unix_ns();
+    let start_ns = runlog::run_log::unix_now_ns();
     let log_path = common::log_path(&args.measure, start_ns);
     let mut log = RunLog::create(&log_path, start_ns).map_err(CommandError::Run)?;
     let stroke = geometry.stroke();

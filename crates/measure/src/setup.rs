@@ -16,6 +16,21 @@ use nalgebra::{Vector3, Vector6};
 use crate::config::{AxisName, Config, ExcitationKind, ParamCount, SpectrumConfig};
 use crate::load::{ConfigError, ConfigIssue, LoadedConfig};
 
+/// The tare run's excitation (`run.tare_duration_s` long), refusals said of that key.
+pub fn tare_trajectory(
+    loaded: &LoadedConfig,
+    geometry: &Geometry,
+) -> Result<Trajectory, ConfigError> {
+    trajectory(loaded, geometry, loaded.config.run.tare_duration_s).map_err(|mut e| {
+        for issue in &mut e.issues {
+            if issue.key == "run.duration_s" {
+                issue.key = "run.tare_duration_s".into();
+            }
+        }
+        e
+    })
+}
+
 /// The platform design of `config`, or the reason it cannot be built (singular, unreachable
 /// home, coincident joints).
 pub fn geometry(loaded: &LoadedConfig) -> Result<Geometry, ConfigError> {
