@@ -35,8 +35,8 @@ use control::io::SensorFrame;
 use control::supervisor::{Phase, Supervisor};
 use criterion::{criterion_group, criterion_main, Criterion};
 use estimator::{OnlineEstimator, Sample};
+use sim::scenario::Scenario;
 use stewart_cli::bench::{record, Recording};
-use stewart_cli::world::Scenario;
 
 const FRAMES: usize = 4096;
 

@@ -5,8 +5,9 @@
 mod support;
 
 use measure::report::{Quantities, Report};
+use runlog::reestimate::{reestimate, SettingsOverride, Window};
 use runlog::LogContents;
-use stewart_cli::estimate::{reestimate, EstimateArgs, SettingsOverride, Window};
+use stewart_cli::estimate::EstimateArgs;
 use support::close;
 
 fn numbers(q: &Quantities) -> Vec<f64> {

@@ -4,8 +4,9 @@
 
 mod support;
 
+use runlog::reestimate::{reestimate_run, rig_description, SettingsOverride};
 use runlog::LogContents;
-use stewart_cli::estimate::{reestimate_run, rig_description, EstimateArgs, SettingsOverride};
+use stewart_cli::estimate::EstimateArgs;
 use support::close;
 
 #[test]

@@ -22,7 +22,7 @@ use control::supervisor::Phase;
 use estimator::Outcome;
 use measure::observer::{EstimatorStarted, MeasurementEnded, Observer, TickEvent};
 use measure::{End, LoadedConfig, MeasureSetup, Measurement};
-use stewart_cli::world::Scenario;
+use sim::scenario::Scenario;
 
 struct Counting;
 

@@ -8,8 +8,8 @@ mod support;
 use measure::report::{Quantities, Report};
 use measure::End;
 use measure::TareFile;
+use runlog::reestimate::{reestimate, SettingsOverride};
 use runlog::LogContents;
-use stewart_cli::estimate::{reestimate, SettingsOverride};
 use support::*;
 
 fn numbers(q: &Quantities) -> Vec<f64> {

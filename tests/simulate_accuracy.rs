@@ -12,8 +12,8 @@ use std::sync::atomic::AtomicBool;
 
 use measure::report::{Quantities, Report};
 use measure::End;
+use sim::NoisePreset;
 use stewart_cli::simulate::{simulate, SimulateOutcome};
-use stewart_cli::world::NoisePreset;
 use support::{simulate_args, Scratch, SimulateArgs};
 
 /// Runs `simulate` on `scenario` (laid over the default) in a fresh directory.

@@ -15,12 +15,13 @@ use std::sync::atomic::AtomicBool;
 use std::sync::{Mutex, MutexGuard};
 
 use measure::LoadedConfig;
+use sim::scenario::Scenario;
+use sim::NoisePreset;
 pub use stewart_cli::common::MeasureArgs;
 pub use stewart_cli::emulate::EmulateArgs;
 use stewart_cli::emulate::{self, RunningEmulator};
 use stewart_cli::rig::{self, RigArgs, RigOutcome};
 pub use stewart_cli::simulate::SimulateArgs;
-use stewart_cli::world::{NoisePreset, Scenario};
 use stewart_cli::CommandError;
 
 // ---------------------------------------------------------------------------------------------
