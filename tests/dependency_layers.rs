@@ -1,0 +1,77 @@
+//! The layers keep one direction of use: the library that carries the measurement procedure
+//! (`measure`) reaches none of clap, indicatif, mcap, plotters or rapier through any path of
+//! its dependency tree, so rig software and GUIs can embed it; the cores stay free of std-side
+//! crates. Read from `cargo tree -e normal` (what a user's build of the crate pulls in; dev-
+//! and build-only dependencies left out), on the locked, already fetched graph.
+
+use std::process::Command;
+
+/// Every package `root` reaches through normal dependencies.
+fn normal_dependencies(root: &str) -> Vec<String> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+    let out = Command::new(cargo)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .args([
+            "tree", "--frozen", "-e", "normal", "--prefix", "none", "-p", root,
+        ])
+        .output()
+        .expect("cargo tree runs");
+    assert!(
+        out.status.success(),
+        "cargo tree -p {root}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter_map(|l| l.split_whitespace().next().map(str::to_string))
+        .collect()
+}
+
+fn forbidden_in(root: &str, forbidden: &[&str]) -> Vec<String> {
+    let reached = normal_dependencies(root);
+    assert!(
+        reached.iter().any(|r| r == root),
+        "{root} not in its own tree"
+    );
+    forbidden
+        .iter()
+        .filter(|f| reached.iter().any(|r| r == *f))
+        .map(|f| f.to_string())
+        .collect()
+}
+
+#[test]
+fn the_measurement_library_needs_no_terminal_log_format_plotter_or_physics_engine() {
+    let found = forbidden_in(
+        "measure",
+        &[
+            "clap",
+            "indicatif",
+            "mcap",
+            "plotters",
+            "rapier3d-f64",
+            "rapier3d",
+        ],
+    );
+    assert!(found.is_empty(), "measure reaches {found:?}");
+}
+
+#[test]
+fn the_cores_need_no_std_side_crates() {
+    for core in ["stewart-types", "kinematics", "control", "estimator"] {
+        let found = forbidden_in(
+            core,
+            &["serde_json", "toml", "anyhow", "thiserror", "measure"],
+        );
+        assert!(found.is_empty(), "{core} reaches {found:?}");
+    }
+}
+
+#[test]
+fn the_check_sees_a_forbidden_crate_where_there_is_one() {
+    // The command line does use clap and the simulator rapier: the walk must find them.
+    assert_eq!(
+        forbidden_in("stewart-cli", &["clap", "rapier3d-f64"]).len(),
+        2
+    );
+}
