@@ -137,3 +137,55 @@ fn the_rig_reports_the_systematic_part_estimate_computes() {
     );
     emulator.stop().unwrap();
 }
+
+/// The rig's report takes its sensor figures from the rig description, not from any simulator
+/// preset: a worse accelerometer bias figure widens its systematic sigma, and its gyro noise
+/// density reaches the estimator's logged settings. (The emulated gyro stays as the scratch
+/// scenario says, so the figure changes only a little: the estimator's errors-in-variables
+/// correction assumes what it is told.)
+#[test]
+fn a_datasheet_figure_in_the_rig_description_reaches_the_rig_report() {
+    let _lock = real_time();
+    let scratch = Scratch::new(&quick());
+    let worse = scratch.path("worse.toml");
+    std::fs::write(
+        &worse,
+        format!(
+            "{}\n[sensors.accelerometer]\nbias_m_s2 = 0.01\n\
+             [sensors.gyro]\nnoise_density_rad_s_sqrt_hz = 6.0e-5\n",
+            quick()
+        ),
+    )
+    .unwrap();
+    let mut reports = Vec::new();
+    for (name, config) in [
+        ("base", scratch.config_str()),
+        ("worse", worse.to_str().unwrap()),
+    ] {
+        // A fresh emulator each: its first session is the empty fixture, the second loaded.
+        let emulator = start(&emulate_args(&scratch));
+        let log = scratch.path(&format!("{name}.mcap"));
+        let report = rig_report(&["--config", config, "--connect", emulator.address()], &log);
+        let settings = LogContents::read(&log).unwrap();
+        let gyro = settings.settings_of("loaded").unwrap().gyro_noise_rad_s;
+        reports.push((report, gyro));
+        emulator.stop().unwrap();
+    }
+    let ((base, base_gyro), (worse, worse_gyro)) = (&reports[0], &reports[1]);
+    assert_eq!(base.systematic.accel_bias_sigma_m_s2, 1e-3);
+    assert_eq!(worse.systematic.accel_bias_sigma_m_s2, 1e-2);
+    let ratio = worse.systematic.sigma.mass / base.systematic.sigma.mass;
+    assert!(
+        (5.0..20.0).contains(&ratio),
+        "systematic mass sigma ratio {ratio}"
+    );
+    // Per-sample noise: density × √(500 Hz).
+    assert!(
+        close(*base_gyro, 5e-5 * 500f64.sqrt(), 1e-12),
+        "{base_gyro}"
+    );
+    assert!(
+        close(*worse_gyro, 6e-5 * 500f64.sqrt(), 1e-12),
+        "{worse_gyro}"
+    );
+}
