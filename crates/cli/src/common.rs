@@ -44,6 +44,40 @@ pub struct MeasureArgs {
     pub plot: Option<PathBuf>,
 }
 
+/// The flags of every run, whatever it measures (`rig tare` takes only these and `--out`).
+#[derive(Clone, Debug, Default, Args)]
+pub struct SharedArgs {
+    /// Rig description / scenario TOML, laid over the embedded default (configs/default.toml).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// 10: mass, centre of mass and inertia; 6: the paper's inertia-only model (estimator.params).
+    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["10", "6"]))]
+    pub params: Option<String>,
+    /// MCAP log file (default: runs/<UTC time>.mcap).
+    #[arg(long, value_name = "FILE.mcap")]
+    pub log: Option<PathBuf>,
+    /// No progress bar and no table.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Write SVG and PNG figures (estimates with ±σ, tracking error, excitation) here.
+    #[arg(long, value_name = "DIR")]
+    pub plot: Option<PathBuf>,
+}
+
+impl SharedArgs {
+    /// As a measurement's flags, the others unset.
+    pub fn measure(&self) -> MeasureArgs {
+        MeasureArgs {
+            config: self.config.clone(),
+            params: self.params.clone(),
+            log: self.log.clone(),
+            quiet: self.quiet,
+            plot: self.plot.clone(),
+            ..MeasureArgs::default()
+        }
+    }
+}
+
 impl MeasureArgs {
     /// The rig description of `--config` with `--duration` and `--params` applied, validated.
     pub fn load_config(&self) -> Result<LoadedConfig, ConfigError> {

@@ -35,7 +35,7 @@ use runlog::messages as topics;
 use runlog::metadata::RunMetadata;
 use runlog::{LogObserver, RunLog};
 
-use crate::common::{self, refuse, CommandError, MeasureArgs};
+use crate::common::{refuse, CommandError, MeasureArgs, SharedArgs};
 use crate::progress::Progress;
 
 pub use outcome::{finish, link_lines, LinkReport, RigOutcome};
@@ -91,18 +91,41 @@ pub enum RigMode {
     /// Measure the empty fixture (tare) and save it for `rig measure --tare FILE`.
     Tare(RigTareArgs),
     /// Measure the payload, subtracting a saved tare (`--tare FILE`, required).
-    Measure(RigRunArgs),
+    Measure(RigMeasureArgs),
 }
 
-/// `stewart rig tare`.
+/// `stewart rig tare`: only the flags that act on a tare run.
 #[derive(Clone, Debug, Args)]
 pub struct RigTareArgs {
     /// Save the tare here (JSON).
     #[arg(long, value_name = "FILE")]
     pub out: PathBuf,
-    /// Link and run flags.
+    /// How to reach the rig.
     #[command(flatten)]
-    pub common: RigRunArgs,
+    pub link: LinkArgs,
+    /// Flags of every run.
+    #[command(flatten)]
+    pub shared: SharedArgs,
+}
+
+/// `stewart rig measure`: only the flags that act on a loaded run with a saved tare.
+#[derive(Clone, Debug, Args)]
+pub struct RigMeasureArgs {
+    /// The saved tare (JSON) to subtract, from `rig tare --out FILE`.
+    #[arg(long, value_name = "FILE")]
+    pub tare: PathBuf,
+    /// Excitation time of the loaded run including the fades, s (run.duration_s).
+    #[arg(long, value_name = "SECONDS")]
+    pub duration: Option<f64>,
+    /// Write the JSON report here.
+    #[arg(long, value_name = "FILE.json")]
+    pub report: Option<PathBuf>,
+    /// How to reach the rig.
+    #[command(flatten)]
+    pub link: LinkArgs,
+    /// Flags of every run.
+    #[command(flatten)]
+    pub shared: SharedArgs,
 }
 
 /// `stewart rig ARGS` parsed as the command line parses it (for tests and tools).
@@ -130,44 +153,34 @@ pub enum Plan {
 }
 
 /// The plan and flags of `args`, or why they do not go together.
-pub fn resolve(args: &RigArgs) -> Result<(Plan, &RigRunArgs), CommandError> {
+pub fn resolve(args: &RigArgs) -> Result<(Plan, RigRunArgs), CommandError> {
     let (plan, common) = match &args.mode {
-        None if args.common.run.tare.is_some() => (Plan::MeasureOnly, &args.common),
-        None => (Plan::Both, &args.common),
-        Some(RigMode::Tare(t)) => (Plan::TareOnly(t.out.clone()), &t.common),
-        Some(RigMode::Measure(m)) => (Plan::MeasureOnly, m),
+        None if args.common.run.tare.is_some() => (Plan::MeasureOnly, args.common.clone()),
+        None => (Plan::Both, args.common.clone()),
+        Some(RigMode::Tare(t)) => (
+            Plan::TareOnly(t.out.clone()),
+            RigRunArgs {
+                link: t.link.clone(),
+                run: t.shared.measure(),
+            },
+        ),
+        Some(RigMode::Measure(m)) => (
+            Plan::MeasureOnly,
+            RigRunArgs {
+                link: m.link.clone(),
+                run: MeasureArgs {
+                    tare: Some(m.tare.clone()),
+                    duration: m.duration,
+                    report: m.report.clone(),
+                    ..m.shared.measure()
+                },
+            },
+        ),
     };
-    let run = &common.run;
-    match &plan {
-        Plan::TareOnly(_) => {
-            if run.tare.is_some() {
-                return Err(refuse(
-                    "`rig tare` measures the tare: --tare does not apply".into(),
-                ));
-            }
-            if run.save_tare.is_some() {
-                return Err(refuse(
-                    "`rig tare` saves the tare with --out: drop --save-tare".into(),
-                ));
-            }
-            if run.report.is_some() {
-                return Err(refuse(
-                    "`rig tare` writes its result with --out; --report belongs to a measurement"
-                        .into(),
-                ));
-            }
-        }
-        Plan::MeasureOnly if run.tare.is_none() => {
-            return Err(refuse(
-                "`rig measure` needs --tare FILE (saved by `rig tare --out FILE`)".into(),
-            ))
-        }
-        Plan::MeasureOnly if run.save_tare.is_some() => {
-            return Err(refuse(
-                "--save-tare needs a tare run; this run uses --tare".into(),
-            ))
-        }
-        _ => {}
+    if plan == Plan::MeasureOnly && common.run.save_tare.is_some() {
+        return Err(refuse(
+            "--save-tare needs a tare run; this run uses --tare".into(),
+        ));
     }
     Ok((plan, common))
 }
@@ -279,6 +292,7 @@ pub fn check_rig(info: &rig::host::RigInfo, loaded: &LoadedConfig) -> Result<(),
 /// cause.
 pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, CommandError> {
     let (plan, common) = resolve(args)?;
+    let common = &common;
     let loaded = common.run.load_config()?;
     let config = &loaded.config;
     let link = link_settings(&loaded, &common.link)?;
@@ -312,7 +326,7 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
     let rig_link = Link::start(backend);
 
     let start_ns = runlog::run_log::unix_now_ns();
-    let log_path = common::log_path(&common.run, start_ns);
+    let log_path = crate::common::log_path(&common.run, start_ns);
     // The log's writer thread must never stall the control loop: when it falls behind (a disk
     // that blocks), messages are dropped and counted instead.
     let mut log = RunLog::create_with(&log_path, start_ns, Delivery::DropWhenFull)
@@ -463,6 +477,7 @@ mod tests {
         assert!(c.link.no_prompt);
         assert_eq!(c.run.duration, Some(5.0));
         let a = parse(&["tare", "--out", "t.json", "--quiet"]).unwrap();
+        assert!(resolve(&a).unwrap().1.run.quiet);
         assert_eq!(
             resolve(&a).unwrap().0,
             Plan::TareOnly(PathBuf::from("t.json"))
@@ -479,9 +494,14 @@ mod tests {
             Err(e) => e.to_string(),
             Ok(_) => String::new(),
         };
-        assert!(message(&["measure"]).contains("--tare FILE"));
-        assert!(message(&["tare", "--out", "t", "--tare", "x"]).contains("--tare does not apply"));
-        assert!(message(&["tare", "--out", "t", "--report", "r"]).contains("--report"));
+        assert!(message(&["--tare", "t", "--save-tare", "s"]).contains("--save-tare"));
+        // Flags that would not act are not offered: `rig measure` needs its tare, `rig tare`
+        // takes no tare, no report and no loaded-run duration.
+        assert!(parse(&["measure"]).is_err());
+        assert!(parse(&["tare", "--out", "t", "--tare", "x"]).is_err());
+        assert!(parse(&["tare", "--out", "t", "--report", "r"]).is_err());
+        assert!(parse(&["tare", "--out", "t", "--duration", "5"]).is_err());
+        assert!(parse(&["measure", "--tare", "t", "--save-tare", "s"]).is_err());
         // The simulator's flags are not the rig's: `rig --help` does not offer them.
         assert!(parse(&["--seed", "3"]).is_err());
         assert!(parse(&["measure", "--tare", "t", "--noise", "harsh"]).is_err());
