@@ -1,0 +1,115 @@
+//! The command line's interface: every flag parses, bad values are refused, no argument is
+//! needed, and each command's `--help` lists only the options that act on it.
+
+use std::path::PathBuf;
+
+use clap::Parser;
+use stewart_cli::{Cli, Command};
+
+#[test]
+fn parses_every_simulate_flag() {
+    let cli = Cli::try_parse_from([
+        "stewart",
+        "simulate",
+        "--config",
+        "c.toml",
+        "--duration",
+        "12.5",
+        "--seed",
+        "7",
+        "--noise",
+        "harsh",
+        "--params",
+        "6",
+        "--tare",
+        "t.json",
+        "--save-tare",
+        "s.json",
+        "--log",
+        "l.mcap",
+        "--report",
+        "r.json",
+        "--quiet",
+    ])
+    .unwrap();
+    let Command::Simulate(a) = cli.command else {
+        panic!("not simulate")
+    };
+    assert_eq!(a.measure.duration, Some(12.5));
+    assert_eq!(a.seed, Some(7));
+    assert_eq!(a.noise, Some(sim::NoisePreset::Harsh));
+    assert_eq!(a.measure.params.as_deref(), Some("6"));
+    assert!(a.measure.quiet);
+    assert_eq!(a.measure.log, Some(PathBuf::from("l.mcap")));
+}
+
+#[test]
+fn refuses_bad_values() {
+    assert!(Cli::try_parse_from(["stewart", "simulate", "--params", "7"]).is_err());
+    assert!(Cli::try_parse_from(["stewart", "simulate", "--noise", "loud"]).is_err());
+    assert!(Cli::try_parse_from(["stewart", "simulate", "--bogus"]).is_err());
+}
+
+#[test]
+fn no_arguments_is_enough() {
+    let cli = Cli::try_parse_from(["stewart", "simulate"]).unwrap();
+    let Command::Simulate(a) = cli.command else {
+        panic!("not simulate")
+    };
+    assert!(a.measure.config.is_none() && a.measure.duration.is_none());
+}
+
+/// Each command's `--help` lists only the options that act on it.
+#[test]
+fn each_command_offers_only_its_own_options() {
+    use clap::CommandFactory;
+    let cli = Cli::command();
+    let long = |name: &str| -> Vec<String> {
+        let mut c = cli.find_subcommand(name).expect("subcommand").clone();
+        c.build();
+        c.get_arguments()
+            .filter_map(|a| a.get_long().map(str::to_string))
+            .collect()
+    };
+    let rig = long("rig");
+    for simulator_only in ["seed", "noise", "runs", "jobs"] {
+        assert!(
+            !rig.iter().any(|l| l == simulator_only),
+            "rig offers --{simulator_only}"
+        );
+    }
+    assert!(rig.iter().any(|l| l == "connect"));
+    let simulate = long("simulate");
+    for rig_only in ["connect", "key", "no-prompt", "link-silence-ms"] {
+        assert!(
+            !simulate.iter().any(|l| l == rig_only),
+            "simulate offers --{rig_only}"
+        );
+    }
+    assert!(simulate.iter().any(|l| l == "seed"));
+    let estimate = long("estimate");
+    assert!(estimate.iter().any(|l| l == "rig"));
+    assert!(!estimate.iter().any(|l| l == "seed"));
+    let mode = |name: &str| -> Vec<String> {
+        let rig = cli.find_subcommand("rig").expect("rig");
+        let mut c = rig.find_subcommand(name).expect("mode").clone();
+        c.build();
+        c.get_arguments()
+            .filter_map(|a| a.get_long().map(str::to_string))
+            .collect()
+    };
+    let tare = mode("tare");
+    for loaded_only in ["tare", "save-tare", "report", "duration", "seed", "noise"] {
+        assert!(
+            !tare.iter().any(|l| l == loaded_only),
+            "rig tare offers --{loaded_only}"
+        );
+    }
+    assert!(tare.iter().any(|l| l == "out"));
+    let measure = mode("measure");
+    assert!(
+        !measure.iter().any(|l| l == "save-tare"),
+        "rig measure offers --save-tare"
+    );
+    assert!(measure.iter().any(|l| l == "tare"));
+}
