@@ -46,7 +46,7 @@ struct Display;
 
 impl Observer for Display {
     fn tick(&mut self, e: &TickEvent<'_>) -> anyhow::Result<()> {
-        if e.index % 1000 == 0 {
+        if e.index.is_multiple_of(1000) {
             let mass = e.estimator.map(|est| est.estimate().parameters.mass_kg);
             let (run, phase, t) = (e.measurement.name(), e.phase.name(), e.frame.time_s);
             println!("{run:>6} {t:>5.1} s {phase:<7} on the plate: {mass:.1?} kg");
@@ -87,8 +87,9 @@ fn main() -> anyhow::Result<()> {
         "payload {:.2} ± {:.2} kg, com {:.4?} ± {:.4?} m",
         e.mass, s.mass, e.com, s.com
     );
-    Ok(println!(
-        "J_C {:.1?} kg·m² (truth: {:.1?})",
+    println!(
+        "J_C {:.1?} kg·m², truth {:.1?}",
         e.inertia_com, payload.inertia_com_kg_m2
-    ))
+    );
+    Ok(())
 }
