@@ -38,9 +38,9 @@ fn parses_every_simulate_flag() {
     assert_eq!(a.measure.duration, Some(12.5));
     assert_eq!(a.seed, Some(7));
     assert_eq!(a.noise, Some(sim::NoisePreset::Harsh));
-    assert_eq!(a.measure.params.as_deref(), Some("6"));
-    assert!(a.measure.quiet);
-    assert_eq!(a.measure.log, Some(PathBuf::from("l.mcap")));
+    assert_eq!(a.measure.shared.params.as_deref(), Some("6"));
+    assert!(a.measure.shared.quiet);
+    assert_eq!(a.measure.shared.log, Some(PathBuf::from("l.mcap")));
 }
 
 #[test]
@@ -56,7 +56,7 @@ fn no_arguments_is_enough() {
     let Command::Simulate(a) = cli.command else {
         panic!("not simulate")
     };
-    assert!(a.measure.config.is_none() && a.measure.duration.is_none());
+    assert!(a.measure.shared.config.is_none() && a.measure.duration.is_none());
 }
 
 /// Each command's `--help` lists only the options that act on it.

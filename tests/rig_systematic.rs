@@ -98,8 +98,8 @@ fn the_rig_reports_the_systematic_part_estimate_computes() {
     assert!(sensitivity.iter().flatten().any(|v| *v != 0.0));
     assert!(saved.accel_bias_sensitivity.is_some());
 
-    // ... so a measurement with it counts the tare's share as `estimate` does (session 3:
-    // the payload stays on).
+    // ... so a measurement with it counts the tare's share as `estimate` does (the emulator's
+    // third session: the payload stays on).
     let log = scratch.path("measure.mcap");
     let with_file = rig_report(
         &[

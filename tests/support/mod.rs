@@ -17,7 +17,7 @@ use std::sync::{Mutex, MutexGuard};
 use measure::LoadedConfig;
 use sim::scenario::Scenario;
 use sim::NoisePreset;
-pub use stewart_cli::common::MeasureArgs;
+pub use stewart_cli::common::{MeasureArgs, SharedArgs};
 pub use stewart_cli::emulate::EmulateArgs;
 use stewart_cli::emulate::{self, RunningEmulator};
 use stewart_cli::rig::{self, RigArgs, RigOutcome};
@@ -137,9 +137,12 @@ impl Scratch {
 pub fn simulate_args(config: Option<PathBuf>, log: PathBuf) -> SimulateArgs {
     SimulateArgs {
         measure: MeasureArgs {
-            config,
-            log: Some(log),
-            quiet: true,
+            shared: SharedArgs {
+                config,
+                log: Some(log),
+                quiet: true,
+                ..SharedArgs::default()
+            },
             ..MeasureArgs::default()
         },
         ..SimulateArgs::default()

@@ -69,7 +69,7 @@ fn refuse(args: &SimulateArgs) -> Option<&'static str> {
         Some("--runs must be at least 1")
     } else if args.jobs == Some(0) {
         Some("--jobs must be at least 1")
-    } else if m.log.is_some() || m.plot.is_some() || m.save_tare.is_some() {
+    } else if m.shared.log.is_some() || m.shared.plot.is_some() || m.save_tare.is_some() {
         Some("--log, --plot and --save-tare apply to a single run, not to --runs")
     } else {
         None
@@ -109,7 +109,7 @@ pub fn run(args: &SimulateArgs, interrupt: &AtomicBool) -> Result<CampaignReport
         .map_err(|e| CommandError::Run(e.into()))?;
     let log_dir = std::env::temp_dir().join(format!("stewart-campaign-{}", std::process::id()));
     std::fs::create_dir_all(&log_dir).map_err(|e| CommandError::Run(e.into()))?;
-    let progress = progress_bar(u64::from(runs), args.measure.quiet);
+    let progress = progress_bar(u64::from(runs), args.measure.shared.quiet);
     let start = Instant::now();
 
     let outcomes: Vec<(u64, Result<Report, String>)> = pool.install(|| {
@@ -176,9 +176,12 @@ fn one_run(
         runs: None,
         jobs: None,
         measure: crate::common::MeasureArgs {
-            log: Some(log.clone()),
+            shared: crate::common::SharedArgs {
+                log: Some(log.clone()),
+                quiet: true,
+                ..args.measure.shared.clone()
+            },
             report: None,
-            quiet: true,
             ..args.measure.clone()
         },
         ..args.clone()
@@ -308,14 +311,20 @@ mod tests {
             },
             SimulateArgs {
                 measure: crate::common::MeasureArgs {
-                    log: Some("x.mcap".into()),
+                    shared: crate::common::SharedArgs {
+                        log: Some("x.mcap".into()),
+                        ..Default::default()
+                    },
                     ..Default::default()
                 },
                 ..base.clone()
             },
             SimulateArgs {
                 measure: crate::common::MeasureArgs {
-                    plot: Some("d".into()),
+                    shared: crate::common::SharedArgs {
+                        plot: Some("d".into()),
+                        ..Default::default()
+                    },
                     ..Default::default()
                 },
                 ..base.clone()
@@ -333,8 +342,11 @@ mod tests {
         std::fs::write(&cfg, "[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n").unwrap();
         let args = SimulateArgs {
             measure: crate::common::MeasureArgs {
-                config: Some(cfg),
-                quiet: true,
+                shared: crate::common::SharedArgs {
+                    config: Some(cfg),
+                    quiet: true,
+                    ..Default::default()
+                },
                 ..Default::default()
             },
             noise: Some(sim::NoisePreset::Realistic),

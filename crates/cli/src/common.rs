@@ -12,38 +12,6 @@ pub const EXIT_INTERRUPTED: u8 = 130;
 /// Exit code after a supervisor fault.
 pub const EXIT_FAULT: u8 = 3;
 
-/// Flags of every measurement (`simulate`, `rig`, `rig tare`, `rig measure`).
-#[derive(Clone, Debug, Default, Args)]
-pub struct MeasureArgs {
-    /// Rig description / scenario TOML, laid over the embedded default (configs/default.toml).
-    #[arg(long, value_name = "FILE")]
-    pub config: Option<PathBuf>,
-    /// Excitation time of the loaded run including the fades, s (run.duration_s).
-    #[arg(long, value_name = "SECONDS")]
-    pub duration: Option<f64>,
-    /// 10: mass, centre of mass and inertia; 6: the paper's inertia-only model (estimator.params).
-    #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["10", "6"]))]
-    pub params: Option<String>,
-    /// Use this saved tare (JSON) instead of a tare run.
-    #[arg(long, value_name = "FILE")]
-    pub tare: Option<PathBuf>,
-    /// Save the measured tare (JSON) for later `--tare` runs.
-    #[arg(long, value_name = "FILE")]
-    pub save_tare: Option<PathBuf>,
-    /// MCAP log file (default: runs/<UTC time>.mcap).
-    #[arg(long, value_name = "FILE.mcap")]
-    pub log: Option<PathBuf>,
-    /// Write the JSON report here.
-    #[arg(long, value_name = "FILE.json")]
-    pub report: Option<PathBuf>,
-    /// No progress bar and no table.
-    #[arg(long)]
-    pub quiet: bool,
-    /// Write SVG and PNG figures (estimates with ±σ, tracking error, excitation) here.
-    #[arg(long, value_name = "DIR")]
-    pub plot: Option<PathBuf>,
-}
-
 /// The flags of every run, whatever it measures (`rig tare` takes only these and `--out`).
 #[derive(Clone, Debug, Default, Args)]
 pub struct SharedArgs {
@@ -64,26 +32,33 @@ pub struct SharedArgs {
     pub plot: Option<PathBuf>,
 }
 
-impl SharedArgs {
-    /// As a measurement's flags, the others unset.
-    pub fn measure(&self) -> MeasureArgs {
-        MeasureArgs {
-            config: self.config.clone(),
-            params: self.params.clone(),
-            log: self.log.clone(),
-            quiet: self.quiet,
-            plot: self.plot.clone(),
-            ..MeasureArgs::default()
-        }
-    }
+/// Flags of every measurement (`simulate`, `rig`, `rig measure`): the shared ones and those of
+/// a loaded run.
+#[derive(Clone, Debug, Default, Args)]
+pub struct MeasureArgs {
+    /// Flags of every run.
+    #[command(flatten)]
+    pub shared: SharedArgs,
+    /// Excitation time of the loaded run including the fades, s (run.duration_s).
+    #[arg(long, value_name = "SECONDS")]
+    pub duration: Option<f64>,
+    /// Use this saved tare (JSON) instead of a tare run.
+    #[arg(long, value_name = "FILE")]
+    pub tare: Option<PathBuf>,
+    /// Save the measured tare (JSON) for later `--tare` runs.
+    #[arg(long, value_name = "FILE")]
+    pub save_tare: Option<PathBuf>,
+    /// Write the JSON report here.
+    #[arg(long, value_name = "FILE.json")]
+    pub report: Option<PathBuf>,
 }
 
 impl MeasureArgs {
     /// The rig description of `--config` with `--duration` and `--params` applied, validated.
     pub fn load_config(&self) -> Result<LoadedConfig, ConfigError> {
-        measure::load::load(self.config.as_deref())?.with_overrides(&Overrides {
+        measure::load::load(self.shared.config.as_deref())?.with_overrides(&Overrides {
             duration_s: self.duration,
-            params: self.params.as_deref().map(parse_params),
+            params: self.shared.params.as_deref().map(parse_params),
         })
     }
 }
@@ -142,7 +117,7 @@ pub fn refuse(message: String) -> CommandError {
 
 /// `--log`, or `runs/<UTC time>.mcap`.
 pub fn log_path(args: &MeasureArgs, start_ns: u64) -> PathBuf {
-    match &args.log {
+    match &args.shared.log {
         Some(p) => p.clone(),
         None => runlog::mcap_log::default_log_path(Path::new("runs"), start_ns / 1_000_000_000),
     }

@@ -174,9 +174,12 @@ mod tests {
         let log_path = dir.path().join("run.mcap");
         let args = SimulateArgs {
             measure: MeasureArgs {
-                config: Some(short.clone()),
-                log: Some(log_path.clone()),
-                quiet: true,
+                shared: crate::common::SharedArgs {
+                    config: Some(short.clone()),
+                    log: Some(log_path.clone()),
+                    quiet: true,
+                    ..Default::default()
+                },
                 ..MeasureArgs::default()
             },
             ..SimulateArgs::default()

@@ -16,20 +16,20 @@ pub fn finish_measurement(
     mut code: u8,
 ) -> u8 {
     if let Some((report, json)) = report {
-        if !args.quiet {
+        if !args.shared.quiet {
             print!("{}", crate::table::render(report));
         }
         if let Some(path) = &args.report {
             if let Err(e) = std::fs::write(path, json) {
                 eprintln!("error: cannot write the report {}: {e}", path.display());
                 code = code.max(1);
-            } else if !args.quiet {
+            } else if !args.shared.quiet {
                 println!("report: {}", path.display());
             }
         }
     }
     println!("log: {}", log.display());
-    if let Some(dir) = &args.plot {
+    if let Some(dir) = &args.shared.plot {
         match crate::plot::plot_log(log, dir) {
             Ok(files) => println!("figures: {} ({} files)", dir.display(), files.len()),
             Err(e) => {

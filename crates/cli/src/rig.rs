@@ -161,7 +161,10 @@ pub fn resolve(args: &RigArgs) -> Result<(Plan, RigRunArgs), CommandError> {
             Plan::TareOnly(t.out.clone()),
             RigRunArgs {
                 link: t.link.clone(),
-                run: t.shared.measure(),
+                run: MeasureArgs {
+                    shared: t.shared.clone(),
+                    ..MeasureArgs::default()
+                },
             },
         ),
         Some(RigMode::Measure(m)) => (
@@ -172,7 +175,8 @@ pub fn resolve(args: &RigArgs) -> Result<(Plan, RigRunArgs), CommandError> {
                     tare: Some(m.tare.clone()),
                     duration: m.duration,
                     report: m.report.clone(),
-                    ..m.shared.measure()
+                    shared: m.shared.clone(),
+                    save_tare: None,
                 },
             },
         ),
@@ -370,7 +374,7 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
         Plan::TareOnly(out) => Some(out.as_path()),
         _ => common.run.save_tare.as_deref(),
     };
-    let mut progress = Progress::new(total, common.run.quiet);
+    let mut progress = Progress::new(total, common.run.shared.quiet);
     let mut station =
         station::RigStation::new(&rig_link, &loaded, progress.handle(), common.link.no_prompt);
     let result = header.and_then(|()| {
@@ -477,7 +481,7 @@ mod tests {
         assert!(c.link.no_prompt);
         assert_eq!(c.run.duration, Some(5.0));
         let a = parse(&["tare", "--out", "t.json", "--quiet"]).unwrap();
-        assert!(resolve(&a).unwrap().1.run.quiet);
+        assert!(resolve(&a).unwrap().1.run.shared.quiet);
         assert_eq!(
             resolve(&a).unwrap().0,
             Plan::TareOnly(PathBuf::from("t.json"))

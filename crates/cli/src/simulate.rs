@@ -19,6 +19,8 @@ use runlog::messages as topics;
 use runlog::metadata::{BodyTruth, RunMetadata, TruthMsg};
 use runlog::{LogObserver, RunLog};
 
+#[cfg(test)]
+use crate::common::SharedArgs;
 use crate::common::{self, CommandError, MeasureArgs};
 use crate::progress::Progress;
 use sim::scenario::Scenario;
@@ -188,7 +190,7 @@ pub fn simulate(
             sim,
             payload: scenario.world.payload.to_sim(),
         };
-        let mut progress = Progress::new(total, args.measure.quiet);
+        let mut progress = Progress::new(total, args.measure.shared.quiet);
         let mut observer = Both(LogObserver::new(&mut log, &geometry, config), &mut progress);
         session::run(
             SessionPlan {
@@ -234,7 +236,7 @@ pub fn main(args: &SimulateArgs, interrupt: &AtomicBool) -> u8 {
         Ok(outcome) => {
             let code = common::end_code(&outcome.end, "");
             if let (Some(path), Some(_)) = (&args.measure.save_tare, &outcome.tare) {
-                if !args.measure.quiet {
+                if !args.measure.shared.quiet {
                     println!("tare: {}", path.display());
                 }
             }
@@ -259,9 +261,12 @@ mod tests {
         std::fs::write(&config, text).unwrap();
         let args = SimulateArgs {
             measure: MeasureArgs {
-                config: Some(config),
-                log: Some(dir.join(format!("{name}.mcap"))),
-                quiet: true,
+                shared: SharedArgs {
+                    config: Some(config),
+                    log: Some(dir.join(format!("{name}.mcap"))),
+                    quiet: true,
+                    ..SharedArgs::default()
+                },
                 ..MeasureArgs::default()
             },
             ..SimulateArgs::default()
@@ -310,8 +315,11 @@ mod tests {
         std::fs::write(&config, "[payload]\nmass_kg = 900.0\n").unwrap();
         let args = SimulateArgs {
             measure: MeasureArgs {
-                config: Some(config),
-                quiet: true,
+                shared: SharedArgs {
+                    config: Some(config),
+                    quiet: true,
+                    ..SharedArgs::default()
+                },
                 ..MeasureArgs::default()
             },
             ..SimulateArgs::default()

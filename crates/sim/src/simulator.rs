@@ -126,7 +126,7 @@ impl PeriodSum {
 ///   together: exactly in the linear terms, to `O((ω̇ T)²)` ≈ 10⁻⁷ in the products of rates.
 ///   With `N = 1` there is no motion inside a sample to filter (the force is one kick, the
 ///   interpolant between nodes is what an ideal filter would see) and they report the node
-///   at `t_k`, consistent with the encoders and without delay, as before.
+///   at `t_k`, consistent with the encoders and without delay.
 /// - **encoders** (leg lengths) are latched at the instant `t_k`: they need no anti-alias
 ///   filter, and the leg controllers want them without delay (averaged lengths, half a sample
 ///   late, made the default PIDs oscillate at 500 Hz).

@@ -118,7 +118,7 @@ pub fn finish(args: &RigArgs, outcome: &RigOutcome) -> u8 {
         .unwrap_or_default();
     let code = crate::common::end_code(&outcome.end, &noticed);
     if let Some(tare) = &outcome.tare {
-        if !run_args.quiet {
+        if !run_args.shared.quiet {
             let m = tare.theta[0];
             let c = if m.abs() > 0.0 {
                 [tare.theta[1] / m, tare.theta[2] / m, tare.theta[3] / m]
