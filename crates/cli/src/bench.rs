@@ -19,7 +19,6 @@ use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use control::io::{Backend, CommandFrame, SensorFrame};
 use control::supervisor::Phase;
-use measure::feed::Feed;
 use measure::setup::{self, Measurement};
 use measure::tick::{Tick, TickStep};
 use serde::Serialize;
@@ -77,19 +76,7 @@ impl Scenario {
         let mut sim = scenario
             .simulator(geometry, true)
             .map_err(|e| anyhow!("{e}"))?;
-        let feed = Feed::new(
-            geometry,
-            setup::controller_config(config).fk,
-            &config.sensors.imu,
-        );
-        let estimator = setup::estimator_config(
-            config,
-            &geometry,
-            Measurement::Loaded,
-            f64::NEG_INFINITY,
-            f64::INFINITY,
-        );
-        let mut tick = Tick::new(controller, feed, estimator, trajectory.duration_s())
+        let mut tick = setup::tick(config, &geometry, Measurement::Loaded, controller)
             .map_err(|e| anyhow!("the estimator refused its settings: {e}"))?;
         let feedforward =
             measure::measurement::brake_hold(&mut sim, &mut tick, config, |_, _, _, _| Ok(false))?

@@ -110,6 +110,26 @@ impl From<ConfigError> for CommandError {
     }
 }
 
+/// The session's tare: the saved tare of `--tare FILE` (checked against the design), or a tare
+/// run whose controller is built and checked now, before anything moves.
+pub fn tare_plan(
+    loaded: &LoadedConfig,
+    geometry: &kinematics::Geometry,
+    tare: Option<&Path>,
+) -> Result<measure::TarePlan, CommandError> {
+    Ok(match tare {
+        Some(path) => {
+            let (base, plate) = measure::session::joints(geometry);
+            let file = measure::TareFile::load(path, &base, &plate).map_err(CommandError::Input)?;
+            measure::TarePlan::File(Box::new(file), path.display().to_string())
+        }
+        None => {
+            let t = measure::setup::tare_trajectory(loaded, geometry)?;
+            measure::TarePlan::Measure(Box::new(measure::setup::controller(loaded, geometry, t)?))
+        }
+    })
+}
+
 /// A refusal of an input, in words.
 pub fn refuse(message: String) -> CommandError {
     CommandError::Input(anyhow::anyhow!(message))

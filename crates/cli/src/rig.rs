@@ -28,14 +28,14 @@ use control::io::Backend;
 use measure::load::{ConfigError, ConfigIssue, LoadedConfig};
 use measure::report::RunInfo;
 use measure::session::{self, SessionPlan, TarePlan};
-use measure::{setup, TareFile};
+use measure::setup;
 use rig::{Key, RigBackend, RigOptions};
 use runlog::mcap_log::Delivery;
 use runlog::messages as topics;
 use runlog::metadata::RunMetadata;
 use runlog::{LogObserver, RunLog};
 
-use crate::common::{refuse, CommandError, MeasureArgs, SharedArgs};
+use crate::common::{self, refuse, CommandError, MeasureArgs, SharedArgs};
 use crate::progress::Progress;
 
 pub use outcome::{finish, link_lines, LinkReport, RigOutcome};
@@ -310,18 +310,7 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
         None
     };
     let (base_joints, plate_joints) = session::joints(&geometry);
-    let tare = match &common.run.tare {
-        Some(path) => TarePlan::File(
-            Box::new(
-                TareFile::load(path, &base_joints, &plate_joints).map_err(CommandError::Input)?,
-            ),
-            path.display().to_string(),
-        ),
-        None => {
-            let t = setup::tare_trajectory(&loaded, &geometry)?;
-            TarePlan::Measure(Box::new(setup::controller(&loaded, &geometry, t)?))
-        }
-    };
+    let tare = common::tare_plan(&loaded, &geometry, common.run.tare.as_deref())?;
 
     // The handshake: refusals end here, before the log and before any command.
     let backend = RigBackend::connect(&link.address, link.options.clone())
@@ -330,7 +319,7 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
     let rig_link = Link::start(backend);
 
     let start_ns = runlog::run_log::unix_now_ns();
-    let log_path = crate::common::log_path(&common.run, start_ns);
+    let log_path = common::log_path(&common.run, start_ns);
     // The log's writer thread must never stall the control loop: when it falls behind (a disk
     // that blocks), messages are dropped and counted instead.
     let mut log = RunLog::create_with(&log_path, start_ns, Delivery::DropWhenFull)

@@ -119,18 +119,7 @@ pub fn simulate(
     let trajectory = setup::trajectory(loaded, &geometry, config.run.duration_s)?;
     let loaded_controller = setup::controller(loaded, &geometry, trajectory)?;
     let (base_joints, plate_joints) = session::joints(&geometry);
-    let tare = match &args.measure.tare {
-        Some(path) => TarePlan::File(
-            Box::new(
-                TareFile::load(path, &base_joints, &plate_joints).map_err(CommandError::Input)?,
-            ),
-            path.display().to_string(),
-        ),
-        None => {
-            let t = setup::tare_trajectory(loaded, &geometry)?;
-            TarePlan::Measure(Box::new(setup::controller(loaded, &geometry, t)?))
-        }
-    };
+    let tare = common::tare_plan(loaded, &geometry, args.measure.tare.as_deref())?;
     let tare_run = matches!(tare, TarePlan::Measure(_));
     // The loaded world must be accepted too, before the tare run moves anything.
     let loaded_world = scenario.simulator(geometry, true)?;

@@ -28,7 +28,6 @@ use estimator::{Estimate, EstimatorConfig, Outcome};
 use kinematics::Geometry;
 
 use crate::config::Config;
-use crate::feed::Feed;
 use crate::observer::{EstimatorStarted, MeasurementEnded, Observer, TickEvent};
 use crate::setup::{self, Measurement};
 use crate::tick::Tick;
@@ -84,7 +83,8 @@ pub struct MeasureOutcome {
 }
 
 impl MeasureOutcome {
-    fn ended_early(end: End, fk_failures: u64) -> Self {
+    /// A measurement that ended (`end`) before its excitation: no estimate.
+    pub fn ended_early(end: End, fk_failures: u64) -> Self {
         Self {
             estimate: None,
             theta_history: Vec::new(),
@@ -164,16 +164,8 @@ where
     let rate_hz = config.sensors.sample_rate_hz;
     let period_s = 1.0 / rate_hz;
     let trajectory = *controller.trajectory();
-    let fk_options = setup::controller_config(config).fk;
-    let estimator_config = setup::estimator_config(
-        config,
-        &setup.geometry,
-        measurement,
-        f64::NEG_INFINITY,
-        f64::INFINITY,
-    );
-    let feed = Feed::new(setup.geometry, fk_options, &config.sensors.imu);
-    let mut tick = Tick::new(controller, feed, estimator_config, trajectory.duration_s())
+    let fk_options = controller.config().fk;
+    let mut tick = setup::tick(config, &setup.geometry, measurement, controller)
         .map_err(|e| anyhow!("the estimator refused its settings: {e}"))?;
     let bias_sigma = setup::accel_bias_sigma(config);
     let load_cell_sigma = setup::load_cell_bias_sigma(config);

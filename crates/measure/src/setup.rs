@@ -260,6 +260,27 @@ pub fn load_cell_bias_sigma(config: &Config) -> f64 {
     config.sensors.load_cell.zero_offset_n
 }
 
+/// The tick of one `measurement` run by `controller` (checked beforehand): the frame-to-sample
+/// rule with the controller's forward-kinematics options and the IMU's mounting, and the
+/// estimator's settings, its fit window not yet open.
+pub fn tick(
+    config: &Config,
+    geometry: &Geometry,
+    measurement: Measurement,
+    controller: control::controller::Controller,
+) -> Result<crate::tick::Tick, estimator::EstimatorError> {
+    let feed = crate::feed::Feed::new(*geometry, controller.config().fk, &config.sensors.imu);
+    let excitation_s = controller.trajectory().duration_s();
+    let estimator = estimator_config(
+        config,
+        geometry,
+        measurement,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+    );
+    crate::tick::Tick::new(controller, feed, estimator, excitation_s)
+}
+
 /// Which measurement an estimator is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Measurement {

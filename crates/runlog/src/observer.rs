@@ -128,10 +128,13 @@ impl<'a> LogObserver<'a> {
         Ok(())
     }
 
-    fn scene(&mut self, e: &TickEvent<'_>, pose: Option<&Pose>) -> anyhow::Result<()> {
-        let payload = e
-            .estimator
-            .map(|est| payload_estimate(&est.estimate(), e.tare));
+    fn scene(
+        &mut self,
+        e: &TickEvent<'_>,
+        pose: Option<&Pose>,
+        estimate: Option<&Estimate>,
+    ) -> anyhow::Result<()> {
+        let payload = estimate.map(|est| payload_estimate(est, e.tare));
         let ellipsoid = payload.as_ref().and_then(|p| {
             (p.parameters.mass_kg > 0.0 && p.com_m.iter().all(|v| v.is_finite())).then_some(
                 InertiaEllipsoid {
@@ -195,13 +198,19 @@ impl Observer for LogObserver<'_> {
         if let Some(pose) = e.pose {
             self.derived(e, pose)?;
         }
-        if e.index.is_multiple_of(self.estimate_every) {
-            if let Some(est) = e.estimator {
-                self.estimate(e, &est.estimate())?;
-            }
+        let estimate_due = e.index.is_multiple_of(self.estimate_every);
+        let scene_due = e.index.is_multiple_of(self.scene_every);
+        // One estimate (with its covariance) serves both channels when both are due.
+        let estimate = if estimate_due || scene_due {
+            e.estimator.map(|est| est.estimate())
+        } else {
+            None
+        };
+        if let (true, Some(est)) = (estimate_due, estimate.as_ref()) {
+            self.estimate(e, est)?;
         }
-        if e.index.is_multiple_of(self.scene_every) {
-            self.scene(e, e.pose)?;
+        if scene_due {
+            self.scene(e, e.pose, estimate.as_ref())?;
         }
         self.supervisor(e)
     }

@@ -101,16 +101,7 @@ impl Station for RigStation<'_> {
             Ok(o) => o,
             // The link, the sensors or the rig failed: the backend has sent a safe stop.
             Err(e) => match &failure {
-                Some(f) => MeasureOutcome {
-                    estimate: None,
-                    theta_history: Vec::new(),
-                    estimator_config: None,
-                    excitation_s: 0.0,
-                    fk_failures: 0,
-                    accel_bias_effect: None,
-                    load_cell_bias_effect: None,
-                    end: End::Fault(f.cause.clone()),
-                },
+                Some(f) => MeasureOutcome::ended_early(End::Fault(f.cause.clone()), 0),
                 None => {
                     let _ = self.link.lock().safe_stop();
                     return Err(e);
