@@ -271,11 +271,27 @@ impl Controller {
     /// load the legs carried during a brake hold, without repeating the pre-motion checks of
     /// [`Controller::new`] (the trajectory's feasibility does not depend on it), so a caller can
     /// build the controller before the rig moves and still feed it what the rig then measured.
-    /// Refused, leaving the controller unchanged, unless every entry is finite.
+    /// Refused, leaving the controller unchanged, unless every entry is finite and the leg
+    /// loops can hold the load these forces carry at the warm-start pose
+    /// ([`crate::stability::translational_stability`]): the one check that needs the load,
+    /// made here because this is where the load becomes known, before anything moves.
     pub fn set_feedforward(&mut self, feedforward_n: [f64; LEG_COUNT]) -> Result<(), ControlError> {
         let mut config = self.config;
         config.feedforward_n = feedforward_n;
         config.validate()?;
+        let s = crate::stability::translational_stability(
+            &self.geometry,
+            &self.last_pose,
+            &config.pid,
+            &feedforward_n,
+        );
+        if !s.passes() {
+            return Err(ControlError::UnstableLoad {
+                supported_mass_kg: s.supported_mass_kg,
+                ratio: s.ratio,
+                max_integral_gain: s.max_integral_gain(&config.pid),
+            });
+        }
         self.config = config;
         Ok(())
     }

@@ -66,6 +66,16 @@ pub enum ControlError {
         /// The configured threshold.
         threshold: f64,
     },
+    /// The legs' PID loops cannot hold the braked load: the translational Routh–Hurwitz ratio
+    /// ([`crate::stability`]) is below 1, so the loop would oscillate with growing amplitude.
+    UnstableLoad {
+        /// The load the legs carry, kg (NaN or ≤ 0: they carry no weight).
+        supported_mass_kg: f64,
+        /// k_d k_p λ_min / (k_i m).
+        ratio: f64,
+        /// The largest integral gain that passes, N/(m·s).
+        max_integral_gain: f64,
+    },
     /// A kinematics computation failed (e.g. a singular pose where a force had to be solved).
     Kinematics(KinematicsError),
     /// The supervisor latched a fault (see [`Fault`]).
@@ -95,7 +105,8 @@ impl ControlError {
             Self::NonFinite { .. } | Self::InvalidTimeStep { .. } => ErrorKind::InvalidInput,
             Self::StrokeViolation { .. }
             | Self::LegSpeedViolation { .. }
-            | Self::ConditioningViolation { .. } => ErrorKind::Infeasible,
+            | Self::ConditioningViolation { .. }
+            | Self::UnstableLoad { .. } => ErrorKind::Infeasible,
             Self::Kinematics(_) => ErrorKind::Kinematics,
             Self::Faulted(_) => ErrorKind::Faulted,
         }
@@ -144,6 +155,28 @@ impl fmt::Display for ControlError {
                 "trajectory too close to a singularity at t = {time_s:.4} s: inverse condition \
                  number {inverse_condition:.3e} below threshold {threshold:.3e}"
             ),
+            Self::UnstableLoad {
+                supported_mass_kg,
+                ratio,
+                max_integral_gain,
+            } => {
+                if !(*supported_mass_kg > 0.0) {
+                    return write!(
+                        f,
+                        "the legs carry no weight ({supported_mass_kg:.1} kg from their static \
+                         forces): check the load cells' signs and zero before moving"
+                    );
+                }
+                write!(
+                    f,
+                    "the legs' PID loops cannot hold {supported_mass_kg:.0} kg: the integral gain \
+                     outruns the damping in the plate's weakest sideways direction (Routh–Hurwitz \
+                     ratio {ratio:.2} < 1), so the platform would oscillate with growing amplitude. \
+                     Lower control.ki_n_per_m_s below {max_integral_gain:.3e}, raise \
+                     control.kd_n_s_per_m or control.kp_n_per_m, or incline the legs more \
+                     (shorter legs, or a larger base against the plate)"
+                )
+            }
             Self::Kinematics(e) => write!(f, "kinematics: {e}"),
             Self::Faulted(fault) => write!(f, "supervisor fault: {fault}"),
         }

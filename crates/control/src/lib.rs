@@ -19,6 +19,7 @@ mod error;
 mod fault;
 pub mod io;
 pub mod pid;
+pub mod stability;
 pub mod supervisor;
 pub mod trajectory;
 

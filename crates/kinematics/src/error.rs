@@ -137,7 +137,8 @@ impl fmt::Display for KinematicsError {
             Self::ArchitecturallySingular { inverse_condition } => write!(
                 f,
                 "the design is singular at its home pose (inverse condition number {inverse_condition:.2e}); \
-                 turn the plate's joint pairs 60° against the base's and keep the pairs apart"
+                 turn the plate's joint pairs 60° against the base's, keep the pairs apart, and keep \
+                 the plate's and the base's radii of a similar size"
             ),
             Self::HomeUnreachable => write!(
                 f,

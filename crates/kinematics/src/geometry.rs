@@ -115,14 +115,21 @@ impl Geometry {
         }
         distinct(&base_joints_m, true)?;
         distinct(&plate_joints_m, false)?;
-        let characteristic_length_m =
-            plate_joints_m.iter().map(|p| p.xy().norm()).sum::<f64>() / LEG_COUNT as f64;
-        if characteristic_length_m < MIN_JOINT_SPACING_M {
+        let mean_radius = |joints: &[Vector3<f64>; LEG_COUNT]| {
+            joints.iter().map(|p| p.xy().norm()).sum::<f64>() / LEG_COUNT as f64
+        };
+        let plate_radius_m = mean_radius(&plate_joints_m);
+        if plate_radius_m < MIN_JOINT_SPACING_M {
             return Err(KinematicsError::InvalidDimension {
                 what: "plate joints must not all lie on the plate's z axis",
-                value: characteristic_length_m,
+                value: plate_radius_m,
             });
         }
+        // The rig's size, not the plate's alone: a plate far smaller than the base resolves
+        // rotations by leg-length changes that scale with the plate's radius, and the
+        // conditioning measure must see that (a 1 mm plate on a 1.5 m base is singular for
+        // every purpose, although its Jacobian scaled by its own radius looks well conditioned).
+        let characteristic_length_m = plate_radius_m.max(mean_radius(&base_joints_m));
         let mut geometry = Self {
             base_joints_m,
             plate_joints_m,
@@ -153,7 +160,8 @@ impl Geometry {
         self.stroke
     }
 
-    /// Length used to scale rotations against translations (mean plate joint radius), m.
+    /// Length used to scale rotations against translations, m: the larger of the mean base and
+    /// mean plate joint radius (the rig's size).
     pub fn characteristic_length_m(&self) -> f64 {
         self.characteristic_length_m
     }

@@ -54,7 +54,7 @@ impl Geometry {
     }
 
     /// σmin/σmax of the Jacobian with its angular columns divided by the characteristic length
-    /// (mean plate joint radius), so that the measure does not depend on units. 1 is perfectly
+    /// ([`Geometry::characteristic_length_m`]: the rig's size), so that the measure does not depend on units. 1 is perfectly
     /// isotropic, 0 singular; NaN only if the pose itself is not finite.
     pub fn inverse_condition_number(&self, pose: &Pose) -> f64 {
         let mut j = self.jacobian(pose);

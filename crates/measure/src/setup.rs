@@ -54,10 +54,12 @@ fn geometry_issue(loaded: &LoadedConfig, e: &KinematicsError) -> ConfigIssue {
             "platform",
             format!(
                 "the design is singular at its home pose (inverse condition number {inverse_condition:.2e}): \
-                 the plate could move with no change of leg length. The plate's joint pairs must be \
-                 turned against the base's: change platform.base_pair_separation_deg / \
-                 platform.plate_pair_separation_deg (equal joint angles on both circles, e.g. \
-                 separations adding up to 120°, are singular)"
+                 the plate could move with no (or too little) change of leg length. The plate's \
+                 joint pairs must be turned against the base's: change \
+                 platform.base_pair_separation_deg / platform.plate_pair_separation_deg (equal \
+                 joint angles on both circles, e.g. separations adding up to 120°, are singular); \
+                 and platform.plate_radius_m must not be tiny against platform.base_radius_m (or \
+                 the reverse): rotations would barely change the leg lengths"
             ),
         ),
         KinematicsError::HomeUnreachable => (

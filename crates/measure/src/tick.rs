@@ -81,10 +81,10 @@ impl Tick {
     /// After the brake hold: the static load `feedforward_n` as the PIDs' feed-forward and the
     /// hold's last pose as the controller's forward-kinematics warm start.
     pub fn start_control(&mut self, feedforward_n: [f64; 6]) -> anyhow::Result<()> {
+        self.controller.set_pose_guess(self.feed.pose_guess());
         self.controller
             .set_feedforward(feedforward_n)
-            .map_err(|e| anyhow::anyhow!("controller refused the feed-forward: {e}"))?;
-        self.controller.set_pose_guess(self.feed.pose_guess());
+            .map_err(|e| anyhow::anyhow!("refused before motion: {e}"))?;
         Ok(())
     }
 

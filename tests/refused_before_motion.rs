@@ -1,0 +1,61 @@
+//! A rig that passes every static check but could not run is refused before anything moves:
+//! long, nearly vertical legs whose PID loops cannot hold the braked load (found from the brake
+//! hold's static forces, `control::stability`), and a plate so small against the base that
+//! rotations barely change the leg lengths (refused with the configuration). Both used to start
+//! moving and fault mid-tare (leg speed limit; forward kinematics).
+
+mod support;
+
+use std::process::Command;
+
+fn simulate(config_text: &str) -> (i32, String, tempfile::TempDir) {
+    let dir = tempfile::tempdir().unwrap();
+    let config = dir.path().join("rig.toml");
+    std::fs::write(&config, config_text).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_stewart"))
+        .args(["simulate", "--quiet", "--duration", "4", "--config"])
+        .arg(&config)
+        .arg("--log")
+        .arg(dir.path().join("run.mcap"))
+        .current_dir(dir.path())
+        .output()
+        .expect("the stewart binary runs");
+    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+    (out.status.code().unwrap_or(-1), stderr, dir)
+}
+
+#[test]
+fn long_legs_that_cannot_hold_the_fixture_are_refused_before_motion() {
+    let (code, err, dir) = simulate("[platform]\nmin_leg_length_m = 5.0\nmax_leg_length_m = 6.0\n");
+    assert_ne!(code, 0, "{err}");
+    assert!(err.contains("refused before motion"), "{err}");
+    assert!(err.contains("control.ki_n_per_m_s"), "names the fix: {err}");
+    // The log holds the brake hold only: no leg moved.
+    let log = support::read_log(&dir.path().join("run.mcap"));
+    let sensors = support::on(&log, "/sensors");
+    assert!(!sensors.is_empty(), "the brake hold was logged");
+    let first = sensors[0]["leg_lengths_m"].as_array().unwrap().clone();
+    for s in &sensors {
+        for (leg, l) in s["leg_lengths_m"].as_array().unwrap().iter().enumerate() {
+            let moved = (l.as_f64().unwrap() - first[leg].as_f64().unwrap()).abs();
+            assert!(moved < 1e-4, "leg {leg} moved {moved} m");
+        }
+    }
+}
+
+#[test]
+fn the_fix_the_refusal_names_lets_the_long_legged_rig_run() {
+    let (code, err, _dir) = simulate(
+        "[platform]\nmin_leg_length_m = 5.0\nmax_leg_length_m = 6.0\n\
+         [control]\nki_n_per_m_s = 0.9e6\n",
+    );
+    assert_eq!(code, 0, "{err}");
+}
+
+#[test]
+fn a_plate_tiny_against_the_base_is_refused_with_the_configuration() {
+    let (code, err, dir) = simulate("[platform]\nplate_radius_m = 0.001\n");
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("platform.plate_radius_m"), "{err}");
+    assert!(!dir.path().join("run.mcap").exists(), "nothing ran");
+}
