@@ -42,6 +42,14 @@ pub struct FkSolution {
 /// Largest Newton step, m or rad: keeps a distant start from leaping into another branch.
 const MAX_STEP: f64 = 0.2;
 
+/// Largest change of any leg length per continuation step of
+/// [`Geometry::forward_kinematics_cold`], m: small against the legs and the joint circles, so
+/// that each step's Newton solve starts within its basin.
+pub const CONTINUATION_STEP_M: f64 = 0.01;
+
+/// Continuation steps at most (a walk across ten metres of stroke).
+const MAX_CONTINUATION_STEPS: f64 = 1000.0;
+
 impl Geometry {
     /// Newton–Raphson on the six leg-length equations ‖p + R pᵢ − bᵢ‖ = Lᵢ, warm-started from
     /// `guess`. The step solves J·[δp; δφ] = −r with the Jacobian of [`Geometry::jacobian`],
@@ -102,6 +110,48 @@ impl Geometry {
             iterations: options.max_iterations,
             residual_m,
         })
+    }
+
+    /// Forward kinematics with no warm start, for the first frame of a run or a log, wherever
+    /// the plate rests (a stroke end, a tilt): continuation in leg-length space from the home
+    /// pose. The leg lengths are walked from the home pose's to `leg_lengths_m` in steps of at
+    /// most [`CONTINUATION_STEP_M`], each solved by [`Geometry::forward_kinematics`] from the
+    /// previous step's pose, so the solution is the assembly mode connected to home (the one
+    /// the rig is built in) and no step jumps. `options.max_jump_*` bound each step, not the
+    /// whole walk.
+    pub fn forward_kinematics_cold(
+        &self,
+        leg_lengths_m: &Vector6<f64>,
+        options: &FkOptions,
+    ) -> Result<FkSolution, KinematicsError> {
+        if !leg_lengths_m.iter().all(|l| l.is_finite()) {
+            return Err(KinematicsError::NonFinite {
+                what: "measured leg lengths",
+            });
+        }
+        let home = self.home_pose();
+        let home_lengths = self.legs(&home).lengths_m;
+        let span_m = (leg_lengths_m - home_lengths).amax();
+        // Finite (checked above), so the cast saturates at most at the cap.
+        let steps =
+            libm::ceil(span_m / CONTINUATION_STEP_M).clamp(1.0, MAX_CONTINUATION_STEPS) as u32;
+        let mut pose = home;
+        let mut iterations = 0;
+        for k in 1..=steps {
+            let target =
+                home_lengths + (leg_lengths_m - home_lengths) * (f64::from(k) / f64::from(steps));
+            let solution = self.forward_kinematics(&target, &pose, options)?;
+            iterations += solution.iterations;
+            pose = solution.pose;
+            if k == steps {
+                return Ok(FkSolution {
+                    iterations,
+                    ..solution
+                });
+            }
+        }
+        // `steps` ≥ 1, so the loop returned; this keeps the function total without a panic.
+        self.forward_kinematics(leg_lengths_m, &pose, options)
     }
 
     fn accept(
@@ -229,5 +279,48 @@ mod tests {
             g.forward_kinematics(&g.leg_lengths(&truth), &g.home_pose(), &options),
             Err(KinematicsError::FkWrongAssembly { .. })
         ));
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(500))]
+        /// Wherever the plate rests in the workspace (stroke ends, tilts, yaw), the cold solve
+        /// finds the pose its leg lengths came from, with no warm start; a warm start from home
+        /// refuses the far ones (the jump check), which is why the cold solve exists.
+        #[test]
+        fn cold_fk_finds_any_reachable_pose(
+            x in -0.25..0.25f64, y in -0.25..0.25f64, z in -0.35..0.35f64,
+            roll in -0.15..0.15f64, pitch in -0.15..0.15f64, yaw in -0.3..0.3f64,
+        ) {
+            let g = geometry();
+            let truth = Pose::from_rpy(g.home_pose().position_m + Vector3::new(x, y, z), roll, pitch, yaw);
+            prop_assume!(g.check_reachable(&truth).is_ok());
+            let options = FkOptions { max_jump_m: 0.05, max_jump_rad: 0.05, ..FkOptions::default() };
+            let solution = g.forward_kinematics_cold(&g.leg_lengths(&truth), &options).unwrap();
+            let (dp, dphi) = solution.pose.distance_to(&truth);
+            prop_assert!(dp < 1e-9 && dphi < 1e-9, "{dp} m, {dphi} rad");
+        }
+    }
+
+    #[test]
+    fn cold_fk_finds_a_plate_resting_at_the_lower_stroke_end() {
+        let g = geometry();
+        let options = FkOptions {
+            max_jump_m: 0.05,
+            max_jump_rad: 0.05,
+            ..FkOptions::default()
+        };
+        // Every leg at its minimum length: the plate lowered, level, on its end stops.
+        let lengths = nalgebra::Vector6::repeat(1.5);
+        let warm = g.forward_kinematics(&lengths, &g.home_pose(), &options);
+        assert!(
+            matches!(warm, Err(KinematicsError::FkWrongAssembly { .. })),
+            "{warm:?}"
+        );
+        let cold = g.forward_kinematics_cold(&lengths, &options).unwrap();
+        let legs = g.leg_lengths(&cold.pose);
+        assert!((legs - lengths).amax() < 1e-9);
+        assert!(cold.pose.position_m.z < g.home_pose().position_m.z - 0.3);
+        let refused = g.forward_kinematics_cold(&nalgebra::Vector6::repeat(f64::NAN), &options);
+        assert!(matches!(refused, Err(KinematicsError::NonFinite { .. })));
     }
 }

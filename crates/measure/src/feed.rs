@@ -26,6 +26,8 @@ pub struct Feed {
     geometry: Geometry,
     fk: FkOptions,
     guess: Pose,
+    /// A pose has been found: the warm start is the plate's, not the home pose.
+    found: bool,
     imu_to_p: Option<Rotation3<f64>>,
 }
 
@@ -38,6 +40,7 @@ impl Feed {
             geometry,
             fk,
             guess: geometry.home_pose(),
+            found: false,
             imu_to_p: (!aligned).then(|| imu.rotation()),
         }
     }
@@ -48,20 +51,28 @@ impl Feed {
     }
 
     /// The pose of `frame` by forward kinematics from the warm start, which it then becomes;
-    /// `None` (warm start kept) when the solver finds no trustworthy pose.
+    /// `None` (warm start kept) when the solver finds no trustworthy pose. Until a first pose
+    /// is found there is no warm start to trust (the plate may rest anywhere: a stroke end, a
+    /// tilt), so the first solve is the cold one ([`Geometry::forward_kinematics_cold`]).
     pub fn solve(&mut self, frame: &SensorFrame) -> Option<Pose> {
         let lengths = Vector6::from(frame.leg_lengths_m);
-        let solution = self
-            .geometry
-            .forward_kinematics(&lengths, &self.guess, &self.fk)
-            .ok()?;
-        self.guess = solution.pose;
+        let solution = if self.found {
+            self.geometry
+                .forward_kinematics(&lengths, &self.guess, &self.fk)
+                .ok()?
+        } else {
+            self.geometry
+                .forward_kinematics_cold(&lengths, &self.fk)
+                .ok()?
+        };
+        self.accept(solution.pose);
         Some(solution.pose)
     }
 
     /// Takes a pose the controller solved for the current frame from the same warm start.
     pub fn accept(&mut self, pose: Pose) {
         self.guess = pose;
+        self.found = true;
     }
 
     /// The estimator's input of `frame` at `pose`, the IMU's readings turned into P.
@@ -160,5 +171,33 @@ mod tests {
         };
         assert!(feed.next(&bad).is_none());
         assert_eq!(feed.pose_guess().position_m, before.position_m);
+    }
+
+    /// Regression: a log (or a rig) whose first frame rests further from home than
+    /// `fk_max_jump_m` (here: the plate on its lower end stops) gave no pose at all, so every
+    /// sample of the run was rejected and the report was a table of NaN.
+    #[test]
+    fn a_first_frame_far_from_home_is_posed() {
+        let g = geometry();
+        let fk = FkOptions {
+            max_jump_m: 0.05,
+            max_jump_rad: 0.05,
+            ..FkOptions::default()
+        };
+        let mut feed = Feed::new(g, fk, &ImuMounting::default());
+        let mut rest = g.home_pose();
+        rest.position_m.z -= 0.3;
+        rest.position_m.x += 0.1;
+        let s = feed.next(&frame_at(&g, &rest)).expect("first pose found");
+        assert!((s.pose.position_m - rest.position_m).norm() < 1e-9);
+        // From there on the warm start is the plate's, with the jump check.
+        let mut next = rest;
+        next.position_m.z += 0.001;
+        let s = feed.next(&frame_at(&g, &next)).expect("warm pose");
+        assert!((s.pose.position_m - next.position_m).norm() < 1e-9);
+        assert!(
+            feed.next(&frame_at(&g, &g.home_pose())).is_none(),
+            "a 0.3 m jump is refused"
+        );
     }
 }
