@@ -246,3 +246,25 @@ fn missing_file() {
         "{err}"
     );
 }
+
+/// Regression: a huge bad value (a flag or a config value) was echoed whole in the error.
+#[test]
+fn a_huge_bad_value_is_echoed_abbreviated() {
+    // A single argument may hold at most 128 KiB (Linux MAX_ARG_STRLEN).
+    let huge = "9".repeat(100_000);
+    let out = Command::new(env!("CARGO_BIN_EXE_stewart"))
+        .args(["simulate", "--quiet", "--seed", &huge])
+        .output()
+        .expect("the stewart binary runs");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(stderr.len() < 1_000, "{} bytes of error", stderr.len());
+    assert!(stderr.contains("--seed"), "{stderr}");
+    let (code, err, _dir) = refuse(
+        &format!("[platform]\nbase_radius_m = \"{}\"\n", "x".repeat(200_000)),
+        &[],
+    );
+    assert_eq!(code, 2, "{err}");
+    assert!(err.len() < 1_000, "{} bytes of error", err.len());
+    assert!(err.contains("platform.base_radius_m"), "{err}");
+}

@@ -57,7 +57,20 @@ pub enum Command {
 pub fn main_entry() -> std::process::ExitCode {
     use std::process::ExitCode;
 
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            // clap echoes a bad value whole; a 50 MB argument must not become a 50 MB message.
+            let text = e.render().to_string();
+            let text = measure::load::abbreviate_echo(&text);
+            if e.use_stderr() {
+                eprint!("{text}");
+            } else {
+                print!("{text}");
+            }
+            return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2));
+        }
+    };
     // A second Ctrl-C while parking exits at once (the log is lost up to its last chunk).
     let _ = ctrlc::set_handler(|| {
         if INTERRUPT.swap(true, std::sync::atomic::Ordering::SeqCst) {

@@ -39,16 +39,53 @@ pub struct ConfigIssue {
 
 impl fmt::Display for ConfigIssue {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", self.file)?;
+        write!(f, "{}", abbreviate_echo(&self.file))?;
         if let Some(line) = self.line {
             write!(f, ":{line}")?;
         }
+        let problem = abbreviate_echo(&self.problem);
         if self.key.is_empty() {
-            write!(f, ": {}", self.problem)
+            write!(f, ": {problem}")
         } else {
-            write!(f, ": `{}`: {}", self.key, self.problem)
+            write!(f, ": `{}`: {problem}", abbreviate_echo(&self.key))
         }
     }
+}
+
+/// Longest run of non-blank characters an error message echoes whole, in characters.
+pub const MAX_ECHOED_CHARS: usize = 80;
+
+/// `text` with every run of non-blank characters longer than [`MAX_ECHOED_CHARS`] cut to its
+/// start and a count of what was left out: an error echoes what the user gave (a value, a key,
+/// a flag) so that they can find it, and a 50 MB value must not become a 50 MB message.
+pub fn abbreviate_echo(text: &str) -> std::borrow::Cow<'_, str> {
+    let too_long = text
+        .split_whitespace()
+        .any(|word| word.chars().nth(MAX_ECHOED_CHARS).is_some());
+    if !too_long {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut out = String::new();
+    let mut rest = text;
+    while let Some(start) = rest.find(|c: char| !c.is_whitespace()) {
+        out.push_str(&rest[..start]);
+        let word_and_after = &rest[start..];
+        let end = word_and_after
+            .find(char::is_whitespace)
+            .unwrap_or(word_and_after.len());
+        let word = &word_and_after[..end];
+        match word.char_indices().nth(MAX_ECHOED_CHARS) {
+            Some((cut, _)) => {
+                let left_out = word[cut..].chars().count();
+                out.push_str(&word[..cut]);
+                out.push_str(&format!("… ({left_out} more characters)"));
+            }
+            None => out.push_str(word),
+        }
+        rest = &word_and_after[end..];
+    }
+    out.push_str(rest);
+    std::borrow::Cow::Owned(out)
 }
 
 /// Every problem found in a configuration (never empty).
@@ -589,5 +626,30 @@ mod tests {
         assert_eq!(stem("mass_kg"), "mass");
         assert_eq!(stem("inertia_com_kg_m2"), "inertia_com");
         assert_eq!(edit_distance("payloda", "payload"), 2);
+    }
+
+    /// Regression: a 50 MB bad value was echoed whole in the error message.
+    #[test]
+    fn a_huge_bad_value_is_echoed_abbreviated() {
+        let value = "x".repeat(1_000_000);
+        let text = format!("[platform]\nbase_radius_m = \"{value}\"\n");
+        let err = load_str(&text, "big.toml").unwrap_err().to_string();
+        assert!(err.len() < 1_000, "{} bytes", err.len());
+        assert!(err.contains("platform.base_radius_m"), "{err}");
+        assert!(
+            err.contains("(9999") && err.contains("more characters)"),
+            "{err}"
+        );
+        let key = "k".repeat(100_000);
+        let err = load_str(&format!("[{key}]\n"), "big.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(err.len() < 1_000, "{} bytes", err.len());
+        // Prose and short values pass untouched.
+        assert_eq!(abbreviate_echo("a b  c"), "a b  c");
+        assert_eq!(
+            abbreviate_echo(&format!(" {} z", "é".repeat(81))),
+            format!(" {}… (1 more characters) z", "é".repeat(80))
+        );
     }
 }
