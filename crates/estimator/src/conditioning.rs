@@ -1,10 +1,12 @@
 //! Signal conditioning: angular acceleration by a filtered derivative, one low-pass for every
 //! signal the regressor is linear in and for the measured wrench, lever-arm correction.
 //!
-//! Two stages, both linear and identical for every channel except the derivative:
+//! Both stages run on the uniform grid of the sample period ([`crate::timebase`]: a sample's
+//! place comes from its sequence counter, or from its timestamp rounded to whole periods), and
+//! are linear and identical for every channel except the derivative:
 //! 1. interpolation stage: over the last four samples, Lagrange interpolation to the midpoint
 //!    of the middle two, t_m = (tₙ₋₂ + tₙ₋₁)/2, gives every channel's value there and, for ω,
-//!    its derivative ω̇ there. With equal steps these are the fourth-order staggered stencils
+//!    its derivative ω̇ there. On the grid these are the fourth-order staggered stencils
 //!    x(t_m) ≈ (−xₙ₋₃ + 9xₙ₋₂ + 9xₙ₋₁ − xₙ)/16 and ω̇(t_m) ≈ (ωₙ₋₃ − 27ωₙ₋₂ + 27ωₙ₋₁ − ωₙ)/(24Δt).
 //!    Value and derivative refer to the same instant, so no channel is skewed (a half-step skew
 //!    between channels raises the fit residual a thousandfold), and their O(Δt⁴) error (≈ 1e-10 at
@@ -13,6 +15,17 @@
 //! 2. the same Butterworth low-pass on all 18 channels: ω̇ (3), the products ωᵢωⱼ (6), the
 //!    accelerometer's specific force (3), force (3) and torque (3).
 //!
+//! **Lost frames.** A gap of a few grid steps (up to `max_gap_s`) is bridged: the missing raw
+//! samples are filled by cubic Lagrange interpolation of every raw channel (the products
+//! ωᵢωⱼ, the wrench and the leg map included, with the same weights, so the equations stay
+//! linear in what is filled) through the last three samples held and the one after the gap,
+//! and go through both stages like any other; only the samples that came produce an output,
+//! so the solver never counts information that was not measured. Feeding the stages the
+//! uneven steps instead would unbalance the derivative's taps around the gap, and the gyro
+//! noise they cancel at low frequency would leak through the low-pass into ω̇. A longer gap
+//! (or one of more than [`MAX_BRIDGED_STEPS`] samples) restarts the conditioning (and its
+//! warm-up).
+//!
 //! The products are formed per raw sample before filtering, never from filtered ω: the rigid-body
 //! equations are linear in (ω̇, ωᵢωⱼ, f, wrench), so a linear filter applied alike to all of them
 //! keeps `filtered wrench = Φ(filtered signals) θ` exact, and with it the delays. The lever arm
@@ -20,6 +33,7 @@
 
 use crate::error::EstimatorError;
 use crate::filter::{Biquad, LowPass};
+use crate::timebase::{TimeBase, Timing};
 use crate::regressor::{rate_products, RegressorSignals};
 use kinematics::Wrench;
 use nalgebra::{Matrix6, SVector, Vector3, Vector6};
@@ -40,8 +54,11 @@ pub struct ConditioningConfig {
     pub lowpass_cutoff_hz: Option<f64>,
     /// Accelerometer mounting point r in P, m.
     pub accelerometer_position_m: Vector3<f64>,
-    /// A step longer than this restarts the conditioning (s).
+    /// A step longer than this restarts the conditioning (s); shorter gaps are bridged.
     pub max_gap_s: f64,
+    /// Largest relative error of the nominal rate the timestamps may show before the measured
+    /// period replaces the nominal one ([`crate::timebase`]).
+    pub max_rate_error: f64,
     /// One-sigma white noise of each gyro axis per sample, rad/s (0 if unknown). Its square is
     /// the mean that noise adds to each ωᵢ², removed from the conditioned products.
     pub gyro_noise_rad_s: f64,
@@ -76,7 +93,6 @@ pub enum Step {
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Raw {
-    time_s: f64,
     omega: Vector3<f64>,
     /// [ωᵢωⱼ (6), f_r (3), F (3), τ (3)]
     rest: SVector<f64, 15>,
@@ -86,6 +102,10 @@ struct Raw {
 
 /// Samples in the interpolation stencil.
 const STENCIL: usize = 4;
+
+/// Longest gap bridged, in lost samples, whatever `max_gap_s` allows: a cubic through four
+/// samples says little about what happened much further away from them.
+pub const MAX_BRIDGED_STEPS: u64 = 32;
 
 /// The conditioning state machine. Allocation-free; a rejected sample changes nothing.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -103,6 +123,35 @@ pub struct Conditioner {
     /// Filtered samples withheld after every (re)start: see [`Self::warmup_samples`].
     warmup: u32,
     restarts: u64,
+    time: TimeBase,
+    /// Samples accepted.
+    samples: u64,
+    /// Grid steps without a sample: all of them, and those filled in by bridging.
+    lost: u64,
+    bridged: u64,
+    bridged_gaps: u64,
+}
+
+/// Value and derivative weights of the staggered stencil on a grid of step `period_s`.
+fn stencil_weights(period_s: f64) -> ([f64; STENCIL], [f64; STENCIL]) {
+    let value = [-1.0 / 16.0, 9.0 / 16.0, 9.0 / 16.0, -1.0 / 16.0];
+    let d = 1.0 / (24.0 * period_s);
+    (value, [d, -27.0 * d, 27.0 * d, -d])
+}
+
+/// Lagrange weights at `x` of the first `n` of the points `xs` (distinct, n ≤ 4).
+fn lagrange_weights(xs: &[f64; STENCIL], n: usize, x: f64) -> [f64; STENCIL] {
+    let mut w = [0.0; STENCIL];
+    for k in 0..n {
+        let mut v = 1.0;
+        for j in 0..n {
+            if j != k {
+                v *= (x - xs[j]) / (xs[k] - xs[j]);
+            }
+        }
+        w[k] = v;
+    }
+    w
 }
 
 /// Samples until the start transient of `biquad` has died away: the filter primed with a unit
@@ -184,6 +233,11 @@ impl Conditioner {
                 "max_gap_s must be finite and at least the sample period",
             ));
         }
+        if !(config.max_rate_error.is_finite() && config.max_rate_error >= 0.0) {
+            return Err(EstimatorError::InvalidConfig(
+                "max_rate_error must be finite and not negative",
+            ));
+        }
         if !(config.gyro_noise_rad_s.is_finite() && config.gyro_noise_rad_s >= 0.0) {
             return Err(EstimatorError::InvalidConfig(
                 "gyro_noise_rad_s must be finite and not negative",
@@ -203,7 +257,6 @@ impl Conditioner {
             None => Biquad::identity(),
         };
         let empty = Raw {
-            time_s: 0.0,
             omega: Vector3::zeros(),
             rest: SVector::zeros(),
             leg_map: SVector::zeros(),
@@ -218,6 +271,11 @@ impl Conditioner {
             warming: 0,
             warmup: warmup_samples(&biquad),
             restarts: 0,
+            time: TimeBase::new(t, config.max_rate_error),
+            samples: 0,
+            lost: 0,
+            bridged: 0,
+            bridged_gaps: 0,
         })
     }
 
@@ -240,6 +298,26 @@ impl Conditioner {
     /// How many times a gap restarted the conditioning.
     pub fn restarts(&self) -> u64 {
         self.restarts
+    }
+
+    /// Grid steps that had no sample (frames lost), bridged or not.
+    pub fn lost(&self) -> u64 {
+        self.lost
+    }
+
+    /// Lost samples filled in by bridging a short gap.
+    pub fn bridged(&self) -> u64 {
+        self.bridged
+    }
+
+    /// Short gaps bridged.
+    pub fn bridged_gaps(&self) -> u64 {
+        self.bridged_gaps
+    }
+
+    /// The time base's measurements: jitter, rate error, the period in use.
+    pub fn timing(&self) -> Timing {
+        self.time.timing_of(self.samples)
     }
 
     /// White-noise gains of the conditioning at the nominal period: Σ cₖ² for the impulse
@@ -297,7 +375,7 @@ impl Conditioner {
         accel_m_s2: &Vector3<f64>,
         wrench: &Wrench,
     ) -> Result<Step, EstimatorError> {
-        self.push_inner(time_s, gyro_rad_s, accel_m_s2, wrench, None)
+        self.push_sequenced(time_s, None, gyro_rad_s, accel_m_s2, wrench, None)
     }
 
     /// [`Self::push`] with the sample's leg-force → wrench map (column i: the wrench of a unit
@@ -311,12 +389,16 @@ impl Conditioner {
         wrench: &Wrench,
         leg_map: &Matrix6<f64>,
     ) -> Result<Step, EstimatorError> {
-        self.push_inner(time_s, gyro_rad_s, accel_m_s2, wrench, Some(leg_map))
+        self.push_sequenced(time_s, None, gyro_rad_s, accel_m_s2, wrench, Some(leg_map))
     }
 
-    fn push_inner(
+    /// [`Self::push`] or [`Self::push_with_leg_map`] with the frame's sequence counter, when
+    /// it carries one: the counter then places the sample on the grid, so that a late frame
+    /// keeps its place and a gap in the counter is a lost frame ([`crate::timebase`]).
+    pub fn push_sequenced(
         &mut self,
         time_s: f64,
+        sequence: Option<u64>,
         gyro_rad_s: &Vector3<f64>,
         accel_m_s2: &Vector3<f64>,
         wrench: &Wrench,
@@ -353,22 +435,76 @@ impl Conditioner {
             return Err(EstimatorError::Overflow("leg map"));
         }
         let raw = Raw {
-            time_s,
             omega: *gyro_rad_s,
             rest,
             leg_map: map,
         };
 
-        if self.held > 0 {
-            let dt = time_s - self.history[STENCIL - 1].time_s;
-            if dt.is_nan() || dt <= 0.0 {
-                return Err(EstimatorError::TimeNotIncreasing);
+        let place = self
+            .time
+            .place(time_s, sequence)
+            .ok_or(EstimatorError::TimeNotIncreasing)?;
+        let with_map = leg_map.is_some();
+        let missing = place.step.saturating_sub(1);
+        let step = if missing == 0 || self.held == 0 {
+            self.advance(raw, with_map)?
+        } else {
+            // Work on a copy: a sample rejected halfway through a bridge changes nothing.
+            let mut next = *self;
+            let gap_s = place.step as f64 * self.time.period_s();
+            if gap_s > self.config.max_gap_s || missing > MAX_BRIDGED_STEPS {
+                next.restarts += 1;
+                next.restart();
+            } else {
+                next.bridge(&raw, missing, with_map)?;
             }
-            if dt > self.config.max_gap_s {
-                self.restarts += 1;
-                self.restart();
-            }
+            let step = next.advance(raw, with_map)?;
+            *self = next;
+            step
+        };
+        self.time.commit(place, time_s, sequence);
+        self.samples += 1;
+        self.lost = self.lost.saturating_add(missing);
+        Ok(step)
+    }
+
+    /// Fills the `missing` grid steps before `raw` by cubic Lagrange interpolation through the
+    /// last (up to three) samples held and `raw`, and runs each through both stages, its
+    /// output discarded.
+    fn bridge(&mut self, raw: &Raw, missing: u64, with_map: bool) -> Result<(), EstimatorError> {
+        let m = self.held.min(STENCIL - 1);
+        let mut xs = [0.0; STENCIL];
+        let mut points = [*raw; STENCIL];
+        for i in 0..m {
+            // Held samples at −(m−1) … 0 on the grid; `raw` after the gap.
+            xs[i] = i as f64 - (m as f64 - 1.0);
+            points[i] = self.history[STENCIL - m + i];
         }
+        xs[m] = missing as f64 + 1.0;
+        points[m] = *raw;
+        for j in 1..=missing {
+            let w = lagrange_weights(&xs, m + 1, j as f64);
+            let mut fill = Raw {
+                omega: Vector3::zeros(),
+                rest: SVector::zeros(),
+                leg_map: SVector::zeros(),
+            };
+            for k in 0..=m {
+                fill.omega += points[k].omega * w[k];
+                fill.rest += points[k].rest * w[k];
+                if with_map {
+                    fill.leg_map += points[k].leg_map * w[k];
+                }
+            }
+            self.advance(fill, with_map)?;
+            self.bridged += 1;
+        }
+        self.bridged_gaps += 1;
+        Ok(())
+    }
+
+    /// One grid step of both stages; on an error nothing has changed.
+    fn advance(&mut self, raw: Raw, with_map: bool) -> Result<Step, EstimatorError> {
         if self.held + 1 < STENCIL {
             self.hold(raw);
             return Ok(Step::Started);
@@ -377,14 +513,14 @@ impl Conditioner {
         let mut window = self.history;
         window.rotate_left(1);
         window[STENCIL - 1] = raw;
-        let (value, slope) = midpoint_weights(&window.map(|r| r.time_s));
+        let (value, slope) = stencil_weights(self.time.period_s());
         let mut omega_dot = Vector3::zeros();
         let mut rest_mid = SVector::<f64, 15>::zeros();
         let mut map_mid = SVector::<f64, 36>::zeros();
         for k in 0..STENCIL {
             omega_dot += window[k].omega * slope[k];
             rest_mid += window[k].rest * value[k];
-            if leg_map.is_some() {
+            if with_map {
                 map_mid += window[k].leg_map * value[k];
             }
         }
@@ -402,7 +538,7 @@ impl Conditioner {
             self.warming = self.warmup;
         }
         let y = self.filter.step(&x);
-        let map_y = if leg_map.is_some() {
+        let map_y = if with_map {
             Some(Matrix6::from_iterator(
                 self.map_filter.step(&map_mid).iter().copied(),
             ))
@@ -450,6 +586,7 @@ mod tests {
             lowpass_cutoff_hz: cutoff,
             accelerometer_position_m: r,
             max_gap_s: 0.01,
+            max_rate_error: 1e-4,
             gyro_noise_rad_s: 0.0,
         }
     }

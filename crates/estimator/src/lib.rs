@@ -26,6 +26,7 @@ mod filter;
 mod online;
 pub mod regressor;
 pub mod rls;
+pub mod timebase;
 pub mod uncertainty;
 pub mod wrench;
 
@@ -39,6 +40,7 @@ pub use error::{ErrorKind, EstimatorError};
 pub use estimate::{ConvergenceTolerances, Counts, Estimate, ParameterCovariance};
 pub use online::{EstimatorConfig, OnlineEstimator, Outcome, ParameterSet, Sample};
 pub use rls::Rls;
+pub use timebase::Timing;
 /// The inertial parameters and their θ layout, defined once in `stewart-types`.
 pub use stewart_types::{
     principal_of, Consistency, Inconsistency, InertialParameters, ParameterVector, Principal,
