@@ -33,8 +33,8 @@
 
 use crate::error::EstimatorError;
 use crate::filter::{Biquad, LowPass};
-use crate::timebase::{TimeBase, Timing};
 use crate::regressor::{rate_products, RegressorSignals};
+use crate::timebase::{TimeBase, Timing};
 use kinematics::Wrench;
 use nalgebra::{Matrix6, SVector, Vector3, Vector6};
 

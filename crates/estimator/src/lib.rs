@@ -40,9 +40,9 @@ pub use error::{ErrorKind, EstimatorError};
 pub use estimate::{ConvergenceTolerances, Counts, Estimate, ParameterCovariance};
 pub use online::{EstimatorConfig, OnlineEstimator, Outcome, ParameterSet, Sample};
 pub use rls::Rls;
-pub use timebase::Timing;
 /// The inertial parameters and their θ layout, defined once in `stewart-types`.
 pub use stewart_types::{
     principal_of, Consistency, Inconsistency, InertialParameters, ParameterVector, Principal,
     PARAMETER_COUNT,
 };
+pub use timebase::Timing;

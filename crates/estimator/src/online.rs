@@ -632,14 +632,9 @@ impl OnlineEstimator {
             self.counts.after_window += 1;
             return Ok(Outcome::AfterWindow);
         }
-        let pushed = self.conditioner.push_sequenced(
-            time_s,
-            sequence,
-            gyro_rad_s,
-            accel_m_s2,
-            wrench,
-            leg_map,
-        );
+        let pushed = self
+            .conditioner
+            .push_sequenced(time_s, sequence, gyro_rad_s, accel_m_s2, wrench, leg_map);
         let step = match pushed {
             Ok(s) => s,
             Err(e) => return self.reject(e),
