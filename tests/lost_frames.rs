@@ -4,8 +4,8 @@
 //! is checked against the simulator's truth.
 //!
 //! Figures (`cargo test --release --test lost_frames -- --nocapture` prints them): before the
-//! conditioning bridged gaps on its grid, 1 % lost multiplied σ(J_C) by 4–5 and 10 % by 14–16,
-//! and 10 µs of jitter by 1.6–1.8; with it, at most 1.05, 1.45 and 1.0.
+//! conditioning bridged gaps on its grid, 1 % lost multiplied σ(J_C) by 3–5 and 10 % by 13–18,
+//! and 10 µs of jitter by 1.4–2.2; with it, at most 1.04, 1.18 and 1.0 (docs/accuracy.md).
 
 mod support;
 

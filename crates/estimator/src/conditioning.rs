@@ -16,10 +16,14 @@
 //!    accelerometer's specific force (3), force (3) and torque (3).
 //!
 //! **Lost frames.** A gap of a few grid steps (up to `max_gap_s`) is bridged: the missing raw
-//! samples are filled by cubic Lagrange interpolation of every raw channel (the products
-//! ωᵢωⱼ, the wrench and the leg map included, with the same weights, so the equations stay
-//! linear in what is filled) through the last three samples held and the one after the gap,
-//! and go through both stages like any other; only the samples that came produce an output,
+//! samples are filled by linear interpolation of every raw channel (the products ωᵢωⱼ, the
+//! wrench and the leg map included, with the same weights, so the equations stay linear in
+//! what is filled) between the samples either side of the gap, and go through both stages like
+//! any other. Linear, because its fill carries half a sample's noise: a cubic through three
+//! samples before the gap extrapolates their noise 3.4-fold (measured on white gyro noise with
+//! 4.6 % lost: conditioned ω̇ variance +51 % against +8 %), while the linear fill's error,
+//! about (G+1)²T²|x''|/8 for G lost samples, stays far below the sensors' noise at rig rates.
+//! Only the samples that came produce an output, only the samples that came produce an output,
 //! so the solver never counts information that was not measured. Feeding the stages the
 //! uneven steps instead would unbalance the derivative's taps around the gap, and the gyro
 //! noise they cancel at low frequency would leak through the low-pass into ω̇. A longer gap
@@ -103,8 +107,11 @@ struct Raw {
 /// Samples in the interpolation stencil.
 const STENCIL: usize = 4;
 
-/// Longest gap bridged, in lost samples, whatever `max_gap_s` allows: a cubic through four
-/// samples says little about what happened much further away from them.
+/// Samples before a gap that its fill interpolates through (with the one after it).
+const FILL_POINTS_BEFORE: usize = 1;
+
+/// Longest gap bridged, in lost samples, whatever `max_gap_s` allows: a straight line says
+/// little about what happened far from its ends.
 pub const MAX_BRIDGED_STEPS: u64 = 32;
 
 /// The conditioning state machine. Allocation-free; a rejected sample changes nothing.
@@ -468,11 +475,11 @@ impl Conditioner {
         Ok(step)
     }
 
-    /// Fills the `missing` grid steps before `raw` by cubic Lagrange interpolation through the
-    /// last (up to three) samples held and `raw`, and runs each through both stages, its
-    /// output discarded.
+    /// Fills the `missing` grid steps before `raw` by Lagrange interpolation through the last
+    /// [`FILL_POINTS_BEFORE`] samples held and `raw` (see the [module docs](self)), and runs
+    /// each through both stages, its output discarded.
     fn bridge(&mut self, raw: &Raw, missing: u64, with_map: bool) -> Result<(), EstimatorError> {
-        let m = self.held.min(STENCIL - 1);
+        let m = self.held.min(FILL_POINTS_BEFORE);
         let mut xs = [0.0; STENCIL];
         let mut points = [*raw; STENCIL];
         for i in 0..m {
@@ -664,15 +671,25 @@ mod tests {
             c.push(0.001, &Vector3::new(1e200, 0.0, 0.0), &one, &w),
             Err(EstimatorError::Overflow("sample magnitude"))
         );
-        assert_eq!(
-            c.push(1e-300, &Vector3::new(1e4, 0.0, 0.0), &one, &w),
-            Err(EstimatorError::Overflow("angular acceleration"))
-        );
         assert_eq!(c, before);
         assert!(matches!(c.push(0.001, &one, &one, &w), Ok(Step::Ready(_))));
         // A long gap restarts.
         assert_eq!(c.push(1.0, &one, &one, &w), Ok(Step::Started));
         assert_eq!(c.restarts(), 1);
+        // A finite sample whose derivative overflows, on a grid of a picosecond.
+        let mut tiny = config(None, Vector3::zeros());
+        tiny.sample_period_s = 1e-12;
+        tiny.max_gap_s = 1e-11;
+        let mut c = Conditioner::new(tiny).unwrap();
+        for k in 0..3 {
+            assert_eq!(c.push(k as f64 * 1e-12, &one, &one, &w), Ok(Step::Started));
+        }
+        let before = c;
+        assert_eq!(
+            c.push(3e-12, &Vector3::new(1e4, 0.0, 0.0), &one, &w),
+            Err(EstimatorError::Overflow("angular acceleration"))
+        );
+        assert_eq!(c, before);
     }
 
     /// The noise gains against the spread of conditioned white noise.
@@ -706,6 +723,71 @@ mod tests {
             "{} vs {vg}",
             sv / count
         );
+    }
+
+    /// Lost samples are bridged on the grid: the conditioned ω̇ of white gyro noise keeps the
+    /// spread of the uniform stream (fed the uneven steps, the stencil's unbalanced taps let
+    /// the noise through at low frequency: σ(J_C) four times larger at 1 % lost), and along a
+    /// smooth motion the equation stays consistent across the gaps.
+    #[test]
+    fn lost_samples_are_bridged_without_leaking_noise() {
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let lost = |k: u64| k % 37 == 5 || k % 101 == 7 || k % 101 == 8;
+        let mut c = Conditioner::new(config(Some(20.0), Vector3::zeros())).unwrap();
+        let (dg, _) = c.noise_gains();
+        let mut rng = rand::rngs::StdRng::seed_from_u64(9);
+        let n = Normal::new(0.0, 1.0).unwrap();
+        let (mut sd, mut count) = (0.0, 0.0);
+        for k in 0..200_000u64 {
+            let g = Vector3::new(n.sample(&mut rng), 0.0, 0.0);
+            if lost(k) {
+                continue;
+            }
+            let t = k as f64 * 1e-3;
+            let step = c
+                .push_sequenced(t, Some(k), &g, &g, &Wrench::default(), None)
+                .unwrap();
+            if let Step::Ready(out) = step {
+                if k > 1000 {
+                    sd += out.signals.angular_acceleration_rad_s2.x.powi(2);
+                    count += 1.0;
+                }
+            }
+        }
+        assert!(sd / count < 1.1 * dg, "{} vs {dg}", sd / count);
+        // 9260 lost in 7173 gaps (runs of one to three).
+        assert_eq!((c.restarts(), c.lost(), c.bridged()), (0, 9260, 9260));
+        assert_eq!(c.bridged_gaps(), 7173);
+        assert!(c.timing().from_sequence);
+
+        let body = PointBody::vehicle_like();
+        let theta = body.parameters().to_vector();
+        let motion = Motion::rich();
+        let mut c = Conditioner::new(config(Some(20.0), Vector3::zeros())).unwrap();
+        let (mut worst, mut scale): (f64, f64) = (0.0, 0.0);
+        for k in 0..3000u64 {
+            if lost(k) {
+                continue;
+            }
+            // Without a counter: the timestamps place the samples.
+            let t = k as f64 * 1e-3;
+            let s = motion.state(t);
+            let w = body.wrench(&s.omega, &s.omega_dot, &s.specific_force);
+            let wrench = Wrench {
+                force_n: w.fixed_rows::<3>(0).into_owned(),
+                torque_nm: w.fixed_rows::<3>(3).into_owned(),
+            };
+            if let Step::Ready(out) = c.push(t, &s.omega, &s.specific_force, &wrench).unwrap() {
+                let pred = from_signals(&out.signals) * theta;
+                let meas = crate::wrench::to_vector(&out.wrench);
+                worst = worst.max((pred - meas).norm());
+                scale = scale.max(meas.norm());
+            }
+        }
+        assert!(c.bridged() > 100 && c.restarts() == 0);
+        // The linear fill's O(T²) error on a motion up to 3 Hz (4.6e-4 measured).
+        assert!(worst < 1e-3 * scale, "worst {worst} of {scale}");
     }
 
     /// The warm-up is about ten time constants of the low-pass (the 1e-3 decay of a
