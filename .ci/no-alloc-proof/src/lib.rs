@@ -75,6 +75,7 @@ pub extern "C" fn proof_full_ticks(ticks: u32, leg_force_n: f64) -> f64 {
         let out = controller.tick(&frame);
         let sample = Sample {
             time_s: frame.time_s,
+            sequence: Some(frame.sequence),
             pose: out.measured_pose.unwrap_or(home),
             leg_forces_n: Vector6::from(frame.leg_forces_n),
             gyro_rad_s: Vector3::from(frame.gyro_rad_s),

@@ -32,6 +32,7 @@ fn sample(g: &Geometry, k: u64) -> Sample {
     );
     Sample {
         time_s: t,
+        sequence: None,
         pose,
         leg_forces_n: Vector6::from_fn(|i, _| 2000.0 + 100.0 * w(0.3 + 0.1 * i as f64, i as f64)),
         gyro_rad_s: Vector3::new(0.3 * w(0.41, 1.5), 0.3 * w(0.47, 2.5), 0.2 * w(0.29, 3.5)),
@@ -83,6 +84,7 @@ fn bench(c: &mut Criterion) {
         lowpass_cutoff_hz: Some(20.0),
         accelerometer_position_m: Vector3::new(0.1, 0.0, 0.05),
         max_gap_s: 0.01,
+        max_rate_error: 1e-4,
         gyro_noise_rad_s: 0.0,
     })
     .expect("valid conditioning");

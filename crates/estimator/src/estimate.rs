@@ -1,6 +1,7 @@
 //! What the estimator reports: parameters, their covariance, the centre-of-mass form with
 //! one-sigma uncertainties, principal moments and axes, consistency, residuals and counts.
 
+use crate::timebase::Timing;
 use crate::uncertainty::{derive, principal_sigma, sqrt_nonneg};
 use nalgebra::{Matrix3, SMatrix, Vector3, Vector6};
 use stewart_types::{
@@ -24,6 +25,13 @@ pub struct Counts {
     pub after_window: u64,
     /// Gaps longer than `max_gap_s`, each of which restarted the conditioning.
     pub restarts: u64,
+    /// Sample periods without a sample (frames lost), whether bridged or in a gap that
+    /// restarted; known from the sequence counter, or from the timestamps without one.
+    pub lost: u64,
+    /// Lost samples filled in by bridging a short gap (the rest of `lost` fell in restarts).
+    pub bridged: u64,
+    /// Short gaps bridged.
+    pub bridged_gaps: u64,
 }
 
 /// Stop rule for a measurement: every reported sigma below its tolerance.
@@ -74,6 +82,8 @@ pub struct Estimate {
     pub residual_rms: Vector6<f64>,
     /// Sample counters.
     pub counts: Counts,
+    /// The time base's measurements: timestamp jitter, rate error, period in use.
+    pub timing: Timing,
 }
 
 impl Estimate {
@@ -103,6 +113,7 @@ impl Estimate {
             consistency: parameters.consistency(),
             residual_rms: Vector6::zeros(),
             counts: Counts::default(),
+            timing: Timing::default(),
         };
         if let Some(d) = derive(&theta, &covariance) {
             e.com_m = d.com_m;

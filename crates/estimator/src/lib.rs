@@ -26,6 +26,7 @@ mod filter;
 mod online;
 pub mod regressor;
 pub mod rls;
+pub mod timebase;
 pub mod uncertainty;
 pub mod wrench;
 
@@ -44,3 +45,4 @@ pub use stewart_types::{
     principal_of, Consistency, Inconsistency, InertialParameters, ParameterVector, Principal,
     PARAMETER_COUNT,
 };
+pub use timebase::Timing;

@@ -6,6 +6,7 @@ use crate::error::EstimatorError;
 use crate::estimate::{Counts, Estimate, ParameterCovariance};
 use crate::regressor::{from_signals, inertia_columns, RegressorSignals};
 use crate::rls::Rls;
+use crate::timebase::Timing;
 use crate::uncertainty::ScoreCovariance;
 use crate::wrench::{measured, to_vector};
 use kinematics::{Geometry, Pose, Wrench};
@@ -54,8 +55,12 @@ pub struct EstimatorConfig {
     pub window_start_s: f64,
     /// Samples after this time are ignored, s.
     pub window_end_s: f64,
-    /// A longer step between samples restarts the conditioning, s.
+    /// A longer step between samples restarts the conditioning, s; a shorter gap (lost frames)
+    /// is bridged ([`crate::conditioning`]).
     pub max_gap_s: f64,
+    /// Largest relative error of the nominal sample rate that the timestamps may show before
+    /// the conditioning uses the measured period instead ([`crate::timebase`]).
+    pub max_rate_error: f64,
     /// One-sigma white noise of each gyro axis per sample, rad/s; 0 if unknown. When given, the
     /// bias that this noise causes by entering the regressor (through ω̇ and ωᵢ²) is removed:
     /// the estimate solves (A − n·C) θ = b instead of A θ = b, with C the second moment the
@@ -79,7 +84,8 @@ pub struct EstimatorConfig {
 impl EstimatorConfig {
     /// Defaults: low-pass at 20 Hz (at most a fifth of the sample rate), λ = 1, all ten
     /// parameters, equation sigmas 1 N and 0.2 N·m, prior sigma 1e4, accelerometer at the P
-    /// origin, no time window, gaps of more than 10 periods restart, covariance blocks of 8/f_c
+    /// origin, no time window, gaps of more than 10 periods restart (shorter ones are bridged),
+    /// a rate error of 1e-4 (100 ppm, beyond a crystal's) tolerated, covariance blocks of 8/f_c
     /// (at least 20 samples).
     pub fn new(geometry: Geometry, sample_period_s: f64) -> Self {
         let rate_hz = 1.0 / sample_period_s;
@@ -106,6 +112,7 @@ impl EstimatorConfig {
             window_start_s: f64::NEG_INFINITY,
             window_end_s: f64::INFINITY,
             max_gap_s: 10.0 * sample_period_s,
+            max_rate_error: 1e-4,
             gyro_noise_rad_s: 0.0,
             accel_noise_m_s2: 0.0,
             leg_force_offsets: false,
@@ -119,6 +126,10 @@ impl EstimatorConfig {
 pub struct Sample {
     /// Time, s (strictly increasing).
     pub time_s: f64,
+    /// The frame's sequence counter (one per sample period), when the source has one: it
+    /// places the sample on the conditioning's grid, telling a lost frame from a late one
+    /// ([`crate::timebase`]). `None`: the timestamps place the samples.
+    pub sequence: Option<u64>,
     /// Pose of P in B from forward kinematics of the measured leg lengths.
     pub pose: Pose,
     /// Axial leg forces, N (positive pushes the plate away from the base).
@@ -426,6 +437,7 @@ impl OnlineEstimator {
             lowpass_cutoff_hz: config.lowpass_cutoff_hz,
             accelerometer_position_m: config.accelerometer_position_m,
             max_gap_s: config.max_gap_s,
+            max_rate_error: config.max_rate_error,
             gyro_noise_rad_s: config.gyro_noise_rad_s,
         })?;
         if !(config.accel_noise_m_s2.is_finite() && config.accel_noise_m_s2 >= 0.0) {
@@ -519,7 +531,16 @@ impl OnlineEstimator {
     pub fn counts(&self) -> Counts {
         let mut c = self.counts;
         c.restarts = self.conditioner.restarts();
+        c.lost = self.conditioner.lost();
+        c.bridged = self.conditioner.bridged();
+        c.bridged_gaps = self.conditioner.bridged_gaps();
         c
+    }
+
+    /// The time base's measurements so far: timestamp jitter, the rate error of the nominal
+    /// period, the period in use and whether the sequence counter placed the samples.
+    pub fn timing(&self) -> Timing {
+        self.conditioner.timing()
     }
 
     fn reject(&mut self, e: EstimatorError) -> Result<Outcome, EstimatorError> {
@@ -576,6 +597,7 @@ impl OnlineEstimator {
         }
         self.update_inner(
             sample.time_s,
+            sample.sequence,
             &w,
             &sample.gyro_rad_s,
             &sample.accel_m_s2,
@@ -592,12 +614,15 @@ impl OnlineEstimator {
         gyro_rad_s: &Vector3<f64>,
         accel_m_s2: &Vector3<f64>,
     ) -> Result<Outcome, EstimatorError> {
-        self.update_inner(time_s, wrench, gyro_rad_s, accel_m_s2, None)
+        self.update_inner(time_s, None, wrench, gyro_rad_s, accel_m_s2, None)
     }
 
+    // One argument per input of the conditioning; a struct would only rename them.
+    #[allow(clippy::too_many_arguments)]
     fn update_inner(
         &mut self,
         time_s: f64,
+        sequence: Option<u64>,
         wrench: &Wrench,
         gyro_rad_s: &Vector3<f64>,
         accel_m_s2: &Vector3<f64>,
@@ -607,14 +632,9 @@ impl OnlineEstimator {
             self.counts.after_window += 1;
             return Ok(Outcome::AfterWindow);
         }
-        let pushed = match leg_map {
-            Some(m) => self
-                .conditioner
-                .push_with_leg_map(time_s, gyro_rad_s, accel_m_s2, wrench, m),
-            None => self
-                .conditioner
-                .push(time_s, gyro_rad_s, accel_m_s2, wrench),
-        };
+        let pushed = self
+            .conditioner
+            .push_sequenced(time_s, sequence, gyro_rad_s, accel_m_s2, wrench, leg_map);
         let step = match pushed {
             Ok(s) => s,
             Err(e) => return self.reject(e),
@@ -766,6 +786,7 @@ impl OnlineEstimator {
             e.residual_rms = (self.residual_sq / self.residual_weight).map(libm::sqrt);
         }
         e.counts = self.counts();
+        e.timing = self.timing();
         e
     }
 }

@@ -374,6 +374,7 @@ pub fn synthetic_sample(
     }
     crate::online::Sample {
         time_s: t,
+        sequence: None,
         pose,
         leg_forces_n: forces,
         gyro_rad_s: gyro,

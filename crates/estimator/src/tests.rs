@@ -490,6 +490,7 @@ fn deterministic_and_windowed() {
         lowpass_cutoff_hz: Some(20.0),
         accelerometer_position_m: Vector3::zeros(),
         max_gap_s: 0.01,
+        max_rate_error: 1e-4,
         gyro_noise_rad_s: 0.0,
     })
     .unwrap()

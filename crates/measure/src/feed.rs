@@ -11,7 +11,9 @@
 //! - **IMU axes**: the gyro's rate and the accelerometer's specific force are turned from the
 //!   IMU's axes into P by the rig description's mounting rotation (`sensors.imu.orientation_deg`;
 //!   none when it is zero, so an aligned IMU's numbers pass bit for bit).
-//! - Leg forces and time pass unchanged.
+//! - Leg forces and time pass unchanged, and so does the frame's sequence counter, which places
+//!   the sample on the conditioning's grid (a late frame keeps its place, a gap in the counter
+//!   is a lost frame: `estimator::timebase`).
 
 use control::io::SensorFrame;
 use estimator::Sample;
@@ -85,6 +87,7 @@ impl Feed {
         };
         Sample {
             time_s: frame.time_s,
+            sequence: Some(frame.sequence),
             pose,
             leg_forces_n: Vector6::from(frame.leg_forces_n),
             gyro_rad_s,
