@@ -295,6 +295,18 @@ pub fn check_rig(info: &rig::host::RigInfo, loaded: &LoadedConfig) -> Result<(),
 /// is an error (nothing moved); a fault is an outcome with [`measure::End::Fault`] naming the
 /// cause.
 pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, CommandError> {
+    static NEVER: AtomicBool = AtomicBool::new(false);
+    rig_with_abort(args, interrupt, &NEVER)
+}
+
+/// [`rig`], and when `abort` is set (a second Ctrl-C) the rig brakes at once instead of
+/// parking: the safe stop goes out within a sample period, the log is finished, and the
+/// outcome says [`measure::End::Interrupted`].
+pub fn rig_with_abort(
+    args: &RigArgs,
+    interrupt: &AtomicBool,
+    abort: &AtomicBool,
+) -> Result<RigOutcome, CommandError> {
     let (plan, common) = resolve(args)?;
     let common = &common;
     let loaded = common.run.load_config()?;
@@ -364,8 +376,13 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
         _ => common.run.save_tare.as_deref(),
     };
     let mut progress = Progress::new(total, common.run.shared.quiet);
-    let mut station =
-        station::RigStation::new(&rig_link, &loaded, progress.handle(), common.link.no_prompt);
+    let mut station = station::RigStation::new(
+        &rig_link,
+        &loaded,
+        progress.handle(),
+        common.link.no_prompt,
+        abort,
+    );
     let result = header.and_then(|()| {
         let mut observer =
             measure::observer::Both(LogObserver::new(&mut log, &geometry, config), &mut progress);
@@ -425,8 +442,8 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
 
 /// `stewart rig` from the command line: runs, prints, writes the report; returns the exit
 /// code (0 done, 1 failed, 2 refused before anything moved, 3 fault, 130 interrupted).
-pub fn main(args: &RigArgs, interrupt: &AtomicBool) -> u8 {
-    match rig(args, interrupt) {
+pub fn main(args: &RigArgs, interrupt: &AtomicBool, abort: &AtomicBool) -> u8 {
+    match rig_with_abort(args, interrupt, abort) {
         Ok(outcome) => outcome::finish(args, &outcome),
         Err(e) => {
             eprintln!("error: {e}");

@@ -191,9 +191,15 @@ fn heartbeat(held: &Mutex<Held>, stop: &AtomicBool, interval: Duration) {
 }
 
 /// The rig backend as the run loop sees it, keeping the first failure and the loop timing.
+///
+/// **Stopping at once.** With [`abort`](Self::abort) set (a second Ctrl-C), the next read
+/// sends a safe stop and fails with [`RigError::Stopped`], and every write sends a safe stop
+/// instead of its command: the run ends within one sample period with the rig braked, and its
+/// caller still finishes the log.
 pub struct Monitored<'a> {
     link: &'a Link,
     timing: &'a mut LoopTiming,
+    abort: Option<&'a AtomicBool>,
     failure: Option<Failure>,
     last_frame_at: Option<Instant>,
     last_time_s: Option<f64>,
@@ -205,10 +211,21 @@ impl<'a> Monitored<'a> {
         Self {
             link,
             timing,
+            abort: None,
             failure: None,
             last_frame_at: None,
             last_time_s: None,
         }
+    }
+
+    /// Stops at once, brakes on, when `abort` is set (see the type's documentation).
+    pub fn abort(mut self, abort: &'a AtomicBool) -> Self {
+        self.abort = Some(abort);
+        self
+    }
+
+    fn aborted(&self) -> bool {
+        self.abort.is_some_and(|a| a.load(Ordering::SeqCst))
     }
 
     /// The first failure, if any.
@@ -238,6 +255,15 @@ impl Backend for Monitored<'_> {
     type Error = RigError;
 
     fn read(&mut self) -> Result<SensorFrame, RigError> {
+        if self.aborted() {
+            let error = RigError::Stopped {
+                reason: "second Ctrl-C".into(),
+            };
+            self.note(&error);
+            // Best effort: a link that failed too is braked by the rig's watchdog.
+            let _ = self.link.lock().safe_stop();
+            return Err(error);
+        }
         let result = self.link.lock().rig.read();
         match result {
             Ok(frame) => {
@@ -260,7 +286,11 @@ impl Backend for Monitored<'_> {
         if let Some(at) = self.last_frame_at {
             self.timing.work_s.push(at.elapsed().as_secs_f64());
         }
-        let result = self.link.lock().write(command);
+        let result = if self.aborted() {
+            self.link.lock().safe_stop()
+        } else {
+            self.link.lock().write(command)
+        };
         result.inspect_err(|e| self.note(e))
     }
 

@@ -21,24 +21,28 @@ pub struct RigStation<'a> {
     loaded: &'a LoadedConfig,
     progress: indicatif::ProgressBar,
     no_prompt: bool,
+    abort: &'a AtomicBool,
     reports: Vec<LinkReport>,
     failure: Option<Failure>,
 }
 
 impl<'a> RigStation<'a> {
     /// The station on `link` for the rig `loaded` describes; `progress` leaves the screen while
-    /// the operator is asked; `no_prompt` goes on without asking.
+    /// the operator is asked; `no_prompt` goes on without asking; `abort` (a second Ctrl-C)
+    /// brakes at once and ends the measurement as interrupted, without the park ramp.
     pub fn new(
         link: &'a Link,
         loaded: &'a LoadedConfig,
         progress: indicatif::ProgressBar,
         no_prompt: bool,
+        abort: &'a AtomicBool,
     ) -> Self {
         Self {
             link,
             loaded,
             progress,
             no_prompt,
+            abort,
             reports: Vec::new(),
             failure: None,
         }
@@ -81,7 +85,7 @@ impl Station for RigStation<'_> {
         record(observer, 0.0, &msg)?;
         let mut timing = LoopTiming::default();
         let (result, failure, last_time_s) = {
-            let mut monitored = Monitored::new(self.link, &mut timing);
+            let mut monitored = Monitored::new(self.link, &mut timing).abort(self.abort);
             let result = job.run(&mut monitored, observer);
             (
                 result,
@@ -101,6 +105,10 @@ impl Station for RigStation<'_> {
             Ok(o) => o,
             // The link, the sensors or the rig failed: the backend has sent a safe stop.
             Err(e) => match &failure {
+                // Braked at the operator's word, not by a fault.
+                Some(f) if f.kind == rig::ErrorKind::Stopped => {
+                    MeasureOutcome::ended_early(End::Interrupted, 0)
+                }
                 Some(f) => MeasureOutcome::ended_early(End::Fault(f.cause.clone()), 0),
                 None => {
                     let _ = self.link.lock().safe_stop();
@@ -132,8 +140,9 @@ impl Station for RigStation<'_> {
         msg.event = "end";
         msg.counters = counters;
         msg.timing = Some(summary);
-        msg.fault = match &outcome.end {
-            End::Fault(cause) => Some(cause.clone()),
+        msg.fault = match (&outcome.end, &failure) {
+            (End::Fault(cause), _) => Some(cause.clone()),
+            (_, Some(f)) => Some(f.cause.clone()),
             _ => None,
         };
         record(observer, time_s, &msg)?;
