@@ -294,6 +294,26 @@ impl RigBackend {
         }
     }
 
+    /// Looks at the frames already waiting, without waiting for more: the first valid sensor
+    /// frame, a fault report (as the error), or `None` when nothing valid is waiting.
+    fn poll_waiting(&mut self) -> Result<Option<Sensor>, RigError> {
+        for _ in 0..MAX_DRAIN {
+            match self.transport.recv(&mut self.buf, Duration::ZERO)? {
+                Recv::Timeout => return Ok(None),
+                Recv::Garbled => {
+                    self.stats.received += 1;
+                    self.stats.corrupt += 1;
+                }
+                Recv::Frame { len, from } => match self.classify(len, from) {
+                    Class::Sensor(sensor) => return Ok(Some(sensor)),
+                    Class::Fault(fault) => return Err(rig_fault(&fault)),
+                    Class::Rejected => {}
+                },
+            }
+        }
+        Ok(None)
+    }
+
     /// Best effort: the link may be the thing that failed.
     fn fail(&mut self, error: RigError) -> RigError {
         let _ = self.safe_stop();
@@ -369,6 +389,15 @@ impl Backend for RigBackend {
             }
             let now = Instant::now();
             if now >= deadline {
+                // A host that was descheduled past the deadline has not looked at what arrived
+                // meanwhile: the rig's frames, and its fault report, may be waiting. Silence is
+                // declared only on an empty socket, so that the fault reported is the first
+                // that happened (regression: "link silent" reported over a waiting WATCHDOG).
+                match self.poll_waiting() {
+                    Err(e) => return Err(self.fail(e)),
+                    Ok(Some(sensor)) => break sensor,
+                    Ok(None) => {}
+                }
                 let error = RigError::LinkSilent {
                     silent_for: now - self.last_valid_at,
                     limit: self.options.link_silence,

@@ -45,3 +45,5 @@ pub use stats::LinkStats;
 
 #[cfg(all(test, feature = "std"))]
 mod loopback_tests;
+#[cfg(all(test, feature = "std"))]
+mod scripted_tests;
