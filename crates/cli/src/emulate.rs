@@ -30,7 +30,7 @@ use anyhow::anyhow;
 use clap::{Args, ValueEnum};
 use rig::emulator::{Emulator, EmulatorConfig, EmulatorStats, FaultInjection, SessionStart};
 use rig::wire::{Limits, SensorLayout, LEG_COUNT};
-use rig::{Key, RigError};
+use rig::RigError;
 
 use measure::load::{ConfigError, LoadedConfig};
 use measure::Config;
@@ -81,9 +81,16 @@ pub struct EmulateArgs {
     /// When the payload is on the fixture (see `stewart emulate --help`).
     #[arg(long, value_enum, default_value_t = PayloadMode::TareFirst)]
     pub payload: PayloadMode,
-    /// Shared-key file (hex), instead of rig.key_file.
+    /// Shared-key file (hex), instead of rig.key_file and the user's key file
+    /// ($XDG_CONFIG_HOME/stewart/rig.key, else ~/.config/stewart/rig.key, written when
+    /// missing).
     #[arg(long, value_name = "FILE")]
     pub key: Option<PathBuf>,
+    /// No shared key: accept untagged frames, so that anyone who can reach the port can open
+    /// a session and anyone who can forge the host's address can command. For isolated
+    /// networks only; the host needs `rig --insecure` too.
+    #[arg(long)]
+    pub insecure: bool,
     /// Brake when no valid command arrived for this long, ms (rig.watchdog_ms, default 20).
     #[arg(long, value_name = "MS")]
     pub watchdog_ms: Option<f64>,
@@ -121,6 +128,7 @@ impl Default for EmulateArgs {
             noise: None,
             payload: PayloadMode::TareFirst,
             key: None,
+            insecure: false,
             watchdog_ms: None,
             drop: 0.0,
             corrupt: 0.0,
@@ -200,14 +208,18 @@ pub fn prepare(args: &EmulateArgs) -> Result<Prepared, CommandError> {
     let simulator = scenario.simulator(geometry, args.payload.loaded_in_session(1))?;
     let payload = scenario.world.payload.to_sim();
 
-    let key_path = args
-        .key
-        .clone()
-        .or_else(|| rig_config.key_path(&loaded.directory()));
-    let key = match key_path {
-        Some(path) => Some(Key::from_file(&path).map_err(|e| refused(format!("shared key: {e}")))?),
-        None => None,
-    };
+    let chosen = crate::key::choose(
+        args.key.as_deref(),
+        rig_config.key_path(&loaded.directory()),
+        crate::key::user_key_path,
+        args.insecure,
+        crate::key::Side::Rig,
+    )?;
+    // Even with --quiet: a key file written, or no key at all, is for the user to know.
+    if let Some(notice) = &chosen.notice {
+        eprintln!("emulator: {notice}");
+    }
+    let key = chosen.key;
     let faults = FaultInjection {
         drop_fraction: args.drop,
         corrupt_fraction: args.corrupt,

@@ -9,6 +9,7 @@ pub mod campaign;
 pub mod common;
 pub mod emulate;
 pub mod estimate;
+pub mod key;
 pub mod output;
 pub mod plot;
 pub mod progress;
@@ -73,6 +74,8 @@ pub enum Command {
     Rig(Box<rig::RigArgs>),
     /// Play the rig: the simulator behind the wire protocol in real time, for `stewart rig`.
     Emulate(emulate::EmulateArgs),
+    /// The shared key that authenticates `rig` and `emulate` to each other: `key new`.
+    Key(key::KeyArgs),
     /// Re-run the estimator on a log of `simulate` or `rig` (its settings, or others) and print
     /// the same table and report.
     Estimate(estimate::EstimateArgs),
@@ -114,6 +117,7 @@ pub fn main_entry() -> std::process::ExitCode {
     ExitCode::from(match cli.command {
         Command::Rig(a) => rig::main(&a, &INTERRUPT, &ABORT),
         Command::Emulate(a) => emulate::main(&a, &INTERRUPT),
+        Command::Key(a) => key::main(&a),
         Command::Estimate(a) => match estimate::estimate(&a) {
             Ok(_) => 0,
             Err(e) => {

@@ -29,7 +29,7 @@ use measure::load::{ConfigError, ConfigIssue, LoadedConfig};
 use measure::report::RunInfo;
 use measure::session::{self, SessionPlan, TarePlan};
 use measure::setup;
-use rig::{Key, RigBackend, RigOptions};
+use rig::{RigBackend, RigOptions};
 use runlog::mcap_log::Delivery;
 use runlog::messages as topics;
 use runlog::metadata::RunMetadata;
@@ -49,9 +49,14 @@ pub struct LinkArgs {
     /// udp://127.0.0.1:7700].
     #[arg(long, value_name = "ADDR")]
     pub connect: Option<String>,
-    /// Shared-key file (hex), instead of rig.key_file.
+    /// Shared-key file (hex), instead of rig.key_file and the user's key file
+    /// ($XDG_CONFIG_HOME/stewart/rig.key, else ~/.config/stewart/rig.key).
     #[arg(long, value_name = "FILE")]
     pub key: Option<PathBuf>,
+    /// No shared key: commands go untagged and anyone on the network can forge them. The rig
+    /// must run without a key too (`emulate --insecure`). For isolated networks only.
+    #[arg(long)]
+    pub insecure: bool,
     /// Fault when no valid sensor frame arrived for this long, ms (rig.link_silence_ms,
     /// default 50).
     #[arg(long, value_name = "MS")]
@@ -232,14 +237,17 @@ pub fn link_settings(
     if !issues.is_empty() {
         return Err(CommandError::Config(ConfigError { issues }));
     }
-    let key_path = match &flags.key {
-        Some(path) => Some(path.clone()),
-        None => rig_config.key_path(&loaded.directory()),
-    };
-    let key = match key_path {
-        Some(path) => Some(Key::from_file(&path).map_err(|e| refuse(format!("shared key: {e}")))?),
-        None => None,
-    };
+    let chosen = crate::key::choose(
+        flags.key.as_deref(),
+        rig_config.key_path(&loaded.directory()),
+        crate::key::user_key_path,
+        flags.insecure,
+        crate::key::Side::Host,
+    )?;
+    if let Some(notice) = &chosen.notice {
+        eprintln!("{notice}");
+    }
+    let key = chosen.key;
     let options = RigOptions {
         link_silence: Duration::from_secs_f64(rig_config.link_silence_ms * 1e-3),
         handshake_timeout: Duration::from_secs_f64(rig_config.handshake_timeout_s),

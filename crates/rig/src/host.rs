@@ -506,9 +506,15 @@ fn refused(fault: &Fault) -> RigError {
                 host: PROTOCOL_VERSION,
             }
         }
-        FaultCode::KEY_REQUIRED => ": the rig requires a shared key; configure its key file",
+        FaultCode::KEY_REQUIRED => {
+            ": the rig requires a shared key and this host has none; pair them: copy the rig's \
+             key file to this host (~/.config/stewart/rig.key, or --key FILE) and drop \
+             --insecure"
+        }
         FaultCode::KEY_MISMATCH => {
-            ": the rig's key differs from this host's (or one side has none)"
+            ": the rig's key differs from this host's (or the rig runs without a key); pair \
+             them: copy the rig's key file to this host (~/.config/stewart/rig.key, or --key \
+             FILE), or run `stewart key new` on one side and copy its file to the other"
         }
         FaultCode::BUSY => ": another host holds the rig's session",
         _ => "",
