@@ -91,6 +91,9 @@ pub struct EmulateArgs {
     /// networks only; the host needs `rig --insecure` too.
     #[arg(long)]
     pub insecure: bool,
+    /// Stay at normal priority: do not ask for SCHED_FIFO and locked memory.
+    #[arg(long)]
+    pub no_realtime: bool,
     /// Brake when no valid command arrived for this long, ms (rig.watchdog_ms, default 20).
     #[arg(long, value_name = "MS")]
     pub watchdog_ms: Option<f64>,
@@ -129,6 +132,7 @@ impl Default for EmulateArgs {
             payload: PayloadMode::TareFirst,
             key: None,
             insecure: false,
+            no_realtime: false,
             watchdog_ms: None,
             drop: 0.0,
             corrupt: 0.0,
@@ -328,6 +332,14 @@ pub fn emulate(args: &EmulateArgs, stop: &AtomicBool) -> Result<EmulatorStats, C
 
 /// `stewart emulate` from the command line; returns the exit code.
 pub fn main(args: &EmulateArgs, stop: &AtomicBool) -> u8 {
+    if !args.no_realtime {
+        let granted = rig::realtime::request();
+        match granted.refusal_line() {
+            Some(line) => eprintln!("emulator: warning: {line}"),
+            None if !args.quiet => eprintln!("emulator: {}", granted.granted_line()),
+            None => {}
+        }
+    }
     match emulate(args, stop) {
         Ok(stats) => {
             if !args.quiet {

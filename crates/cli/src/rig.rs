@@ -57,6 +57,9 @@ pub struct LinkArgs {
     /// must run without a key too (`emulate --insecure`). For isolated networks only.
     #[arg(long)]
     pub insecure: bool,
+    /// Stay at normal priority: do not ask for SCHED_FIFO and locked memory.
+    #[arg(long)]
+    pub no_realtime: bool,
     /// Fault when no valid sensor frame arrived for this long, ms (rig.link_silence_ms,
     /// default 50).
     #[arg(long, value_name = "MS")]
@@ -451,6 +454,17 @@ pub fn rig_with_abort(
 /// `stewart rig` from the command line: runs, prints, writes the report; returns the exit
 /// code (0 done, 1 failed, 2 refused before anything moved, 3 fault, 130 interrupted).
 pub fn main(args: &RigArgs, interrupt: &AtomicBool, abort: &AtomicBool) -> u8 {
+    if let Ok((_, common)) = resolve(args) {
+        if !common.link.no_realtime {
+            // On this (the loop's) thread, before the log writer and the heartbeat start.
+            let granted = rig::realtime::request();
+            match granted.refusal_line() {
+                Some(line) => eprintln!("warning: {line}"),
+                None if !common.run.shared.quiet => eprintln!("{}", granted.granted_line()),
+                None => {}
+            }
+        }
+    }
     match rig_with_abort(args, interrupt, abort) {
         Ok(outcome) => outcome::finish(args, &outcome),
         Err(e) => {

@@ -30,6 +30,8 @@ pub mod key;
 #[cfg(feature = "std")]
 pub mod link;
 #[cfg(feature = "std")]
+pub mod realtime;
+#[cfg(feature = "std")]
 mod stats;
 #[cfg(feature = "std")]
 pub mod transport;
