@@ -28,7 +28,9 @@ use std::time::Duration;
 
 use anyhow::anyhow;
 use clap::{Args, ValueEnum};
-use rig::emulator::{Emulator, EmulatorConfig, EmulatorStats, FaultInjection, SessionStart};
+use rig::emulator::{
+    Emulator, EmulatorConfig, EmulatorEvent, EmulatorStats, FaultInjection, SessionStart,
+};
 use rig::wire::{Limits, SensorLayout, LEG_COUNT};
 use rig::RigError;
 
@@ -191,11 +193,29 @@ pub fn prepare(args: &EmulateArgs) -> Result<Prepared, CommandError> {
     let loaded = scenario.loaded.clone();
     let config = &loaded.config;
     let mut rig_config = config.rig.clone();
+    // Flags are checked as flags: a bad value is blamed on the flag, not on a line of the
+    // embedded configuration (regression: `--watchdog-ms 0` was reported as `rig.watchdog_ms`
+    // of the default file).
+    let mut flag_issues = Vec::new();
     if let Some(ms) = args.watchdog_ms {
+        if !(ms.is_finite() && (1.0..=10_000.0).contains(&ms)) {
+            flag_issues.push(crate::rig::flag_issue(
+                "--watchdog-ms",
+                format!("must be between 1 and 10000 ms, got {ms}"),
+            ));
+        }
         rig_config.watchdog_ms = ms;
     }
     if let Some(listen) = &args.listen {
+        if let Err(e) = listen.parse::<rig::transport::Address>() {
+            flag_issues.push(crate::rig::flag_issue("--listen", e.to_string()));
+        }
         rig_config.address = listen.clone();
+    }
+    if !flag_issues.is_empty() {
+        return Err(CommandError::Config(ConfigError {
+            issues: flag_issues,
+        }));
     }
     let problems = rig_config.problems();
     if !problems.is_empty() {
@@ -290,12 +310,58 @@ pub fn prepare(args: &EmulateArgs) -> Result<Prepared, CommandError> {
             }
         },
     ));
+    // A fault is printed even with --quiet (it is an error of the session); a timeout is news.
+    emulator.set_event_hook(Box::new(move |event: &EmulatorEvent| match event {
+        EmulatorEvent::Fault { .. } => eprintln!("{}", event_line(event)),
+        EmulatorEvent::SessionTimedOut { .. } if !quiet => println!("{}", event_line(event)),
+        EmulatorEvent::SessionTimedOut { .. } => {}
+    }));
     Ok(Prepared {
         emulator,
         address,
         loaded,
         sessions,
     })
+}
+
+/// One line for an emulator event: the session, its host, and the cause.
+pub fn event_line(event: &EmulatorEvent) -> String {
+    match event {
+        EmulatorEvent::Fault {
+            session,
+            peer,
+            fault,
+        } => {
+            let cause = match fault.code {
+                rig::wire::FaultCode::WATCHDOG => format!(
+                    "no valid command for {:.1} ms (the watchdog)",
+                    fault.value * 1e3
+                ),
+                _ => {
+                    let leg = if fault.leg == rig::wire::NO_LEG {
+                        String::new()
+                    } else {
+                        format!(" on leg {}", fault.leg)
+                    };
+                    format!("{}{leg}, value {}", fault.code.name(), fault.value)
+                }
+            };
+            format!(
+                "session {session} from {peer}: fault: {cause}, after command {}; braked until \
+                 the host opens a new session",
+                fault.command_sequence
+            )
+        }
+        EmulatorEvent::SessionTimedOut {
+            session,
+            peer,
+            silent_for,
+        } => format!(
+            "session {session} from {peer}: ended, the host was silent for {:.2} s (session \
+             timeout); the next Hello from anyone opens a new one",
+            silent_for.as_secs_f64()
+        ),
+    }
 }
 
 /// What an operator does between sessions: the payload goes on (or off) the braked platform,
@@ -465,11 +531,78 @@ mod tests {
         assert_eq!(l.force_min_n, -s.world.actuator.max_force_n);
     }
 
+    /// Regression: the emulator printed nothing when its watchdog tripped or a session timed
+    /// out.
+    #[test]
+    fn watchdog_trips_and_timeouts_are_one_line_each_naming_the_session_and_cause() {
+        let peer = rig::transport::Peer::Udp("127.0.0.1:5000".parse().unwrap());
+        let trip = event_line(&EmulatorEvent::Fault {
+            session: 3,
+            peer,
+            fault: rig::wire::Fault {
+                code: rig::wire::FaultCode::WATCHDOG,
+                leg: rig::wire::NO_LEG,
+                value: 0.0213,
+                command_sequence: 1234,
+            },
+        });
+        assert_eq!(
+            trip,
+            "session 3 from udp://127.0.0.1:5000: fault: no valid command for 21.3 ms (the \
+             watchdog), after command 1234; braked until the host opens a new session"
+        );
+        let timeout = event_line(&EmulatorEvent::SessionTimedOut {
+            session: 3,
+            peer,
+            silent_for: Duration::from_millis(1004),
+        });
+        assert!(timeout.starts_with("session 3 from udp://127.0.0.1:5000: ended"));
+        assert!(timeout.contains("silent for 1.00 s (session timeout)"));
+        assert!(!trip.contains('\n') && !timeout.contains('\n'));
+    }
+
+    /// Regression: `emulate --watchdog-ms 0` was blamed on `rig.watchdog_ms` at a line of the
+    /// embedded configuration.
+    #[test]
+    fn a_bad_watchdog_flag_is_blamed_on_the_flag() {
+        for (args, flag) in [
+            (
+                EmulateArgs {
+                    watchdog_ms: Some(0.0),
+                    listen: Some("udp://127.0.0.1:0".into()),
+                    quiet: true,
+                    ..EmulateArgs::default()
+                },
+                "--watchdog-ms",
+            ),
+            (
+                EmulateArgs {
+                    listen: Some("tcp://x:1".into()),
+                    quiet: true,
+                    ..EmulateArgs::default()
+                },
+                "--listen",
+            ),
+        ] {
+            let e = prepare(&args).err().expect("refused");
+            let message = e.to_string();
+            assert!(message.contains(flag), "{message}");
+            assert!(
+                message.contains(measure::load::COMMAND_LINE_NAME),
+                "{message}"
+            );
+            assert!(!message.contains("rig.watchdog_ms"), "{message}");
+            assert_eq!(e.exit_code(), 2);
+        }
+    }
+
     #[test]
     fn bad_fault_injection_is_refused_before_binding() {
         let args = EmulateArgs {
             listen: Some("udp://127.0.0.1:0".into()),
             drop: 1.5,
+            // Keyless, so that the test never writes the user's key file.
+            insecure: true,
             quiet: true,
             ..EmulateArgs::default()
         };

@@ -267,7 +267,8 @@ pub fn link_settings(
     })
 }
 
-fn flag_issue(flag: &str, problem: String) -> ConfigIssue {
+/// A problem with a command-line flag, blamed on the flag (not on a line of a file).
+pub(crate) fn flag_issue(flag: &str, problem: String) -> ConfigIssue {
     ConfigIssue {
         file: measure::load::COMMAND_LINE_NAME.into(),
         line: None,
@@ -427,7 +428,7 @@ pub fn rig_with_abort(
     }
     let outcome = result.map_err(CommandError::Run)?;
     finished.map_err(CommandError::Run)?;
-    let info = rig_link.lock().rig.info().clone();
+    let (info, link_total) = rig_link.close();
     let report = outcome.report(
         config,
         RunInfo {
@@ -448,6 +449,7 @@ pub fn rig_with_abort(
         link: link_reports,
         failure,
         rig: info,
+        link_total,
     })
 }
 

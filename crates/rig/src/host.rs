@@ -113,6 +113,8 @@ pub struct RigBackend {
     last_sequence: u64,
     last_valid_at: Instant,
     next_command_sequence: u64,
+    /// The closing safe stop was sent ([`RigBackend::close`]): dropping sends no other.
+    closed: bool,
     /// One byte more than a frame may have, so that an oversized datagram shows as such.
     buf: [u8; MAX_FRAME_LEN + 1],
 }
@@ -167,6 +169,7 @@ impl RigBackend {
             last_sequence: 0,
             last_valid_at: Instant::now(),
             next_command_sequence: 1,
+            closed: false,
             buf,
         })
     }
@@ -472,10 +475,24 @@ impl Backend for RigBackend {
     }
 }
 
+impl RigBackend {
+    /// Ends the link: sends the closing safe stop (counted in [`stats`](Self::stats), unlike
+    /// the one a drop sends) and returns the counters of the whole link.
+    pub fn close(&mut self) -> LinkStats {
+        if !self.closed {
+            let _ = self.safe_stop();
+            self.closed = true;
+        }
+        self.stats
+    }
+}
+
 impl Drop for RigBackend {
     /// Leaves the rig braked whatever happened to the caller.
     fn drop(&mut self) {
-        let _ = self.safe_stop();
+        if !self.closed {
+            let _ = self.safe_stop();
+        }
     }
 }
 

@@ -164,6 +164,16 @@ impl Link {
         self.held.lock().unwrap_or_else(|e| e.into_inner())
     }
 
+    /// Stops the heartbeat, sends the closing safe stop, and returns the rig's description and
+    /// the counters of the whole link: every command sent, heartbeats and the closing stop
+    /// included, so that they can be compared with what the rig counted.
+    pub fn close(mut self) -> (crate::host::RigInfo, crate::LinkStats) {
+        self.stop_heartbeat();
+        let mut held = self.lock();
+        let stats = held.rig.close();
+        (held.rig.info().clone(), stats)
+    }
+
     fn stop_heartbeat(&mut self) {
         self.stop.store(true, Ordering::SeqCst);
         if let Some(thread) = self.thread.take() {

@@ -39,13 +39,15 @@ impl Granted {
                 "memory not locked ({why}; `ulimit -l unlimited` or CAP_IPC_LOCK)"
             ));
         }
-        (!refused.is_empty()).then(|| {
-            format!(
-                "{}: normal priority, so a busy machine may pause the loop past the rig's \
-                 watchdog",
-                refused.join("; ")
-            )
-        })
+        if refused.is_empty() {
+            return None;
+        }
+        let consequence = if self.fifo.is_err() {
+            "a busy machine may pause the loop past the rig's watchdog"
+        } else {
+            "a page fault may still pause the loop"
+        };
+        Some(format!("{}: {consequence}", refused.join("; ")))
     }
 
     /// One line saying what was granted.
@@ -93,7 +95,25 @@ fn set_fifo(priority: i32) -> Result<i32, String> {
     }
 }
 
-/// Locks memory only when the limit cannot be reached later: with `MCL_FUTURE` under a finite
+/// The capability that lifts the locked-memory limit (linux/capability.h).
+#[cfg(target_os = "linux")]
+const CAP_IPC_LOCK: u32 = 14;
+
+/// Whether this process holds the capability `bit` in its effective set (`CapEff` of
+/// /proc/self/status, a hex mask).
+#[cfg(target_os = "linux")]
+fn has_capability(bit: u32) -> bool {
+    let Ok(status) = std::fs::read_to_string("/proc/self/status") else {
+        return false;
+    };
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("CapEff:"))
+        .and_then(|hex| u64::from_str_radix(hex.trim(), 16).ok())
+        .is_some_and(|mask| mask & (1 << bit) != 0)
+}
+
+/// Locks memory only when the limit cannot be reached later (no limit, or CAP_IPC_LOCK): with `MCL_FUTURE` under a finite
 /// `RLIMIT_MEMLOCK`, an allocation past the limit would fail and abort the process mid-run.
 #[cfg(target_os = "linux")]
 fn lock_memory() -> Result<(), String> {
@@ -105,7 +125,7 @@ fn lock_memory() -> Result<(), String> {
     if unsafe { libc::getrlimit(libc::RLIMIT_MEMLOCK, &mut limit) } != 0 {
         return Err(std::io::Error::last_os_error().to_string());
     }
-    if limit.rlim_cur != libc::RLIM_INFINITY {
+    if limit.rlim_cur != libc::RLIM_INFINITY && !has_capability(CAP_IPC_LOCK) {
         return Err(format!(
             "the locked-memory limit is {} kB",
             limit.rlim_cur / 1024
@@ -137,8 +157,16 @@ mod tests {
         };
         let line = none.refusal_line().unwrap();
         assert!(!line.contains('\n'));
+        assert!(line.contains("past the rig's watchdog"), "{line}");
+        let unlocked = Granted {
+            fifo: Ok(FIFO_PRIORITY),
+            locked: Err("the locked-memory limit is 8192 kB".into()),
+        };
         for fix in ["CAP_SYS_NICE", "ulimit -r", "chrt -f", "ulimit -l"] {
             assert!(line.contains(fix), "{line}");
         }
+        let line = unlocked.refusal_line().unwrap();
+        assert!(!line.contains("real-time priority"), "{line}");
+        assert!(line.contains("ulimit -l"), "{line}");
     }
 }

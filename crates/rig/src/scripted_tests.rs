@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use control::io::{Backend, Status};
 
 use crate::codec::{self, Auth, MAX_FRAME_LEN};
-use crate::emulator::{Emulator, EmulatorConfig};
+use crate::emulator::{Emulator, EmulatorConfig, EmulatorEvent};
 use crate::loopback_tests::{limits, FakeBackend};
 use crate::transport::{Peer, Recv, Transport};
 use crate::wire::*;
@@ -210,23 +210,31 @@ fn a_stalled_host_with_nothing_waiting_reports_link_silence() {
 /// An emulator with `key` on a scripted link, running on its own thread.
 struct KeyedRig {
     link: Scripted,
+    events: Arc<Mutex<Vec<EmulatorEvent>>>,
     stop: Arc<AtomicBool>,
     thread: Option<std::thread::JoinHandle<Emulator<FakeBackend>>>,
 }
 
 impl KeyedRig {
     fn start(key: &Key) -> Self {
+        // Long: the test is about who may command, not about time.
+        Self::start_timed(key, Duration::from_secs(5), Duration::from_secs(5))
+    }
+
+    fn start_timed(key: &Key, watchdog: Duration, session_timeout: Duration) -> Self {
         let link = Scripted::default();
         let config = EmulatorConfig {
             key: Some(key.clone()),
-            // Long: this test is about who may command, not about time.
-            watchdog: Duration::from_secs(5),
-            session_timeout: Duration::from_secs(5),
+            watchdog,
+            session_timeout,
             seed: 11,
             ..EmulatorConfig::new(limits())
         };
         let mut emulator =
             Emulator::new(FakeBackend::default(), Box::new(link.clone()), config).unwrap();
+        let events = Arc::new(Mutex::new(Vec::new()));
+        let seen = Arc::clone(&events);
+        emulator.set_event_hook(Box::new(move |e| seen.lock().unwrap().push(*e)));
         let stop = Arc::new(AtomicBool::new(false));
         let flag = Arc::clone(&stop);
         let thread = std::thread::spawn(move || {
@@ -235,6 +243,7 @@ impl KeyedRig {
         });
         Self {
             link,
+            events,
             stop,
             thread: Some(thread),
         }
@@ -385,4 +394,60 @@ fn forged_and_replayed_commands_from_a_spoofed_host_are_rejected() {
         emulator.last_command().is_none(),
         "session 2 got no command"
     );
+}
+
+/// Regression: the emulator said nothing when its watchdog tripped or a session timed out.
+/// Each is an event (which `stewart emulate` prints as one line) naming the session and cause.
+#[test]
+fn a_watchdog_trip_and_a_session_timeout_are_told() {
+    let key = Key::from_hex(&"5a".repeat(32)).unwrap();
+    let rig = KeyedRig::start_timed(&key, Duration::from_millis(30), Duration::from_millis(300));
+    rig.link.arrive(hello(1, &key), host_peer());
+    let ack = rig.wait_for(
+        Some(&Auth {
+            key: key.bytes(),
+            session_id: 0,
+        }),
+        |m| match m {
+            Message::HelloAck(a) => Some(a),
+            _ => None,
+        },
+    );
+    let auth = Auth {
+        key: key.bytes(),
+        session_id: ack.session_id,
+    };
+    rig.link
+        .arrive(encode(&command(1, 10.0), Some(&auth)), host_peer());
+    // Then the host goes quiet: the watchdog trips, later the session times out.
+    let until = Instant::now() + Duration::from_secs(5);
+    while rig.events.lock().unwrap().len() < 2 {
+        assert!(Instant::now() < until, "{:?}", rig.events.lock().unwrap());
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let events = rig.events.lock().unwrap().clone();
+    rig.stop();
+    match events[0] {
+        EmulatorEvent::Fault {
+            session,
+            peer,
+            fault,
+        } => {
+            assert_eq!((session, peer), (1, host_peer()));
+            assert_eq!(fault.code, FaultCode::WATCHDOG);
+            assert_eq!(fault.command_sequence, 1);
+        }
+        other => panic!("{other:?}"),
+    }
+    match events[1] {
+        EmulatorEvent::SessionTimedOut {
+            session,
+            peer,
+            silent_for,
+        } => {
+            assert_eq!((session, peer), (1, host_peer()));
+            assert!(silent_for > Duration::from_millis(300));
+        }
+        other => panic!("{other:?}"),
+    }
 }

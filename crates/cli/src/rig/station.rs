@@ -84,13 +84,14 @@ impl Station for RigStation<'_> {
         };
         record(observer, 0.0, &msg)?;
         let mut timing = LoopTiming::default();
-        let (result, failure, last_time_s) = {
+        let (result, failure, last_time_s, lateness) = {
             let mut monitored = Monitored::new(self.link, &mut timing).abort(self.abort);
             let result = job.run(&mut monitored, observer);
             (
                 result,
                 monitored.failure().cloned(),
                 monitored.last_time_s(),
+                monitored.lateness(),
             )
         };
         let (counters, period_s) = {
@@ -118,6 +119,15 @@ impl Station for RigStation<'_> {
         };
         if outcome.end != End::Completed {
             self.link.lock().safe_stop()?;
+        }
+        let mut outcome = outcome;
+        if let End::Fault(cause) = &outcome.end {
+            // A supervisor fault (a sensor gap, most often) after the host itself stalled past
+            // the rig's watchdog says so, with the fix; a rig WATCHDOG fault says it already.
+            if lateness.times > 0 && !cause.contains("this host was late") {
+                let watchdog = self.link.lock().rig.info().watchdog;
+                outcome.end = End::Fault(format!("{cause}; {}", lateness.explain(watchdog)));
+            }
         }
         let time_s = last_time_s.unwrap_or(0.0);
         if let (Some(f), End::Fault(cause)) = (&failure, &outcome.end) {
