@@ -273,7 +273,20 @@ impl RigBackend {
         });
         match codec::decode(frame, auth.as_ref()) {
             Err(e) => {
-                self.stats.count_codec_error(&e);
+                // A HelloAck is tagged for session 0 (protocol section 3): a repeat of this
+                // session's is a duplicate, not an authentication failure.
+                let handshake = self.options.key.as_ref().map(|key| Auth {
+                    key: key.bytes(),
+                    session_id: 0,
+                });
+                match codec::decode(frame, handshake.as_ref()) {
+                    Ok(Message::HelloAck(ack))
+                        if handshake.is_some() && ack.session_id == self.info.session_id =>
+                    {
+                        self.stats.duplicate += 1
+                    }
+                    _ => self.stats.count_codec_error(&e),
+                }
                 Class::Rejected
             }
             Ok(Message::Sensor(sensor)) => {
@@ -290,6 +303,13 @@ impl RigBackend {
                 }
             }
             Ok(Message::Fault(fault)) => Class::Fault(fault),
+            // The rig answers every repeat of the session's Hello with the same HelloAck; one
+            // that arrives after the handshake (the host had asked again while the first answer
+            // was on its way) is a duplicate, not a stray.
+            Ok(Message::HelloAck(ack)) if ack.session_id == self.info.session_id => {
+                self.stats.duplicate += 1;
+                Class::Rejected
+            }
             Ok(_) => {
                 self.stats.unexpected += 1;
                 Class::Rejected

@@ -124,8 +124,13 @@ fn sensor(sequence: u64, status: u32) -> Message {
 /// A scripted rig that answers every `Hello` with a `HelloAck` (no key), and a host connected
 /// to it.
 fn connected_host() -> (Scripted, RigBackend) {
+    connected_host_answering(1)
+}
+
+/// As [`connected_host`], the rig answering each `Hello` `answers` times.
+fn connected_host_answering(answers: usize) -> (Scripted, RigBackend) {
     let link = Scripted::default();
-    link.script().responder = Some(Box::new(|frame| {
+    link.script().responder = Some(Box::new(move |frame| {
         let Ok(Message::Hello(hello)) = codec::decode(frame, None) else {
             return Vec::new();
         };
@@ -142,7 +147,7 @@ fn connected_host() -> (Scripted, RigBackend) {
             watchdog_ns: 20_000_000,
             limits: limits(),
         };
-        vec![encode(&Message::HelloAck(ack), None)]
+        vec![encode(&Message::HelloAck(ack), None); answers]
     }));
     let host = RigBackend::connect_over(
         Box::new(link.clone()),
@@ -194,6 +199,18 @@ fn a_stalled_host_reports_the_rigs_waiting_fault_not_silence() {
         codec::decode(&last, None),
         Ok(Message::Command(c)) if !c.enable
     ));
+}
+
+/// Regression (a_session_runs_over_a_serial_line, flaky under load): a host that repeated its
+/// Hello while the rig's answer was on its way got the same HelloAck twice, and counted the
+/// second, after the handshake, as an unexpected frame. It is a duplicate.
+#[test]
+fn a_repeated_hello_ack_after_the_handshake_is_a_duplicate() {
+    let (link, mut host) = connected_host_answering(2);
+    link.arrive(encode(&sensor(1, 0), None), rig_peer());
+    assert_eq!(host.read().unwrap().sequence, 1);
+    let stats = *host.stats();
+    assert_eq!((stats.unexpected, stats.duplicate), (0, 1), "{stats}");
 }
 
 /// Silence is still silence: with nothing waiting after the stall, the read fails by name.
