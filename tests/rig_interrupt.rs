@@ -65,3 +65,79 @@ fn ctrl_c_parks_the_platform_and_finishes_the_log() {
         .iter()
         .any(|m| m["interrupted"] == true));
 }
+
+/// Regression: a second Ctrl-C exited after 200 ms with `enable 1` and ~780 N per leg as the
+/// last command on the wire and no log footer; only the rig's watchdog braked. It must brake
+/// at once (no park ramp), finish the log, and end as interrupted.
+#[test]
+fn a_second_ctrl_c_brakes_at_once_and_finishes_the_log() {
+    let _lock = real_time();
+    // A long park, so that a run that still parks after the second Ctrl-C shows.
+    let scratch = Scratch::new(&quick().replace("park_s = 1.0", "park_s = 4.0"));
+    let emulator = start(&emulate_args(&scratch));
+    let log = scratch.path("rig.mcap");
+    let out = scratch.path("tare.json");
+    let args = rig_args(&[
+        "tare",
+        "--out",
+        out.to_str().unwrap(),
+        "--config",
+        scratch.config_str(),
+        "--connect",
+        emulator.address(),
+        "--log",
+        log.to_str().unwrap(),
+        "--quiet",
+    ]);
+    static INTERRUPT: AtomicBool = AtomicBool::new(false);
+    static ABORT: AtomicBool = AtomicBool::new(false);
+    let host = std::thread::spawn({
+        let args = args.clone();
+        move || stewart_cli::rig::rig_with_abort(&args, &INTERRUPT, &ABORT)
+    });
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while emulator.sessions().is_empty() {
+        assert!(Instant::now() < deadline, "no session");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    std::thread::sleep(Duration::from_millis(3000));
+    INTERRUPT.store(true, Ordering::SeqCst);
+    // Mid-park: the second Ctrl-C.
+    std::thread::sleep(Duration::from_millis(300));
+    let aborted_at = Instant::now();
+    ABORT.store(true, Ordering::SeqCst);
+    let outcome = host.join().unwrap().unwrap_or_else(|e| panic!("rig: {e}"));
+    let took = aborted_at.elapsed();
+    let stopped = emulator.stop().unwrap();
+
+    assert_eq!(outcome.end, End::Interrupted);
+    assert_eq!(
+        stewart_cli::rig::finish(&args, &outcome),
+        stewart_cli::EXIT_INTERRUPTED
+    );
+    // The 4 s park was not run out.
+    assert!(
+        took < Duration::from_secs(3),
+        "{took:?} after the second Ctrl-C"
+    );
+    assert!(!out.exists(), "an interrupted tare is not saved");
+    // The rig's watchdog had nothing to do: the host braked it.
+    assert!(stopped.faults().is_empty(), "{:?}", stopped.faults());
+    let last = stopped.last_command().expect("commanded");
+    assert!(!last.enable, "{last:?}");
+    assert_eq!(last.leg_forces_n, [0.0; 6]);
+    // The log is finished (read_log checks its summary) and says why it ended.
+    let messages = read_log(&log);
+    let ends: Vec<_> = on(&messages, "/rig/link")
+        .into_iter()
+        .filter(|m| m["event"] == "end")
+        .collect();
+    assert_eq!(ends.len(), 1, "{ends:?}");
+    assert!(
+        ends[0]["fault"]
+            .as_str()
+            .is_some_and(|f| f.contains("second Ctrl-C")),
+        "{:?}",
+        ends[0]
+    );
+}

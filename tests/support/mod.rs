@@ -57,7 +57,13 @@ park_s = 1.0
 [rig]
 link_silence_ms = 1000.0
 watchdog_ms = 1000.0
+key_file = "rig.key"
 "#;
+
+/// The shared key every [`Scratch`] directory holds as `rig.key` (the rig scenarios name it in
+/// `rig.key_file`), so that the rig tests run authenticated, as a rig does by default, without
+/// touching the user's own key file.
+pub const TEST_KEY_HEX: &str = "00112233445566778899aabbccddeeff0123456789abcdef0123456789abcdef";
 
 /// As [`RIG_SHORT`] with 4 s excitations: for tests about the link, not the estimate.
 pub fn quick() -> String {
@@ -118,6 +124,7 @@ impl Scratch {
         let dir = tempfile::tempdir().unwrap();
         let config = dir.path().join("scenario.toml");
         std::fs::write(&config, scenario).unwrap();
+        std::fs::write(dir.path().join("rig.key"), format!("{TEST_KEY_HEX}\n")).unwrap();
         Self { dir, config }
     }
 

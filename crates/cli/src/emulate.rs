@@ -28,9 +28,11 @@ use std::time::Duration;
 
 use anyhow::anyhow;
 use clap::{Args, ValueEnum};
-use rig::emulator::{Emulator, EmulatorConfig, EmulatorStats, FaultInjection, SessionStart};
+use rig::emulator::{
+    Emulator, EmulatorConfig, EmulatorEvent, EmulatorStats, FaultInjection, SessionStart,
+};
 use rig::wire::{Limits, SensorLayout, LEG_COUNT};
-use rig::{Key, RigError};
+use rig::RigError;
 
 use measure::load::{ConfigError, LoadedConfig};
 use measure::Config;
@@ -81,9 +83,19 @@ pub struct EmulateArgs {
     /// When the payload is on the fixture (see `stewart emulate --help`).
     #[arg(long, value_enum, default_value_t = PayloadMode::TareFirst)]
     pub payload: PayloadMode,
-    /// Shared-key file (hex), instead of rig.key_file.
+    /// Shared-key file (hex), instead of rig.key_file and the user's key file
+    /// ($XDG_CONFIG_HOME/stewart/rig.key, else ~/.config/stewart/rig.key, written when
+    /// missing).
     #[arg(long, value_name = "FILE")]
     pub key: Option<PathBuf>,
+    /// No shared key: accept untagged frames, so that anyone who can reach the port can open
+    /// a session and anyone who can forge the host's address can command. For isolated
+    /// networks only; the host needs `rig --insecure` too.
+    #[arg(long)]
+    pub insecure: bool,
+    /// Stay at normal priority: do not ask for SCHED_FIFO and locked memory.
+    #[arg(long)]
+    pub no_realtime: bool,
     /// Brake when no valid command arrived for this long, ms (rig.watchdog_ms, default 20).
     #[arg(long, value_name = "MS")]
     pub watchdog_ms: Option<f64>,
@@ -121,6 +133,8 @@ impl Default for EmulateArgs {
             noise: None,
             payload: PayloadMode::TareFirst,
             key: None,
+            insecure: false,
+            no_realtime: false,
             watchdog_ms: None,
             drop: 0.0,
             corrupt: 0.0,
@@ -179,11 +193,29 @@ pub fn prepare(args: &EmulateArgs) -> Result<Prepared, CommandError> {
     let loaded = scenario.loaded.clone();
     let config = &loaded.config;
     let mut rig_config = config.rig.clone();
+    // Flags are checked as flags: a bad value is blamed on the flag, not on a line of the
+    // embedded configuration (regression: `--watchdog-ms 0` was reported as `rig.watchdog_ms`
+    // of the default file).
+    let mut flag_issues = Vec::new();
     if let Some(ms) = args.watchdog_ms {
+        if !(ms.is_finite() && (1.0..=10_000.0).contains(&ms)) {
+            flag_issues.push(crate::rig::flag_issue(
+                "--watchdog-ms",
+                format!("must be between 1 and 10000 ms, got {ms}"),
+            ));
+        }
         rig_config.watchdog_ms = ms;
     }
     if let Some(listen) = &args.listen {
+        if let Err(e) = listen.parse::<rig::transport::Address>() {
+            flag_issues.push(crate::rig::flag_issue("--listen", e.to_string()));
+        }
         rig_config.address = listen.clone();
+    }
+    if !flag_issues.is_empty() {
+        return Err(CommandError::Config(ConfigError {
+            issues: flag_issues,
+        }));
     }
     let problems = rig_config.problems();
     if !problems.is_empty() {
@@ -200,14 +232,18 @@ pub fn prepare(args: &EmulateArgs) -> Result<Prepared, CommandError> {
     let simulator = scenario.simulator(geometry, args.payload.loaded_in_session(1))?;
     let payload = scenario.world.payload.to_sim();
 
-    let key_path = args
-        .key
-        .clone()
-        .or_else(|| rig_config.key_path(&loaded.directory()));
-    let key = match key_path {
-        Some(path) => Some(Key::from_file(&path).map_err(|e| refused(format!("shared key: {e}")))?),
-        None => None,
-    };
+    let chosen = crate::key::choose(
+        args.key.as_deref(),
+        rig_config.key_path(&loaded.directory()),
+        crate::key::user_key_path,
+        args.insecure,
+        crate::key::Side::Rig,
+    )?;
+    // Even with --quiet: a key file written, or no key at all, is for the user to know.
+    if let Some(notice) = &chosen.notice {
+        eprintln!("emulator: {notice}");
+    }
+    let key = chosen.key;
     let faults = FaultInjection {
         drop_fraction: args.drop,
         corrupt_fraction: args.corrupt,
@@ -274,12 +310,58 @@ pub fn prepare(args: &EmulateArgs) -> Result<Prepared, CommandError> {
             }
         },
     ));
+    // A fault is printed even with --quiet (it is an error of the session); a timeout is news.
+    emulator.set_event_hook(Box::new(move |event: &EmulatorEvent| match event {
+        EmulatorEvent::Fault { .. } => eprintln!("{}", event_line(event)),
+        EmulatorEvent::SessionTimedOut { .. } if !quiet => println!("{}", event_line(event)),
+        EmulatorEvent::SessionTimedOut { .. } => {}
+    }));
     Ok(Prepared {
         emulator,
         address,
         loaded,
         sessions,
     })
+}
+
+/// One line for an emulator event: the session, its host, and the cause.
+pub fn event_line(event: &EmulatorEvent) -> String {
+    match event {
+        EmulatorEvent::Fault {
+            session,
+            peer,
+            fault,
+        } => {
+            let cause = match fault.code {
+                rig::wire::FaultCode::WATCHDOG => format!(
+                    "no valid command for {:.1} ms (the watchdog)",
+                    fault.value * 1e3
+                ),
+                _ => {
+                    let leg = if fault.leg == rig::wire::NO_LEG {
+                        String::new()
+                    } else {
+                        format!(" on leg {}", fault.leg)
+                    };
+                    format!("{}{leg}, value {}", fault.code.name(), fault.value)
+                }
+            };
+            format!(
+                "session {session} from {peer}: fault: {cause}, after command {}; braked until \
+                 the host opens a new session",
+                fault.command_sequence
+            )
+        }
+        EmulatorEvent::SessionTimedOut {
+            session,
+            peer,
+            silent_for,
+        } => format!(
+            "session {session} from {peer}: ended, the host was silent for {:.2} s (session \
+             timeout); the next Hello from anyone opens a new one",
+            silent_for.as_secs_f64()
+        ),
+    }
 }
 
 /// What an operator does between sessions: the payload goes on (or off) the braked platform,
@@ -316,6 +398,14 @@ pub fn emulate(args: &EmulateArgs, stop: &AtomicBool) -> Result<EmulatorStats, C
 
 /// `stewart emulate` from the command line; returns the exit code.
 pub fn main(args: &EmulateArgs, stop: &AtomicBool) -> u8 {
+    if !args.no_realtime {
+        let granted = rig::realtime::request();
+        match granted.refusal_line() {
+            Some(line) => eprintln!("emulator: warning: {line}"),
+            None if !args.quiet => eprintln!("emulator: {}", granted.granted_line()),
+            None => {}
+        }
+    }
     match emulate(args, stop) {
         Ok(stats) => {
             if !args.quiet {
@@ -441,11 +531,78 @@ mod tests {
         assert_eq!(l.force_min_n, -s.world.actuator.max_force_n);
     }
 
+    /// Regression: the emulator printed nothing when its watchdog tripped or a session timed
+    /// out.
+    #[test]
+    fn watchdog_trips_and_timeouts_are_one_line_each_naming_the_session_and_cause() {
+        let peer = rig::transport::Peer::Udp("127.0.0.1:5000".parse().unwrap());
+        let trip = event_line(&EmulatorEvent::Fault {
+            session: 3,
+            peer,
+            fault: rig::wire::Fault {
+                code: rig::wire::FaultCode::WATCHDOG,
+                leg: rig::wire::NO_LEG,
+                value: 0.0213,
+                command_sequence: 1234,
+            },
+        });
+        assert_eq!(
+            trip,
+            "session 3 from udp://127.0.0.1:5000: fault: no valid command for 21.3 ms (the \
+             watchdog), after command 1234; braked until the host opens a new session"
+        );
+        let timeout = event_line(&EmulatorEvent::SessionTimedOut {
+            session: 3,
+            peer,
+            silent_for: Duration::from_millis(1004),
+        });
+        assert!(timeout.starts_with("session 3 from udp://127.0.0.1:5000: ended"));
+        assert!(timeout.contains("silent for 1.00 s (session timeout)"));
+        assert!(!trip.contains('\n') && !timeout.contains('\n'));
+    }
+
+    /// Regression: `emulate --watchdog-ms 0` was blamed on `rig.watchdog_ms` at a line of the
+    /// embedded configuration.
+    #[test]
+    fn a_bad_watchdog_flag_is_blamed_on_the_flag() {
+        for (args, flag) in [
+            (
+                EmulateArgs {
+                    watchdog_ms: Some(0.0),
+                    listen: Some("udp://127.0.0.1:0".into()),
+                    quiet: true,
+                    ..EmulateArgs::default()
+                },
+                "--watchdog-ms",
+            ),
+            (
+                EmulateArgs {
+                    listen: Some("tcp://x:1".into()),
+                    quiet: true,
+                    ..EmulateArgs::default()
+                },
+                "--listen",
+            ),
+        ] {
+            let e = prepare(&args).err().expect("refused");
+            let message = e.to_string();
+            assert!(message.contains(flag), "{message}");
+            assert!(
+                message.contains(measure::load::COMMAND_LINE_NAME),
+                "{message}"
+            );
+            assert!(!message.contains("rig.watchdog_ms"), "{message}");
+            assert_eq!(e.exit_code(), 2);
+        }
+    }
+
     #[test]
     fn bad_fault_injection_is_refused_before_binding() {
         let args = EmulateArgs {
             listen: Some("udp://127.0.0.1:0".into()),
             drop: 1.5,
+            // Keyless, so that the test never writes the user's key file.
+            insecure: true,
             quiet: true,
             ..EmulateArgs::default()
         };

@@ -9,6 +9,7 @@ pub mod campaign;
 pub mod common;
 pub mod emulate;
 pub mod estimate;
+pub mod key;
 pub mod output;
 pub mod plot;
 pub mod progress;
@@ -21,8 +22,38 @@ use clap::{Parser, Subcommand};
 
 pub use common::{CommandError, EXIT_FAULT, EXIT_INTERRUPTED};
 
-/// Set by the Ctrl-C handler; the run loop parks the platform when it sees it.
+/// Set by the first Ctrl-C; the run loop parks the platform when it sees it.
 pub static INTERRUPT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Set by the second Ctrl-C of a command that drives hardware (`rig`): brakes at once (no park
+/// ramp), the log is finished, then the command exits.
+pub static ABORT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Ctrl-C presses so far.
+static PRESSES: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
+
+/// What one Ctrl-C does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CtrlC {
+    /// Park the platform (ramp home, brakes), finish the log.
+    Park,
+    /// Brake at once, finish the log, exit.
+    StopNow,
+    /// Exit at once (nothing that moves hardware is left to stop, or the operator insists).
+    Exit,
+}
+
+/// The `press`-th Ctrl-C (1-based) of a command; `drives_hardware`: it commands a rig, which
+/// must get a safe stop however the command ends. A simulation has nothing to stop, so its
+/// second press exits; a rig's second press brakes at once and finishes the log, and only a
+/// third exits without waiting (the rig's command watchdog then brakes it).
+pub fn on_ctrl_c(press: u32, drives_hardware: bool) -> CtrlC {
+    match press {
+        0 | 1 => CtrlC::Park,
+        2 if drives_hardware => CtrlC::StopNow,
+        _ => CtrlC::Exit,
+    }
+}
 
 /// Measure a vehicle's mass, centre of mass and inertia tensor on a Stewart platform.
 #[derive(Debug, Parser)]
@@ -43,6 +74,8 @@ pub enum Command {
     Rig(Box<rig::RigArgs>),
     /// Play the rig: the simulator behind the wire protocol in real time, for `stewart rig`.
     Emulate(emulate::EmulateArgs),
+    /// The shared key that authenticates `rig` and `emulate` to each other: `key new`.
+    Key(key::KeyArgs),
     /// Re-run the estimator on a log of `simulate` or `rig` (its settings, or others) and print
     /// the same table and report.
     Estimate(estimate::EstimateArgs),
@@ -56,6 +89,7 @@ pub enum Command {
 /// interrupted (parked).
 pub fn main_entry() -> std::process::ExitCode {
     use std::process::ExitCode;
+    use std::sync::atomic::Ordering;
 
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
@@ -71,18 +105,31 @@ pub fn main_entry() -> std::process::ExitCode {
             return ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2));
         }
     };
-    // A second Ctrl-C while parking exits at once (the log is lost up to its last chunk).
-    let _ = ctrlc::set_handler(|| {
-        if INTERRUPT.swap(true, std::sync::atomic::Ordering::SeqCst) {
-            std::process::exit(i32::from(EXIT_INTERRUPTED));
+    let drives_hardware = matches!(cli.command, Command::Rig(_));
+    let _ = ctrlc::set_handler(move || {
+        let press = PRESSES.fetch_add(1, Ordering::SeqCst) + 1;
+        match on_ctrl_c(press, drives_hardware) {
+            CtrlC::Park => {
+                INTERRUPT.store(true, Ordering::SeqCst);
+                eprintln!(
+                    "\ninterrupted: parking the platform and finishing the log (Ctrl-C again to \
+                     brake at once)"
+                );
+            }
+            CtrlC::StopNow => {
+                INTERRUPT.store(true, Ordering::SeqCst);
+                ABORT.store(true, Ordering::SeqCst);
+                eprintln!(
+                    "\nbraking now and finishing the log (Ctrl-C again to exit without waiting)"
+                );
+            }
+            CtrlC::Exit => std::process::exit(i32::from(EXIT_INTERRUPTED)),
         }
-        eprintln!(
-            "\ninterrupted: parking the platform and finishing the log (Ctrl-C again to abort)"
-        );
     });
     ExitCode::from(match cli.command {
-        Command::Rig(a) => rig::main(&a, &INTERRUPT),
+        Command::Rig(a) => rig::main(&a, &INTERRUPT, &ABORT),
         Command::Emulate(a) => emulate::main(&a, &INTERRUPT),
+        Command::Key(a) => key::main(&a),
         Command::Estimate(a) => match estimate::estimate(&a) {
             Ok(_) => 0,
             Err(e) => {
@@ -94,4 +141,20 @@ pub fn main_entry() -> std::process::ExitCode {
         Command::Simulate(a) if a.runs.is_some() => campaign::main(&a, &INTERRUPT),
         Command::Simulate(a) => simulate::main(&a, &INTERRUPT),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Regression: a second Ctrl-C on `rig` exited at once, leaving the last command on the
+    /// wire an enabled one and the log without its footer.
+    #[test]
+    fn a_second_ctrl_c_on_a_rig_brakes_and_only_a_third_exits() {
+        assert_eq!(on_ctrl_c(1, true), CtrlC::Park);
+        assert_eq!(on_ctrl_c(2, true), CtrlC::StopNow);
+        assert_eq!(on_ctrl_c(3, true), CtrlC::Exit);
+        assert_eq!(on_ctrl_c(1, false), CtrlC::Park);
+        assert_eq!(on_ctrl_c(2, false), CtrlC::Exit);
+    }
 }

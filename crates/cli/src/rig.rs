@@ -29,7 +29,7 @@ use measure::load::{ConfigError, ConfigIssue, LoadedConfig};
 use measure::report::RunInfo;
 use measure::session::{self, SessionPlan, TarePlan};
 use measure::setup;
-use rig::{Key, RigBackend, RigOptions};
+use rig::{RigBackend, RigOptions};
 use runlog::mcap_log::Delivery;
 use runlog::messages as topics;
 use runlog::metadata::RunMetadata;
@@ -49,9 +49,17 @@ pub struct LinkArgs {
     /// udp://127.0.0.1:7700].
     #[arg(long, value_name = "ADDR")]
     pub connect: Option<String>,
-    /// Shared-key file (hex), instead of rig.key_file.
+    /// Shared-key file (hex), instead of rig.key_file and the user's key file
+    /// ($XDG_CONFIG_HOME/stewart/rig.key, else ~/.config/stewart/rig.key).
     #[arg(long, value_name = "FILE")]
     pub key: Option<PathBuf>,
+    /// No shared key: commands go untagged and anyone on the network can forge them. The rig
+    /// must run without a key too (`emulate --insecure`). For isolated networks only.
+    #[arg(long)]
+    pub insecure: bool,
+    /// Stay at normal priority: do not ask for SCHED_FIFO and locked memory.
+    #[arg(long)]
+    pub no_realtime: bool,
     /// Fault when no valid sensor frame arrived for this long, ms (rig.link_silence_ms,
     /// default 50).
     #[arg(long, value_name = "MS")]
@@ -232,14 +240,17 @@ pub fn link_settings(
     if !issues.is_empty() {
         return Err(CommandError::Config(ConfigError { issues }));
     }
-    let key_path = match &flags.key {
-        Some(path) => Some(path.clone()),
-        None => rig_config.key_path(&loaded.directory()),
-    };
-    let key = match key_path {
-        Some(path) => Some(Key::from_file(&path).map_err(|e| refuse(format!("shared key: {e}")))?),
-        None => None,
-    };
+    let chosen = crate::key::choose(
+        flags.key.as_deref(),
+        rig_config.key_path(&loaded.directory()),
+        crate::key::user_key_path,
+        flags.insecure,
+        crate::key::Side::Host,
+    )?;
+    if let Some(notice) = &chosen.notice {
+        eprintln!("{notice}");
+    }
+    let key = chosen.key;
     let options = RigOptions {
         link_silence: Duration::from_secs_f64(rig_config.link_silence_ms * 1e-3),
         handshake_timeout: Duration::from_secs_f64(rig_config.handshake_timeout_s),
@@ -256,7 +267,8 @@ pub fn link_settings(
     })
 }
 
-fn flag_issue(flag: &str, problem: String) -> ConfigIssue {
+/// A problem with a command-line flag, blamed on the flag (not on a line of a file).
+pub(crate) fn flag_issue(flag: &str, problem: String) -> ConfigIssue {
     ConfigIssue {
         file: measure::load::COMMAND_LINE_NAME.into(),
         line: None,
@@ -295,6 +307,18 @@ pub fn check_rig(info: &rig::host::RigInfo, loaded: &LoadedConfig) -> Result<(),
 /// is an error (nothing moved); a fault is an outcome with [`measure::End::Fault`] naming the
 /// cause.
 pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, CommandError> {
+    static NEVER: AtomicBool = AtomicBool::new(false);
+    rig_with_abort(args, interrupt, &NEVER)
+}
+
+/// [`rig`], and when `abort` is set (a second Ctrl-C) the rig brakes at once instead of
+/// parking: the safe stop goes out within a sample period, the log is finished, and the
+/// outcome says [`measure::End::Interrupted`].
+pub fn rig_with_abort(
+    args: &RigArgs,
+    interrupt: &AtomicBool,
+    abort: &AtomicBool,
+) -> Result<RigOutcome, CommandError> {
     let (plan, common) = resolve(args)?;
     let common = &common;
     let loaded = common.run.load_config()?;
@@ -364,8 +388,13 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
         _ => common.run.save_tare.as_deref(),
     };
     let mut progress = Progress::new(total, common.run.shared.quiet);
-    let mut station =
-        station::RigStation::new(&rig_link, &loaded, progress.handle(), common.link.no_prompt);
+    let mut station = station::RigStation::new(
+        &rig_link,
+        &loaded,
+        progress.handle(),
+        common.link.no_prompt,
+        abort,
+    );
     let result = header.and_then(|()| {
         let mut observer =
             measure::observer::Both(LogObserver::new(&mut log, &geometry, config), &mut progress);
@@ -399,7 +428,7 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
     }
     let outcome = result.map_err(CommandError::Run)?;
     finished.map_err(CommandError::Run)?;
-    let info = rig_link.lock().rig.info().clone();
+    let (info, link_total) = rig_link.close();
     let report = outcome.report(
         config,
         RunInfo {
@@ -420,13 +449,25 @@ pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, Command
         link: link_reports,
         failure,
         rig: info,
+        link_total,
     })
 }
 
 /// `stewart rig` from the command line: runs, prints, writes the report; returns the exit
 /// code (0 done, 1 failed, 2 refused before anything moved, 3 fault, 130 interrupted).
-pub fn main(args: &RigArgs, interrupt: &AtomicBool) -> u8 {
-    match rig(args, interrupt) {
+pub fn main(args: &RigArgs, interrupt: &AtomicBool, abort: &AtomicBool) -> u8 {
+    if let Ok((_, common)) = resolve(args) {
+        if !common.link.no_realtime {
+            // On this (the loop's) thread, before the log writer and the heartbeat start.
+            let granted = rig::realtime::request();
+            match granted.refusal_line() {
+                Some(line) => eprintln!("warning: {line}"),
+                None if !common.run.shared.quiet => eprintln!("{}", granted.granted_line()),
+                None => {}
+            }
+        }
+    }
+    match rig_with_abort(args, interrupt, abort) {
         Ok(outcome) => outcome::finish(args, &outcome),
         Err(e) => {
             eprintln!("error: {e}");

@@ -16,7 +16,8 @@ pub struct RigLinkConfig {
     /// The rig's address: `udp://HOST:PORT` or `serial:///dev/DEVICE?baud=N`.
     pub address: String,
     /// File holding the shared key in hex (HMAC-SHA256 on every frame, docs/protocol.md
-    /// section 3), relative to the scenario file; absent: no key.
+    /// section 3), relative to the scenario file; absent: the user's key file
+    /// (`$XDG_CONFIG_HOME/stewart/rig.key`, else `~/.config/stewart/rig.key`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub key_file: Option<String>,
     /// The host faults when no valid sensor frame arrived for this long, ms.

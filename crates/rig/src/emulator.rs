@@ -172,8 +172,35 @@ pub struct SessionStart {
 /// place for what an operator does between sessions (put the payload on, take it off).
 pub type SessionHook<B> = Box<dyn FnMut(&mut B, &SessionStart) + Send>;
 
+/// What the emulator tells its operator about a session while it runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EmulatorEvent {
+    /// The rig latched a fault and braked (a watchdog trip, a limit).
+    Fault {
+        /// The session's number (as in [`SessionStart::number`]).
+        session: u64,
+        /// Its host.
+        peer: Peer,
+        /// The fault as reported to the host.
+        fault: Fault,
+    },
+    /// The session's host stayed silent for the session timeout: the session ended.
+    SessionTimedOut {
+        /// The session's number.
+        session: u64,
+        /// Its host.
+        peer: Peer,
+        /// How long the host had been silent.
+        silent_for: Duration,
+    },
+}
+
+/// Called on every [`EmulatorEvent`] (e.g. to print it).
+pub type EventHook = Box<dyn FnMut(&EmulatorEvent) + Send>;
+
 struct Session {
     peer: Peer,
+    number: u64,
     id: u64,
     host_nonce: u64,
     ack: Vec<u8>,
@@ -201,6 +228,7 @@ pub struct Emulator<B> {
     /// Sequence of the last sensor frame of the session sent intact (lockstep waits for it).
     last_intact_sequence: u64,
     session_hook: Option<SessionHook<B>>,
+    event_hook: Option<EventHook>,
     faults: Vec<Fault>,
     buf: [u8; MAX_FRAME_LEN + 1],
 }
@@ -281,6 +309,7 @@ where
             last_sensor_sent_at: None,
             last_intact_sequence: 0,
             session_hook: None,
+            event_hook: None,
             faults: Vec::new(),
             buf: [0; MAX_FRAME_LEN + 1],
             config,
@@ -305,6 +334,17 @@ where
     /// Calls `hook` with the served backend whenever a session opens (see [`SessionHook`]).
     pub fn set_session_hook(&mut self, hook: SessionHook<B>) {
         self.session_hook = Some(hook);
+    }
+
+    /// Calls `hook` on every [`EmulatorEvent`]: a fault latched, a session timed out.
+    pub fn set_event_hook(&mut self, hook: EventHook) {
+        self.event_hook = Some(hook);
+    }
+
+    fn event(&mut self, event: EmulatorEvent) {
+        if let Some(hook) = self.event_hook.as_mut() {
+            hook(&event);
+        }
     }
 
     /// The newest command accepted from the current (or last) session's host, braking ones
@@ -400,8 +440,15 @@ where
     fn tick(&mut self, now: Instant) -> Result<(), RigError> {
         self.stats.ticks += 1;
         if let Some(s) = &self.session {
-            if now.saturating_duration_since(s.last_heard) > self.config.session_timeout {
+            let silent_for = now.saturating_duration_since(s.last_heard);
+            if silent_for > self.config.session_timeout {
+                let (session, peer) = (s.number, s.peer);
                 self.session = None;
+                self.event(EmulatorEvent::SessionTimedOut {
+                    session,
+                    peer,
+                    silent_for,
+                });
             }
         }
         let command = self.choose_command(now);
@@ -521,10 +568,15 @@ where
             command_sequence: s.last_command_sequence,
         };
         s.fault = Some(fault);
-        let (peer, id) = (s.peer, s.id);
+        let (peer, id, session) = (s.peer, s.id, s.number);
         self.faults.push(fault);
         self.stats.faults_sent += 1;
         self.send_message(&Message::Fault(fault), peer, Some(id));
+        self.event(EmulatorEvent::Fault {
+            session,
+            peer,
+            fault,
+        });
     }
 
     fn auth(&self, session_id: u64) -> Option<Auth<'_>> {
@@ -770,6 +822,7 @@ where
         };
         self.session = Some(Session {
             peer: from,
+            number: self.stats.sessions + 1,
             id,
             host_nonce: hello.host_nonce,
             ack: out[..n].to_vec(),

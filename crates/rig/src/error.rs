@@ -6,6 +6,7 @@ use crate::codec::CodecError;
 use crate::wire::FaultCode;
 
 /// Coarse classes of [`RigError`], for callers that branch on the kind of failure.
+#[non_exhaustive]
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum ErrorKind {
     /// A malformed `udp://` or `serial://` address, or a bad option value.
@@ -24,9 +25,12 @@ pub enum ErrorKind {
     Command,
     /// The backend behind an emulator failed.
     Backend,
+    /// The operator stopped the run at once (a second Ctrl-C); the rig was braked.
+    Stopped,
 }
 
 /// Everything that can go wrong in the rig's I/O.
+#[non_exhaustive]
 #[derive(Debug, thiserror::Error)]
 pub enum RigError {
     /// The address or an option cannot be used.
@@ -124,6 +128,12 @@ pub enum RigError {
         /// The backend's message.
         reason: String,
     },
+    /// The operator asked to stop at once: no park ramp, the brakes at once.
+    #[error("stopped at once ({reason}): the rig was braked without parking")]
+    Stopped {
+        /// Who or what asked.
+        reason: String,
+    },
 }
 
 impl RigError {
@@ -141,6 +151,7 @@ impl RigError {
             RigError::SensorInvalid { .. } => ErrorKind::Sensor,
             RigError::CommandInvalid { .. } | RigError::Encode(_) => ErrorKind::Command,
             RigError::Backend { .. } => ErrorKind::Backend,
+            RigError::Stopped { .. } => ErrorKind::Stopped,
         }
     }
 

@@ -113,6 +113,8 @@ pub struct RigBackend {
     last_sequence: u64,
     last_valid_at: Instant,
     next_command_sequence: u64,
+    /// The closing safe stop was sent ([`RigBackend::close`]): dropping sends no other.
+    closed: bool,
     /// One byte more than a frame may have, so that an oversized datagram shows as such.
     buf: [u8; MAX_FRAME_LEN + 1],
 }
@@ -167,6 +169,7 @@ impl RigBackend {
             last_sequence: 0,
             last_valid_at: Instant::now(),
             next_command_sequence: 1,
+            closed: false,
             buf,
         })
     }
@@ -270,7 +273,20 @@ impl RigBackend {
         });
         match codec::decode(frame, auth.as_ref()) {
             Err(e) => {
-                self.stats.count_codec_error(&e);
+                // A HelloAck is tagged for session 0 (protocol section 3): a repeat of this
+                // session's is a duplicate, not an authentication failure.
+                let handshake = self.options.key.as_ref().map(|key| Auth {
+                    key: key.bytes(),
+                    session_id: 0,
+                });
+                match codec::decode(frame, handshake.as_ref()) {
+                    Ok(Message::HelloAck(ack))
+                        if handshake.is_some() && ack.session_id == self.info.session_id =>
+                    {
+                        self.stats.duplicate += 1
+                    }
+                    _ => self.stats.count_codec_error(&e),
+                }
                 Class::Rejected
             }
             Ok(Message::Sensor(sensor)) => {
@@ -287,11 +303,38 @@ impl RigBackend {
                 }
             }
             Ok(Message::Fault(fault)) => Class::Fault(fault),
+            // The rig answers every repeat of the session's Hello with the same HelloAck; one
+            // that arrives after the handshake (the host had asked again while the first answer
+            // was on its way) is a duplicate, not a stray.
+            Ok(Message::HelloAck(ack)) if ack.session_id == self.info.session_id => {
+                self.stats.duplicate += 1;
+                Class::Rejected
+            }
             Ok(_) => {
                 self.stats.unexpected += 1;
                 Class::Rejected
             }
         }
+    }
+
+    /// Looks at the frames already waiting, without waiting for more: the first valid sensor
+    /// frame, a fault report (as the error), or `None` when nothing valid is waiting.
+    fn poll_waiting(&mut self) -> Result<Option<Sensor>, RigError> {
+        for _ in 0..MAX_DRAIN {
+            match self.transport.recv(&mut self.buf, Duration::ZERO)? {
+                Recv::Timeout => return Ok(None),
+                Recv::Garbled => {
+                    self.stats.received += 1;
+                    self.stats.corrupt += 1;
+                }
+                Recv::Frame { len, from } => match self.classify(len, from) {
+                    Class::Sensor(sensor) => return Ok(Some(sensor)),
+                    Class::Fault(fault) => return Err(rig_fault(&fault)),
+                    Class::Rejected => {}
+                },
+            }
+        }
+        Ok(None)
     }
 
     /// Best effort: the link may be the thing that failed.
@@ -369,6 +412,15 @@ impl Backend for RigBackend {
             }
             let now = Instant::now();
             if now >= deadline {
+                // A host that was descheduled past the deadline has not looked at what arrived
+                // meanwhile: the rig's frames, and its fault report, may be waiting. Silence is
+                // declared only on an empty socket, so that the fault reported is the first
+                // that happened (regression: "link silent" reported over a waiting WATCHDOG).
+                match self.poll_waiting() {
+                    Err(e) => return Err(self.fail(e)),
+                    Ok(Some(sensor)) => break sensor,
+                    Ok(None) => {}
+                }
                 let error = RigError::LinkSilent {
                     silent_for: now - self.last_valid_at,
                     limit: self.options.link_silence,
@@ -443,10 +495,24 @@ impl Backend for RigBackend {
     }
 }
 
+impl RigBackend {
+    /// Ends the link: sends the closing safe stop (counted in [`stats`](Self::stats), unlike
+    /// the one a drop sends) and returns the counters of the whole link.
+    pub fn close(&mut self) -> LinkStats {
+        if !self.closed {
+            let _ = self.safe_stop();
+            self.closed = true;
+        }
+        self.stats
+    }
+}
+
 impl Drop for RigBackend {
     /// Leaves the rig braked whatever happened to the caller.
     fn drop(&mut self) {
-        let _ = self.safe_stop();
+        if !self.closed {
+            let _ = self.safe_stop();
+        }
     }
 }
 
@@ -477,9 +543,15 @@ fn refused(fault: &Fault) -> RigError {
                 host: PROTOCOL_VERSION,
             }
         }
-        FaultCode::KEY_REQUIRED => ": the rig requires a shared key; configure its key file",
+        FaultCode::KEY_REQUIRED => {
+            ": the rig requires a shared key and this host has none; pair them: copy the rig's \
+             key file to this host (~/.config/stewart/rig.key, or --key FILE) and drop \
+             --insecure"
+        }
         FaultCode::KEY_MISMATCH => {
-            ": the rig's key differs from this host's (or one side has none)"
+            ": the rig's key differs from this host's (or the rig runs without a key); pair \
+             them: copy the rig's key file to this host (~/.config/stewart/rig.key, or --key \
+             FILE), or run `stewart key new` on one side and copy its file to the other"
         }
         FaultCode::BUSY => ": another host holds the rig's session",
         _ => "",

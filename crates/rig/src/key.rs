@@ -1,4 +1,6 @@
-//! The optional shared key: both sides tag every frame with HMAC-SHA256 under it.
+//! The shared key: both sides tag every frame with HMAC-SHA256 under it (docs/protocol.md,
+//! section 3). [`Key::generate`] and [`Key::write_new`] make a key file readable by its owner
+//! only.
 
 use std::fmt;
 use std::path::Path;
@@ -8,6 +10,9 @@ use crate::error::RigError;
 
 /// Shortest key accepted, bytes (128 bits).
 pub const MIN_KEY_LEN: usize = 16;
+
+/// Length of a generated key, bytes (256 bits, the HMAC-SHA256 block's recommended key size).
+pub const GENERATED_KEY_LEN: usize = 32;
 
 /// A shared secret. Its `Debug` shows only the fingerprint.
 #[derive(Clone, PartialEq, Eq)]
@@ -64,6 +69,56 @@ impl Key {
         })
     }
 
+    /// A fresh random key of [`GENERATED_KEY_LEN`] bytes from the operating system's
+    /// cryptographically secure generator (through `rand`'s thread generator, ChaCha seeded
+    /// from the OS).
+    pub fn generate() -> Self {
+        let bytes: [u8; GENERATED_KEY_LEN] = rand::random();
+        Self {
+            bytes: bytes.to_vec(),
+        }
+    }
+
+    /// The key as lower-case hex, the key file's format.
+    pub fn to_hex(&self) -> String {
+        self.bytes.iter().map(|b| format!("{b:02x}")).collect()
+    }
+
+    /// Writes the key to `path` as hex with a newline, readable and writable by its owner only
+    /// (mode 0600 on Unix), creating the parent directory. An existing file is refused unless
+    /// `overwrite`, so that a paired key is never replaced by accident.
+    pub fn write_new(&self, path: &Path, overwrite: bool) -> Result<(), RigError> {
+        use std::io::Write;
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| RigError::io(format!("creating {}", dir.display()), e))?;
+        }
+        if !overwrite && path.exists() {
+            return Err(RigError::config(
+                path.display().to_string(),
+                "a key file is already there; it may be paired with a rig: keep it, or replace \
+                 it with --force and copy the new one to the other side",
+            ));
+        }
+        let mut options = std::fs::OpenOptions::new();
+        options.write(true).create(true).truncate(true);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::OpenOptionsExt;
+            options.mode(0o600);
+        }
+        let context = || format!("writing key file {}", path.display());
+        let mut file = options.open(path).map_err(|e| RigError::io(context(), e))?;
+        // An existing file keeps its mode on open: make it the owner's alone.
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            file.set_permissions(std::fs::Permissions::from_mode(0o600))
+                .map_err(|e| RigError::io(context(), e))?;
+        }
+        writeln!(file, "{}", self.to_hex()).map_err(|e| RigError::io(context(), e))
+    }
+
     /// The secret bytes.
     pub fn bytes(&self) -> &[u8] {
         &self.bytes
@@ -107,5 +162,28 @@ mod tests {
         let err = Key::from_file(&missing).unwrap_err().to_string();
         assert!(err.contains("missing.key"), "{err}");
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn generated_keys_are_written_for_the_owner_only_and_never_overwritten_by_accident() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("stewart").join("rig.key");
+        let key = Key::generate();
+        assert_eq!(key.bytes().len(), GENERATED_KEY_LEN);
+        assert_ne!(key, Key::generate());
+        key.write_new(&path, false).unwrap();
+        assert_eq!(Key::from_file(&path).unwrap(), key);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+            assert_eq!(mode & 0o777, 0o600, "{mode:o}");
+        }
+        let refused = Key::generate().write_new(&path, false).unwrap_err();
+        assert!(refused.to_string().contains("--force"), "{refused}");
+        assert_eq!(Key::from_file(&path).unwrap(), key, "kept");
+        let replacement = Key::generate();
+        replacement.write_new(&path, true).unwrap();
+        assert_eq!(Key::from_file(&path).unwrap(), replacement);
     }
 }

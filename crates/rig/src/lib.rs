@@ -5,8 +5,10 @@
 //!   They build without `std` and without an allocator (`default-features = false`) so that a
 //!   rig's firmware can share them.
 //! * With the default `std` feature: [`transport`] (UDP, serial), [`host::RigBackend`] (a
-//!   `control::io::Backend` talking to a rig), and [`emulator`] (any backend, e.g. the
-//!   simulator, served behind the protocol in real time with rig-side safety).
+//!   `control::io::Backend` talking to a rig), [`emulator`] (any backend, e.g. the
+//!   simulator, served behind the protocol in real time with rig-side safety), [`link`] (the
+//!   backend as a measurement holds it: brake heartbeat, first failure, loop timing), [`key`]
+//!   (the shared key and its file) and [`realtime`] (real-time priority where allowed).
 //!
 //! Entry points for the command line: [`host::RigBackend::connect`] for `stewart rig` and
 //! [`emulator::serve`] (or [`emulator::Emulator::bind`] + [`emulator::Emulator::run`]) for
@@ -30,6 +32,8 @@ pub mod key;
 #[cfg(feature = "std")]
 pub mod link;
 #[cfg(feature = "std")]
+pub mod realtime;
+#[cfg(feature = "std")]
 mod stats;
 #[cfg(feature = "std")]
 pub mod transport;
@@ -45,3 +49,5 @@ pub use stats::LinkStats;
 
 #[cfg(all(test, feature = "std"))]
 mod loopback_tests;
+#[cfg(all(test, feature = "std"))]
+mod scripted_tests;

@@ -164,6 +164,16 @@ impl Link {
         self.held.lock().unwrap_or_else(|e| e.into_inner())
     }
 
+    /// Stops the heartbeat, sends the closing safe stop, and returns the rig's description and
+    /// the counters of the whole link: every command sent, heartbeats and the closing stop
+    /// included, so that they can be compared with what the rig counted.
+    pub fn close(mut self) -> (crate::host::RigInfo, crate::LinkStats) {
+        self.stop_heartbeat();
+        let mut held = self.lock();
+        let stats = held.rig.close();
+        (held.rig.info().clone(), stats)
+    }
+
     fn stop_heartbeat(&mut self) {
         self.stop.store(true, Ordering::SeqCst);
         if let Some(thread) = self.thread.take() {
@@ -190,12 +200,61 @@ fn heartbeat(held: &Mutex<Held>, stop: &AtomicBool, interval: Duration) {
     }
 }
 
+/// How often the host's loop left the rig without a command for longer than the rig's
+/// watchdog: the host was late (descheduled, most likely), not the link.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Lateness {
+    /// Gaps between commands longer than the watchdog.
+    pub times: u64,
+    /// The longest gap between commands, s (whatever its length).
+    pub longest_s: f64,
+}
+
+impl Lateness {
+    fn add(&mut self, gap: Duration, watchdog: Duration) {
+        self.longest_s = self.longest_s.max(gap.as_secs_f64());
+        if gap > watchdog {
+            self.times += 1;
+        }
+    }
+
+    /// What a WATCHDOG fault means given this lateness, with the fix.
+    pub fn explain(&self, watchdog: Duration) -> String {
+        let watchdog_ms = watchdog.as_secs_f64() * 1e3;
+        if self.times == 0 {
+            return format!(
+                 "this host sent its commands in time (longest gap {:.1} ms, watchdog {watchdog_ms:.0} \
+                 ms): they were lost or delayed on the link",
+                self.longest_s * 1e3
+            );
+        }
+        format!(
+            "this host was late: it sent no command for longer than the rig's {watchdog_ms:.0} ms \
+                 watchdog, {} time(s); the longest {:.1} ms (the operating system did not run its \
+                 loop: a busy machine at normal priority); run it with real-time priority \
+                 (CAP_SYS_NICE, `ulimit -r {p}`, or `chrt -f {p}`) or on a quieter machine",
+            self.times,
+            self.longest_s * 1e3,
+            p = crate::realtime::FIFO_PRIORITY,
+        )
+    }
+}
+
 /// The rig backend as the run loop sees it, keeping the first failure and the loop timing.
+///
+/// **Stopping at once.** With [`abort`](Self::abort) set (a second Ctrl-C), the next read
+/// sends a safe stop and fails with [`RigError::Stopped`], and every write sends a safe stop
+/// instead of its command: the run ends within one sample period with the rig braked, and its
+/// caller still finishes the log.
 pub struct Monitored<'a> {
     link: &'a Link,
     timing: &'a mut LoopTiming,
+    abort: Option<&'a AtomicBool>,
     failure: Option<Failure>,
     last_frame_at: Option<Instant>,
+    last_write_at: Option<Instant>,
+    watchdog: Duration,
+    late: Lateness,
     last_time_s: Option<f64>,
 }
 
@@ -205,10 +264,24 @@ impl<'a> Monitored<'a> {
         Self {
             link,
             timing,
+            abort: None,
             failure: None,
             last_frame_at: None,
+            last_write_at: None,
+            watchdog: link.lock().rig.info().watchdog,
+            late: Lateness::default(),
             last_time_s: None,
         }
+    }
+
+    /// Stops at once, brakes on, when `abort` is set (see the type's documentation).
+    pub fn abort(mut self, abort: &'a AtomicBool) -> Self {
+        self.abort = Some(abort);
+        self
+    }
+
+    fn aborted(&self) -> bool {
+        self.abort.is_some_and(|a| a.load(Ordering::SeqCst))
     }
 
     /// The first failure, if any.
@@ -221,11 +294,28 @@ impl<'a> Monitored<'a> {
         self.last_time_s
     }
 
+    /// Times this loop left the rig without a command for longer than its watchdog.
+    pub fn lateness(&self) -> Lateness {
+        self.late
+    }
+
     fn note(&mut self, error: &RigError) {
         if self.failure.is_none() {
             let at = Instant::now();
+            let mut cause = error.to_string();
+            if let RigError::RigFault { code, .. } = error {
+                if *code == crate::wire::FaultCode::WATCHDOG {
+                    // The gap still open (no command since) counts too: it may be the one
+                    // that tripped the watchdog.
+                    let mut late = self.late;
+                    if let Some(last) = self.last_write_at {
+                        late.add(at - last, self.watchdog);
+                    }
+                    cause = format!("{cause}; {}", late.explain(self.watchdog));
+                }
+            }
             self.failure = Some(Failure {
-                cause: error.to_string(),
+                cause,
                 kind: error.kind(),
                 at,
                 after_last_frame_s: self.last_frame_at.map(|t| (at - t).as_secs_f64()),
@@ -238,6 +328,15 @@ impl Backend for Monitored<'_> {
     type Error = RigError;
 
     fn read(&mut self) -> Result<SensorFrame, RigError> {
+        if self.aborted() {
+            let error = RigError::Stopped {
+                reason: "second Ctrl-C".into(),
+            };
+            self.note(&error);
+            // Best effort: a link that failed too is braked by the rig's watchdog.
+            let _ = self.link.lock().safe_stop();
+            return Err(error);
+        }
         let result = self.link.lock().rig.read();
         match result {
             Ok(frame) => {
@@ -260,7 +359,15 @@ impl Backend for Monitored<'_> {
         if let Some(at) = self.last_frame_at {
             self.timing.work_s.push(at.elapsed().as_secs_f64());
         }
-        let result = self.link.lock().write(command);
+        let now = Instant::now();
+        if let Some(last) = self.last_write_at.replace(now) {
+            self.late.add(now - last, self.watchdog);
+        }
+        let result = if self.aborted() {
+            self.link.lock().safe_stop()
+        } else {
+            self.link.lock().write(command)
+        };
         result.inspect_err(|e| self.note(e))
     }
 
@@ -358,6 +465,59 @@ mod tests {
         // It tripped after the driven command (wire sequence 1 the brake, then one per
         // heartbeat, then the driven one), not while braked.
         assert_eq!(faults[0].command_sequence, 2 + heartbeats);
+    }
+
+    /// Regression: on a loaded host at normal priority the rig's watchdog tripped and the host
+    /// said only "rig fault: WATCHDOG". It must say that it was late, by how much, and the fix.
+    #[test]
+    fn a_watchdog_fault_after_a_late_host_names_the_lateness_and_the_fix() {
+        use crate::emulator::{Emulator, EmulatorConfig};
+        let config = EmulatorConfig {
+            watchdog: Duration::from_millis(100),
+            seed: 5,
+            ..EmulatorConfig::new(crate::loopback_tests::limits())
+        };
+        let mut emulator =
+            Emulator::bind("udp://127.0.0.1:0", Still { sequence: 0 }, config).unwrap();
+        let address = format!("udp://{}", emulator.local_addr().unwrap());
+        let stop = Arc::new(AtomicBool::new(false));
+        let flag = Arc::clone(&stop);
+        let thread = std::thread::spawn(move || emulator.run(&flag).unwrap());
+        let options = crate::RigOptions {
+            link_silence: Duration::from_secs(2),
+            ..crate::RigOptions::default()
+        };
+        let link = Link::start(RigBackend::connect(&address, options).unwrap());
+        let mut timing = LoopTiming::default();
+        let mut monitored = Monitored::new(&link, &mut timing);
+        let driven = |sequence| CommandFrame {
+            sequence,
+            sensor_sequence: 0,
+            leg_forces_n: [1.0; 6],
+            enable: true,
+        };
+        monitored.read().unwrap();
+        monitored.write(&driven(1)).unwrap();
+        // The host is descheduled for three watchdog times.
+        std::thread::sleep(Duration::from_millis(300));
+        let mut result = Ok(());
+        for sequence in 2..200 {
+            result = monitored.read().map(|_| ());
+            if result.is_err() {
+                break;
+            }
+            let _ = monitored.write(&driven(sequence));
+        }
+        assert!(result.is_err(), "the rig's watchdog tripped");
+        let cause = monitored.failure().unwrap().cause.clone();
+        drop(monitored);
+        drop(link);
+        stop.store(true, Ordering::SeqCst);
+        thread.join().unwrap();
+        assert!(cause.contains("watchdog expired"), "{cause}");
+        assert!(cause.contains("this host was late"), "{cause}");
+        assert!(cause.contains("watchdog, 1 time(s)"), "{cause}");
+        assert!(cause.contains("chrt -f"), "{cause}");
     }
 
     #[test]

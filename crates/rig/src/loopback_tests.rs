@@ -21,7 +21,7 @@ const LENGTH_M: f64 = 0.55;
 
 /// Stands in for the simulator: time advances in `write`, forces follow the command.
 #[derive(Debug, Default)]
-struct FakeBackend {
+pub(crate) struct FakeBackend {
     time_s: f64,
     sequence: u64,
     applied: Vec<CommandFrame>,
@@ -32,7 +32,7 @@ struct FakeBackend {
 
 impl FakeBackend {
     /// Largest force magnitude ever applied with the actuators enabled.
-    fn max_enabled_force(&self) -> f64 {
+    pub(crate) fn max_enabled_force(&self) -> f64 {
         self.applied
             .iter()
             .filter(|c| c.enable)
@@ -79,7 +79,7 @@ impl Backend for FakeBackend {
     }
 }
 
-fn limits() -> Limits {
+pub(crate) fn limits() -> Limits {
     Limits {
         stroke_min_m: 0.4,
         stroke_max_m: 0.7,

@@ -42,6 +42,10 @@ pub struct RigOutcome {
     pub failure: Option<Failure>,
     /// The rig as it described itself in the (last) handshake.
     pub rig: rig::host::RigInfo,
+    /// The counters of the whole link, from the first handshake to the closing safe stop:
+    /// unlike [`link`](Self::link) (each measurement's window) they include the brake
+    /// heartbeats sent between measurements and while the log is finished.
+    pub link_total: rig::LinkStats,
 }
 
 impl RigOutcome {

@@ -21,24 +21,28 @@ pub struct RigStation<'a> {
     loaded: &'a LoadedConfig,
     progress: indicatif::ProgressBar,
     no_prompt: bool,
+    abort: &'a AtomicBool,
     reports: Vec<LinkReport>,
     failure: Option<Failure>,
 }
 
 impl<'a> RigStation<'a> {
     /// The station on `link` for the rig `loaded` describes; `progress` leaves the screen while
-    /// the operator is asked; `no_prompt` goes on without asking.
+    /// the operator is asked; `no_prompt` goes on without asking; `abort` (a second Ctrl-C)
+    /// brakes at once and ends the measurement as interrupted, without the park ramp.
     pub fn new(
         link: &'a Link,
         loaded: &'a LoadedConfig,
         progress: indicatif::ProgressBar,
         no_prompt: bool,
+        abort: &'a AtomicBool,
     ) -> Self {
         Self {
             link,
             loaded,
             progress,
             no_prompt,
+            abort,
             reports: Vec::new(),
             failure: None,
         }
@@ -80,13 +84,14 @@ impl Station for RigStation<'_> {
         };
         record(observer, 0.0, &msg)?;
         let mut timing = LoopTiming::default();
-        let (result, failure, last_time_s) = {
-            let mut monitored = Monitored::new(self.link, &mut timing);
+        let (result, failure, last_time_s, lateness) = {
+            let mut monitored = Monitored::new(self.link, &mut timing).abort(self.abort);
             let result = job.run(&mut monitored, observer);
             (
                 result,
                 monitored.failure().cloned(),
                 monitored.last_time_s(),
+                monitored.lateness(),
             )
         };
         let (counters, period_s) = {
@@ -101,6 +106,10 @@ impl Station for RigStation<'_> {
             Ok(o) => o,
             // The link, the sensors or the rig failed: the backend has sent a safe stop.
             Err(e) => match &failure {
+                // Braked at the operator's word, not by a fault.
+                Some(f) if f.kind == rig::ErrorKind::Stopped => {
+                    MeasureOutcome::ended_early(End::Interrupted, 0)
+                }
                 Some(f) => MeasureOutcome::ended_early(End::Fault(f.cause.clone()), 0),
                 None => {
                     let _ = self.link.lock().safe_stop();
@@ -110,6 +119,15 @@ impl Station for RigStation<'_> {
         };
         if outcome.end != End::Completed {
             self.link.lock().safe_stop()?;
+        }
+        let mut outcome = outcome;
+        if let End::Fault(cause) = &outcome.end {
+            // A supervisor fault (a sensor gap, most often) after the host itself stalled past
+            // the rig's watchdog says so, with the fix; a rig WATCHDOG fault says it already.
+            if lateness.times > 0 && !cause.contains("this host was late") {
+                let watchdog = self.link.lock().rig.info().watchdog;
+                outcome.end = End::Fault(format!("{cause}; {}", lateness.explain(watchdog)));
+            }
         }
         let time_s = last_time_s.unwrap_or(0.0);
         if let (Some(f), End::Fault(cause)) = (&failure, &outcome.end) {
@@ -132,8 +150,9 @@ impl Station for RigStation<'_> {
         msg.event = "end";
         msg.counters = counters;
         msg.timing = Some(summary);
-        msg.fault = match &outcome.end {
-            End::Fault(cause) => Some(cause.clone()),
+        msg.fault = match (&outcome.end, &failure) {
+            (End::Fault(cause), _) => Some(cause.clone()),
+            (_, Some(f)) => Some(f.cause.clone()),
             _ => None,
         };
         record(observer, time_s, &msg)?;
