@@ -392,13 +392,7 @@ impl LogContents {
 
     /// The run metadata, or an error naming its channel.
     pub fn require_metadata(&self) -> Result<&RunMetadata> {
-        self.metadata.as_ref().with_context(|| {
-            format!(
-                "the log has no {} message (channel {} missing): it does not say what was run",
-                "stewart.RunMetadata",
-                topics::METADATA
-            )
-        })
+        self.metadata.as_ref().ok_or_else(no_metadata)
     }
 
     /// Refuses the log when `topic` has no message, naming the channel and what it is for.
@@ -433,18 +427,31 @@ impl LogContents {
 
     /// The platform design recorded in the metadata.
     pub fn geometry(&self) -> Result<kinematics::Geometry> {
-        let m = self.require_metadata()?;
-        let v = |p: &[f64; 3]| nalgebra::Vector3::new(p[0], p[1], p[2]);
-        kinematics::Geometry::from_points(
-            m.base_joints_m.each_ref().map(v),
-            m.plate_joints_m.each_ref().map(v),
-            kinematics::StrokeLimits {
-                min_length_m: m.stroke_m[0],
-                max_length_m: m.stroke_m[1],
-            },
-        )
-        .map_err(|e| anyhow::anyhow!("the log's platform design is refused: {e}"))
+        geometry_of(self.require_metadata()?)
     }
+}
+
+/// The platform design recorded in a log's metadata.
+pub fn geometry_of(m: &RunMetadata) -> Result<kinematics::Geometry> {
+    let v = |p: &[f64; 3]| nalgebra::Vector3::new(p[0], p[1], p[2]);
+    kinematics::Geometry::from_points(
+        m.base_joints_m.each_ref().map(v),
+        m.plate_joints_m.each_ref().map(v),
+        kinematics::StrokeLimits {
+            min_length_m: m.stroke_m[0],
+            max_length_m: m.stroke_m[1],
+        },
+    )
+    .map_err(|e| anyhow::anyhow!("the log's platform design is refused: {e}"))
+}
+
+/// The message that says a log lacks its metadata.
+pub fn no_metadata() -> anyhow::Error {
+    anyhow::anyhow!(
+        "the log has no stewart.RunMetadata message (channel {} missing): it does not say what \
+         was run",
+        topics::METADATA
+    )
 }
 
 #[cfg(test)]

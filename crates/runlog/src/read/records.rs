@@ -4,18 +4,34 @@
 use serde::{Deserialize, Deserializer};
 
 /// JSON `null` (a non-finite value when written) reads back as NaN.
-fn nan_or<'de, D: Deserializer<'de>, const N: usize>(d: D) -> Result<[f64; N], D::Error> {
-    let v: Vec<Option<f64>> = Deserialize::deserialize(d)?;
-    if v.len() != N {
-        return Err(serde::de::Error::invalid_length(
-            v.len(),
-            &"the schema's array length",
-        ));
+/// An array of `N` numbers, `null` as NaN, read in place (no allocation per message).
+pub(crate) fn nan_or<'de, D: Deserializer<'de>, const N: usize>(
+    d: D,
+) -> Result<[f64; N], D::Error> {
+    struct Array<const N: usize>;
+    impl<'de, const N: usize> serde::de::Visitor<'de> for Array<N> {
+        type Value = [f64; N];
+        fn expecting(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+            write!(f, "an array of {N} numbers or nulls")
+        }
+        fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut a: A) -> Result<[f64; N], A::Error> {
+            let mut out = [f64::NAN; N];
+            for (i, slot) in out.iter_mut().enumerate() {
+                let v: Option<f64> = a
+                    .next_element()?
+                    .ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
+                *slot = v.unwrap_or(f64::NAN);
+            }
+            if a.next_element::<serde::de::IgnoredAny>()?.is_some() {
+                return Err(serde::de::Error::invalid_length(N + 1, &self));
+            }
+            Ok(out)
+        }
     }
-    Ok(core::array::from_fn(|i| v[i].unwrap_or(f64::NAN)))
+    d.deserialize_seq(Array::<N>)
 }
 
-fn nan_or_one<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+pub(crate) fn nan_or_one<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
     let v: Option<f64> = Deserialize::deserialize(d)?;
     Ok(v.unwrap_or(f64::NAN))
 }
