@@ -41,9 +41,15 @@ fn a_log_cut_short_opens_and_estimate_uses_what_is_there() {
         full.metadata.unwrap().seed
     );
 
-    // The mcap crate's own stream gives the same messages before its error.
+    // The mcap crate's own stream gives the same messages before the cut chunk, and also those
+    // it decompresses from the cut chunk's start before its error; the reader keeps only
+    // chunks whose CRC it checked, so it gives fewer, by less than a chunk (512 KiB of JSON).
     let ok = support::readable_records(&bytes[..n]);
-    assert_eq!(ok, log.channels.values().map(|c| c.count).sum::<u64>());
+    let read = log.channels.values().map(|c| c.count).sum::<u64>();
+    assert!(
+        read <= ok && ok - read < 2000,
+        "{read} read, {ok} by the mcap crate"
+    );
 
     // Re-estimating the cut loaded run reproduces its last logged estimate.
     let last = log

@@ -11,6 +11,9 @@ use measure::End;
 pub const EXIT_INTERRUPTED: u8 = 130;
 /// Exit code after a supervisor fault.
 pub const EXIT_FAULT: u8 = 3;
+/// Exit code when a measurement measured nothing trustworthy ([`measure::quality`]: no
+/// samples used, or most rejected).
+pub const EXIT_NOT_MEASURED: u8 = 4;
 
 /// The flags of every run, whatever it measures (`rig tare` takes only these and `--out`).
 #[derive(Clone, Debug, Default, Args)]

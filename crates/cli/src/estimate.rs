@@ -15,9 +15,14 @@ use std::path::PathBuf;
 
 use anyhow::{anyhow, Context, Result};
 use clap::Args;
+use measure::quality::QualityError;
 use measure::{Report, TareFile};
-use runlog::reestimate::{reestimate, RunEstimate, SettingsOverride, TareOrigin, Window};
+use runlog::read::Damage;
+use runlog::reestimate::stream::{reestimate_file, Streamed};
+use runlog::reestimate::{RunEstimate, SettingsOverride, TareOrigin, Window};
 use runlog::LogContents;
+
+use crate::common::EXIT_NOT_MEASURED;
 
 /// `stewart estimate` arguments.
 #[derive(Clone, Debug, Default, Args)]
@@ -35,8 +40,8 @@ pub struct EstimateArgs {
     /// Write the JSON report here.
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,
-    /// Low-pass cut-off of the signal conditioning, Hz (0: no filter).
-    #[arg(long, value_name = "HZ")]
+    /// Low-pass cut-off of the signal conditioning, Hz (0 or `none`: no filter).
+    #[arg(long, value_name = "HZ", value_parser = parse_cutoff, allow_negative_numbers = true)]
     pub cutoff_hz: Option<f64>,
     /// RLS forgetting factor λ in (0, 1].
     #[arg(long, value_name = "LAMBDA")]
@@ -55,6 +60,21 @@ pub struct EstimateArgs {
     /// No table.
     #[arg(long)]
     pub quiet: bool,
+}
+
+/// Parses `--cutoff-hz`: a positive number of Hz, or `0` / `none` for no filter (0.0).
+pub fn parse_cutoff(text: &str) -> Result<f64, String> {
+    let t = text.trim();
+    if t.eq_ignore_ascii_case("none") {
+        return Ok(0.0);
+    }
+    match t.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!(
+            "`{text}` is not a cut-off frequency: give a positive number of Hz, or 0 or `none` \
+             for no filter"
+        )),
+    }
 }
 
 /// Parses `START:END` with either side optional.
@@ -109,43 +129,70 @@ pub struct EstimateOutcome {
     pub tare: TareFile,
     /// Where it came from.
     pub tare_origin: TareOrigin,
+    /// What the log lost.
+    pub damage: Damage,
+    /// Whether anything was measured ([`measure::quality`]): when not, no table, report or
+    /// figures were written.
+    pub quality: Result<(), QualityError>,
     /// Figures written.
     pub figures: Vec<PathBuf>,
 }
 
-/// Runs `stewart estimate`: prints the table (unless quiet), writes the report and figures.
+/// Writes `text` to standard output; a closed pipe (`estimate LOG | head -1`) ends the
+/// output quietly instead of panicking.
+fn out(text: &str) {
+    use std::io::Write;
+    let mut o = std::io::stdout().lock();
+    let _ = o.write_all(text.as_bytes()).and_then(|()| o.flush());
+}
+
+/// Runs `stewart estimate`: streams the log once (memory bounded whatever its length), prints
+/// the table (unless quiet), writes the report and figures. A measurement that measured
+/// nothing (see [`measure::quality`]) is not an error here but in [`EstimateOutcome::quality`],
+/// with nothing written.
 pub fn estimate(args: &EstimateArgs) -> Result<EstimateOutcome> {
     let rig = match &args.rig {
         Some(path) => Some(measure::load::load(Some(path)).map_err(|e| anyhow!("{e}"))?),
         None => None,
     };
-    let log = LogContents::read(&args.log)?;
-    if let Some(why) = &log.truncated {
-        eprintln!(
-            "warning: {} ends early ({why}); using the {} sensor frames before that",
-            args.log.display(),
-            log.sensors.len()
-        );
-    }
     let o = settings_override(args);
-    let (report, loaded, tare, tare_origin) =
-        reestimate(&log, &o, args.tare.as_deref(), rig.as_ref())?;
-    if !args.quiet {
-        print!("{}", crate::table::render(&report));
+    let streamed = reestimate_file(&args.log, &o, args.tare.as_deref(), rig.as_ref())?;
+    for w in streamed.damage.warnings(&args.log) {
+        eprintln!("warning: {w}");
     }
-    if let Some(path) = &args.report {
-        std::fs::write(path, report.to_json())
-            .with_context(|| format!("cannot write the report {}", path.display()))?;
-        if !args.quiet {
-            println!("report: {}", path.display());
-        }
-    }
+    let Streamed {
+        report,
+        loaded,
+        tare,
+        tare_origin,
+        damage,
+        ..
+    } = streamed;
+    let quality = measure::quality::check_report(&report);
     let mut figures = Vec::new();
-    if let Some(dir) = &args.plot {
-        let f = crate::plot::figures_from_reestimate(&log, &loaded.run, &loaded.replay, &tare)?;
-        figures = crate::plot::write_figures(dir, &f)?;
+    if quality.is_ok() {
         if !args.quiet {
-            println!("figures: {} ({} files)", dir.display(), figures.len());
+            out(&crate::table::render(&report));
+        }
+        if let Some(path) = &args.report {
+            std::fs::write(path, report.to_json())
+                .with_context(|| format!("cannot write the report {}", path.display()))?;
+            if !args.quiet {
+                out(&format!("report: {}\n", path.display()));
+            }
+        }
+        if let Some(dir) = &args.plot {
+            // The figures draw the 1 kHz channels too: the log read whole.
+            let log = LogContents::read(&args.log)?;
+            let f = crate::plot::figures_from_reestimate(&log, &loaded.run, &loaded.replay, &tare)?;
+            figures = crate::plot::write_figures(dir, &f)?;
+            if !args.quiet {
+                out(&format!(
+                    "figures: {} ({} files)\n",
+                    dir.display(),
+                    figures.len()
+                ));
+            }
         }
     }
     Ok(EstimateOutcome {
@@ -153,13 +200,34 @@ pub fn estimate(args: &EstimateArgs) -> Result<EstimateOutcome> {
         loaded,
         tare,
         tare_origin,
+        damage,
+        quality,
         figures,
     })
+}
+
+/// `stewart estimate` as a command: its exit code, with the reason on standard error (0 done,
+/// 2 input refused, [`EXIT_NOT_MEASURED`] nothing measured).
+pub fn main(args: &EstimateArgs) -> u8 {
+    match estimate(args) {
+        Ok(EstimateOutcome {
+            quality: Err(why), ..
+        }) => {
+            eprintln!("error: {}: {why}", args.log.display());
+            EXIT_NOT_MEASURED
+        }
+        Ok(_) => 0,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            2
+        }
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use runlog::reestimate::reestimate;
 
     /// `estimate --rig FILE` takes the datasheet from FILE: its accelerometer bias figure sets
     /// the systematic sigma, its gyro noise the estimator's settings; without it, the log's own

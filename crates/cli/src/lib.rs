@@ -85,8 +85,8 @@ pub enum Command {
 }
 
 /// Entry point of the `stewart` binary: parses the arguments, runs the command. Exit codes: 0
-/// done, 1 run failed, 2 input refused (nothing ran), 3 fault (platform safe-stopped), 130
-/// interrupted (parked).
+/// done, 1 run failed, 2 input refused (nothing ran), 3 fault (platform safe-stopped), 4 nothing
+/// measured (no samples used, or most rejected), 130 interrupted (parked).
 pub fn main_entry() -> std::process::ExitCode {
     use std::process::ExitCode;
     use std::sync::atomic::Ordering;
@@ -130,13 +130,7 @@ pub fn main_entry() -> std::process::ExitCode {
         Command::Rig(a) => rig::main(&a, &INTERRUPT, &ABORT),
         Command::Emulate(a) => emulate::main(&a, &INTERRUPT),
         Command::Key(a) => key::main(&a),
-        Command::Estimate(a) => match estimate::estimate(&a) {
-            Ok(_) => 0,
-            Err(e) => {
-                eprintln!("error: {e:#}");
-                2
-            }
-        },
+        Command::Estimate(a) => estimate::main(&a),
         Command::Bench(a) => bench::main(&a),
         Command::Simulate(a) if a.runs.is_some() => campaign::main(&a, &INTERRUPT),
         Command::Simulate(a) => simulate::main(&a, &INTERRUPT),

@@ -29,6 +29,7 @@ pub mod link;
 pub mod load;
 pub mod measurement;
 pub mod observer;
+pub mod quality;
 pub mod replay;
 pub mod report;
 pub mod schema;

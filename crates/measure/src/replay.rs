@@ -10,6 +10,7 @@ use kinematics::FkOptions;
 
 use crate::config::ImuMounting;
 use crate::feed::Feed;
+use crate::report::ThetaHistory;
 
 /// One estimate along the way.
 #[derive(Clone, Copy, Debug)]
@@ -27,9 +28,10 @@ pub struct ReplayOutcome {
     pub config: EstimatorConfig,
     /// The final estimate of everything on the plate.
     pub estimate: Estimate,
-    /// θ after every used sample.
-    pub theta_history: Vec<[f64; 10]>,
-    /// Estimates every `trace_every` frames from the window's start, and the final one.
+    /// θ after every used sample (decimated beyond [`ThetaHistory::CAPACITY`] samples).
+    pub theta_history: ThetaHistory,
+    /// Estimates every `trace_every` frames from the window's start (every 2ᵏ·`trace_every` once
+    /// more than [`TRACE_CAPACITY`] points), and the final one.
     pub trace: Vec<TracePoint>,
     /// Backend time of the first frame in the window (the excitation's start), s.
     pub excitation_start_s: f64,
@@ -71,9 +73,152 @@ pub struct BiasSigmas {
     pub load_cell_n: f64,
 }
 
+/// Trace points kept at most: beyond, every other one is dropped and the spacing doubles, so
+/// a replay's memory does not grow with the log's length.
+pub const TRACE_CAPACITY: usize = 4096;
+
+/// A replay fed one frame at a time (a log streamed chunk by chunk): [`Replay::push`] each
+/// frame of the measurement in order, then [`Replay::finish`]. Memory is bounded: θ's history
+/// is a [`ThetaHistory`], the trace at most [`TRACE_CAPACITY`] points.
+pub struct Replay {
+    config: EstimatorConfig,
+    estimator: OnlineEstimator,
+    feed: Feed,
+    sigmas: BiasSigmas,
+    trace_every: u64,
+    history: ThetaHistory,
+    trace: Vec<TracePoint>,
+    /// Frame index of each trace point.
+    trace_index: Vec<u64>,
+    fk_failures: u64,
+    frames: u64,
+    start_s: f64,
+    last_used_s: f64,
+    last_time_s: f64,
+}
+
+impl Replay {
+    /// A replay with `config`, posed by forward kinematics with `fk` and the IMU turned by
+    /// `imu`; a trace point every `trace_every` frames once the window started.
+    pub fn new(
+        config: EstimatorConfig,
+        fk: FkOptions,
+        imu: &ImuMounting,
+        sigmas: BiasSigmas,
+        trace_every: u64,
+    ) -> Result<Self, ReplayError> {
+        Ok(Self {
+            estimator: OnlineEstimator::new(config).map_err(ReplayError::Settings)?,
+            feed: Feed::new(config.geometry, fk, imu),
+            config,
+            sigmas,
+            trace_every: trace_every.max(1),
+            history: ThetaHistory::default(),
+            trace: Vec::new(),
+            trace_index: Vec::new(),
+            fk_failures: 0,
+            frames: 0,
+            start_s: f64::NAN,
+            last_used_s: f64::NAN,
+            last_time_s: f64::NAN,
+        })
+    }
+
+    /// The next frame of the measurement.
+    pub fn push(&mut self, frame: &SensorFrame) {
+        let index = self.frames;
+        self.frames += 1;
+        let config = &self.config;
+        let sample = self.feed.next(frame);
+        if self.start_s.is_nan() && frame.time_s >= config.window_start_s {
+            self.start_s = frame.time_s;
+        }
+        match sample {
+            Some(s) if frame.time_s <= config.window_end_s => {
+                if let Ok(Outcome::Used) = self.estimator.update(&s) {
+                    self.history.push(self.estimator.theta().into());
+                    self.last_used_s = frame.time_s;
+                }
+            }
+            Some(_) => {}
+            None => self.fk_failures += 1,
+        }
+        if self.start_s.is_finite() && index.is_multiple_of(self.trace_every) {
+            self.trace.push(TracePoint {
+                time_s: frame.time_s,
+                estimate: self.estimator.estimate(),
+            });
+            self.trace_index.push(index);
+            if self.trace.len() >= TRACE_CAPACITY {
+                self.thin_trace();
+            }
+        }
+        self.last_time_s = frame.time_s;
+    }
+
+    /// Keeps the trace points at multiples of twice the spacing.
+    fn thin_trace(&mut self) {
+        let every = self.trace_every * 2;
+        let keep: Vec<bool> = self
+            .trace_index
+            .iter()
+            .map(|i| i.is_multiple_of(every))
+            .collect();
+        let mut k = keep.iter();
+        self.trace.retain(|_| k.next().copied().unwrap_or(false));
+        self.trace_index.retain(|i| i.is_multiple_of(every));
+        self.trace_every = every;
+    }
+
+    /// Frames pushed so far.
+    pub fn frames(&self) -> u64 {
+        self.frames
+    }
+
+    /// The outcome. Errors: no frame reached the window.
+    pub fn finish(self) -> Result<ReplayOutcome, ReplayError> {
+        let config = self.config;
+        if self.start_s.is_nan() {
+            return Err(ReplayError::NoFramesInWindow {
+                window_start_s: config.window_start_s,
+            });
+        }
+        let estimate = self.estimator.estimate();
+        let mut trace = self.trace;
+        if trace.last().is_none_or(|t| t.time_s != self.last_time_s) {
+            trace.push(TracePoint {
+                time_s: self.last_time_s,
+                estimate,
+            });
+        }
+        Ok(ReplayOutcome {
+            config,
+            estimate,
+            theta_history: self.history,
+            trace,
+            excitation_start_s: self.start_s,
+            excitation_s: if self.last_used_s.is_finite() {
+                self.last_used_s - self.start_s
+            } else {
+                0.0
+            },
+            fk_failures: self.fk_failures,
+            frames: self.frames,
+            accel_bias_effect: crate::systematic::accel_bias_effect(
+                &self.estimator,
+                self.sigmas.accel_m_s2,
+            ),
+            load_cell_bias_effect: crate::systematic::load_cell_bias_effect(
+                &self.estimator,
+                self.sigmas.load_cell_n,
+            ),
+        })
+    }
+}
+
 /// Re-runs the estimator with `config` on `frames` (one measurement's, in order), posed by
 /// forward kinematics with `fk` and the IMU turned by `imu`; a trace point every
-/// `trace_every` frames once the window started.
+/// `trace_every` frames once the window started ([`Replay`] on every frame).
 pub fn replay<'a>(
     frames: impl IntoIterator<Item = &'a SensorFrame>,
     config: EstimatorConfig,
@@ -82,66 +227,9 @@ pub fn replay<'a>(
     sigmas: BiasSigmas,
     trace_every: u64,
 ) -> Result<ReplayOutcome, ReplayError> {
-    let mut estimator = OnlineEstimator::new(config).map_err(ReplayError::Settings)?;
-    let mut feed = Feed::new(config.geometry, fk, imu);
-    let trace_every = trace_every.max(1);
-    let mut history = Vec::new();
-    let mut trace = Vec::new();
-    let (mut fk_failures, mut frames_seen) = (0u64, 0u64);
-    let (mut start_s, mut last_used_s, mut last_time_s) = (f64::NAN, f64::NAN, f64::NAN);
-    for (index, frame) in frames.into_iter().enumerate() {
-        frames_seen += 1;
-        let sample = feed.next(frame);
-        if start_s.is_nan() && frame.time_s >= config.window_start_s {
-            start_s = frame.time_s;
-        }
-        match sample {
-            Some(s) if frame.time_s <= config.window_end_s => {
-                if let Ok(Outcome::Used) = estimator.update(&s) {
-                    history.push(estimator.theta().into());
-                    last_used_s = frame.time_s;
-                }
-            }
-            Some(_) => {}
-            None => fk_failures += 1,
-        }
-        if start_s.is_finite() && (index as u64).is_multiple_of(trace_every) {
-            trace.push(TracePoint {
-                time_s: frame.time_s,
-                estimate: estimator.estimate(),
-            });
-        }
-        last_time_s = frame.time_s;
+    let mut r = Replay::new(config, fk, imu, sigmas, trace_every)?;
+    for frame in frames {
+        r.push(frame);
     }
-    if start_s.is_nan() {
-        return Err(ReplayError::NoFramesInWindow {
-            window_start_s: config.window_start_s,
-        });
-    }
-    let estimate = estimator.estimate();
-    if trace.last().is_none_or(|t| t.time_s != last_time_s) {
-        trace.push(TracePoint {
-            time_s: last_time_s,
-            estimate,
-        });
-    }
-    Ok(ReplayOutcome {
-        config,
-        estimate,
-        theta_history: history,
-        trace,
-        excitation_start_s: start_s,
-        excitation_s: if last_used_s.is_finite() {
-            last_used_s - start_s
-        } else {
-            0.0
-        },
-        fk_failures,
-        frames: frames_seen,
-        accel_bias_effect: crate::systematic::accel_bias_effect(&estimator, sigmas.accel_m_s2),
-        load_cell_bias_effect: crate::systematic::load_cell_bias_effect(
-            &estimator,
-            sigmas.load_cell_n,
-        ),
-    })
+    r.finish()
 }

@@ -106,6 +106,32 @@ pub struct RunInfo {
     pub backend: String,
 }
 
+/// A span of the log lost to damage.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LostSpan {
+    /// Log time of the last message read before it, s from the log's first message (`null`:
+    /// none before it).
+    pub from_s: Option<f64>,
+    /// Log time of the first message read after it, s (`null`: none after it).
+    pub to_s: Option<f64>,
+    /// `/sensors` frames lost in it, by the sequence numbers either side (`null`: unknown).
+    pub sensor_frames: Option<u64>,
+    /// What was wrong.
+    pub reason: String,
+}
+
+/// What the data behind the report lacked: a log cut short, damaged spans, rejected samples.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct DataLoss {
+    /// Why the log ends before its footer (cut short), when it does.
+    pub truncated: Option<String>,
+    /// Spans of the log lost to damage.
+    pub damaged: Vec<LostSpan>,
+    /// Rejected share of the loaded run's samples: rejected / (used + rejected), 0 without
+    /// samples.
+    pub rejected_share: f64,
+}
+
 /// The report. Field order and names are the report convention of docs/log-schema.md; fields
 /// after `convergence` are extras.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -139,6 +165,9 @@ pub struct Report {
     pub systematic: Systematic,
     /// How the run was made.
     pub run: RunInfo,
+    /// What the data lacked (a log cut short or damaged, samples rejected).
+    #[serde(default)]
+    pub data: DataLoss,
 }
 
 impl Report {
@@ -264,6 +293,13 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
             torque_nm: [3, 4, 5].map(|k| i.loaded.residual_rms[k]),
         },
         rejected_samples: i.loaded.counts.rejected + i.fk_failures,
+        data: DataLoss {
+            rejected_share: crate::quality::rejected_share(
+                i.loaded.counts.used,
+                i.loaded.counts.rejected + i.fk_failures,
+            ),
+            ..DataLoss::default()
+        },
         consistency: Consistency {
             verdict: if consistency.is_consistent() {
                 "consistent".into()
@@ -325,6 +361,75 @@ pub fn samples_to_1pct(
         None => 1,
         Some(k) => k as u64 + 2,
     })
+}
+
+/// θ's history kept for [`samples_to_1pct`] in bounded memory: every sample until
+/// [`ThetaHistory::CAPACITY`] are kept, then every other one of those (the stride doubles),
+/// and so on; the last θ is always kept. With stride 1 the statistic is exact; with stride s it
+/// is an upper bound at most s − 1 samples above the exact one.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ThetaHistory {
+    kept: Vec<[f64; 10]>,
+    stride: u64,
+    count: u64,
+    last: Option<[f64; 10]>,
+}
+
+impl ThetaHistory {
+    /// Samples kept at most (5 MB): a 60 s run at 1 kHz is kept whole.
+    pub const CAPACITY: usize = 1 << 16;
+
+    /// θ after one more used sample.
+    pub fn push(&mut self, theta: [f64; 10]) {
+        let stride = self.stride.max(1);
+        if self.count.is_multiple_of(stride) {
+            self.kept.push(theta);
+            if self.kept.len() >= Self::CAPACITY {
+                let mut k = 0;
+                self.kept.retain(|_| {
+                    k += 1;
+                    k % 2 == 1
+                });
+                self.stride = stride * 2;
+            }
+        }
+        self.count += 1;
+        self.last = Some(theta);
+    }
+
+    /// Samples pushed.
+    pub fn len(&self) -> u64 {
+        self.count
+    }
+
+    /// True before the first sample.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// Every how many samples one is kept.
+    pub fn stride(&self) -> u64 {
+        self.stride.max(1)
+    }
+
+    /// [`samples_to_1pct`] of the history: exact while every sample is kept, else rounded up
+    /// to the next kept sample.
+    pub fn samples_to_1pct(&self, tare: Option<&[f64; 10]>, params: ParamCount) -> Option<u64> {
+        let last = self.last?;
+        let stride = self.stride();
+        // The kept samples, then the last (the final value every sample is compared with).
+        let mut h = self.kept.clone();
+        h.push(last);
+        let n = samples_to_1pct(&h, tare, params)?;
+        // n − 2 is the index in `h` of the last sample outside the band (n = 1: none).
+        Some(if n <= 1 {
+            1
+        } else if n as usize - 2 >= self.kept.len() {
+            self.count
+        } else {
+            ((n - 2) * stride + stride + 1).min(self.count)
+        })
+    }
 }
 
 #[cfg(test)]

@@ -3,20 +3,21 @@
 //! figures (the estimator's gyro and accelerometer noise, the IMU's mounting, the systematic
 //! part of sigma) come from the rig description the log recorded, or from another one.
 
+pub mod stream;
+
 use std::path::Path;
 
 use anyhow::{anyhow, bail, Context, Result};
-use control::io::SensorFrame;
 use estimator::{EstimatorConfig, ParameterSet};
 use kinematics::{FkOptions, Vector3};
 use measure::config::ParamCount;
-use measure::replay::{replay, BiasSigmas, ReplayOutcome};
+use measure::replay::{BiasSigmas, Replay, ReplayOutcome};
 use measure::report::{Quantities, Report, ReportInputs, RunInfo, TareKind};
 use measure::{setup, LoadedConfig, TareFile};
 
 use crate::messages as topics;
-use crate::metadata::EstimatorSettings;
-use crate::read::LogContents;
+use crate::metadata::{EstimatorSettings, RunMetadata, TruthMsg};
+use crate::read::{geometry_of, Damage, LogContents};
 use crate::run_log::rates;
 
 /// A time window relative to the excitation's start, s.
@@ -63,7 +64,14 @@ pub fn rig_description(log: &LogContents, rig: Option<&LoadedConfig>) -> Result<
     if let Some(r) = rig {
         return Ok(r.clone());
     }
-    let meta = log.require_metadata()?;
+    rig_description_of(log.require_metadata()?, None)
+}
+
+/// [`rig_description`] from the log's metadata.
+pub fn rig_description_of(meta: &RunMetadata, rig: Option<&LoadedConfig>) -> Result<LoadedConfig> {
+    if let Some(r) = rig {
+        return Ok(r.clone());
+    }
     measure::load::load_str(&meta.config_toml, "<rig description in the log>").map_err(|e| {
         anyhow!(
             "the log's rig description is refused (a log of an older version? give the rig \
@@ -72,9 +80,10 @@ pub fn rig_description(log: &LogContents, rig: Option<&LoadedConfig>) -> Result<
     })
 }
 
-/// The parameter set of `params` for `run`, from the rig description.
+/// The parameter set of `params` for `run`, from the rig description: with 6, the known mass
+/// and centre of mass of its `estimator.known_*` keys, whichever model the run itself used.
 fn parameter_set(
-    log: &LogContents,
+    geometry: &kinematics::Geometry,
     rig: &LoadedConfig,
     run: &str,
     params: ParamCount,
@@ -82,13 +91,14 @@ fn parameter_set(
     if params == ParamCount::Ten {
         return Ok(ParameterSet::Full);
     }
-    let geometry = log.geometry()?;
     let measurement = if run == "tare" {
         measure::Measurement::Tare
     } else {
         measure::Measurement::Loaded
     };
-    let c = setup::estimator_config(&rig.config, &geometry, measurement, 0.0, 1.0);
+    let mut config = rig.config.clone();
+    config.estimator.params = ParamCount::Six;
+    let c = setup::estimator_config(&config, geometry, measurement, 0.0, 1.0);
     match c.parameters {
         ParameterSet::InertiaAboutKnownCom { mass_kg, .. } if mass_kg > 0.0 => Ok(c.parameters),
         _ => bail!(
@@ -96,6 +106,14 @@ fn parameter_set(
              description), which it does not give"
         ),
     }
+}
+
+/// The message that says the log has no estimator settings for `run`.
+fn no_settings(run: &str) -> anyhow::Error {
+    anyhow!(
+        "the log has no {} message for the {run} measurement: its excitation never started",
+        topics::ESTIMATOR_SETTINGS
+    )
 }
 
 /// The estimator settings of `run` as recorded, the datasheet's figures from `rig`, with `o`
@@ -110,13 +128,20 @@ pub fn settings_for(
         topics::ESTIMATOR_SETTINGS,
         "the estimator's settings (stewart.EstimatorSettings)",
     )?;
-    let recorded: &EstimatorSettings = log.settings_of(run).with_context(|| {
-        format!(
-            "the log has no {} message for the {run} measurement: its excitation never started",
-            topics::ESTIMATOR_SETTINGS
-        )
-    })?;
-    let (mut c, fk) = recorded.to_config(log.geometry()?)?;
+    let recorded = log.settings_of(run).ok_or_else(|| no_settings(run))?;
+    settings_of(log.require_metadata()?, recorded, rig, run, o)
+}
+
+/// [`settings_for`] from the log's metadata and the run's recorded settings.
+pub fn settings_of(
+    meta: &RunMetadata,
+    recorded: &EstimatorSettings,
+    rig: &LoadedConfig,
+    run: &str,
+    o: &SettingsOverride,
+) -> Result<(EstimatorConfig, FkOptions)> {
+    let geometry = geometry_of(meta)?;
+    let (mut c, fk) = recorded.to_config(geometry)?;
     // What the datasheet says: the recorded figures, or another rig description's.
     let sensors = &rig.config.sensors;
     c.gyro_noise_rad_s = sensors.gyro_noise_rad_s();
@@ -124,7 +149,7 @@ pub fn settings_for(
     c.accelerometer_position_m = Vector3::from(sensors.imu.position_m);
     c.leg_force_offsets = setup::load_cell_bias_sigma(&rig.config) > 0.0;
     if let Some(p) = o.params {
-        c.parameters = parameter_set(log, rig, run, p)?;
+        c.parameters = parameter_set(&geometry, rig, run, p)?;
     }
     if let Some(f) = o.cutoff_hz {
         c.lowpass_cutoff_hz = (f > 0.0).then_some(f);
@@ -146,30 +171,20 @@ pub fn settings_for(
     Ok((c, fk))
 }
 
-/// Re-runs the estimator on measurement `run` of the log with the rig description `rig`.
-pub fn reestimate_run(
-    log: &LogContents,
-    rig: &LoadedConfig,
-    run: &str,
-    o: &SettingsOverride,
-) -> Result<RunEstimate> {
-    log.require_channel(topics::SENSORS, "the sensor frames the estimator reads")?;
-    let (config, fk) = settings_for(log, rig, run, o)?;
-    let frames: Vec<SensorFrame> = log.sensors_of(run).map(|r| r.to_frame()).collect();
+/// A replay of `run` configured from the log's settings.
+fn start_replay(config: EstimatorConfig, fk: FkOptions, rig: &LoadedConfig) -> Result<Replay> {
     let trace_every = ((1.0 / config.sample_period_s / rates::ESTIMATE_HZ).round() as u64).max(1);
     let sigmas = BiasSigmas {
         accel_m_s2: setup::accel_bias_sigma(&rig.config),
         load_cell_n: setup::load_cell_bias_sigma(&rig.config),
     };
-    let replay = replay(
-        &frames,
-        config,
-        fk,
-        &rig.config.sensors.imu,
-        sigmas,
-        trace_every,
-    )
-    .map_err(|e| match e {
+    Replay::new(config, fk, &rig.config.sensors.imu, sigmas, trace_every)
+        .map_err(|e| anyhow!("{e}"))
+}
+
+/// The replay's outcome, its error in the log's words.
+fn finish_replay(r: Replay, run: &str) -> Result<RunEstimate> {
+    let replay = r.finish().map_err(|e| match e {
         measure::replay::ReplayError::NoFramesInWindow { .. } => anyhow!(
             "the log has no {} frames of the {run} measurement from its excitation on",
             topics::SENSORS
@@ -180,6 +195,22 @@ pub fn reestimate_run(
         run: run.to_string(),
         replay,
     })
+}
+
+/// Re-runs the estimator on measurement `run` of the log with the rig description `rig`.
+pub fn reestimate_run(
+    log: &LogContents,
+    rig: &LoadedConfig,
+    run: &str,
+    o: &SettingsOverride,
+) -> Result<RunEstimate> {
+    log.require_channel(topics::SENSORS, "the sensor frames the estimator reads")?;
+    let (config, fk) = settings_for(log, rig, run, o)?;
+    let mut r = start_replay(config, fk, rig)?;
+    for frame in log.sensors_of(run) {
+        r.push(&frame.to_frame());
+    }
+    finish_replay(r, run)
 }
 
 /// Where the subtracted tare came from.
@@ -193,23 +224,40 @@ pub enum TareOrigin {
 
 /// The payload's truth from `/run/truth`, if logged.
 pub fn payload_truth(log: &LogContents) -> Option<Quantities> {
-    log.truth.as_ref().map(|t| Quantities {
+    truth_of(log.truth.as_ref())
+}
+
+fn truth_of(t: Option<&TruthMsg>) -> Option<Quantities> {
+    t.map(|t| Quantities {
         mass: t.payload.mass_kg,
         com: t.payload.com_m,
         inertia_com: t.payload.inertia_com_kg_m2,
     })
 }
 
+/// What a report takes from the log besides the replays.
+#[derive(Clone, Copy, Debug)]
+pub struct LogFacts<'a> {
+    /// `/run/metadata`.
+    pub meta: &'a RunMetadata,
+    /// `/run/truth`.
+    pub truth: Option<&'a TruthMsg>,
+    /// The log file.
+    pub path: &'a Path,
+    /// What the log lost.
+    pub damage: &'a Damage,
+}
+
 /// The report of a loaded re-run with `tare` subtracted, in `simulate`'s shape
-/// ([`measure::report::build`]).
+/// ([`measure::report::build`]), with what the log lost.
 pub fn build_report(
-    log: &LogContents,
+    log: &LogFacts<'_>,
     rig: &LoadedConfig,
     loaded: &RunEstimate,
     tare: &TareFile,
     tare_origin: &TareOrigin,
 ) -> Result<Report> {
-    let meta = log.require_metadata()?;
+    let meta = log.meta;
     let (tare_kind, tare_path, tare_effect, tare_load_cell_effect) = match tare_origin {
         TareOrigin::Measured(r) => (
             TareKind::Measured,
@@ -224,9 +272,10 @@ pub fn build_report(
         ParameterSet::Full => ParamCount::Ten,
     };
     let r = &loaded.replay;
-    Ok(measure::report::build(&ReportInputs {
+    let mut report = measure::report::build(&ReportInputs {
         loaded: &r.estimate,
-        theta_history: &r.theta_history,
+        // The bounded history gives the convergence figure below.
+        theta_history: &[],
         excitation_s: r.excitation_s,
         fk_failures: r.fk_failures,
         tare,
@@ -239,7 +288,7 @@ pub fn build_report(
         tare_load_cell_effect,
         load_cell_bias_sigma_n: setup::load_cell_bias_sigma(&rig.config),
         params,
-        truth: payload_truth(log),
+        truth: truth_of(log.truth),
         run: RunInfo {
             config: meta.config_source.clone(),
             seed: meta.seed,
@@ -248,7 +297,41 @@ pub fn build_report(
             log: Some(log.path.display().to_string()),
             backend: meta.backend.clone(),
         },
-    }))
+    });
+    report.convergence.samples_to_1pct = r.theta_history.samples_to_1pct(Some(&tare.theta), params);
+    report.data.truncated = log.damage.truncated.clone();
+    report.data.damaged = log.damage.lost_spans();
+    Ok(report)
+}
+
+/// The tare file the log's own run used (`/run/tare`), when it has no tare run.
+fn logged_tare(tare: Option<&TareFile>, meta: &RunMetadata) -> Result<(TareFile, TareOrigin)> {
+    let t = tare.cloned().with_context(|| {
+        format!(
+            "the log lacks channel {} (and has no tare run), needed for the tare to subtract; \
+             give one with --tare FILE",
+            topics::TARE
+        )
+    })?;
+    Ok((t, TareOrigin::File(meta.tare_file.clone())))
+}
+
+/// The tare measured by the log's tare run.
+fn measured_tare(r: RunEstimate, meta: &RunMetadata) -> (TareFile, TareOrigin) {
+    let t = TareFile::from_estimate(
+        &r.replay.estimate,
+        &meta.base_joints_m,
+        &meta.plate_joints_m,
+        &meta.config_source,
+        &meta.backend,
+    );
+    (t, TareOrigin::Measured(Box::new(r)))
+}
+
+/// A tare file given on the command line, checked against the log's design.
+fn tare_file(path: &Path, meta: &RunMetadata) -> Result<(TareFile, TareOrigin)> {
+    let t = TareFile::load(path, &meta.base_joints_m, &meta.plate_joints_m)?;
+    Ok((t, TareOrigin::File(Some(path.display().to_string()))))
 }
 
 /// Re-estimates the log's measurements with `o` and the rig description `rig` (the log's when
@@ -268,29 +351,20 @@ pub fn reestimate(
     )?;
     let rig = rig_description(log, rig)?;
     let (tare, origin) = if let Some(path) = tare_path {
-        let t = TareFile::load(path, &meta.base_joints_m, &meta.plate_joints_m)?;
-        (t, TareOrigin::File(Some(path.display().to_string())))
+        tare_file(path, meta)?
     } else if log.sensors_of("tare").next().is_some() && log.settings_of("tare").is_some() {
         let r = reestimate_run(log, &rig, "tare", o).context("re-estimating the tare run")?;
-        let t = TareFile::from_estimate(
-            &r.replay.estimate,
-            &meta.base_joints_m,
-            &meta.plate_joints_m,
-            &meta.config_source,
-            &meta.backend,
-        );
-        (t, TareOrigin::Measured(Box::new(r)))
+        measured_tare(r, meta)
     } else {
-        let t = log.tare.clone().with_context(|| {
-            format!(
-                "the log lacks channel {} (and has no tare run), needed for the tare to subtract; \
-                 give one with --tare FILE",
-                topics::TARE
-            )
-        })?;
-        (t, TareOrigin::File(meta.tare_file.clone()))
+        logged_tare(log.tare.as_ref(), meta)?
     };
     let loaded = reestimate_run(log, &rig, "loaded", o).context("re-estimating the loaded run")?;
-    let report = build_report(log, &rig, &loaded, &tare, &origin)?;
+    let facts = LogFacts {
+        meta,
+        truth: log.truth.as_ref(),
+        path: &log.path,
+        damage: &log.damaged,
+    };
+    let report = build_report(&facts, &rig, &loaded, &tare, &origin)?;
     Ok((report, loaded, tare, origin))
 }

@@ -1,0 +1,458 @@
+//! Reading a run's MCAP log back: every channel's schema, encoding, count and time span, and the
+//! messages that `stewart estimate` and the figures need, decoded into owned records.
+//!
+//! A damaged or cut log still opens and loses only what is damaged ([`scan`]): a chunk that
+//! fails its checks is skipped and reading resumes at the next good one; a message that does
+//! not match its schema is skipped and counted. [`LogContents::damaged`] lists every region
+//! lost (its time span and the `/sensors` frames it held, counted by their sequence numbers),
+//! [`LogContents::truncated`] says whether and where the file was cut short (the writer emits a
+//! chunk only when it is complete, see [`crate::mcap_log`], so a crash loses the chunk being
+//! written).
+//!
+//! The file is read in a single pass, one record at a time: [`visit`] hands each message to a
+//! caller that keeps only what it needs, so memory does not grow with the log's length;
+//! [`LogContents::read`] keeps every record of the channels it knows.
+
+pub mod records;
+pub mod scan;
+
+use std::collections::BTreeMap;
+use std::io::{BufReader, Read, Seek};
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use serde::Deserialize;
+
+use crate::messages as topics;
+use crate::metadata::{EstimatorSettings, RunMetadata, TruthMsg};
+use measure::tare::TareFile;
+pub use records::{
+    BodyRecord, EstimateRecord, LegsRecord, PoseRecord, PoseRecordValue, SensorRecord,
+};
+pub use scan::{Event, Gap, Message};
+
+/// What the log holds on one channel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ChannelInfo {
+    /// Topic.
+    pub topic: String,
+    /// Schema name (empty when the channel has no schema).
+    pub schema_name: String,
+    /// Schema encoding (`jsonschema`).
+    pub schema_encoding: String,
+    /// The schema document's text.
+    pub schema_text: String,
+    /// Message encoding (`json`).
+    pub message_encoding: String,
+    /// Messages read.
+    pub count: u64,
+    /// First and last log time, ns.
+    pub first_ns: u64,
+    /// Last log time, ns.
+    pub last_ns: u64,
+    /// Log times never went backwards on this channel.
+    pub monotonic: bool,
+}
+
+/// A region of the log that was lost, with what it held.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Loss {
+    /// Where it lies in the file, why it was lost, and the log times around it.
+    pub gap: Gap,
+    /// `/sensors` frames lost in it, from the sequence numbers of the frames either side
+    /// (`None`: no frame follows it to count from).
+    pub sensor_frames: Option<u64>,
+}
+
+impl Loss {
+    /// The lost time span, s from `origin_ns` (the log's first message): (after, before).
+    pub fn span_s(&self, origin_ns: u64) -> (Option<f64>, Option<f64>) {
+        let s = |ns: u64| ns.saturating_sub(origin_ns) as f64 * 1e-9;
+        (self.gap.after_ns.map(s), self.gap.before_ns.map(s))
+    }
+
+    /// In words, times in s from `origin_ns`.
+    pub fn describe(&self, origin_ns: u64) -> String {
+        let (a, b) = self.span_s(origin_ns);
+        let t = |v: Option<f64>| v.map_or("?".to_string(), |v| format!("{v:.3} s"));
+        let frames = self
+            .sensor_frames
+            .map_or("an unknown number of".to_string(), |n| n.to_string());
+        let what = if self.gap.messages > 0 {
+            format!("{} messages", self.gap.messages)
+        } else {
+            format!("{} bytes at byte {}", self.gap.bytes, self.gap.offset)
+        };
+        format!(
+            "{what} lost ({}): messages between {} and {} of the log, {frames} /sensors frames",
+            self.gap.reason,
+            t(a),
+            t(b)
+        )
+    }
+}
+
+/// Counts the `/sensors` frames each [`Gap`] lost, from the frames' sequence numbers either side.
+#[derive(Clone, Debug, Default)]
+pub struct LossCounter {
+    losses: Vec<Loss>,
+    /// Losses waiting for the next frame.
+    open: usize,
+    last_sequence: Option<u64>,
+}
+
+impl LossCounter {
+    /// A region lost.
+    pub fn gap(&mut self, gap: &Gap) {
+        self.losses.push(Loss {
+            gap: gap.clone(),
+            sensor_frames: None,
+        });
+        self.open += 1;
+    }
+
+    /// A `/sensors` frame read, with its sequence number.
+    pub fn sensor(&mut self, sequence: u64) {
+        if self.open > 0 {
+            let lost = self
+                .last_sequence
+                .map_or(sequence, |l| sequence.saturating_sub(l.saturating_add(1)));
+            let n = self.losses.len();
+            for (k, loss) in self.losses[n - self.open..].iter_mut().enumerate() {
+                // A frame that was never there is not lost: the whole count goes to the first.
+                loss.sensor_frames = Some(if k == 0 { lost } else { 0 });
+            }
+            self.open = 0;
+        }
+        self.last_sequence = Some(sequence);
+    }
+
+    /// The losses, with the log times the reader filled in at its end (`gaps`, in file order).
+    pub fn finish(mut self, gaps: &[Gap]) -> Vec<Loss> {
+        // The reader may add gaps (messages on lost channels) that were never handed out as
+        // events: take the final list and keep the frame counts where the gaps match.
+        let mut out = Vec::with_capacity(gaps.len());
+        let mut mine = std::mem::take(&mut self.losses).into_iter().peekable();
+        for g in gaps {
+            let frames = match mine.peek() {
+                Some(l) if l.gap.offset == g.offset && l.gap.reason == g.reason => {
+                    mine.next().and_then(|l| l.sensor_frames)
+                }
+                _ => None,
+            };
+            out.push(Loss {
+                gap: g.clone(),
+                sensor_frames: frames,
+            });
+        }
+        out
+    }
+}
+
+/// How reading a log ended: whether it was cut short, what was lost, what was skipped.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Damage {
+    /// Why reading stopped before the end of a complete file (a log cut short), if it did.
+    pub truncated: Option<String>,
+    /// Every region lost to damage, in file order (empty for an intact log).
+    pub damaged: Vec<Loss>,
+    /// Messages that did not match their schema, skipped.
+    pub skipped_messages: u64,
+    /// The first such message's error.
+    pub first_skipped: Option<String>,
+    /// Log time of the log's first message, ns (the origin of the spans' seconds).
+    pub first_ns: u64,
+}
+
+impl Damage {
+    /// True when nothing was lost or skipped and the file is whole.
+    pub fn is_clean(&self) -> bool {
+        self.truncated.is_none() && self.damaged.is_empty() && self.skipped_messages == 0
+    }
+
+    /// The `/sensors` frames lost to damage (counted where frames follow the damage).
+    pub fn sensor_frames_lost(&self) -> u64 {
+        self.damaged.iter().filter_map(|l| l.sensor_frames).sum()
+    }
+
+    /// The lost spans for a report.
+    pub fn lost_spans(&self) -> Vec<measure::report::LostSpan> {
+        self.damaged
+            .iter()
+            .map(|l| {
+                let (from_s, to_s) = l.span_s(self.first_ns);
+                measure::report::LostSpan {
+                    from_s,
+                    to_s,
+                    sensor_frames: l.sensor_frames,
+                    reason: l.gap.reason.clone(),
+                }
+            })
+            .collect()
+    }
+
+    /// Warnings for the terminal, one a line (none for an intact log).
+    pub fn warnings(&self, path: &Path) -> Vec<String> {
+        let mut w = Vec::new();
+        if let Some(why) = &self.truncated {
+            w.push(format!(
+                "{} was cut short ({why}); the messages before that are used",
+                path.display()
+            ));
+        }
+        for l in &self.damaged {
+            w.push(format!(
+                "{} is damaged: {}",
+                path.display(),
+                l.describe(self.first_ns)
+            ));
+        }
+        if self.skipped_messages > 0 {
+            w.push(format!(
+                "{}: {} messages do not match their schema and were skipped (first: {})",
+                path.display(),
+                self.skipped_messages,
+                self.first_skipped.as_deref().unwrap_or("?")
+            ));
+        }
+        w
+    }
+}
+
+/// What a caller of [`visit`] is handed, in file order.
+pub trait Visitor {
+    /// A message; `Err` stops the reading. A message the visitor cannot decode is returned as
+    /// `Ok(Some(error))`: it is skipped and counted.
+    fn message(&mut self, m: &Message<'_>) -> Result<Option<String>>;
+    /// A `/sensors` frame's sequence number, when the visitor decoded one (counts losses).
+    fn last_sensor_sequence(&mut self) -> Option<u64> {
+        None
+    }
+}
+
+/// Every channel met, by topic, with counts and time spans.
+pub type Channels = BTreeMap<String, ChannelInfo>;
+
+/// Reads the log in `src` in one pass, handing each message to `v`; returns the channels met
+/// and the damage. Errors: the source is not an MCAP log or cannot be read, or `v` failed.
+pub fn visit<R: Read + Seek>(src: R, v: &mut dyn Visitor) -> Result<(Channels, Damage)> {
+    let mut channels = Channels::new();
+    let mut counter = LossCounter::default();
+    let mut damage = Damage::default();
+    let mut first_ns = None;
+    let end = scan::scan(src, &mut |e| {
+        match e {
+            Event::Gap(g) => counter.gap(g),
+            Event::Message(m) => {
+                first_ns.get_or_insert(m.log_time_ns);
+                let info = channels
+                    .entry(m.channel.topic.clone())
+                    .or_insert_with(|| ChannelInfo {
+                        topic: m.channel.topic.clone(),
+                        schema_name: m.channel.schema_name.clone(),
+                        schema_encoding: m.channel.schema_encoding.clone(),
+                        schema_text: m.channel.schema_text.clone(),
+                        message_encoding: m.channel.message_encoding.clone(),
+                        count: 0,
+                        first_ns: m.log_time_ns,
+                        last_ns: m.log_time_ns,
+                        monotonic: true,
+                    });
+                if m.log_time_ns < info.last_ns {
+                    info.monotonic = false;
+                }
+                info.last_ns = m.log_time_ns;
+                info.count += 1;
+                let index = info.count;
+                if let Some(err) = v.message(&m)? {
+                    damage.skipped_messages += 1;
+                    damage.first_skipped.get_or_insert_with(|| {
+                        format!("message {index} on {}: {err}", m.channel.topic)
+                    });
+                } else if let Some(seq) = v.last_sensor_sequence() {
+                    counter.sensor(seq);
+                }
+            }
+        }
+        Ok(())
+    })?;
+    damage.truncated = end.truncated;
+    damage.damaged = counter.finish(&end.gaps);
+    damage.first_ns = first_ns.unwrap_or(0);
+    Ok((channels, damage))
+}
+
+/// Decodes one JSON message, the error in words.
+pub fn decode<T: for<'de> Deserialize<'de>>(data: &[u8]) -> std::result::Result<T, String> {
+    serde_json::from_slice(data).map_err(|e| format!("does not match its schema ({e})"))
+}
+
+/// Everything read from a log.
+#[derive(Clone, Debug, Default)]
+pub struct LogContents {
+    /// The file.
+    pub path: PathBuf,
+    /// Every channel met, by topic.
+    pub channels: Channels,
+    /// Why reading stopped before the end of a complete file (a log cut short), if it did.
+    pub truncated: Option<String>,
+    /// What was lost to damage or skipped (and `truncated` again, with the lost spans).
+    pub damaged: Damage,
+    /// `/run/metadata`.
+    pub metadata: Option<RunMetadata>,
+    /// `/run/estimator`, one per measurement that reached its excitation.
+    pub settings: Vec<EstimatorSettings>,
+    /// `/run/tare` (the last one).
+    pub tare: Option<TareFile>,
+    /// `/run/truth`.
+    pub truth: Option<TruthMsg>,
+    /// `/sensors`, in log order.
+    pub sensors: Vec<SensorRecord>,
+    /// `/estimate`.
+    pub estimates: Vec<EstimateRecord>,
+    /// `/legs`.
+    pub legs: Vec<LegsRecord>,
+    /// `/pose`.
+    pub poses: Vec<PoseRecord>,
+}
+
+/// Keeps every record of the channels [`LogContents`] holds.
+struct Collect<'a> {
+    log: &'a mut LogContents,
+    sensor: Option<u64>,
+}
+
+fn keep<T: for<'de> Deserialize<'de>>(into: &mut Vec<T>, data: &[u8]) -> Option<String> {
+    decode(data).map(|r| into.push(r)).err()
+}
+
+fn set<T: for<'de> Deserialize<'de>>(into: &mut Option<T>, data: &[u8]) -> Option<String> {
+    decode(data).map(|r| *into = Some(r)).err()
+}
+
+impl Visitor for Collect<'_> {
+    fn message(&mut self, m: &Message<'_>) -> Result<Option<String>> {
+        let log = &mut *self.log;
+        let data = m.data;
+        self.sensor = None;
+        Ok(match m.channel.topic.as_str() {
+            topics::SENSORS => {
+                let e = keep(&mut log.sensors, data);
+                if e.is_none() {
+                    self.sensor = log.sensors.last().map(|s| s.sequence);
+                }
+                e
+            }
+            topics::ESTIMATE => keep(&mut log.estimates, data),
+            topics::LEGS => keep(&mut log.legs, data),
+            topics::POSE => keep(&mut log.poses, data),
+            topics::METADATA => set(&mut log.metadata, data),
+            topics::ESTIMATOR_SETTINGS => keep(&mut log.settings, data),
+            topics::TARE => set(&mut log.tare, data),
+            topics::TRUTH => set(&mut log.truth, data),
+            _ => None,
+        })
+    }
+
+    fn last_sensor_sequence(&mut self) -> Option<u64> {
+        self.sensor.take()
+    }
+}
+
+impl LogContents {
+    /// Reads `path`; a damaged or cut log gives what is intact (see [`Self::damaged`]).
+    pub fn read(path: &Path) -> Result<Self> {
+        let file = std::fs::File::open(path)
+            .with_context(|| format!("cannot read the log {}", path.display()))?;
+        let mut log = Self::from_source(BufReader::with_capacity(1 << 16, file))
+            .with_context(|| format!("{} is not a readable MCAP log", path.display()))?;
+        log.path = path.to_path_buf();
+        Ok(log)
+    }
+
+    /// Reads a log held in memory.
+    pub fn from_bytes(bytes: &[u8]) -> Result<Self> {
+        Self::from_source(std::io::Cursor::new(bytes))
+    }
+
+    fn from_source<R: Read + Seek>(src: R) -> Result<Self> {
+        let mut log = Self::default();
+        let (channels, damage) = visit(
+            src,
+            &mut Collect {
+                log: &mut log,
+                sensor: None,
+            },
+        )?;
+        log.channels = channels;
+        log.truncated = damage.truncated.clone();
+        log.damaged = damage;
+        Ok(log)
+    }
+
+    /// The run metadata, or an error naming its channel.
+    pub fn require_metadata(&self) -> Result<&RunMetadata> {
+        self.metadata.as_ref().ok_or_else(no_metadata)
+    }
+
+    /// Refuses the log when `topic` has no message, naming the channel and what it is for.
+    pub fn require_channel(&self, topic: &str, needed_for: &str) -> Result<()> {
+        if self.channels.get(topic).is_some_and(|c| c.count > 0) {
+            Ok(())
+        } else {
+            bail!("the log lacks channel {topic}, needed for {needed_for}")
+        }
+    }
+
+    /// The sensor frames of measurement `run`, in order.
+    pub fn sensors_of<'a>(&'a self, run: &'a str) -> impl Iterator<Item = &'a SensorRecord> + 'a {
+        self.sensors.iter().filter(move |s| s.run == run)
+    }
+
+    /// The estimator settings logged for measurement `run`.
+    pub fn settings_of(&self, run: &str) -> Option<&EstimatorSettings> {
+        self.settings.iter().find(|s| s.run == run)
+    }
+
+    /// Measurements present in the sensor data, in order of appearance.
+    pub fn runs(&self) -> Vec<String> {
+        let mut runs: Vec<String> = Vec::new();
+        for s in &self.sensors {
+            if !runs.contains(&s.run) {
+                runs.push(s.run.clone());
+            }
+        }
+        runs
+    }
+
+    /// The platform design recorded in the metadata.
+    pub fn geometry(&self) -> Result<kinematics::Geometry> {
+        geometry_of(self.require_metadata()?)
+    }
+}
+
+/// The platform design recorded in a log's metadata.
+pub fn geometry_of(m: &RunMetadata) -> Result<kinematics::Geometry> {
+    let v = |p: &[f64; 3]| nalgebra::Vector3::new(p[0], p[1], p[2]);
+    kinematics::Geometry::from_points(
+        m.base_joints_m.each_ref().map(v),
+        m.plate_joints_m.each_ref().map(v),
+        kinematics::StrokeLimits {
+            min_length_m: m.stroke_m[0],
+            max_length_m: m.stroke_m[1],
+        },
+    )
+    .map_err(|e| anyhow::anyhow!("the log's platform design is refused: {e}"))
+}
+
+/// The message that says a log lacks its metadata.
+pub fn no_metadata() -> anyhow::Error {
+    anyhow::anyhow!(
+        "the log has no stewart.RunMetadata message (channel {} missing): it does not say what \
+         was run",
+        topics::METADATA
+    )
+}
+
+#[cfg(test)]
+mod tests;

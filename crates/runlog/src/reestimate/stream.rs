@@ -1,0 +1,375 @@
+//! `stewart estimate` on a log streamed from disk in one pass: each `/sensors` frame is decoded
+//! and fed to its measurement's replay as its chunk is read, and nothing else of the 1 kHz
+//! channels is kept, so memory does not grow with the log's length (the replays' own history
+//! and trace are bounded, see [`measure::replay::Replay`]).
+//!
+//! A measurement's frames before its `/run/estimator` message (written when its excitation
+//! starts) wait in a bounded queue, [`WAITING_FRAMES`]; the replay starts on that message with
+//! them. The result is the one [`super::reestimate`] gives on the same log read whole.
+
+use std::borrow::Cow;
+use std::collections::VecDeque;
+use std::path::Path;
+
+use anyhow::{anyhow, bail, Context, Result};
+use control::io::{SensorFrame, Status};
+use measure::replay::Replay;
+use measure::{LoadedConfig, Report, TareFile};
+use serde::Deserialize;
+
+use super::{
+    build_report, finish_replay, logged_tare, measured_tare, no_settings, rig_description_of,
+    settings_of, start_replay, tare_file, LogFacts, RunEstimate, SettingsOverride, TareOrigin,
+};
+use crate::messages as topics;
+use crate::metadata::{EstimatorSettings, RunMetadata, TruthMsg};
+use crate::read::records::{nan_or, nan_or_one};
+use crate::read::{decode, no_metadata, visit, Channels, Damage, Message, Visitor};
+
+/// Frames of a measurement held while its estimator settings have not been read: two minutes
+/// at 1 kHz (about 20 MB). Beyond, the oldest are dropped (they only warm the conditioning).
+pub const WAITING_FRAMES: usize = 120_000;
+
+/// A `/sensors` message decoded in place.
+#[derive(Deserialize)]
+struct SensorRef<'a> {
+    #[serde(borrow)]
+    run: Cow<'a, str>,
+    sequence: u64,
+    #[serde(deserialize_with = "nan_or_one")]
+    time_s: f64,
+    #[serde(deserialize_with = "nan_or")]
+    leg_lengths_m: [f64; 6],
+    #[serde(deserialize_with = "nan_or")]
+    leg_forces_n: [f64; 6],
+    #[serde(deserialize_with = "nan_or")]
+    gyro_rad_s: [f64; 3],
+    #[serde(deserialize_with = "nan_or")]
+    accel_m_s2: [f64; 3],
+    status: u32,
+}
+
+enum RunState {
+    /// Frames waiting for the settings.
+    Waiting(VecDeque<SensorFrame>),
+    Running(Worker),
+}
+
+/// Frames handed to a replay's thread at a time.
+const BATCH_FRAMES: usize = 512;
+
+/// A replay on a thread of its own, fed in batches: the log is read and decoded on the caller's
+/// thread while the estimator runs on another (two cores: about half the wall time).
+struct Worker {
+    batch: Vec<SensorFrame>,
+    frames: u64,
+    queue: Option<std::sync::mpsc::SyncSender<Vec<SensorFrame>>>,
+    thread: std::thread::JoinHandle<Replay>,
+}
+
+impl Worker {
+    fn start(mut replay: Replay) -> Result<Self> {
+        // A few batches in flight bound the memory whichever side is faster.
+        let (queue, batches) = std::sync::mpsc::sync_channel::<Vec<SensorFrame>>(8);
+        let thread = std::thread::Builder::new()
+            .name("replay".into())
+            .spawn(move || {
+                for batch in batches {
+                    for f in &batch {
+                        replay.push(f);
+                    }
+                }
+                replay
+            })
+            .context("cannot start the replay thread")?;
+        Ok(Self {
+            batch: Vec::with_capacity(BATCH_FRAMES),
+            frames: 0,
+            queue: Some(queue),
+            thread,
+        })
+    }
+
+    fn push(&mut self, frame: SensorFrame) {
+        self.frames += 1;
+        self.batch.push(frame);
+        if self.batch.len() >= BATCH_FRAMES {
+            self.send();
+        }
+    }
+
+    fn send(&mut self) {
+        let batch = std::mem::replace(&mut self.batch, Vec::with_capacity(BATCH_FRAMES));
+        if let Some(q) = &self.queue {
+            // A send fails only when the thread died; `finish` reports it.
+            let _ = q.send(batch);
+        }
+    }
+
+    fn finish(mut self) -> Result<Replay> {
+        self.send();
+        self.queue = None;
+        self.thread
+            .join()
+            .map_err(|_| anyhow!("the replay thread panicked"))
+    }
+}
+
+/// The visitor: the small channels kept, the frames replayed.
+struct Stream<'a> {
+    o: &'a SettingsOverride,
+    rig_arg: Option<&'a LoadedConfig>,
+    /// The measurements replayed (`tare` only when no tare file is given).
+    wanted: Vec<&'static str>,
+    meta: Option<RunMetadata>,
+    rig: Option<LoadedConfig>,
+    settings: Vec<EstimatorSettings>,
+    tare: Option<TareFile>,
+    truth: Option<TruthMsg>,
+    runs: Vec<(&'static str, RunState)>,
+    sequence: Option<u64>,
+}
+
+impl Stream<'_> {
+    fn state(&mut self, run: &str) -> Option<&mut RunState> {
+        let name = *self.wanted.iter().find(|w| **w == run)?;
+        if let Some(i) = self.runs.iter().position(|(r, _)| *r == name) {
+            return Some(&mut self.runs[i].1);
+        }
+        self.runs.push((name, RunState::Waiting(VecDeque::new())));
+        self.runs.last_mut().map(|(_, s)| s)
+    }
+
+    /// Starts `run`'s replay once its settings and the metadata are known.
+    fn start(&mut self, run: &str) -> Result<()> {
+        let (Some(meta), Some(rig)) = (&self.meta, &self.rig) else {
+            return Ok(());
+        };
+        let Some(recorded) = self.settings.iter().find(|s| s.run == run) else {
+            return Ok(());
+        };
+        let (config, fk) = settings_of(meta, recorded, rig, run, self.o)
+            .with_context(|| format!("re-estimating the {run} run"))?;
+        let replay = start_replay(config, fk, rig)?;
+        let Some(state) = self.state(run) else {
+            return Ok(());
+        };
+        if let RunState::Waiting(frames) = state {
+            let mut worker = Worker::start(replay)?;
+            for f in frames.drain(..) {
+                worker.push(f);
+            }
+            *state = RunState::Running(worker);
+        }
+        Ok(())
+    }
+
+    fn sensor(&mut self, data: &[u8]) -> Result<Option<String>> {
+        let s: SensorRef<'_> = match serde_json::from_slice(data) {
+            Ok(s) => s,
+            Err(e) => return Ok(Some(format!("does not match its schema ({e})"))),
+        };
+        self.sequence = Some(s.sequence);
+        let frame = SensorFrame {
+            sequence: s.sequence,
+            time_s: s.time_s,
+            leg_lengths_m: s.leg_lengths_m,
+            leg_forces_n: s.leg_forces_n,
+            gyro_rad_s: s.gyro_rad_s,
+            accel_m_s2: s.accel_m_s2,
+            status: Status(s.status),
+        };
+        match self.state(&s.run) {
+            Some(RunState::Running(w)) => w.push(frame),
+            Some(RunState::Waiting(q)) => {
+                if q.len() >= WAITING_FRAMES {
+                    q.pop_front();
+                }
+                q.push_back(frame);
+            }
+            None => {}
+        }
+        Ok(None)
+    }
+}
+
+impl Visitor for Stream<'_> {
+    fn message(&mut self, m: &Message<'_>) -> Result<Option<String>> {
+        self.sequence = None;
+        let data = m.data;
+        match m.channel.topic.as_str() {
+            topics::SENSORS => return self.sensor(data),
+            topics::METADATA if self.meta.is_none() => {
+                let meta: RunMetadata = match decode(data) {
+                    Ok(v) => v,
+                    Err(e) => return Ok(Some(e)),
+                };
+                self.rig = Some(rig_description_of(&meta, self.rig_arg)?);
+                self.meta = Some(meta);
+                for run in self.wanted.clone() {
+                    self.start(run)?;
+                }
+            }
+            topics::ESTIMATOR_SETTINGS => {
+                let s: EstimatorSettings = match decode(data) {
+                    Ok(v) => v,
+                    Err(e) => return Ok(Some(e)),
+                };
+                let first = !self.settings.iter().any(|k| k.run == s.run);
+                let run = s.run.clone();
+                self.settings.push(s);
+                if first {
+                    self.start(&run)?;
+                }
+            }
+            topics::TARE => match decode(data) {
+                Ok(v) => self.tare = Some(v),
+                Err(e) => return Ok(Some(e)),
+            },
+            topics::TRUTH => match decode(data) {
+                Ok(v) => self.truth = Some(v),
+                Err(e) => return Ok(Some(e)),
+            },
+            _ => {}
+        }
+        Ok(None)
+    }
+
+    fn last_sensor_sequence(&mut self) -> Option<u64> {
+        self.sequence.take()
+    }
+}
+
+/// What [`reestimate_file`] gives.
+#[derive(Clone, Debug)]
+pub struct Streamed {
+    /// The report.
+    pub report: Report,
+    /// The loaded measurement's replay.
+    pub loaded: RunEstimate,
+    /// The tare subtracted.
+    pub tare: TareFile,
+    /// Where it came from.
+    pub tare_origin: TareOrigin,
+    /// What the log lost.
+    pub damage: Damage,
+    /// Every channel met.
+    pub channels: Channels,
+}
+
+fn require(channels: &Channels, topic: &str, needed_for: &str) -> Result<()> {
+    if channels.get(topic).is_some_and(|c| c.count > 0) {
+        Ok(())
+    } else {
+        bail!("the log lacks channel {topic}, needed for {needed_for}")
+    }
+}
+
+/// [`super::reestimate`] on the log at `path`, streamed: the same report, in memory bounded
+/// whatever the log's length.
+pub fn reestimate_file(
+    path: &Path,
+    o: &SettingsOverride,
+    tare_path: Option<&Path>,
+    rig: Option<&LoadedConfig>,
+) -> Result<Streamed> {
+    let file = std::fs::File::open(path)
+        .with_context(|| format!("cannot read the log {}", path.display()))?;
+    let mut s = Stream {
+        o,
+        rig_arg: rig,
+        wanted: if tare_path.is_some() {
+            vec!["loaded"]
+        } else {
+            vec!["tare", "loaded"]
+        },
+        meta: None,
+        rig: None,
+        settings: Vec::new(),
+        tare: None,
+        truth: None,
+        runs: Vec::new(),
+        sequence: None,
+    };
+    let (channels, damage) = visit(std::io::BufReader::with_capacity(1 << 16, file), &mut s)
+        .with_context(|| format!("{} is not a readable MCAP log", path.display()))?;
+    let outcome = finish_stream(&mut s, &channels, &damage, path, tare_path);
+    let (report, loaded, tare, origin) = match outcome {
+        Ok(v) => v,
+        // What is missing may be what the damage took: say so.
+        Err(e) if !damage.is_clean() => {
+            let lines = damage.warnings(path);
+            return Err(e.context(format!(
+                "the log is damaged or cut short: {}",
+                lines.join("; ")
+            )));
+        }
+        Err(e) => return Err(e),
+    };
+    Ok(Streamed {
+        report,
+        loaded,
+        tare,
+        tare_origin: origin,
+        damage,
+        channels,
+    })
+}
+
+/// The tare and loaded replays finished and the report built, once the log is read.
+fn finish_stream(
+    s: &mut Stream<'_>,
+    channels: &Channels,
+    damage: &Damage,
+    path: &Path,
+    tare_path: Option<&Path>,
+) -> Result<(Report, RunEstimate, TareFile, TareOrigin)> {
+    let meta = s.meta.as_ref().ok_or_else(no_metadata)?;
+    let rig = s.rig.as_ref().ok_or_else(no_metadata)?;
+    require(
+        channels,
+        topics::SENSORS,
+        "the sensor frames the estimator reads",
+    )?;
+    require(
+        channels,
+        topics::ESTIMATOR_SETTINGS,
+        "the estimator's settings (stewart.EstimatorSettings)",
+    )?;
+    let mut take = |run: &str| {
+        s.runs
+            .iter()
+            .position(|(r, _)| *r == run)
+            .map(|i| s.runs.swap_remove(i).1)
+    };
+    let tare_state = take("tare");
+    let loaded_state = take("loaded");
+    let (tare, origin) = if let Some(p) = tare_path {
+        tare_file(p, meta)?
+    } else {
+        match tare_state {
+            Some(RunState::Running(w)) if w.frames > 0 => {
+                let r = finish_replay(w.finish()?, "tare").context("re-estimating the tare run")?;
+                measured_tare(r, meta)
+            }
+            _ => logged_tare(s.tare.as_ref(), meta)?,
+        }
+    };
+    let loaded = match loaded_state {
+        Some(RunState::Running(w)) => w.finish().and_then(|r| finish_replay(r, "loaded")),
+        _ if s.settings.iter().all(|k| k.run != "loaded") => Err(no_settings("loaded")),
+        _ => Err(anyhow!(
+            "the log has no {} frames of the loaded measurement from its excitation on",
+            topics::SENSORS
+        )),
+    }
+    .context("re-estimating the loaded run")?;
+    let facts = LogFacts {
+        meta,
+        truth: s.truth.as_ref(),
+        path,
+        damage,
+    };
+    let report = build_report(&facts, rig, &loaded, &tare, &origin)?;
+    Ok((report, loaded, tare, origin))
+}

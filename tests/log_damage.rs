@@ -1,0 +1,233 @@
+//! `stewart estimate` on damaged, cut and broken logs of a real run: it never crashes, loses
+//! only what is damaged and says so, and refuses to report on a run that measured nothing.
+
+mod support;
+
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use clap::Parser;
+use measure::quality::QualityError;
+use stewart_cli::estimate::{estimate, EstimateArgs};
+
+/// One short simulate run shared by the tests of this file.
+fn run() -> &'static (support::Simulated, Vec<u8>) {
+    static RUN: OnceLock<(support::Simulated, Vec<u8>)> = OnceLock::new();
+    RUN.get_or_init(|| {
+        let run = support::simulate();
+        let bytes = std::fs::read(&run.log).unwrap();
+        (run, bytes)
+    })
+}
+
+/// (offset, body length) of every chunk record of an intact log.
+fn chunks(bytes: &[u8]) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    let mut pos = 8;
+    while pos + 9 <= bytes.len() - 8 {
+        let n = u64::from_le_bytes(bytes[pos + 1..pos + 9].try_into().unwrap()) as usize;
+        if bytes[pos] == 0x06 {
+            out.push((pos, n));
+        }
+        pos += 9 + n;
+    }
+    out
+}
+
+fn write(name: &str, bytes: &[u8]) -> PathBuf {
+    let path = run().0.dir.path().join(name);
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+fn args(log: &Path) -> EstimateArgs {
+    EstimateArgs {
+        log: log.to_path_buf(),
+        quiet: true,
+        ..EstimateArgs::default()
+    }
+}
+
+/// The issue's crash: one flipped byte in a chunk's uncompressed size made the mcap crate
+/// allocate exabytes and abort `estimate` (exit 134). It costs that chunk, said in the report.
+#[test]
+fn a_flipped_chunk_size_byte_that_aborted_estimate_costs_one_chunk() {
+    let (run, bytes) = run();
+    let c = chunks(bytes);
+    let (at, _) = c[c.len() * 3 / 4];
+    let mut d = bytes.clone();
+    // The uncompressed size's sixth byte: a size of about 2^40 bytes.
+    d[at + 9 + 16 + 5] ^= 0xff;
+    let path = write("flipped.mcap", &d);
+    let outcome = estimate(&EstimateArgs {
+        report: Some(run.dir.path().join("flipped.json")),
+        ..args(&path)
+    })
+    .unwrap();
+    assert_eq!(outcome.quality, Ok(()));
+    let data = &outcome.report.data;
+    assert_eq!(data.truncated, None);
+    assert_eq!(data.damaged.len(), 1, "{:?}", data.damaged);
+    let lost = &data.damaged[0];
+    assert!(lost.reason.contains("damaged chunk"), "{}", lost.reason);
+    let frames = lost.sensor_frames.unwrap();
+    assert!((1..1000).contains(&frames), "{frames} frames lost");
+    let (from, to) = (lost.from_s.unwrap(), lost.to_s.unwrap());
+    assert!(from < to && to - from < 1.0, "{from}..{to}");
+    // The loaded run lost those frames' samples and, as after any gap longer than
+    // `max_gap_s`, the conditioning's restart (about 330 samples with the default filter).
+    let lost_samples = run.report.samples - outcome.report.samples;
+    assert!(
+        lost_samples >= frames && lost_samples <= frames + 500,
+        "{lost_samples} samples for {frames} frames"
+    );
+    let written = std::fs::read_to_string(run.dir.path().join("flipped.json")).unwrap();
+    assert!(written.contains("\"damaged\""), "{written}");
+}
+
+/// A few hundred random single and multi-byte flips over the whole real log: all open.
+#[test]
+fn random_flips_over_a_real_log_never_crash_the_reader() {
+    let (_, bytes) = run();
+    let mut state = 0x2545_f491_4f6c_dd1du64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    struct Count(u64);
+    impl runlog::read::Visitor for Count {
+        fn message(&mut self, _: &runlog::read::Message<'_>) -> anyhow::Result<Option<String>> {
+            self.0 += 1;
+            Ok(None)
+        }
+    }
+    let whole = {
+        let mut c = Count(0);
+        runlog::read::visit(std::io::Cursor::new(&bytes[..]), &mut c).unwrap();
+        c.0
+    };
+    let mut damaged = 0;
+    for m in 0..120 {
+        let mut d = bytes.clone();
+        for _ in 0..1 + m % 4 {
+            let at = 8 + (next() as usize) % (d.len() - 8);
+            d[at] ^= (next() as u8) | 1;
+        }
+        let mut c = Count(0);
+        let (_, damage) = runlog::read::visit(std::io::Cursor::new(&d[..]), &mut c).unwrap();
+        assert!(c.0 <= whole);
+        damaged += u64::from(!damage.damaged.is_empty());
+    }
+    assert!(damaged > 60, "{damaged} of 120 mutants found damaged");
+}
+
+/// A report from a log cut short says so.
+#[test]
+fn a_report_from_a_cut_log_carries_the_truncation() {
+    let (_, bytes) = run();
+    let path = write("cut.mcap", &bytes[..bytes.len() * 9 / 10]);
+    let outcome = estimate(&args(&path)).unwrap();
+    let why = outcome.report.data.truncated.expect("a truncation flag");
+    assert!(why.contains("ends at byte"), "{why}");
+}
+
+/// Rewrites the log with every `/sensors` leg force `null` (non-finite when logged).
+fn without_forces(from: &Path, to: &Path) {
+    let bytes = std::fs::read(from).unwrap();
+    let mut out =
+        mcap::Writer::new(std::io::BufWriter::new(std::fs::File::create(to).unwrap())).unwrap();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let mut m = m.unwrap();
+        if m.channel.topic == "/sensors" {
+            let mut v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
+            v["leg_forces_n"] = serde_json::json!([null, null, null, null, null, null]);
+            m.data = serde_json::to_vec(&v).unwrap().into();
+        }
+        out.write(&m).unwrap();
+    }
+    out.finish().unwrap();
+}
+
+/// The issue: a log whose forces are all non-finite gave exit 0 and a table of NaN.
+#[test]
+fn a_log_without_finite_forces_measured_nothing_and_exits_non_zero() {
+    let (run, _) = run();
+    let path = run.dir.path().join("nan.mcap");
+    without_forces(&run.log, &path);
+    let report = run.dir.path().join("nan.json");
+    let a = EstimateArgs {
+        report: Some(report.clone()),
+        ..args(&path)
+    };
+    let outcome = estimate(&a).unwrap();
+    assert!(
+        matches!(outcome.quality, Err(QualityError::NoSamples { rejected }) if rejected > 0),
+        "{:?}",
+        outcome.quality
+    );
+    assert!(!report.exists(), "no report of nothing");
+    assert_eq!(
+        stewart_cli::estimate::main(&a),
+        stewart_cli::common::EXIT_NOT_MEASURED
+    );
+}
+
+/// `--cutoff-hz -1` and `nan` were taken as "no filter": refused, saying how to ask for none.
+#[test]
+fn cutoff_hz_refuses_negative_and_non_finite_values_and_takes_none() {
+    for bad in ["-1", "nan", "inf", "x"] {
+        let err =
+            stewart_cli::Cli::try_parse_from(["stewart", "estimate", "a.mcap", "--cutoff-hz", bad])
+                .err()
+                .unwrap_or_else(|| panic!("{bad} accepted"))
+                .to_string();
+        assert!(err.contains("0 or `none`"), "{bad}: {err}");
+    }
+    for (good, hz) in [("none", 0.0), ("0", 0.0), ("12.5", 12.5)] {
+        assert_eq!(stewart_cli::estimate::parse_cutoff(good), Ok(hz));
+    }
+}
+
+/// `--params 6` on a 10-parameter log takes the known mass and centre of mass from the rig
+/// description the log recorded.
+#[test]
+fn params_6_on_a_10_parameter_log_uses_the_recorded_known_mass() {
+    let (run, _) = run();
+    assert_eq!(run.report.run.params, 10);
+    let outcome = estimate(&EstimateArgs {
+        params: Some("6".into()),
+        ..args(&run.log)
+    })
+    .unwrap();
+    assert_eq!(outcome.quality, Ok(()));
+    assert_eq!(outcome.report.run.params, 6);
+    assert!(support::close(outcome.report.estimate.mass, 1500.0, 1e-9));
+}
+
+/// `stewart estimate LOG | head -1` panicked on the closed pipe (exit 101): it ends quietly.
+#[test]
+fn estimate_into_a_closed_pipe_ends_quietly() {
+    use std::io::BufRead;
+    let (run, _) = run();
+    // The figures take a while: their line is written after the pipe closed.
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_stewart"))
+        .arg("estimate")
+        .arg(&run.log)
+        .arg("--plot")
+        .arg(run.dir.path().join("figures"))
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    assert!(first.contains("quantity"), "{first}");
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
