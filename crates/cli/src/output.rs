@@ -5,16 +5,26 @@ use std::path::Path;
 
 use measure::Report;
 
-use crate::common::MeasureArgs;
+use crate::common::{MeasureArgs, EXIT_NOT_MEASURED};
 
 /// Prints the table, writes the report (`json`, the report's JSON with any extras), says where
-/// the log is and draws the figures; returns the exit code after `code`.
+/// the log is and draws the figures; returns the exit code after `code`. A report that
+/// measured nothing ([`measure::quality`]) is neither printed nor written: the reason is, with
+/// [`EXIT_NOT_MEASURED`].
 pub fn finish_measurement(
     args: &MeasureArgs,
     report: Option<(&Report, String)>,
     log: &Path,
     mut code: u8,
 ) -> u8 {
+    let report = report.filter(|(r, _)| match measure::quality::check_report(r) {
+        Ok(()) => true,
+        Err(e) => {
+            eprintln!("error: {e}; no table or report");
+            code = code.max(EXIT_NOT_MEASURED);
+            false
+        }
+    });
     if let Some((report, json)) = report {
         if !args.shared.quiet {
             print!("{}", crate::table::render(report));
@@ -39,4 +49,51 @@ pub fn finish_measurement(
         }
     }
     code
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::common::SharedArgs;
+
+    /// Regression: a measurement that used no samples printed a table of NaN and exited 0.
+    #[test]
+    fn a_report_that_measured_nothing_is_an_error_and_not_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("r.json");
+        let args = MeasureArgs {
+            shared: SharedArgs {
+                quiet: true,
+                ..SharedArgs::default()
+            },
+            report: Some(path.clone()),
+            ..MeasureArgs::default()
+        };
+        let empty = Report {
+            samples: 0,
+            rejected_samples: 60_000,
+            ..Report::default()
+        };
+        let code = finish_measurement(
+            &args,
+            Some((&empty, "{}".into())),
+            &dir.path().join("x.mcap"),
+            0,
+        );
+        assert_eq!(code, EXIT_NOT_MEASURED);
+        assert!(!path.exists());
+        let fine = Report {
+            samples: 60_000,
+            rejected_samples: 3,
+            ..Report::default()
+        };
+        let code = finish_measurement(
+            &args,
+            Some((&fine, "{}".into())),
+            &dir.path().join("x.mcap"),
+            0,
+        );
+        assert_eq!(code, 0);
+        assert!(path.exists());
+    }
 }
