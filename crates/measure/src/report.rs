@@ -130,6 +130,21 @@ pub struct DataLoss {
     /// Rejected share of the loaded run's samples: rejected / (used + rejected), 0 without
     /// samples.
     pub rejected_share: f64,
+    /// Sample periods of the loaded run without a frame (lost), from the sequence counter.
+    pub frames_lost: u64,
+    /// Of those, the ones bridged by interpolation (short gaps); the rest fell in gaps that
+    /// restarted the conditioning.
+    pub frames_bridged: u64,
+    /// Gaps that restarted the conditioning.
+    pub restarts: u64,
+    /// What placed the samples in time: `"sequence"` (counter × period) or `"timestamps"`.
+    pub time_base: String,
+    /// RMS spread of the frames' timestamps about the sample grid, s.
+    pub timestamp_jitter_rms_s: f64,
+    /// Largest deviation of a timestamp from the grid, s.
+    pub timestamp_jitter_max_s: f64,
+    /// Relative error of the nominal sample rate measured by the timestamps (positive: slower).
+    pub rate_error: f64,
 }
 
 /// The report. Field order and names are the report convention of docs/log-schema.md; fields
@@ -298,6 +313,17 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
                 i.loaded.counts.used,
                 i.loaded.counts.rejected + i.fk_failures,
             ),
+            frames_lost: i.loaded.counts.lost,
+            frames_bridged: i.loaded.counts.bridged,
+            restarts: i.loaded.counts.restarts,
+            time_base: if i.loaded.timing.from_sequence {
+                "sequence".into()
+            } else {
+                "timestamps".into()
+            },
+            timestamp_jitter_rms_s: i.loaded.timing.jitter_rms_s,
+            timestamp_jitter_max_s: i.loaded.timing.jitter_max_s,
+            rate_error: i.loaded.timing.rate_error,
             ..DataLoss::default()
         },
         consistency: Consistency {
