@@ -77,6 +77,14 @@ impl Emulator {
     }
 }
 
+impl Drop for Emulator {
+    /// A failed assertion must not leave the child running.
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
 fn keyless_scenario(scratch: &Scratch) -> std::path::PathBuf {
     let path = scratch.path("keyless.toml");
     std::fs::write(&path, quick().replace("key_file = \"rig.key\"\n", "")).unwrap();

@@ -18,18 +18,24 @@ use crate::transport::{Peer, Recv, Transport};
 use crate::wire::*;
 use crate::{Key, RigBackend, RigError, RigOptions};
 
+/// Frames with their sender or destination.
+type Frames = Vec<(Vec<u8>, Peer)>;
+
+/// Answers to a sent frame.
+type Responder = Box<dyn FnMut(&[u8]) -> Vec<Vec<u8>> + Send>;
+
 /// What happens on a scripted link, shared between the test and the side using it.
 #[derive(Default)]
 struct Script {
     /// Frames waiting to be received, with their (claimed) sender.
     inbox: VecDeque<(Vec<u8>, Peer)>,
     /// Frames sent, with their destination.
-    sent: Vec<(Vec<u8>, Peer)>,
+    sent: Frames,
     /// The next `recv` sleeps this long, then the frames of `arrive_during_stall` arrive and it
     /// returns `Timeout`: a process descheduled between its wait and its deadline check.
-    stall: Option<(Duration, Vec<(Vec<u8>, Peer)>)>,
+    stall: Option<(Duration, Frames)>,
     /// Answers to sent frames: called with each sent frame, its answers are queued.
-    responder: Option<Box<dyn FnMut(&[u8]) -> Vec<Vec<u8>> + Send>>,
+    responder: Option<Responder>,
     /// The address answers come from.
     answers_from: Option<Peer>,
 }
@@ -46,7 +52,7 @@ impl Scripted {
         self.script().inbox.push_back((frame, from));
     }
 
-    fn sent(&self) -> Vec<(Vec<u8>, Peer)> {
+    fn sent(&self) -> Frames {
         self.script().sent.clone()
     }
 }
@@ -170,7 +176,7 @@ fn a_stalled_host_reports_the_rigs_waiting_fault_not_silence() {
     assert_eq!(host.read().unwrap().sequence, 3);
     // The host goes away for 100 ms (twice the silence limit). Meanwhile the rig sends on,
     // its watchdog trips after 20 ms, and it reports the fault and sends faulted frames.
-    let mut arriving: Vec<(Vec<u8>, Peer)> = (4..=23)
+    let mut arriving: Frames = (4..=23)
         .map(|s| (encode(&sensor(s, 0), None), rig_peer()))
         .collect();
     let fault = Fault {
