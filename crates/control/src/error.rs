@@ -160,7 +160,7 @@ impl fmt::Display for ControlError {
                 ratio,
                 max_integral_gain,
             } => {
-                if !(*supported_mass_kg > 0.0) {
+                if supported_mass_kg.is_nan() || *supported_mass_kg <= 0.0 {
                     return write!(
                         f,
                         "the legs carry no weight ({supported_mass_kg:.1} kg from their static \

@@ -29,6 +29,7 @@ use kinematics::Geometry;
 
 use crate::config::Config;
 use crate::observer::{EstimatorStarted, MeasurementEnded, Observer, TickEvent};
+use crate::report::ThetaHistory;
 use crate::setup::{self, Measurement};
 use crate::tick::Tick;
 use crate::TareEstimate;
@@ -62,8 +63,9 @@ pub enum End {
 pub struct MeasureOutcome {
     /// The final estimate of everything on the plate (None if the excitation never started).
     pub estimate: Option<Estimate>,
-    /// θ after every used sample (everything on the plate, not tare-corrected).
-    pub theta_history: Vec<[f64; 10]>,
+    /// θ after every used sample (everything on the plate, not tare-corrected), decimated
+    /// beyond [`ThetaHistory::CAPACITY`] samples.
+    pub theta_history: ThetaHistory,
     /// The estimator's settings (None if the excitation never started).
     pub estimator_config: Option<EstimatorConfig>,
     /// Backend time from the first excitation sample to the last one fed, s.
@@ -87,7 +89,7 @@ impl MeasureOutcome {
     pub fn ended_early(end: End, fk_failures: u64) -> Self {
         Self {
             estimate: None,
-            theta_history: Vec::new(),
+            theta_history: ThetaHistory::default(),
             estimator_config: None,
             excitation_s: 0.0,
             fk_failures,
@@ -169,9 +171,10 @@ where
         .map_err(|e| anyhow!("the estimator refused its settings: {e}"))?;
     let bias_sigma = setup::accel_bias_sigma(config);
     let load_cell_sigma = setup::load_cell_bias_sigma(config);
-    // θ after every used sample, reserved for the whole window so the loop never allocates.
-    let mut history: Vec<[f64; 10]> =
-        Vec::with_capacity((trajectory.duration_s() * rate_hz).ceil() as usize + 16);
+    // θ after every used sample, reserved for the whole window (or the history's bounded
+    // capacity) so the loop never allocates.
+    let mut history =
+        ThetaHistory::with_room_for((trajectory.duration_s() * rate_hz).ceil() as usize + 16);
     let mut fk_failures = 0u64;
 
     observer.measurement_started(measurement)?;

@@ -231,7 +231,7 @@ pub struct ReportInputs<'a> {
     /// The loaded run's final estimate (everything on the plate).
     pub loaded: &'a Estimate,
     /// θ after every used sample of the loaded run.
-    pub theta_history: &'a [[f64; 10]],
+    pub theta_history: &'a ThetaHistory,
     /// Excitation time of the loaded run, s.
     pub excitation_s: f64,
     /// Loaded-run frames whose forward kinematics failed (counted as rejected).
@@ -301,7 +301,9 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
         samples: i.loaded.counts.used,
         excitation_s: i.excitation_s,
         convergence: Convergence {
-            samples_to_1pct: samples_to_1pct(i.theta_history, Some(&i.tare.theta), i.params),
+            samples_to_1pct: i
+                .theta_history
+                .samples_to_1pct(Some(&i.tare.theta), i.params),
         },
         residual_rms: ResidualRms {
             force_n: [0, 1, 2].map(|k| i.loaded.residual_rms[k]),
@@ -404,6 +406,15 @@ pub struct ThetaHistory {
 impl ThetaHistory {
     /// Samples kept at most (5 MB): a 60 s run at 1 kHz is kept whole.
     pub const CAPACITY: usize = 1 << 16;
+
+    /// An empty history with room reserved for `samples` (at most [`Self::CAPACITY`]), so that
+    /// pushing that many never allocates (the online loop's per-sample path stays heap-free).
+    pub fn with_room_for(samples: usize) -> Self {
+        Self {
+            kept: Vec::with_capacity(samples.min(Self::CAPACITY)),
+            ..Self::default()
+        }
+    }
 
     /// θ after one more used sample.
     pub fn push(&mut self, theta: [f64; 10]) {
@@ -513,11 +524,14 @@ mod tests {
         let mut tare_effect = [[0.0; 10]; 3];
         loaded_effect[2][0] = 0.2;
         tare_effect[2][0] = 0.05;
-        let history = vec![
+        let mut history = ThetaHistory::default();
+        for theta in [
             [0.0; 10],
             tare.theta,
             (payload + fixture).to_vector().into(),
-        ];
+        ] {
+            history.push(theta);
+        }
         let r = build(&ReportInputs {
             loaded: &loaded,
             theta_history: &history,
@@ -587,7 +601,7 @@ mod tests {
         let systematic_mass = |tare: &TareFile, tare_effect: Option<&[[f64; 10]; 6]>| {
             build(&ReportInputs {
                 loaded: &loaded,
-                theta_history: &[],
+                theta_history: &ThetaHistory::default(),
                 excitation_s: 1.0,
                 fk_failures: 0,
                 tare,

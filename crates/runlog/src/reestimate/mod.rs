@@ -274,8 +274,7 @@ pub fn build_report(
     let r = &loaded.replay;
     let mut report = measure::report::build(&ReportInputs {
         loaded: &r.estimate,
-        // The bounded history gives the convergence figure below.
-        theta_history: &[],
+        theta_history: &r.theta_history,
         excitation_s: r.excitation_s,
         fk_failures: r.fk_failures,
         tare,
@@ -298,7 +297,6 @@ pub fn build_report(
             backend: meta.backend.clone(),
         },
     });
-    report.convergence.samples_to_1pct = r.theta_history.samples_to_1pct(Some(&tare.theta), params);
     report.data.truncated = log.damage.truncated.clone();
     report.data.damaged = log.damage.lost_spans();
     Ok(report)
