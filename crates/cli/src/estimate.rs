@@ -168,7 +168,7 @@ pub fn estimate(args: &EstimateArgs) -> Result<EstimateOutcome> {
         damage,
         ..
     } = streamed;
-    let quality = measure::quality::check_report(&report);
+    let quality = report.check_quality();
     let mut figures = Vec::new();
     if quality.is_ok() {
         if !args.quiet {

@@ -17,7 +17,7 @@ pub fn finish_measurement(
     log: &Path,
     mut code: u8,
 ) -> u8 {
-    let report = report.filter(|(r, _)| match measure::quality::check_report(r) {
+    let report = report.filter(|(r, _)| match r.check_quality() {
         Ok(()) => true,
         Err(e) => {
             eprintln!("error: {e}; no table or report");

@@ -7,8 +7,6 @@
 //! inputs, time not increasing, or forward kinematics that failed). Rejections that many mean
 //! the sensors or the log are broken, and what is left is not a fair sample of the excitation.
 
-use crate::report::Report;
-
 /// Largest share of a measurement's samples that may be rejected, 0..1.
 pub const MAX_REJECTED_SHARE: f64 = 0.5;
 
@@ -68,10 +66,6 @@ pub fn check(used: u64, rejected: u64) -> Result<(), QualityError> {
     Ok(())
 }
 
-/// The rule on a report's loaded run.
-pub fn check_report(report: &Report) -> Result<(), QualityError> {
-    check(report.samples, report.rejected_samples)
-}
 
 #[cfg(test)]
 mod tests {

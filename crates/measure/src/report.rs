@@ -186,6 +186,11 @@ pub struct Report {
 }
 
 impl Report {
+    /// The rule of [`crate::quality`] on the loaded run: did it measure anything?
+    pub fn check_quality(&self) -> Result<(), crate::quality::QualityError> {
+        crate::quality::check(self.samples, self.rejected_samples)
+    }
+
     /// Pretty JSON text.
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).unwrap_or_default()
