@@ -66,7 +66,6 @@ pub fn check(used: u64, rejected: u64) -> Result<(), QualityError> {
     Ok(())
 }
 
-
 #[cfg(test)]
 mod tests {
     use super::*;
