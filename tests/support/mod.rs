@@ -363,6 +363,23 @@ pub fn copy_without(from: &Path, to: &Path, topic: &str) {
     out.finish().unwrap();
 }
 
+/// A copy of the log at `from` as the JSON-only writer wrote logs: every channel `json`, each
+/// protobuf message as [`read_messages`] decodes it (a non-finite number as `null`).
+pub fn copy_as_json(from: &Path, to: &Path) {
+    let specs: Vec<_> = runlog::messages::channels()
+        .into_iter()
+        .map(|mut c| {
+            c.encoding = runlog::mcap_log::Encoding::Json;
+            c
+        })
+        .collect();
+    let mut log = runlog::mcap_log::McapLog::create(to, &specs).unwrap();
+    for m in read_messages(from) {
+        log.write(&m.topic, m.log_time, &m.value).unwrap();
+    }
+    log.finish().unwrap();
+}
+
 /// The messages on `topic`.
 pub fn on<'a>(log: &'a [(String, serde_json::Value)], topic: &str) -> Vec<&'a serde_json::Value> {
     log.iter()
