@@ -90,7 +90,11 @@ fn a_simulate_log_reads_back_as_documented() {
             .unwrap_or_else(|| panic!("channel {topic} missing from the log"));
         assert_eq!(*s, schema, "{topic}");
         assert_eq!(*me, encoding, "{topic}");
-        let schema_encoding = if encoding == "json" { "jsonschema" } else { "protobuf" };
+        let schema_encoding = if encoding == "json" {
+            "jsonschema"
+        } else {
+            "protobuf"
+        };
         assert_eq!(se, schema_encoding, "{topic}");
         assert!(*n > 0 && *mono, "{topic}: {n} messages, monotonic {mono}");
     }
@@ -103,11 +107,14 @@ fn a_simulate_log_reads_back_as_documented() {
             continue;
         }
         if spec.encoding == runlog::mcap_log::Encoding::Protobuf {
-            let carried = String::from_utf8_lossy(
-                &runlog::proto::descriptor::file_descriptor_set_bytes(),
-            )
-            .into_owned();
-            assert_eq!(log.channels[spec.topic].schema_text, carried, "{}", spec.topic);
+            let carried =
+                String::from_utf8_lossy(&runlog::proto::descriptor::file_descriptor_set_bytes())
+                    .into_owned();
+            assert_eq!(
+                log.channels[spec.topic].schema_text, carried,
+                "{}",
+                spec.topic
+            );
             continue;
         }
         let carried: serde_json::Value =

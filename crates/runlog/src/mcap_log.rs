@@ -718,7 +718,10 @@ mod tests {
         assert!(format!("{err}").contains("is json, not protobuf"), "{err}");
         let command = CommandMsg::new("tare", 0.0, &control::io::CommandFrame::default());
         let err = log.write_proto(topics::SENSORS, 0, &command).unwrap_err();
-        assert!(format!("{err}").contains("carries stewart.SensorFrame"), "{err}");
+        assert!(
+            format!("{err}").contains("carries stewart.SensorFrame"),
+            "{err}"
+        );
         log.write_proto(topics::SENSORS, 0, &sensor).unwrap();
         log.finish().unwrap();
     }

@@ -1,4 +1,5 @@
-//! The log's channels: topic, schema name, JSON schema and message type of each. The catalogue
+//! The log's channels: topic, schema name, JSON schema, encoding and message type of each (the
+//! 1 kHz and 100 Hz channels in protobuf, [`crate::proto`]). The catalogue
 //! [`channels`] is the single list that the writer registers, the tests check and
 //! `docs/log-schema.md` documents.
 //!

@@ -63,7 +63,12 @@ fn check_against_descriptor<T: Encode + Serialize>(m: &T) -> Vec<u8> {
         .get_message_by_name(T::NAME)
         .unwrap_or_else(|| panic!("{} not in the descriptor", T::NAME));
     let dm = DynamicMessage::decode(desc, bytes.as_slice()).expect("decodes");
-    assert_eq!(dm.unknown_fields().count(), 0, "{}: unknown fields", T::NAME);
+    assert_eq!(
+        dm.unknown_fields().count(),
+        0,
+        "{}: unknown fields",
+        T::NAME
+    );
     assert_eq!(
         to_json(&Value::Message(dm)),
         serde_json::to_value(m).unwrap(),
@@ -136,7 +141,10 @@ fn an_array_of_the_wrong_length_is_refused() {
     // A seventh leg length appended: a packed field's entries concatenate.
     e.doubles(4, &[1.0]);
     let err = SensorRecord::from_proto(SensorFrame::decode(bytes.as_slice()).unwrap()).unwrap_err();
-    assert!(err.contains("leg_lengths_m holds 7 numbers, not 6"), "{err}");
+    assert!(
+        err.contains("leg_lengths_m holds 7 numbers, not 6"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -152,7 +160,10 @@ fn the_other_channels_match_the_descriptor_and_read_back() {
     let bytes = check_against_descriptor(&c);
     let p = CommandFrame::decode(bytes.as_slice()).unwrap();
     assert_eq!(
-        p.leg_forces_n.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+        p.leg_forces_n
+            .iter()
+            .map(|x| x.to_bits())
+            .collect::<Vec<_>>(),
         bits(&c.leg_forces_n).to_vec()
     );
     assert!(p.enable);

@@ -27,7 +27,7 @@ use crate::messages as topics;
 use crate::metadata::{EstimatorSettings, RunMetadata, TruthMsg};
 use measure::tare::TareFile;
 pub use records::{
-    BodyRecord, FromProto, EstimateRecord, LegsRecord, PoseRecord, PoseRecordValue, SensorRecord,
+    BodyRecord, EstimateRecord, FromProto, LegsRecord, PoseRecord, PoseRecordValue, SensorRecord,
 };
 pub use scan::{Event, Gap, Message};
 
@@ -298,7 +298,9 @@ where
             .map_err(|e| format!("does not match its schema ({e})"))
             .and_then(T::from_proto),
         "json" => decode(m.data),
-        other => Err(format!("has message encoding {other:?}, not json or protobuf")),
+        other => Err(format!(
+            "has message encoding {other:?}, not json or protobuf"
+        )),
     }
 }
 

@@ -57,8 +57,12 @@ fn a_json_log_still_reads() {
         .collect();
     let mut log = McapLog::create(&path, &specs).unwrap();
     for i in 0..50 {
-        log.write(SENSORS_TOPIC, 1_000 + i, &SensorMsg::new("loaded", &frame(i)))
-            .unwrap();
+        log.write(
+            SENSORS_TOPIC,
+            1_000 + i,
+            &SensorMsg::new("loaded", &frame(i)),
+        )
+        .unwrap();
     }
     log.finish().unwrap();
     let log = LogContents::read(&path).unwrap();

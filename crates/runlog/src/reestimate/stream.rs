@@ -22,8 +22,8 @@ use super::{
     settings_of, start_replay, tare_file, LogFacts, RunEstimate, SettingsOverride, TareOrigin,
 };
 use crate::messages as topics;
-use crate::proto::{self, array};
 use crate::metadata::{EstimatorSettings, RunMetadata, TruthMsg};
+use crate::proto::{self, array};
 use crate::read::records::{nan_or, nan_or_one};
 use crate::read::{decode, no_metadata, visit, Channels, Damage, Message, Visitor};
 
