@@ -9,21 +9,25 @@ use std::collections::BTreeMap;
 use runlog::run_log::rates;
 use runlog::LogContents;
 
-/// The channel table of docs/log-schema.md: topic → schema name. The document gives one
-/// message encoding (`json`) and one schema encoding (`jsonschema`) for every channel.
-fn documented() -> BTreeMap<String, String> {
+/// The channel table of docs/log-schema.md: topic → (schema name, message encoding). The
+/// document says which schema encoding goes with each message encoding.
+fn documented() -> BTreeMap<String, (String, String)> {
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/log-schema.md"))
         .expect("docs/log-schema.md");
-    assert!(text.contains("Message encoding `json`, schema encoding `jsonschema`"));
+    assert!(text.contains("message encoding `json` with schema encoding `jsonschema`"));
+    assert!(text.contains("message encoding `protobuf` with schema encoding `protobuf`"));
     let mut out = BTreeMap::new();
     for line in text.lines() {
-        // | `topic` | `schema` | rate | content |
+        // | `topic` | `schema` | encoding | rate | content |
         let cells: Vec<&str> = line
             .split('|')
             .map(|c| c.trim().trim_matches('`'))
             .collect();
-        if cells.len() > 4 && cells[1].starts_with('/') {
-            out.insert(cells[1].to_string(), cells[2].to_string());
+        if cells.len() > 5 && cells[1].starts_with('/') {
+            out.insert(
+                cells[1].to_string(),
+                (cells[2].to_string(), cells[3].to_string()),
+            );
         }
     }
     out
@@ -40,10 +44,11 @@ fn every_documented_channel_is_in_the_catalogue() {
     let catalogue = runlog::messages::channels();
     assert_eq!(doc.len(), catalogue.len(), "documented: {:?}", doc.keys());
     for spec in &catalogue {
-        let schema = doc
+        let (schema, encoding) = doc
             .get(spec.topic)
             .unwrap_or_else(|| panic!("{} is not documented", spec.topic));
         assert_eq!(schema, spec.schema_name, "{}", spec.topic);
+        assert_eq!(encoding, spec.encoding.message_encoding(), "{}", spec.topic);
     }
 }
 
@@ -71,12 +76,12 @@ fn a_simulate_log_reads_back_as_documented() {
         e.4 = m.log_time;
         file_monotonic &= m.log_time >= last_log_time;
         last_log_time = m.log_time;
-        // Every message is a JSON object (tests/log_schema_validation.rs checks each against
-        // its channel's JSON schema).
+        // Every message is a JSON object, protobuf ones decoded (tests/log_schema_validation.rs
+        // checks each against its channel's JSON schema).
         assert!(m.value.is_object(), "{}", m.topic);
     }
     assert!(file_monotonic, "log times go backwards in the file");
-    for (topic, schema) in documented() {
+    for (topic, (schema, encoding)) in documented() {
         if rig_only(&topic) {
             continue;
         }
@@ -84,15 +89,32 @@ fn a_simulate_log_reads_back_as_documented() {
             .get(&topic)
             .unwrap_or_else(|| panic!("channel {topic} missing from the log"));
         assert_eq!(*s, schema, "{topic}");
-        assert_eq!(se, "jsonschema", "{topic}");
-        assert_eq!(me, "json", "{topic}");
+        assert_eq!(*me, encoding, "{topic}");
+        let schema_encoding = if encoding == "json" {
+            "jsonschema"
+        } else {
+            "protobuf"
+        };
+        assert_eq!(se, schema_encoding, "{topic}");
         assert!(*n > 0 && *mono, "{topic}: {n} messages, monotonic {mono}");
     }
     // Counts against the duration and rates.
     let log = LogContents::read(&run.log).unwrap();
-    // Each schema the log carries is the catalogue's document for its channel.
+    // Each schema the log carries is the catalogue's: its JSON schema document, or the
+    // descriptor set (support::read_messages decoded every protobuf message with it).
     for spec in runlog::messages::channels() {
         if rig_only(spec.topic) {
+            continue;
+        }
+        if spec.encoding == runlog::mcap_log::Encoding::Protobuf {
+            let carried =
+                String::from_utf8_lossy(&runlog::proto::descriptor::file_descriptor_set_bytes())
+                    .into_owned();
+            assert_eq!(
+                log.channels[spec.topic].schema_text, carried,
+                "{}",
+                spec.topic
+            );
             continue;
         }
         let carried: serde_json::Value =

@@ -133,17 +133,19 @@ fn a_report_from_a_cut_log_carries_the_truncation() {
     assert!(why.contains("ends at byte"), "{why}");
 }
 
-/// Rewrites the log with every `/sensors` leg force `null` (non-finite when logged).
+/// Rewrites the log with every `/sensors` leg force NaN (`null` in a JSON log).
 fn without_forces(from: &Path, to: &Path) {
+    use prost::Message as _;
     let bytes = std::fs::read(from).unwrap();
     let mut out =
         mcap::Writer::new(std::io::BufWriter::new(std::fs::File::create(to).unwrap())).unwrap();
     for m in mcap::MessageStream::new(&bytes).unwrap() {
         let mut m = m.unwrap();
         if m.channel.topic == "/sensors" {
-            let mut v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
-            v["leg_forces_n"] = serde_json::json!([null, null, null, null, null, null]);
-            m.data = serde_json::to_vec(&v).unwrap().into();
+            assert_eq!(m.channel.message_encoding, "protobuf");
+            let mut f = runlog::proto::SensorFrame::decode(&m.data[..]).unwrap();
+            f.leg_forces_n = vec![f64::NAN; 6];
+            m.data = f.encode_to_vec().into();
         }
         out.write(&m).unwrap();
     }

@@ -245,6 +245,12 @@ pub struct LogMessage {
 /// Every message of a finished MCAP log with its channel, in file order; panics if any record
 /// fails to read (the log must be readable to its last frame), if a channel has no schema, or
 /// if the file has no summary (it was not finished).
+///
+/// A `json` message is parsed as it is. A `protobuf` message is decoded by `prost-reflect` with
+/// the `FileDescriptorSet` its channel's schema carries (so the schema in the file is proved to
+/// describe the bytes, by a decoder the project did not write) and given as the JSON the JSON
+/// writer would have written: the proto field names, every field (defaults included), a
+/// non-finite number as `null`. A field the descriptor does not know fails.
 pub fn read_messages(path: &Path) -> Vec<LogMessage> {
     let bytes = std::fs::read(path).unwrap();
     let summary = mcap::Summary::read(&bytes).expect("summary readable");
@@ -253,19 +259,46 @@ pub fn read_messages(path: &Path) -> Vec<LogMessage> {
         "the log {} was not finished",
         path.display()
     );
+    let mut descriptors = std::collections::HashMap::new();
     mcap::MessageStream::new(&bytes)
         .unwrap()
         .map(|m| {
             let m = m.unwrap_or_else(|e| panic!("unreadable record in {}: {e}", path.display()));
+            let topic = &m.channel.topic;
             let schema = m
                 .channel
                 .schema
                 .as_ref()
-                .unwrap_or_else(|| panic!("{} has no schema", m.channel.topic));
-            let value = serde_json::from_slice(&m.data)
-                .unwrap_or_else(|e| panic!("{}: not JSON: {e}", m.channel.topic));
+                .unwrap_or_else(|| panic!("{topic} has no schema"));
+            let value = match m.channel.message_encoding.as_str() {
+                "json" => serde_json::from_slice(&m.data)
+                    .unwrap_or_else(|e| panic!("{topic}: not JSON: {e}")),
+                "protobuf" => {
+                    assert_eq!(schema.encoding, "protobuf", "{topic}");
+                    let desc = descriptors
+                        .entry(schema.id)
+                        .or_insert_with(|| {
+                            prost_reflect::DescriptorPool::decode(&schema.data[..])
+                                .unwrap_or_else(|e| panic!("{topic}: not a descriptor set: {e}"))
+                                .get_message_by_name(&schema.name)
+                                .unwrap_or_else(|| {
+                                    panic!("{topic}: {} not in its descriptor set", schema.name)
+                                })
+                        })
+                        .clone();
+                    let message = prost_reflect::DynamicMessage::decode(desc, &m.data[..])
+                        .unwrap_or_else(|e| panic!("{topic}: does not decode: {e}"));
+                    assert_eq!(
+                        message.unknown_fields().count(),
+                        0,
+                        "{topic}: fields its descriptor does not know"
+                    );
+                    proto_json(&prost_reflect::Value::Message(message))
+                }
+                other => panic!("{topic}: message encoding {other}"),
+            };
             LogMessage {
-                topic: m.channel.topic.clone(),
+                topic: topic.clone(),
                 schema_name: schema.name.clone(),
                 schema_encoding: schema.encoding.clone(),
                 message_encoding: m.channel.message_encoding.clone(),
@@ -274,6 +307,28 @@ pub fn read_messages(path: &Path) -> Vec<LogMessage> {
             }
         })
         .collect()
+}
+
+/// A decoded protobuf value as the JSON writer writes it (see [`read_messages`]).
+fn proto_json(v: &prost_reflect::Value) -> serde_json::Value {
+    use prost_reflect::{ReflectMessage, Value};
+    use serde_json::json;
+    match v {
+        Value::F64(x) if x.is_finite() => json!(x),
+        Value::F64(_) => serde_json::Value::Null,
+        Value::U64(x) => json!(x),
+        Value::U32(x) => json!(x),
+        Value::Bool(x) => json!(x),
+        Value::String(x) => json!(x),
+        Value::List(l) => serde_json::Value::Array(l.iter().map(proto_json).collect()),
+        Value::Message(m) => serde_json::Value::Object(
+            m.descriptor()
+                .fields()
+                .map(|f| (f.name().to_string(), proto_json(&m.get_field(&f))))
+                .collect(),
+        ),
+        other => panic!("a type the log's schema does not use: {other:?}"),
+    }
 }
 
 /// Every message of a finished MCAP log as (topic, JSON), in file order (see
@@ -306,6 +361,23 @@ pub fn copy_without(from: &Path, to: &Path, topic: &str) {
         }
     }
     out.finish().unwrap();
+}
+
+/// A copy of the log at `from` as the JSON-only writer wrote logs: every channel `json`, each
+/// protobuf message as [`read_messages`] decodes it (a non-finite number as `null`).
+pub fn copy_as_json(from: &Path, to: &Path) {
+    let specs: Vec<_> = runlog::messages::channels()
+        .into_iter()
+        .map(|mut c| {
+            c.encoding = runlog::mcap_log::Encoding::Json;
+            c
+        })
+        .collect();
+    let mut log = runlog::mcap_log::McapLog::create(to, &specs).unwrap();
+    for m in read_messages(from) {
+        log.write(&m.topic, m.log_time, &m.value).unwrap();
+    }
+    log.finish().unwrap();
 }
 
 /// The messages on `topic`.

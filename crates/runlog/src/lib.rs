@@ -4,6 +4,7 @@
 //! - [`messages`]: the channel catalogue and the `stewart.*` message types with their JSON
 //!   schemas; [`metadata`] the run's metadata, estimator settings and (simulation) truth;
 //!   [`link`] the rig link's records.
+//! - [`proto`]: the protobuf encoding of the 1 kHz channels and its descriptor.
 //! - [`foxglove`]: the 3D scene and transforms in Foxglove's well-known schemas.
 //! - [`mcap_log`] (the MCAP writer on its own thread) and [`run_log`] (topics and time);
 //!   [`observer`]: the [`measure::Observer`] that writes a measurement into it.
@@ -19,6 +20,7 @@ pub mod mcap_log;
 pub mod messages;
 pub mod metadata;
 pub mod observer;
+pub mod proto;
 pub mod read;
 pub mod reestimate;
 pub mod run_log;

@@ -1,8 +1,9 @@
-//! The MCAP log writer: JSON messages with JSON schemas, chunked and compressed, streamed as the
+//! The MCAP log writer: JSON messages with JSON schemas and protobuf messages with their
+//! `FileDescriptorSet` ([`Encoding`]), chunked and compressed, streamed as the
 //! run goes so that a crash loses at most the chunk being written and the messages still
 //! queued, and finished (summary, footer) on every normal or interrupted end.
 //!
-//! **A writer thread.** The caller only serializes a message to JSON, into a batch of up to
+//! **A writer thread.** The caller only serializes a message (JSON or protobuf), into a batch of up to
 //! [`BATCH_MESSAGES`] messages (recycled buffers, so no allocation once warm), and queues full
 //! batches; a thread of its own frames them into MCAP chunks, compresses them and writes the
 //! file. So compression and disk writes (and a disk that stalls) stay off the caller's thread:
@@ -35,6 +36,8 @@ use serde::Serialize;
 
 use measure::schema::Schema;
 
+use crate::proto::{Encode, Encoder};
+
 /// One channel of the log.
 #[derive(Clone, Debug)]
 pub struct ChannelSpec {
@@ -42,8 +45,48 @@ pub struct ChannelSpec {
     pub topic: &'static str,
     /// Schema name, e.g. `stewart.SensorFrame` or `foxglove.SceneUpdate`.
     pub schema_name: &'static str,
-    /// The JSON schema of its messages.
+    /// The JSON schema of its messages; for a protobuf channel, of the message decoded to JSON
+    /// (the proto field names, a non-finite number as `null`), which docs/log-schema.md
+    /// documents and the tests check the protobuf schema against.
     pub schema: Schema,
+    /// How its messages are encoded.
+    pub encoding: Encoding,
+}
+
+/// A channel's message encoding.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Encoding {
+    /// Message encoding `json`, schema encoding `jsonschema`: where people read the log.
+    Json,
+    /// Message encoding `protobuf`, schema encoding `protobuf` (the `FileDescriptorSet` of
+    /// [`crate::proto::descriptor`]): the 1 kHz channels, compact and cheap to decode.
+    Protobuf,
+}
+
+impl Encoding {
+    /// MCAP's name of the message encoding.
+    pub fn message_encoding(self) -> &'static str {
+        match self {
+            Self::Json => "json",
+            Self::Protobuf => "protobuf",
+        }
+    }
+
+    /// MCAP's name of the schema encoding.
+    pub fn schema_encoding(self) -> &'static str {
+        match self {
+            Self::Json => "jsonschema",
+            Self::Protobuf => "protobuf",
+        }
+    }
+}
+
+/// A registered channel.
+#[derive(Clone, Copy, Debug)]
+struct Registered {
+    id: u16,
+    encoding: Encoding,
+    schema_name: &'static str,
 }
 
 /// Target uncompressed chunk size: small enough that a crash loses little (about a sixth of a
@@ -121,7 +164,7 @@ pub struct McapLog {
     /// The writer's first error, when it failed.
     failure: Arc<Mutex<Option<String>>>,
     failed: Arc<AtomicBool>,
-    channels: HashMap<&'static str, u16>,
+    channels: HashMap<&'static str, Registered>,
     sequence: u32,
     dropped: u64,
     delivery: Delivery,
@@ -166,16 +209,31 @@ impl McapLog {
             .create(BufWriter::with_capacity(1 << 20, file))
             .context("cannot start the MCAP log")?;
         let mut channels = HashMap::new();
+        let descriptor = crate::proto::descriptor::file_descriptor_set_bytes();
         for spec in specs {
-            let schema_text = serde_json::to_vec(&spec.schema.document(spec.schema_name))?;
-            let schema_id = writer.add_schema(spec.schema_name, "jsonschema", &schema_text)?;
+            let schema_data = match spec.encoding {
+                Encoding::Json => serde_json::to_vec(&spec.schema.document(spec.schema_name))?,
+                Encoding::Protobuf => descriptor.clone(),
+            };
+            let schema_id = writer.add_schema(
+                spec.schema_name,
+                spec.encoding.schema_encoding(),
+                &schema_data,
+            )?;
             let id = writer.add_channel(
                 schema_id,
                 spec.topic,
-                "json",
+                spec.encoding.message_encoding(),
                 &std::collections::BTreeMap::new(),
             )?;
-            channels.insert(spec.topic, id);
+            channels.insert(
+                spec.topic,
+                Registered {
+                    id,
+                    encoding: spec.encoding,
+                    schema_name: spec.schema_name,
+                },
+            );
         }
         // The schemas and channels in a chunk of their own (the summary repeats them): a
         // damaged first data chunk then costs its messages, not every channel's definition.
@@ -240,25 +298,64 @@ impl McapLog {
         self.jobs.as_ref().context("the log is already finished")
     }
 
+    /// The channel of `topic`, refused unless it is registered with `encoding`.
+    fn channel(&self, topic: &str, encoding: Encoding) -> Result<Registered> {
+        let channel = *self
+            .channels
+            .get(topic)
+            .with_context(|| format!("log channel {topic} was not registered"))?;
+        if channel.encoding != encoding {
+            return Err(anyhow!(
+                "log channel {topic} is {}, not {}",
+                channel.encoding.message_encoding(),
+                encoding.message_encoding()
+            ));
+        }
+        Ok(channel)
+    }
+
     /// Queues `message` as JSON on `topic` at `log_time_ns` (nanoseconds since the Unix epoch).
-    /// Errors: an unregistered topic, a message that does not serialize, a finished or failed
-    /// log. A message dropped for a full queue is not an error (see [`Self::dropped`]).
+    /// Errors: an unregistered or non-JSON topic, a message that does not serialize, a finished
+    /// or failed log. A message dropped for a full queue is not an error (see [`Self::dropped`]).
     pub fn write<T: Serialize>(
         &mut self,
         topic: &str,
         log_time_ns: u64,
         message: &T,
     ) -> Result<()> {
-        let channel_id = *self
-            .channels
-            .get(topic)
-            .with_context(|| format!("log channel {topic} was not registered"))?;
+        let channel = self.channel(topic, Encoding::Json)?;
         self.check_writer()?;
         let start = self.batch.data.len();
         if let Err(e) = serde_json::to_writer(&mut self.batch.data, message) {
             self.batch.data.truncate(start);
             return Err(e.into());
         }
+        self.queued(channel.id, log_time_ns)
+    }
+
+    /// Queues `message` in protobuf on `topic` at `log_time_ns`. Errors: an unregistered or
+    /// non-protobuf topic, a channel whose schema is another message, a finished or failed log.
+    pub fn write_proto<T: Encode>(
+        &mut self,
+        topic: &str,
+        log_time_ns: u64,
+        message: &T,
+    ) -> Result<()> {
+        let channel = self.channel(topic, Encoding::Protobuf)?;
+        if channel.schema_name != T::NAME {
+            return Err(anyhow!(
+                "log channel {topic} carries {}, not {}",
+                channel.schema_name,
+                T::NAME
+            ));
+        }
+        self.check_writer()?;
+        message.encode(&mut Encoder::new(&mut self.batch.data));
+        self.queued(channel.id, log_time_ns)
+    }
+
+    /// Records the message just appended to the batch; hands a full batch to the writer.
+    fn queued(&mut self, channel_id: u16, log_time_ns: u64) -> Result<()> {
         self.sequence = self.sequence.wrapping_add(1);
         self.batch.entries.push(Entry {
             channel_id,
@@ -474,6 +571,7 @@ mod tests {
             topic: "/t",
             schema_name: "test.T",
             schema: object(vec![("v", num(""))], ""),
+            encoding: Encoding::Json,
         }
     }
 
@@ -581,6 +679,7 @@ mod tests {
             topic: "/t",
             schema_name: "test.T",
             schema: object(vec![("v", num(""))], ""),
+            encoding: Encoding::Json,
         };
         let mut log = McapLog::create(&path, &[spec]).unwrap();
         for i in 0..1000u64 {
@@ -602,5 +701,28 @@ mod tests {
         assert_eq!(schema.encoding, "jsonschema");
         let v: serde_json::Value = serde_json::from_slice(&messages[999].data).unwrap();
         assert_eq!(v["v"], 999.0);
+    }
+
+    #[test]
+    fn a_message_in_the_wrong_encoding_is_refused() {
+        use crate::messages::{self as topics, CommandMsg, SensorMsg};
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.mcap");
+        let specs = crate::messages::channels();
+        let mut log = McapLog::create(&path, &specs).unwrap();
+        let frame = control::io::SensorFrame::default();
+        let sensor = SensorMsg::new("tare", &frame);
+        let err = log.write(topics::SENSORS, 0, &sensor).unwrap_err();
+        assert!(format!("{err}").contains("is protobuf, not json"), "{err}");
+        let err = log.write_proto(topics::METADATA, 0, &sensor).unwrap_err();
+        assert!(format!("{err}").contains("is json, not protobuf"), "{err}");
+        let command = CommandMsg::new("tare", 0.0, &control::io::CommandFrame::default());
+        let err = log.write_proto(topics::SENSORS, 0, &command).unwrap_err();
+        assert!(
+            format!("{err}").contains("carries stewart.SensorFrame"),
+            "{err}"
+        );
+        log.write_proto(topics::SENSORS, 0, &sensor).unwrap();
+        log.finish().unwrap();
     }
 }

@@ -1,4 +1,5 @@
-//! The log's channels: topic, schema name, JSON schema and message type of each. The catalogue
+//! The log's channels: topic, schema name, JSON schema, encoding and message type of each (the
+//! 1 kHz and 100 Hz channels in protobuf, [`crate::proto`]). The catalogue
 //! [`channels`] is the single list that the writer registers, the tests check and
 //! `docs/log-schema.md` documents.
 //!
@@ -10,7 +11,8 @@
 use serde::Serialize;
 
 use crate::foxglove;
-use crate::mcap_log::ChannelSpec;
+use crate::mcap_log::{ChannelSpec, Encoding};
+use crate::proto::{Encode, Encoder};
 use measure::schema::{array, boolean, int, nullable, num, numbers, object, string, Schema};
 
 /// Raw sensor frames, every sample.
@@ -111,6 +113,7 @@ impl SensorMsg {
         }
     }
 
+    /// The JSON form's schema (docs/log-schema.md).
     fn schema() -> Schema {
         object(
             vec![
@@ -494,81 +497,166 @@ impl EstimateMsg {
     }
 }
 
+impl Encode for SensorMsg {
+    const NAME: &'static str = "stewart.SensorFrame";
+    fn encode(&self, e: &mut Encoder<'_>) {
+        e.string(1, self.run);
+        e.uint(2, self.sequence);
+        e.double(3, self.time_s);
+        e.doubles(4, &self.leg_lengths_m);
+        e.doubles(5, &self.leg_forces_n);
+        e.doubles(6, &self.gyro_rad_s);
+        e.doubles(7, &self.accel_m_s2);
+        e.uint(8, u64::from(self.status));
+    }
+}
+
+impl Encode for CommandMsg {
+    const NAME: &'static str = "stewart.CommandFrame";
+    fn encode(&self, e: &mut Encoder<'_>) {
+        e.string(1, self.run);
+        e.double(2, self.time_s);
+        e.uint(3, self.sequence);
+        e.uint(4, self.sensor_sequence);
+        e.doubles(5, &self.leg_forces_n);
+        e.bool(6, self.enable);
+    }
+}
+
+impl PoseValue {
+    fn encode(&self, e: &mut Encoder<'_>) {
+        e.doubles(1, &self.position_m);
+        e.doubles(2, &self.rpy_rad);
+    }
+}
+
+impl Encode for PoseMsg {
+    const NAME: &'static str = "stewart.PoseState";
+    fn encode(&self, e: &mut Encoder<'_>) {
+        e.string(1, self.run);
+        e.double(2, self.time_s);
+        e.message(3, |e| self.desired.encode(e));
+        e.message(4, |e| self.measured.encode(e));
+    }
+}
+
+impl Encode for LegsMsg {
+    const NAME: &'static str = "stewart.Legs";
+    fn encode(&self, e: &mut Encoder<'_>) {
+        e.string(1, self.run);
+        e.double(2, self.time_s);
+        e.doubles(3, &self.desired_length_m);
+        e.doubles(4, &self.measured_length_m);
+        e.doubles(5, &self.error_m);
+        e.doubles(6, &self.command_force_n);
+        e.doubles(7, &self.measured_force_n);
+    }
+}
+
+impl Encode for PidMsg {
+    const NAME: &'static str = "stewart.PidTerms";
+    fn encode(&self, e: &mut Encoder<'_>) {
+        e.string(1, self.run);
+        e.double(2, self.time_s);
+        e.doubles(3, &self.p_n);
+        e.doubles(4, &self.i_n);
+        e.doubles(5, &self.d_n);
+        e.doubles(6, &self.feedforward_n);
+        e.doubles(7, &self.output_n);
+        e.bools(8, &self.saturated);
+    }
+}
+
 /// The whole catalogue, in the order the log registers it.
 pub fn channels() -> Vec<ChannelSpec> {
     vec![
         ChannelSpec {
             topic: METADATA,
+            encoding: Encoding::Json,
             schema_name: "stewart.RunMetadata",
             schema: crate::metadata::RunMetadata::schema(),
         },
         ChannelSpec {
             topic: ESTIMATOR_SETTINGS,
+            encoding: Encoding::Json,
             schema_name: "stewart.EstimatorSettings",
             schema: crate::metadata::EstimatorSettings::schema(),
         },
         ChannelSpec {
             topic: TARE,
+            encoding: Encoding::Json,
             schema_name: "stewart.Tare",
             schema: measure::tare::TareFile::schema(),
         },
         ChannelSpec {
             topic: TRUTH,
+            encoding: Encoding::Json,
             schema_name: "stewart.Truth",
             schema: crate::metadata::TruthMsg::schema(),
         },
         ChannelSpec {
             topic: SENSORS,
+            encoding: Encoding::Protobuf,
             schema_name: "stewart.SensorFrame",
             schema: SensorMsg::schema(),
         },
         ChannelSpec {
             topic: COMMANDS,
+            encoding: Encoding::Protobuf,
             schema_name: "stewart.CommandFrame",
             schema: CommandMsg::schema(),
         },
         ChannelSpec {
             topic: POSE,
+            encoding: Encoding::Protobuf,
             schema_name: "stewart.PoseState",
             schema: PoseMsg::schema(),
         },
         ChannelSpec {
             topic: LEGS,
+            encoding: Encoding::Protobuf,
             schema_name: "stewart.Legs",
             schema: LegsMsg::schema(),
         },
         ChannelSpec {
             topic: PID,
+            encoding: Encoding::Protobuf,
             schema_name: "stewart.PidTerms",
             schema: PidMsg::schema(),
         },
         ChannelSpec {
             topic: SUPERVISOR,
+            encoding: Encoding::Json,
             schema_name: "stewart.Supervisor",
             schema: SupervisorMsg::schema(),
         },
         ChannelSpec {
             topic: ESTIMATE,
+            encoding: Encoding::Json,
             schema_name: "stewart.Estimate",
             schema: EstimateMsg::schema(),
         },
         ChannelSpec {
             topic: TF,
+            encoding: Encoding::Json,
             schema_name: "foxglove.FrameTransform",
             schema: foxglove::frame_transform_schema(),
         },
         ChannelSpec {
             topic: TF_PAYLOAD,
+            encoding: Encoding::Json,
             schema_name: "foxglove.FrameTransform",
             schema: foxglove::frame_transform_schema(),
         },
         ChannelSpec {
             topic: SCENE,
+            encoding: Encoding::Json,
             schema_name: "foxglove.SceneUpdate",
             schema: foxglove::scene_update_schema(),
         },
         ChannelSpec {
             topic: crate::link::LINK,
+            encoding: Encoding::Json,
             schema_name: crate::link::LINK_SCHEMA_NAME,
             schema: crate::link::LinkMsg::schema(),
         },

@@ -72,7 +72,7 @@ impl<'a> LogObserver<'a> {
             return Ok(());
         };
         if e.index.is_multiple_of(self.derived_every) {
-            self.log.write(
+            self.log.write_proto(
                 topics::POSE,
                 t,
                 &PoseMsg {
@@ -84,7 +84,7 @@ impl<'a> LogObserver<'a> {
             )?;
             let error_m =
                 core::array::from_fn(|i| out.desired_leg_lengths_m[i] - e.frame.leg_lengths_m[i]);
-            self.log.write(
+            self.log.write_proto(
                 topics::LEGS,
                 t,
                 &LegsMsg {
@@ -98,7 +98,7 @@ impl<'a> LogObserver<'a> {
                 },
             )?;
             self.log
-                .write(topics::PID, t, &PidMsg::new(run, t, &out.pid))?;
+                .write_proto(topics::PID, t, &PidMsg::new(run, t, &out.pid))?;
         }
         if e.index.is_multiple_of(self.estimate_every) {
             let time = Time::from_ns(self.log.time_ns(t));
@@ -192,9 +192,9 @@ impl Observer for LogObserver<'_> {
     fn tick(&mut self, e: &TickEvent<'_>) -> anyhow::Result<()> {
         let (run, t) = (e.measurement.name(), e.frame.time_s);
         self.log
-            .write(topics::SENSORS, t, &SensorMsg::new(run, e.frame))?;
+            .write_proto(topics::SENSORS, t, &SensorMsg::new(run, e.frame))?;
         self.log
-            .write(topics::COMMANDS, t, &CommandMsg::new(run, t, e.command))?;
+            .write_proto(topics::COMMANDS, t, &CommandMsg::new(run, t, e.command))?;
         if let Some(pose) = e.pose {
             self.derived(e, pose)?;
         }

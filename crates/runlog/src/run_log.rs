@@ -88,6 +88,17 @@ impl RunLog {
         self.log.write(topic, ns, message)
     }
 
+    /// Writes `message` in protobuf on `topic` at backend time `time_s`.
+    pub fn write_proto<T: crate::proto::Encode>(
+        &mut self,
+        topic: &str,
+        time_s: f64,
+        message: &T,
+    ) -> Result<()> {
+        let ns = self.time_ns(time_s);
+        self.log.write_proto(topic, ns, message)
+    }
+
     /// Writes `message` on `topic` at the latest log time (for run-level records).
     pub fn write_now<T: Serialize>(&mut self, topic: &str, message: &T) -> Result<()> {
         let ns = self.last_ns;

@@ -27,7 +27,7 @@ use crate::messages as topics;
 use crate::metadata::{EstimatorSettings, RunMetadata, TruthMsg};
 use measure::tare::TareFile;
 pub use records::{
-    BodyRecord, EstimateRecord, LegsRecord, PoseRecord, PoseRecordValue, SensorRecord,
+    BodyRecord, EstimateRecord, FromProto, LegsRecord, PoseRecord, PoseRecordValue, SensorRecord,
 };
 pub use scan::{Event, Gap, Message};
 
@@ -38,11 +38,11 @@ pub struct ChannelInfo {
     pub topic: String,
     /// Schema name (empty when the channel has no schema).
     pub schema_name: String,
-    /// Schema encoding (`jsonschema`).
+    /// Schema encoding (`jsonschema` or `protobuf`).
     pub schema_encoding: String,
-    /// The schema document's text.
+    /// The schema document's text (a binary protobuf descriptor set, read lossily as UTF-8).
     pub schema_text: String,
-    /// Message encoding (`json`).
+    /// Message encoding (`json` or `protobuf`).
     pub message_encoding: String,
     /// Messages read.
     pub count: u64,
@@ -287,6 +287,23 @@ pub fn decode<T: for<'de> Deserialize<'de>>(data: &[u8]) -> std::result::Result<
     serde_json::from_slice(data).map_err(|e| format!("does not match its schema ({e})"))
 }
 
+/// Decodes one message of a channel that is protobuf in this writer's logs and JSON in older
+/// ones, by the channel's message encoding; the error in words.
+pub fn decode_record<T>(m: &Message<'_>) -> std::result::Result<T, String>
+where
+    T: FromProto + for<'de> Deserialize<'de>,
+{
+    match m.channel.message_encoding.as_str() {
+        "protobuf" => <T::Proto as prost::Message>::decode(m.data)
+            .map_err(|e| format!("does not match its schema ({e})"))
+            .and_then(T::from_proto),
+        "json" => decode(m.data),
+        other => Err(format!(
+            "has message encoding {other:?}, not json or protobuf"
+        )),
+    }
+}
+
 /// Everything read from a log.
 #[derive(Clone, Debug, Default)]
 pub struct LogContents {
@@ -326,6 +343,13 @@ fn keep<T: for<'de> Deserialize<'de>>(into: &mut Vec<T>, data: &[u8]) -> Option<
     decode(data).map(|r| into.push(r)).err()
 }
 
+fn keep_record<T: FromProto + for<'de> Deserialize<'de>>(
+    into: &mut Vec<T>,
+    m: &Message<'_>,
+) -> Option<String> {
+    decode_record(m).map(|r| into.push(r)).err()
+}
+
 fn set<T: for<'de> Deserialize<'de>>(into: &mut Option<T>, data: &[u8]) -> Option<String> {
     decode(data).map(|r| *into = Some(r)).err()
 }
@@ -337,15 +361,15 @@ impl Visitor for Collect<'_> {
         self.sensor = None;
         Ok(match m.channel.topic.as_str() {
             topics::SENSORS => {
-                let e = keep(&mut log.sensors, data);
+                let e = keep_record(&mut log.sensors, m);
                 if e.is_none() {
                     self.sensor = log.sensors.last().map(|s| s.sequence);
                 }
                 e
             }
             topics::ESTIMATE => keep(&mut log.estimates, data),
-            topics::LEGS => keep(&mut log.legs, data),
-            topics::POSE => keep(&mut log.poses, data),
+            topics::LEGS => keep_record(&mut log.legs, m),
+            topics::POSE => keep_record(&mut log.poses, m),
             topics::METADATA => set(&mut log.metadata, data),
             topics::ESTIMATOR_SETTINGS => keep(&mut log.settings, data),
             topics::TARE => set(&mut log.tare, data),

@@ -1,7 +1,18 @@
 //! The records `stewart estimate` and the figures read from a log, decoded from their JSON
-//! (docs/log-schema.md); a logged `null` (a non-finite value when written) reads back as NaN.
+//! (docs/log-schema.md; a logged `null`, a non-finite value when written, reads back as NaN) or
+//! from their protobuf ([`crate::proto`]; every f64 exactly as written).
 
 use serde::{Deserialize, Deserializer};
+
+use crate::proto::{self, array};
+
+/// A record that a protobuf channel may carry.
+pub trait FromProto: Sized {
+    /// Its protobuf message.
+    type Proto: prost::Message + Default;
+    /// The record of `p`, or why `p` does not fit it (an array of the wrong length).
+    fn from_proto(p: Self::Proto) -> Result<Self, String>;
+}
 
 /// JSON `null` (a non-finite value when written) reads back as NaN.
 /// An array of `N` numbers, `null` as NaN, read in place (no allocation per message).
@@ -79,6 +90,22 @@ impl SensorRecord {
             accel_m_s2: self.accel_m_s2,
             status: control::io::Status(self.status),
         }
+    }
+}
+
+impl FromProto for SensorRecord {
+    type Proto = proto::SensorFrame;
+    fn from_proto(p: proto::SensorFrame) -> Result<Self, String> {
+        Ok(Self {
+            sequence: p.sequence,
+            time_s: p.time_s,
+            leg_lengths_m: array("leg_lengths_m", &p.leg_lengths_m)?,
+            leg_forces_n: array("leg_forces_n", &p.leg_forces_n)?,
+            gyro_rad_s: array("gyro_rad_s", &p.gyro_rad_s)?,
+            accel_m_s2: array("accel_m_s2", &p.accel_m_s2)?,
+            status: p.status,
+            run: p.run,
+        })
     }
 }
 
@@ -180,4 +207,41 @@ pub struct PoseRecord {
     pub desired: PoseRecordValue,
     /// FK of the measured legs.
     pub measured: PoseRecordValue,
+}
+
+impl FromProto for LegsRecord {
+    type Proto = proto::Legs;
+    fn from_proto(p: proto::Legs) -> Result<Self, String> {
+        Ok(Self {
+            time_s: p.time_s,
+            desired_length_m: array("desired_length_m", &p.desired_length_m)?,
+            measured_length_m: array("measured_length_m", &p.measured_length_m)?,
+            error_m: array("error_m", &p.error_m)?,
+            command_force_n: array("command_force_n", &p.command_force_n)?,
+            measured_force_n: array("measured_force_n", &p.measured_force_n)?,
+            run: p.run,
+        })
+    }
+}
+
+impl PoseRecordValue {
+    fn from_proto(field: &str, p: Option<proto::Pose>) -> Result<Self, String> {
+        let p = p.ok_or_else(|| format!("does not match its schema ({field} missing)"))?;
+        Ok(Self {
+            position_m: array("position_m", &p.position_m)?,
+            rpy_rad: array("rpy_rad", &p.rpy_rad)?,
+        })
+    }
+}
+
+impl FromProto for PoseRecord {
+    type Proto = proto::PoseState;
+    fn from_proto(p: proto::PoseState) -> Result<Self, String> {
+        Ok(Self {
+            time_s: p.time_s,
+            desired: PoseRecordValue::from_proto("desired", p.desired)?,
+            measured: PoseRecordValue::from_proto("measured", p.measured)?,
+            run: p.run,
+        })
+    }
 }

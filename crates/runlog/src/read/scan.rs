@@ -64,13 +64,13 @@ pub struct ChannelDef {
     pub id: u16,
     /// Topic.
     pub topic: String,
-    /// Message encoding (`json`).
+    /// Message encoding (`json` or `protobuf`).
     pub message_encoding: String,
     /// Schema name (empty without a schema).
     pub schema_name: String,
-    /// Schema encoding (`jsonschema`).
+    /// Schema encoding (`jsonschema` or `protobuf`).
     pub schema_encoding: String,
-    /// The schema document's text.
+    /// The schema document's text (a binary protobuf descriptor set, read lossily as UTF-8).
     pub schema_text: String,
 }
 

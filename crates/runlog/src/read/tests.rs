@@ -27,7 +27,7 @@ fn log_bytes_chunked(n: u64, every: u64) -> Vec<u8> {
     let path = dir.path().join("t.mcap");
     let mut log = McapLog::create(&path, &channels()).unwrap();
     for i in 0..n {
-        log.write(
+        log.write_proto(
             SENSORS_TOPIC,
             1_000 + i,
             &SensorMsg::new("loaded", &frame(i)),
@@ -43,8 +43,42 @@ fn log_bytes_chunked(n: u64, every: u64) -> Vec<u8> {
 
 const SENSORS_TOPIC: &str = topics::SENSORS;
 
+/// A log as the JSON-only writer made them: `/sensors` in JSON, a non-finite number as `null`.
 #[test]
-fn reads_frames_back_exactly_with_nan_as_null() {
+fn a_json_log_still_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("json.mcap");
+    let specs: Vec<_> = channels()
+        .into_iter()
+        .map(|mut c| {
+            c.encoding = crate::mcap_log::Encoding::Json;
+            c
+        })
+        .collect();
+    let mut log = McapLog::create(&path, &specs).unwrap();
+    for i in 0..50 {
+        log.write(
+            SENSORS_TOPIC,
+            1_000 + i,
+            &SensorMsg::new("loaded", &frame(i)),
+        )
+        .unwrap();
+    }
+    log.finish().unwrap();
+    let log = LogContents::read(&path).unwrap();
+    assert!(log.damaged.is_clean(), "{:?}", log.damaged);
+    assert_eq!(log.channels[SENSORS_TOPIC].message_encoding, "json");
+    assert_eq!(log.sensors.len(), 50);
+    for (i, s) in log.sensors.iter().enumerate() {
+        let f = frame(i as u64);
+        assert_eq!(s.time_s.to_bits(), f.time_s.to_bits());
+        assert_eq!(s.leg_lengths_m, f.leg_lengths_m);
+        assert!(s.leg_forces_n[0].is_nan());
+    }
+}
+
+#[test]
+fn reads_frames_back_exactly_nan_included() {
     let log = LogContents::from_bytes(&log_bytes(250)).unwrap();
     assert!(log.truncated.is_none());
     assert_eq!(log.sensors.len(), 250);
@@ -54,7 +88,8 @@ fn reads_frames_back_exactly_with_nan_as_null() {
         (250, 1_000, 1_249, true)
     );
     assert_eq!(info.schema_name, "stewart.SensorFrame");
-    assert_eq!(info.message_encoding, "json");
+    assert_eq!(info.message_encoding, "protobuf");
+    assert_eq!(info.schema_encoding, "protobuf");
     for (i, s) in log.sensors.iter().enumerate() {
         let f = frame(i as u64);
         assert_eq!(s.time_s.to_bits(), f.time_s.to_bits());

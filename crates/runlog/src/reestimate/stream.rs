@@ -23,6 +23,7 @@ use super::{
 };
 use crate::messages as topics;
 use crate::metadata::{EstimatorSettings, RunMetadata, TruthMsg};
+use crate::proto::{self, array};
 use crate::read::records::{nan_or, nan_or_one};
 use crate::read::{decode, no_metadata, visit, Channels, Damage, Message, Visitor};
 
@@ -128,6 +129,8 @@ struct Stream<'a> {
     truth: Option<TruthMsg>,
     runs: Vec<(&'static str, RunState)>,
     sequence: Option<u64>,
+    /// The protobuf `/sensors` message decoded into, its buffers reused.
+    scratch: proto::SensorFrame,
 }
 
 impl Stream<'_> {
@@ -164,12 +167,49 @@ impl Stream<'_> {
         Ok(())
     }
 
-    fn sensor(&mut self, data: &[u8]) -> Result<Option<String>> {
+    fn sensor(&mut self, m: &Message<'_>) -> Result<Option<String>> {
+        match m.channel.message_encoding.as_str() {
+            "protobuf" => self.sensor_proto(m.data),
+            "json" => self.sensor_json(m.data),
+            other => Ok(Some(format!(
+                "has message encoding {other:?}, not json or protobuf"
+            ))),
+        }
+    }
+
+    /// A protobuf `/sensors` frame, decoded into a reused message (no allocation once warm).
+    fn sensor_proto(&mut self, data: &[u8]) -> Result<Option<String>> {
+        let p = &mut self.scratch;
+        prost::Message::clear(p);
+        if let Err(e) = prost::Message::merge(&mut *p, data) {
+            return Ok(Some(format!("does not match its schema ({e})")));
+        }
+        let frame = (|| {
+            Ok::<_, String>(SensorFrame {
+                sequence: p.sequence,
+                time_s: p.time_s,
+                leg_lengths_m: array("leg_lengths_m", &p.leg_lengths_m)?,
+                leg_forces_n: array("leg_forces_n", &p.leg_forces_n)?,
+                gyro_rad_s: array("gyro_rad_s", &p.gyro_rad_s)?,
+                accel_m_s2: array("accel_m_s2", &p.accel_m_s2)?,
+                status: Status(p.status),
+            })
+        })();
+        let frame = match frame {
+            Ok(f) => f,
+            Err(e) => return Ok(Some(e)),
+        };
+        let run = std::mem::take(&mut self.scratch.run);
+        self.frame(&run, frame);
+        self.scratch.run = run;
+        Ok(None)
+    }
+
+    fn sensor_json(&mut self, data: &[u8]) -> Result<Option<String>> {
         let s: SensorRef<'_> = match serde_json::from_slice(data) {
             Ok(s) => s,
             Err(e) => return Ok(Some(format!("does not match its schema ({e})"))),
         };
-        self.sequence = Some(s.sequence);
         let frame = SensorFrame {
             sequence: s.sequence,
             time_s: s.time_s,
@@ -179,7 +219,14 @@ impl Stream<'_> {
             accel_m_s2: s.accel_m_s2,
             status: Status(s.status),
         };
-        match self.state(&s.run) {
+        self.frame(&s.run, frame);
+        Ok(None)
+    }
+
+    /// Hands `frame` of measurement `run` to its replay, or holds it until the replay starts.
+    fn frame(&mut self, run: &str, frame: SensorFrame) {
+        self.sequence = Some(frame.sequence);
+        match self.state(run) {
             Some(RunState::Running(w)) => w.push(frame),
             Some(RunState::Waiting(q)) => {
                 if q.len() >= WAITING_FRAMES {
@@ -189,7 +236,6 @@ impl Stream<'_> {
             }
             None => {}
         }
-        Ok(None)
     }
 }
 
@@ -198,7 +244,7 @@ impl Visitor for Stream<'_> {
         self.sequence = None;
         let data = m.data;
         match m.channel.topic.as_str() {
-            topics::SENSORS => return self.sensor(data),
+            topics::SENSORS => return self.sensor(m),
             topics::METADATA if self.meta.is_none() => {
                 let meta: RunMetadata = match decode(data) {
                     Ok(v) => v,
@@ -290,6 +336,7 @@ pub fn reestimate_file(
         truth: None,
         runs: Vec::new(),
         sequence: None,
+        scratch: proto::SensorFrame::default(),
     };
     let (channels, damage) = visit(std::io::BufReader::with_capacity(1 << 16, file), &mut s)
         .with_context(|| format!("{} is not a readable MCAP log", path.display()))?;
