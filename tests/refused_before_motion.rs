@@ -1,8 +1,8 @@
 //! A rig that passes every static check but could not run is refused before anything moves:
 //! long, nearly vertical legs whose PID loops cannot hold the braked load (found from the brake
 //! hold's static forces, `control::stability`), and a plate so small against the base that
-//! rotations barely change the leg lengths (refused with the configuration). Both used to start
-//! moving and fault mid-tare (leg speed limit; forward kinematics).
+//! rotations barely change the leg lengths (refused with the configuration). Run, both would
+//! start moving and fault mid-tare (leg speed limit; forward kinematics).
 
 mod support;
 

@@ -66,9 +66,9 @@ fn ctrl_c_parks_the_platform_and_finishes_the_log() {
         .any(|m| m["interrupted"] == true));
 }
 
-/// Regression: a second Ctrl-C exited after 200 ms with `enable 1` and ~780 N per leg as the
-/// last command on the wire and no log footer; only the rig's watchdog braked. It must brake
-/// at once (no park ramp), finish the log, and end as interrupted.
+/// Regression test: a second Ctrl-C brakes at once (no park ramp): the last command on the wire
+/// is a safe stop, not `enable 1` with ~780 N per leg left to the rig's watchdog; the log is
+/// finished and the run ends as interrupted.
 #[test]
 fn a_second_ctrl_c_brakes_at_once_and_finishes_the_log() {
     let _lock = real_time();

@@ -193,9 +193,8 @@ pub fn prepare(args: &EmulateArgs) -> Result<Prepared, CommandError> {
     let loaded = scenario.loaded.clone();
     let config = &loaded.config;
     let mut rig_config = config.rig.clone();
-    // Flags are checked as flags: a bad value is blamed on the flag, not on a line of the
-    // embedded configuration (regression: `--watchdog-ms 0` was reported as `rig.watchdog_ms`
-    // of the default file).
+    // Flags are checked as flags: a bad value is blamed on the flag, not on `rig.watchdog_ms`
+    // at a line of the embedded configuration that the user never wrote.
     let mut flag_issues = Vec::new();
     if let Some(ms) = args.watchdog_ms {
         if !(ms.is_finite() && (1.0..=10_000.0).contains(&ms)) {
@@ -531,7 +530,7 @@ mod tests {
         assert_eq!(l.force_min_n, -s.world.actuator.max_force_n);
     }
 
-    /// Regression: the emulator printed nothing when its watchdog tripped or a session timed
+    /// Regression test: the emulator prints a line when its watchdog trips or a session times
     /// out.
     #[test]
     fn watchdog_trips_and_timeouts_are_one_line_each_naming_the_session_and_cause() {
@@ -561,8 +560,8 @@ mod tests {
         assert!(!trip.contains('\n') && !timeout.contains('\n'));
     }
 
-    /// Regression: `emulate --watchdog-ms 0` was blamed on `rig.watchdog_ms` at a line of the
-    /// embedded configuration.
+    /// Regression test: `emulate --watchdog-ms 0` is blamed on the flag, not on
+    /// `rig.watchdog_ms` at a line of the embedded configuration.
     #[test]
     fn a_bad_watchdog_flag_is_blamed_on_the_flag() {
         for (args, flag) in [

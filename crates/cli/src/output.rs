@@ -56,7 +56,8 @@ mod tests {
     use super::*;
     use crate::common::SharedArgs;
 
-    /// Regression: a measurement that used no samples printed a table of NaN and exited 0.
+    /// Regression test: a measurement that used no samples prints no table of NaN and does not
+    /// exit 0.
     #[test]
     fn a_report_that_measured_nothing_is_an_error_and_not_written() {
         let dir = tempfile::tempdir().unwrap();

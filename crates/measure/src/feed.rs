@@ -176,9 +176,9 @@ mod tests {
         assert_eq!(feed.pose_guess().position_m, before.position_m);
     }
 
-    /// Regression: a log (or a rig) whose first frame rests further from home than
-    /// `fk_max_jump_m` (here: the plate on its lower end stops) gave no pose at all, so every
-    /// sample of the run was rejected and the report was a table of NaN.
+    /// Regression test: a log (or a rig) whose first frame rests further from home than
+    /// `fk_max_jump_m` (here: the plate on its lower end stops) is posed; without a pose every
+    /// sample of the run would be rejected and the report a table of NaN.
     #[test]
     fn a_first_frame_far_from_home_is_posed() {
         let g = geometry();

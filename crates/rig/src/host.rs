@@ -177,7 +177,7 @@ impl RigBackend {
     /// Ends the current session and opens a new one with the same rig over the same link
     /// (safe stop, then a fresh handshake). The rig starts the new session braked, with its
     /// sequences from 1 and any latched fault cleared; a rig that changes something between
-    /// sessions (an emulator loading the payload) does it now. The counters continue.
+    /// sessions (an emulator loading the payload) does it in between. The counters continue.
     ///
     /// On failure the backend is left without a usable session: drop it.
     pub fn restart_session(&mut self) -> Result<(), RigError> {

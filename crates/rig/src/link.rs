@@ -467,8 +467,9 @@ mod tests {
         assert_eq!(faults[0].command_sequence, 2 + heartbeats);
     }
 
-    /// Regression: on a loaded host at normal priority the rig's watchdog tripped and the host
-    /// said only "rig fault: WATCHDOG". It must say that it was late, by how much, and the fix.
+    /// Regression test: when the rig's watchdog trips because this host was late (a loaded host
+    /// at normal priority), the fault says so, by how much, and the fix, not only "rig fault:
+    /// WATCHDOG".
     #[test]
     fn a_watchdog_fault_after_a_late_host_names_the_lateness_and_the_fix() {
         use crate::emulator::{Emulator, EmulatorConfig};
