@@ -23,7 +23,7 @@
 //! samples before the gap extrapolates their noise 3.4-fold (measured on white gyro noise with
 //! 4.6 % lost: conditioned ω̇ variance +51 % against +8 %), while the linear fill's error,
 //! about (G+1)²T²|x''|/8 for G lost samples, stays far below the sensors' noise at rig rates.
-//! Only the samples that came produce an output, only the samples that came produce an output,
+//! Only the samples that came produce an output,
 //! so the solver never counts information that was not measured. Feeding the stages the
 //! uneven steps instead would unbalance the derivative's taps around the gap, and the gyro
 //! noise they cancel at low frequency would leak through the low-pass into ω̇. A longer gap
@@ -192,40 +192,6 @@ fn all_bounded<const N: usize>(v: &SVector<f64, N>) -> bool {
     v.iter().all(|x| x.is_finite() && x.abs() <= MAX_ABS_SIGNAL)
 }
 
-/// Lagrange weights at the midpoint of the middle two of four sample times: value weights
-/// Lₖ(t_m) and derivative weights Lₖ'(t_m) = Σᵢ≠ₖ 1/(tₖ − tᵢ) Πⱼ≠ₖ,ᵢ (t_m − tⱼ)/(tₖ − tⱼ).
-/// Times are taken relative to t_m to keep their differences exact.
-fn midpoint_weights(times: &[f64; STENCIL]) -> ([f64; STENCIL], [f64; STENCIL]) {
-    let tm = 0.5 * (times[1] + times[2]);
-    let s = times.map(|t| t - tm);
-    let mut value = [0.0; STENCIL];
-    let mut slope = [0.0; STENCIL];
-    for k in 0..STENCIL {
-        let mut v = 1.0;
-        for j in 0..STENCIL {
-            if j != k {
-                v *= (0.0 - s[j]) / (s[k] - s[j]);
-            }
-        }
-        value[k] = v;
-        let mut d = 0.0;
-        for i in 0..STENCIL {
-            if i == k {
-                continue;
-            }
-            let mut term = 1.0 / (s[k] - s[i]);
-            for j in 0..STENCIL {
-                if j != k && j != i {
-                    term *= (0.0 - s[j]) / (s[k] - s[j]);
-                }
-            }
-            d += term;
-        }
-        slope[k] = d;
-    }
-    (value, slope)
-}
-
 impl Conditioner {
     /// Checks the configuration and builds the filter.
     pub fn new(config: ConditioningConfig) -> Result<Self, EstimatorError> {
@@ -331,9 +297,7 @@ impl Conditioner {
     /// response c of (low-pass ∘ derivative stencil) and of (low-pass ∘ value stencil). A white
     /// input of variance σ² comes out with variance σ²·gain.
     pub fn noise_gains(&self) -> (f64, f64) {
-        let t = self.config.sample_period_s;
-        let times = [0.0, t, 2.0 * t, 3.0 * t];
-        let (value, slope) = midpoint_weights(&times);
+        let (value, slope) = stencil_weights(self.config.sample_period_s);
         let gain = |taps: &[f64; STENCIL]| {
             let mut f = self.filter;
             f.reset_to(&SVector::zeros());
@@ -813,19 +777,25 @@ mod tests {
     #[test]
     fn stencil_weights_are_the_fourth_order_staggered_ones() {
         let t = 2e-3;
-        let (v, d) = midpoint_weights(&[10.0, 10.0 + t, 10.0 + 2.0 * t, 10.0 + 3.0 * t]);
+        let (v, d) = stencil_weights(t);
         let ve = [-1.0 / 16.0, 9.0 / 16.0, 9.0 / 16.0, -1.0 / 16.0];
         let de = [1.0 / 24.0, -27.0 / 24.0, 27.0 / 24.0, -1.0 / 24.0];
         for k in 0..4 {
             assert!((v[k] - ve[k]).abs() < 1e-9);
             assert!((d[k] * t - de[k]).abs() < 1e-9);
         }
-        // Uneven steps: exact for cubics.
-        let times = [0.0, 0.7e-3, 2.1e-3, 2.9e-3];
+        // The value weights are Lagrange's at the midpoint of the middle two samples.
+        let times = [10.0, 10.0 + t, 10.0 + 2.0 * t, 10.0 + 3.0 * t];
+        let tm = 0.5 * (times[1] + times[2]);
+        let l = lagrange_weights(&times, STENCIL, tm);
+        for k in 0..4 {
+            assert!((l[k] - v[k]).abs() < 1e-9, "{l:?}");
+        }
+        // Exact for cubics, value and derivative.
+        let times = [0.0, t, 2.0 * t, 3.0 * t];
+        let tm = 0.5 * (times[1] + times[2]);
         let f = |x: f64| 1.0 - 2.0 * x + 3e2 * x * x - 4e4 * x * x * x;
         let fd = |x: f64| -2.0 + 6e2 * x - 12e4 * x * x;
-        let tm = 0.5 * (times[1] + times[2]);
-        let (v, d) = midpoint_weights(&times);
         let val: f64 = (0..4).map(|k| v[k] * f(times[k])).sum();
         let der: f64 = (0..4).map(|k| d[k] * f(times[k])).sum();
         assert!((val - f(tm)).abs() < 1e-12);

@@ -100,19 +100,6 @@ impl SensorMsg {
         }
     }
 
-    /// Back to a sensor frame (for re-running the estimator from a log).
-    pub fn to_frame(&self) -> control::io::SensorFrame {
-        control::io::SensorFrame {
-            sequence: self.sequence,
-            time_s: self.time_s,
-            leg_lengths_m: self.leg_lengths_m,
-            leg_forces_n: self.leg_forces_n,
-            gyro_rad_s: self.gyro_rad_s,
-            accel_m_s2: self.accel_m_s2,
-            status: control::io::Status(self.status),
-        }
-    }
-
     /// The JSON form's schema (docs/log-schema.md).
     fn schema() -> Schema {
         object(

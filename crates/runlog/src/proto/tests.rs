@@ -127,11 +127,12 @@ fn a_sensor_frame_round_trips_bit_for_bit() {
 
 #[test]
 fn a_frame_of_defaults_reads_back_whole() {
-    let m = SensorMsg::new("", &control::io::SensorFrame::default());
+    let frame = control::io::SensorFrame::default();
+    let m = SensorMsg::new("", &frame);
     let bytes = check_against_descriptor(&m);
     assert!(bytes.len() > 4 * 2, "the arrays are written even when zero");
     let r = SensorRecord::from_proto(SensorFrame::decode(bytes.as_slice()).unwrap()).unwrap();
-    assert_eq!(r.to_frame(), m.to_frame());
+    assert_eq!(r.to_frame(), frame);
 }
 
 #[test]
