@@ -9,6 +9,36 @@ use std::time::{Duration, Instant};
 use measure::End;
 use support::*;
 
+/// `rig tare` against `address`, logging to `log`, saving to `out`.
+fn tare_args(
+    scratch: &Scratch,
+    address: &str,
+    log: &std::path::Path,
+    out: &std::path::Path,
+) -> stewart_cli::rig::RigArgs {
+    rig_args(&[
+        "tare",
+        "--out",
+        out.to_str().unwrap(),
+        "--config",
+        scratch.config_str(),
+        "--connect",
+        address,
+        "--log",
+        log.to_str().unwrap(),
+        "--quiet",
+    ])
+}
+
+/// Waits (at most 10 s) until the host has opened a session with the emulator.
+fn wait_for_session(emulator: &stewart_cli::emulate::RunningEmulator) {
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while emulator.sessions().is_empty() {
+        assert!(Instant::now() < deadline, "no session");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
 #[test]
 fn ctrl_c_parks_the_platform_and_finishes_the_log() {
     let _lock = real_time();
@@ -16,28 +46,13 @@ fn ctrl_c_parks_the_platform_and_finishes_the_log() {
     let emulator = start(&emulate_args(&scratch));
     let log = scratch.path("rig.mcap");
     let out = scratch.path("tare.json");
-    let args = rig_args(&[
-        "tare",
-        "--out",
-        out.to_str().unwrap(),
-        "--config",
-        scratch.config_str(),
-        "--connect",
-        emulator.address(),
-        "--log",
-        log.to_str().unwrap(),
-        "--quiet",
-    ]);
+    let args = tare_args(&scratch, emulator.address(), &log, &out);
     static INTERRUPT: AtomicBool = AtomicBool::new(false);
     let host = std::thread::spawn({
         let args = args.clone();
         move || stewart_cli::rig::rig(&args, &INTERRUPT)
     });
-    let deadline = Instant::now() + Duration::from_secs(10);
-    while emulator.sessions().is_empty() {
-        assert!(Instant::now() < deadline, "no session");
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    wait_for_session(&emulator);
     // Into the excitation (brake hold 0.5 s, ramp 1 s, settle 0.5 s), then Ctrl-C.
     std::thread::sleep(Duration::from_millis(3000));
     INTERRUPT.store(true, Ordering::SeqCst);
@@ -77,29 +92,14 @@ fn a_second_ctrl_c_brakes_at_once_and_finishes_the_log() {
     let emulator = start(&emulate_args(&scratch));
     let log = scratch.path("rig.mcap");
     let out = scratch.path("tare.json");
-    let args = rig_args(&[
-        "tare",
-        "--out",
-        out.to_str().unwrap(),
-        "--config",
-        scratch.config_str(),
-        "--connect",
-        emulator.address(),
-        "--log",
-        log.to_str().unwrap(),
-        "--quiet",
-    ]);
+    let args = tare_args(&scratch, emulator.address(), &log, &out);
     static INTERRUPT: AtomicBool = AtomicBool::new(false);
     static ABORT: AtomicBool = AtomicBool::new(false);
     let host = std::thread::spawn({
         let args = args.clone();
         move || stewart_cli::rig::rig_with_abort(&args, &INTERRUPT, &ABORT)
     });
-    let deadline = Instant::now() + Duration::from_secs(10);
-    while emulator.sessions().is_empty() {
-        assert!(Instant::now() < deadline, "no session");
-        std::thread::sleep(Duration::from_millis(10));
-    }
+    wait_for_session(&emulator);
     std::thread::sleep(Duration::from_millis(3000));
     INTERRUPT.store(true, Ordering::SeqCst);
     // Mid-park: the second Ctrl-C.
