@@ -34,6 +34,70 @@ pub struct Config {
     /// The link to a rig (`stewart rig`, `stewart emulate`); optional, every key defaulted.
     #[serde(default)]
     pub rig: crate::link::RigLinkConfig,
+    /// The legs' own mass properties, the load cells' place in them and the joints' friction;
+    /// optional (omitted: massless, frictionless legs with the cells at the plate end).
+    #[serde(default)]
+    pub legs: LegsConfig,
+}
+
+/// Which end of each leg its load cell sits at.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LoadCellEnd {
+    /// Between the rod and the plate joint: the cell reads the axial force the leg applies to
+    /// the plate.
+    #[default]
+    Plate,
+    /// Between the cylinder and the base joint: the cell reads the axial force at the base,
+    /// which includes the leg's own weight and inertia along its axis.
+    Base,
+}
+
+/// `[legs]`: each leg is two rigid bodies, a cylinder turning about the base joint and a rod
+/// fixed to the plate joint's side of the actuator, both slender and symmetric about the leg's
+/// axis. Their weight and inertia reach the joints with components across the leg that a
+/// single-axis load cell does not see (and, with the cell at the base end, along it too).
+/// Joint friction: Coulomb and viscous torque at every universal (base) and spherical (plate)
+/// joint, against the joint's relative rotation.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LegsConfig {
+    /// Where the load cell sits.
+    pub load_cell_end: LoadCellEnd,
+    /// Mass of the cylinder (the part that turns about the base joint), kg.
+    pub cylinder_mass_kg: f64,
+    /// Distance of the cylinder's centre of mass from the base joint centre, m.
+    pub cylinder_com_from_base_m: f64,
+    /// Moment of inertia of the cylinder about a transverse axis through its centre of mass,
+    /// kg·m².
+    pub cylinder_inertia_kg_m2: f64,
+    /// Mass of the rod (the part that slides out to the plate joint), kg.
+    pub rod_mass_kg: f64,
+    /// Distance of the rod's centre of mass from the plate joint centre, m.
+    pub rod_com_from_plate_m: f64,
+    /// Moment of inertia of the rod about a transverse axis through its centre of mass, kg·m².
+    pub rod_inertia_kg_m2: f64,
+    /// Coulomb friction torque of each joint, N·m.
+    pub joint_coulomb_torque_nm: f64,
+    /// Viscous friction of each joint, N·m per rad/s of relative rotation.
+    pub joint_viscous_nm_s_per_rad: f64,
+}
+
+impl Default for LegsConfig {
+    /// Massless, frictionless legs with the load cells at the plate end.
+    fn default() -> Self {
+        Self {
+            load_cell_end: LoadCellEnd::Plate,
+            cylinder_mass_kg: 0.0,
+            cylinder_com_from_base_m: 0.0,
+            cylinder_inertia_kg_m2: 0.0,
+            rod_mass_kg: 0.0,
+            rod_com_from_plate_m: 0.0,
+            rod_inertia_kg_m2: 0.0,
+            joint_coulomb_torque_nm: 0.0,
+            joint_viscous_nm_s_per_rad: 0.0,
+        }
+    }
 }
 
 /// A 6-6 platform with joints in three pairs on each circle, the plate's pairs turned 60° against
@@ -54,6 +118,10 @@ pub struct PlatformConfig {
     pub min_leg_length_m: f64,
     /// Longest leg, metres.
     pub max_leg_length_m: f64,
+    /// How far each built joint centre may lie from where this table puts it, one standard
+    /// deviation per coordinate, metres (0: built exactly).
+    #[serde(default)]
+    pub joint_position_tolerance_m: f64,
 }
 
 impl ExcitationConfig {
@@ -79,6 +147,24 @@ pub struct SensorsConfig {
     pub accelerometer: AccelerometerDatasheet,
     /// Where the IMU (gyroscope and accelerometer) sits on the plate and how it is turned.
     pub imu: ImuMounting,
+    /// How the channels are timed: skew between the IMU and the rest, jitter, lost frames.
+    #[serde(default)]
+    pub timing: TimingDatasheet,
+}
+
+/// `[sensors.timing]`: how well the channels of one frame describe one instant, and how many
+/// frames arrive.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TimingDatasheet {
+    /// One standard deviation of the constant delay of the IMU's channels against the load
+    /// cells and encoders, s (positive: the IMU reports an older instant).
+    pub imu_skew_s: f64,
+    /// One standard deviation of each frame's sampling instant about its nominal place on the
+    /// sample grid, s.
+    pub sampling_jitter_s: f64,
+    /// Expected share of frames lost between the sensors and the host (0 to 0.5).
+    pub frame_loss: f64,
 }
 
 /// Leg-length encoders (joint centre to joint centre).
@@ -102,6 +188,17 @@ pub struct LoadCellDatasheet {
     pub zero_offset_n: f64,
     /// Resolution (quantisation step), N; 0 = continuous.
     pub resolution_n: f64,
+    /// One standard deviation of each cell's gain (sensitivity) error left after its
+    /// calibration, relative (5e-4 = 0.05 %).
+    #[serde(default)]
+    pub gain_error: f64,
+    /// One standard deviation of each cell's transverse sensitivity: its reading per newton of
+    /// force across its axis, in each of the two transverse directions.
+    #[serde(default)]
+    pub transverse_sensitivity: f64,
+    /// One standard deviation of each cell's zero drift rate over a run, N per minute.
+    #[serde(default)]
+    pub zero_drift_n_per_min: f64,
 }
 
 /// The gyroscope.
@@ -113,6 +210,9 @@ pub struct GyroDatasheet {
     pub noise_density_rad_s_sqrt_hz: f64,
     /// One standard deviation of each axis' constant bias (bias stability), rad/s.
     pub bias_rad_s: f64,
+    /// One standard deviation of each axis' scale-factor error, relative.
+    #[serde(default)]
+    pub scale_error: f64,
 }
 
 /// The accelerometer, reading specific force `a − g`.
@@ -125,6 +225,9 @@ pub struct AccelerometerDatasheet {
     /// with the tare (it is proportional to the mass on the plate) and enters the reported
     /// sigma as a systematic part ([`crate::systematic`]).
     pub bias_m_s2: f64,
+    /// One standard deviation of each axis' scale-factor error, relative.
+    #[serde(default)]
+    pub scale_error: f64,
 }
 
 /// The IMU's mounting on the plate (`Default`: at the P origin, axes along P's).
@@ -136,6 +239,14 @@ pub struct ImuMounting {
     /// The IMU's axes against P as roll, pitch, yaw, degrees: a vector v given in the IMU's
     /// axes is `R v` in P with `R = Rx(roll) Ry(pitch) Rz(yaw)` (the pose convention).
     pub orientation_deg: [f64; 3],
+    /// One standard deviation of the IMU's mounting rotation about each of P's axes against
+    /// `orientation_deg`, as left by its alignment, degrees.
+    #[serde(default)]
+    pub misalignment_deg: f64,
+    /// One standard deviation of each coordinate of the accelerometer's position against
+    /// `position_m` (the lever arm's uncertainty), m.
+    #[serde(default)]
+    pub position_tolerance_m: f64,
 }
 
 impl ImuMounting {
@@ -149,7 +260,8 @@ impl ImuMounting {
 }
 
 impl SensorsConfig {
-    /// Every datasheet figure times `k` (0: ideal sensors; the mounting is kept).
+    /// Every datasheet figure times `k` (0: ideal sensors; the IMU's nominal mounting is kept,
+    /// its tolerances scaled; the frame loss capped at 0.5).
     pub fn scaled(&self, k: f64) -> Self {
         Self {
             sample_rate_hz: self.sample_rate_hz,
@@ -161,16 +273,30 @@ impl SensorsConfig {
                 noise_n: k * self.load_cell.noise_n,
                 zero_offset_n: k * self.load_cell.zero_offset_n,
                 resolution_n: k * self.load_cell.resolution_n,
+                gain_error: k * self.load_cell.gain_error,
+                transverse_sensitivity: k * self.load_cell.transverse_sensitivity,
+                zero_drift_n_per_min: k * self.load_cell.zero_drift_n_per_min,
             },
             gyro: GyroDatasheet {
                 noise_density_rad_s_sqrt_hz: k * self.gyro.noise_density_rad_s_sqrt_hz,
                 bias_rad_s: k * self.gyro.bias_rad_s,
+                scale_error: k * self.gyro.scale_error,
             },
             accelerometer: AccelerometerDatasheet {
                 noise_density_m_s2_sqrt_hz: k * self.accelerometer.noise_density_m_s2_sqrt_hz,
                 bias_m_s2: k * self.accelerometer.bias_m_s2,
+                scale_error: k * self.accelerometer.scale_error,
             },
-            imu: self.imu,
+            imu: ImuMounting {
+                misalignment_deg: k * self.imu.misalignment_deg,
+                position_tolerance_m: k * self.imu.position_tolerance_m,
+                ..self.imu
+            },
+            timing: TimingDatasheet {
+                imu_skew_s: k * self.timing.imu_skew_s,
+                sampling_jitter_s: k * self.timing.sampling_jitter_s,
+                frame_loss: (k * self.timing.frame_loss).min(0.5),
+            },
         }
     }
 

@@ -154,6 +154,7 @@ mod tests {
         let imu = ImuMounting {
             position_m: [0.0; 3],
             orientation_deg: [0.0, 0.0, 90.0],
+            ..ImuMounting::default()
         };
         let mut feed = Feed::new(g, FkOptions::default(), &imu);
         let s = feed

@@ -18,6 +18,8 @@
 //!   [`observer`] (where they report).
 //! - [`tare`], [`systematic`], [`report`]: the tare file, the datasheet part of the
 //!   uncertainty, the report.
+//! - [`sources`]: the real rig's error sources, named once for the simulated world's switches
+//!   and the report's error budget.
 //! - [`replay`]: the estimator re-run on recorded frames; [`accuracy`]: error statistics of
 //!   a campaign against a known truth.
 #![warn(missing_docs)]
@@ -35,6 +37,7 @@ pub mod report;
 pub mod schema;
 pub mod session;
 pub mod setup;
+pub mod sources;
 pub mod systematic;
 pub mod tare;
 pub mod tick;

@@ -132,6 +132,8 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
     );
     p.finite3("sensors.imu.position_m", &s.imu.position_m, 10.0);
     p.finite3("sensors.imu.orientation_deg", &s.imu.orientation_deg, 180.0);
+    datasheet_tolerances(&mut p, config);
+    legs(&mut p, &config.legs);
 
     let c = &config.control;
     p.positive("control.kp_n_per_m", c.kp_n_per_m);
@@ -404,4 +406,101 @@ fn known(p: &mut Problems, prefix: &str, mass: Option<f64>, com: Option<[f64; 3]
             "required when estimator.params = 6 (the paper's model needs the centre of mass known beforehand)",
         ),
     }
+}
+
+/// The rig's tolerances and the sensors' systematic figures (one standard deviation each).
+fn datasheet_tolerances(p: &mut Problems, config: &Config) {
+    let s = &config.sensors;
+    p.within(
+        "platform.joint_position_tolerance_m",
+        config.platform.joint_position_tolerance_m,
+        0.0,
+        0.01,
+        "m",
+    );
+    let lc = &s.load_cell;
+    p.within(
+        "sensors.load_cell.gain_error",
+        lc.gain_error,
+        0.0,
+        0.1,
+        "(relative)",
+    );
+    p.within(
+        "sensors.load_cell.transverse_sensitivity",
+        lc.transverse_sensitivity,
+        0.0,
+        0.1,
+        "(relative)",
+    );
+    p.non_negative(
+        "sensors.load_cell.zero_drift_n_per_min",
+        lc.zero_drift_n_per_min,
+    );
+    p.within(
+        "sensors.gyro.scale_error",
+        s.gyro.scale_error,
+        0.0,
+        0.1,
+        "(relative)",
+    );
+    p.within(
+        "sensors.accelerometer.scale_error",
+        s.accelerometer.scale_error,
+        0.0,
+        0.1,
+        "(relative)",
+    );
+    p.within(
+        "sensors.imu.misalignment_deg",
+        s.imu.misalignment_deg,
+        0.0,
+        5.0,
+        "degrees",
+    );
+    p.within(
+        "sensors.imu.position_tolerance_m",
+        s.imu.position_tolerance_m,
+        0.0,
+        0.1,
+        "m",
+    );
+    let t = &s.timing;
+    let period_s = 1.0 / s.sample_rate_hz.max(1.0);
+    p.within(
+        "sensors.timing.imu_skew_s",
+        t.imu_skew_s,
+        0.0,
+        period_s,
+        "s",
+    );
+    p.within(
+        "sensors.timing.sampling_jitter_s",
+        t.sampling_jitter_s,
+        0.0,
+        0.25 * period_s,
+        "s",
+    );
+    p.within(
+        "sensors.timing.frame_loss",
+        t.frame_loss,
+        0.0,
+        0.5,
+        "(share)",
+    );
+}
+
+/// The legs' mass properties must describe bodies that fit between the joints.
+fn legs(p: &mut Problems, l: &crate::config::LegsConfig) {
+    p.non_negative("legs.cylinder_mass_kg", l.cylinder_mass_kg);
+    p.non_negative("legs.cylinder_com_from_base_m", l.cylinder_com_from_base_m);
+    p.non_negative("legs.cylinder_inertia_kg_m2", l.cylinder_inertia_kg_m2);
+    p.non_negative("legs.rod_mass_kg", l.rod_mass_kg);
+    p.non_negative("legs.rod_com_from_plate_m", l.rod_com_from_plate_m);
+    p.non_negative("legs.rod_inertia_kg_m2", l.rod_inertia_kg_m2);
+    p.non_negative("legs.joint_coulomb_torque_nm", l.joint_coulomb_torque_nm);
+    p.non_negative(
+        "legs.joint_viscous_nm_s_per_rad",
+        l.joint_viscous_nm_s_per_rad,
+    );
 }

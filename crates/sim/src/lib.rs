@@ -29,9 +29,11 @@
 
 mod actuator;
 mod body;
+mod cell_loads;
 mod config;
 mod dynamics;
 mod error;
+mod imperfections;
 mod sensors;
 mod simulator;
 mod world;
@@ -41,6 +43,7 @@ pub use body::BodyProperties;
 pub use config::{GyroscopicModel, SimConfig, MAX_SUBSTEP_S};
 pub use dynamics::{Acceleration, RigidBodyModel};
 pub use error::{SimError, SimErrorKind};
+pub use imperfections::{Imperfections, SuspensionConfig};
 pub mod scenario;
 
 pub use sensors::{

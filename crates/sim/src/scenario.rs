@@ -64,6 +64,12 @@ pub struct World {
     pub payload: BodyConfig,
     /// The actuators between command and leg force.
     pub actuator: crate::ActuatorConfig,
+    /// Which of a real rig's error sources the simulated rig has.
+    #[serde(default)]
+    pub imperfections: crate::Imperfections,
+    /// The payload as a car body on its suspension (off by default).
+    #[serde(default)]
+    pub suspension: crate::SuspensionConfig,
 }
 
 /// A rig description with the simulated world behind it.
