@@ -27,6 +27,12 @@ pub struct Config {
     pub control: ControlConfig,
     /// The motion that excites the payload's inertia.
     pub excitation: ExcitationConfig,
+    /// The tare run's motion when it differs from the loaded run's: a `[tare_excitation]` table
+    /// is laid over `[excitation]` (it needs only the keys that differ). Omitted: the tare run
+    /// moves as the loaded run does, which cancels most of the legs' own dynamics in loaded −
+    /// tare; a different motion does not, and shows what the error budget must cover.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tare_excitation: Option<ExcitationConfig>,
     /// The online estimator.
     pub estimator: EstimatorSection,
     /// Durations of the run's phases.

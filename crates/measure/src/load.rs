@@ -288,6 +288,7 @@ pub fn load_str(text: &str, source: &str) -> Result<LoadedConfig, ConfigError> {
     merge(&mut merged, user);
     let mut description = merged.clone();
     description.remove(WORLD_TABLE);
+    complete_tare_excitation(&mut description);
     let config: Config = serde_path_to_error::deserialize(description).map_err(|e| {
         let key = e.path().to_string();
         let key = if key == "." { String::new() } else { key };
@@ -346,6 +347,23 @@ fn moved_keys(user: &toml::Table) -> Vec<(String, String)> {
         .map(|(key, why)| (key.to_string(), why.to_string()))
         .collect()
 }
+
+/// A `[tare_excitation]` table holds only the keys that differ from `[excitation]`: lays it
+/// over a copy of `[excitation]` so that the schema reads a whole excitation.
+fn complete_tare_excitation(description: &mut toml::Table) {
+    let Some(toml::Value::Table(over)) = description.remove(TARE_EXCITATION_TABLE) else {
+        return;
+    };
+    let mut tare = match description.get("excitation") {
+        Some(toml::Value::Table(e)) => e.clone(),
+        _ => toml::Table::new(),
+    };
+    merge(&mut tare, over);
+    description.insert(TARE_EXCITATION_TABLE.into(), toml::Value::Table(tare));
+}
+
+/// The table of the tare run's own excitation.
+pub const TARE_EXCITATION_TABLE: &str = "tare_excitation";
 
 /// Lays `over` onto `base`: tables merge recursively, anything else replaces.
 fn merge(base: &mut toml::Table, over: toml::Table) {

@@ -16,15 +16,30 @@ use nalgebra::{Vector3, Vector6};
 use crate::config::{AxisName, Config, ExcitationKind, ParamCount, SpectrumConfig};
 use crate::load::{ConfigError, ConfigIssue, LoadedConfig};
 
-/// The tare run's excitation (`run.tare_duration_s` long), refusals said of that key.
+/// The tare run's excitation (`[tare_excitation]` when given, else `[excitation]`;
+/// `run.tare_duration_s` long), refusals said of those keys.
 pub fn tare_trajectory(
     loaded: &LoadedConfig,
     geometry: &Geometry,
 ) -> Result<Trajectory, ConfigError> {
-    trajectory(loaded, geometry, loaded.config.run.tare_duration_s).map_err(|mut e| {
+    let duration_s = loaded.config.run.tare_duration_s;
+    let own = loaded.config.tare_excitation.as_ref();
+    let result = match own {
+        Some(tare) => {
+            let mut moved = loaded.clone();
+            moved.config.excitation = tare.clone();
+            trajectory(&moved, geometry, duration_s)
+        }
+        None => trajectory(loaded, geometry, duration_s),
+    };
+    result.map_err(|mut e| {
         for issue in &mut e.issues {
             if issue.key == "run.duration_s" {
                 issue.key = "run.tare_duration_s".into();
+            } else if let Some(rest) = issue.key.strip_prefix("excitation") {
+                if own.is_some() {
+                    issue.key = format!("tare_excitation{rest}");
+                }
             }
         }
         e
@@ -363,6 +378,39 @@ mod tests {
         let g = geometry(&loaded).unwrap();
         let t = trajectory(&loaded, &g, loaded.config.run.duration_s).unwrap();
         controller(&loaded, &g, t).unwrap();
+    }
+
+    #[test]
+    fn a_tare_excitation_table_moves_the_tare_run_its_own_way() {
+        let g = geometry(&load(None).unwrap()).unwrap();
+        let same = load(None).unwrap();
+        let text = "[tare_excitation.multisine]\nbase_frequency_hz = 0.13\n";
+        let own = load_str(text, "tare.toml").unwrap();
+        let tare = own.config.tare_excitation.as_ref().unwrap();
+        // Laid over [excitation]: only the frequency differs.
+        assert_eq!(tare.multisine.base_frequency_hz, 0.13);
+        assert_eq!(tare.fade_s, own.config.excitation.fade_s);
+        let at = |loaded: &LoadedConfig, t: f64| {
+            tare_trajectory(loaded, &g)
+                .unwrap()
+                .sample(t)
+                .pose
+                .position_m
+        };
+        assert_eq!(
+            at(&same, 7.3),
+            trajectory(&same, &g, 30.0)
+                .unwrap()
+                .sample(7.3)
+                .pose
+                .position_m
+        );
+        assert!((at(&own, 7.3) - at(&same, 7.3)).norm() > 1e-4);
+        // Its refusals name its own keys.
+        let bad = "[tare_excitation]\nfade_s = -1.0\n";
+        let err = load_str(bad, "bad.toml").unwrap_err();
+        assert_eq!(err.issues[0].key, "tare_excitation.fade_s", "{err}");
+        assert_eq!(err.issues[0].line, Some(2));
     }
 
     #[test]

@@ -134,6 +134,7 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
     p.finite3("sensors.imu.orientation_deg", &s.imu.orientation_deg, 180.0);
     datasheet_tolerances(&mut p, config);
     legs(&mut p, &config.legs);
+    tare_excitation(&mut p, config);
 
     let c = &config.control;
     p.positive("control.kp_n_per_m", c.kp_n_per_m);
@@ -503,4 +504,22 @@ fn legs(p: &mut Problems, l: &crate::config::LegsConfig) {
         "legs.joint_viscous_nm_s_per_rad",
         l.joint_viscous_nm_s_per_rad,
     );
+}
+
+/// The tare run's own excitation passes the same checks as the loaded run's, said of its keys.
+fn tare_excitation(p: &mut Problems, config: &Config) {
+    let Some(tare) = &config.tare_excitation else {
+        return;
+    };
+    let mut c = config.clone();
+    c.excitation = tare.clone();
+    c.tare_excitation = None;
+    c.run.duration_s = c.run.tare_duration_s;
+    for (key, problem) in validate(&c) {
+        if let Some(rest) = key.strip_prefix("excitation") {
+            p.push(format!("tare_excitation{rest}"), problem);
+        } else if key == "run.duration_s" {
+            p.push("run.tare_duration_s", problem);
+        }
+    }
 }
