@@ -34,6 +34,7 @@ mod config;
 mod dynamics;
 mod error;
 mod imperfections;
+mod legs;
 mod sensors;
 mod simulator;
 mod world;
