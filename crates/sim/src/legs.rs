@@ -161,11 +161,6 @@ impl Legs {
         active.then_some(Self { config })
     }
 
-    /// The configuration.
-    pub fn config(&self) -> &LegsConfig {
-        &self.config
-    }
-
     /// `K(l) = I_c + m_c d_c² + I_r + m_r (l − d_r)²`, the legs' moment of inertia about the base
     /// joint, and `μ(l) = m_c d_c + m_r (l − d_r)`, their first moment along the axis.
     fn moments(&self, length_m: f64) -> (f64, f64) {
@@ -256,6 +251,7 @@ impl Legs {
     }
 
     /// The legs' kinetic energy `½ K |ω_L|² + ½ m_r l̇²`, J.
+    #[cfg(test)]
     pub fn kinetic_energy(&self, m: &LegMotion) -> f64 {
         let (k, _) = self.moments(m.length_m);
         0.5 * k * m.omega_rad_s.norm_squared() + 0.5 * self.config.rod_mass_kg * m.rate_m_s.powi(2)

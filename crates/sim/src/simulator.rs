@@ -8,9 +8,11 @@ use stewart_types::InertialParameters;
 
 use crate::actuator::Actuators;
 use crate::body::BodyProperties;
+use crate::cell_loads::CellLoads;
 use crate::config::{GyroscopicModel, SimConfig};
 use crate::dynamics::{Acceleration, RigidBodyModel};
 use crate::error::SimError;
+use crate::legs::Legs;
 use crate::sensors::SensorModel;
 use crate::world::{PlateWorld, GRAVITY_M_S2};
 
@@ -37,7 +39,18 @@ struct LegState {
 /// Forces and motion at one instant.
 #[derive(Clone, Copy, Debug)]
 struct Evaluation {
+    /// The actuators' output between cylinder and rod, N.
     forces_n: [f64; 6],
+    /// Axial force each leg applies to the plate, `u·F`, N.
+    plate_axial_n: [f64; 6],
+    /// What the load cells read (at the plate or the base end), N.
+    cell_n: [f64; 6],
+    /// The force across each load cell.
+    cell_loads: CellLoads,
+    /// Force each leg applies to the plate at its joint, in B.
+    joint_forces_b: [Vector3<f64>; 6],
+    /// Torque of the spherical joints' friction on the plate, in B.
+    joint_torque_b: Vector3<f64>,
     omega_p: Vector3<f64>,
     acceleration: Acceleration,
 }
@@ -47,7 +60,14 @@ struct Evaluation {
 struct Instant {
     pose: Pose,
     lengths_m: [f64; 6],
+    /// The actuators' output (what a brake engaging now holds).
     forces_n: [f64; 6],
+    /// Axial force each leg applies to the plate.
+    plate_axial_n: [f64; 6],
+    /// The force across each load cell (the period's mean, as the cells' readings).
+    cell_loads: CellLoads,
+    /// Force each leg applies to the plate at its joint, in B.
+    joint_forces_b: [Vector3<f64>; 6],
     velocity: PlateVelocity,
     acceleration: Acceleration,
     clean: SensorFrame,
@@ -57,6 +77,7 @@ struct Instant {
 #[derive(Clone, Copy, Debug, Default)]
 struct Node {
     forces_n: [f64; 6],
+    transverse_n: [[f64; 2]; 6],
     gyro_rad_s: Vector3<f64>,
     accel_m_s2: Vector3<f64>,
 }
@@ -67,7 +88,8 @@ impl Node {
     fn new(e: &Evaluation, mount_m: &Vector3<f64>) -> Self {
         let (omega, acc) = (e.omega_p, e.acceleration);
         Self {
-            forces_n: e.forces_n,
+            forces_n: e.cell_n,
+            transverse_n: e.cell_loads.transverse_n,
             gyro_rad_s: omega,
             accel_m_s2: acc.specific_force_m_s2
                 + acc.angular_rad_s2.cross(mount_m)
@@ -89,6 +111,10 @@ impl PeriodSum {
         for (sum, f) in s.forces_n.iter_mut().zip(node.forces_n) {
             *sum += weight * f;
         }
+        for (sum, f) in s.transverse_n.iter_mut().zip(node.transverse_n) {
+            sum[0] += weight * f[0];
+            sum[1] += weight * f[1];
+        }
         s.gyro_rad_s += weight * node.gyro_rad_s;
         s.accel_m_s2 += weight * node.accel_m_s2;
         self.weight += weight;
@@ -103,6 +129,7 @@ impl PeriodSum {
         let s = &self.sum;
         Some(Node {
             forces_n: s.forces_n.map(|v| v * k),
+            transverse_n: s.transverse_n.map(|v| v.map(|x| x * k)),
             gyro_rad_s: s.gyro_rad_s * k,
             accel_m_s2: s.accel_m_s2 * k,
         })
@@ -195,6 +222,8 @@ pub struct Simulator {
     fixture: BodyProperties,
     payload: Option<BodyProperties>,
     model: RigidBodyModel,
+    /// The legs' mass, inertia and joint friction (`None`: massless, frictionless legs).
+    legs_model: Option<Legs>,
     /// Tensor of fixture + payload about their joint centre of mass, in P.
     inertia_com: Matrix3<f64>,
     world: PlateWorld,
@@ -267,6 +296,7 @@ impl Simulator {
             payload,
             inertia_com: model.inertia_com(),
             model,
+            legs_model: Legs::new(config.legs),
             world,
             actuators: placeholder,
             sensors: SensorModel::new(config.sensors, config.sample_rate_hz, seed),
@@ -276,6 +306,9 @@ impl Simulator {
                 pose,
                 lengths_m: [0.0; 6],
                 forces_n: [0.0; 6],
+                plate_axial_n: [0.0; 6],
+                cell_loads: CellLoads::default(),
+                joint_forces_b: [Vector3::zeros(); 6],
                 velocity: PlateVelocity {
                     linear_m_s: Vector3::zeros(),
                     angular_rad_s: Vector3::zeros(),
@@ -350,7 +383,9 @@ impl Simulator {
     /// Coulomb friction is stable when, for the lightest mode of the plate on its legs,
     /// `h² k μ ≤ 2` and `2 h c μ ≤ 2` (half the bounds of symplectic Euler), where
     /// `μ = λ_max(M⁻¹ Jᵀ J)` at the home pose, `M` the spatial inertia about the P origin and
-    /// `J` the leg Jacobian in P. (The brake's damper is implicit and needs no check.)
+    /// `J` the leg Jacobian in P. (The brake's damper is implicit and needs no check.) With
+    /// legs, `M` includes their reflected inertia at rest, and the joints' friction (slope `c`
+    /// of the smoothed law, damping matrix `D`) needs `2 h λ_max(M⁻¹ D) ≤ 2`.
     fn check_stability(&self) -> Result<(), SimError> {
         let pose = self.geometry.home_pose();
         let legs = self.legs(&pose);
@@ -364,7 +399,11 @@ impl Simulator {
                 j[(i, c + 3)] = m[c];
             }
         }
-        let mass = RigidBodyModel::spatial_inertia(self.model.params());
+        let mut mass = RigidBodyModel::spatial_inertia(self.model.params());
+        let leg_terms = self.legs_model.as_ref().map(|m| self.legs_home_terms(m));
+        if let Some((m_l, _)) = &leg_terms {
+            mass += m_l;
+        }
         let Some(chol) = mass.cholesky() else {
             return Err(SimError::InvalidBody {
                 body: "plate + payload",
@@ -396,10 +435,26 @@ impl Simulator {
                          for the physics substep (raise the velocity scale or substeps)",
             });
         }
+        if let Some((_, damping)) = &leg_terms {
+            let d = l_inv * damping * l_inv.transpose();
+            let nu = SymmetricEigen::new(0.5 * (d + d.transpose()))
+                .eigenvalues
+                .max();
+            if 2.0 * h * nu > 2.0 {
+                return Err(SimError::InvalidConfig {
+                    field: "legs.joint_coulomb_torque_nm",
+                    value: self.config.legs.joint_coulomb_torque_nm,
+                    reason: "joint friction slope (viscous + coulomb / smoothing rate) too steep \
+                             for the physics substep and the lightest mode of the plate and legs",
+                });
+            }
+        }
         Ok(())
     }
 
-    /// Leg forces that hold the plate at rest at `pose` against gravity: `Jᵀ f = −W_gravity`.
+    /// Actuator forces that hold the plate at rest at `pose` against gravity:
+    /// `Jᵀ f = −W_gravity − Q_rest`, `Q_rest` the wrench the legs' own weight puts on the plate
+    /// at rest (zero for massless legs; [`crate::legs::reflect`]).
     fn static_forces(&self, pose: &Pose, legs: &LegState) -> Result<[f64; 6], SimError> {
         let p = self.model.params();
         let weight = p.mass_kg * GRAVITY_M_S2;
@@ -414,7 +469,7 @@ impl Simulator {
                 jt[(c + 3, i)] = m[c];
             }
         }
-        let rhs = Vector6::new(
+        let mut rhs = Vector6::new(
             need_force.x,
             need_force.y,
             need_force.z,
@@ -422,6 +477,10 @@ impl Simulator {
             need_torque.y,
             need_torque.z,
         );
+        if let Some(model) = &self.legs_model {
+            // The legs' own weight at rest, carried through the joints: `Jᵀ f + Q_rest = −W`.
+            rhs -= self.legs_at_rest(model, pose, legs, &Vector3::zeros()).1;
+        }
         let f = jt
             .lu()
             .solve(&rhs)
@@ -471,6 +530,9 @@ impl Simulator {
         } else {
             self.actuators.output(&legs.lengths_m, &legs.rates_m_s)
         };
+        if let Some(model) = &self.legs_model {
+            return self.evaluate_coupled(model, pose, legs, &forces);
+        }
         let rt = pose.rotation.inverse();
         let mut force_p = Vector3::zeros();
         let mut torque_p = Vector3::zeros();
@@ -487,6 +549,11 @@ impl Simulator {
         let acceleration = self.model.acceleration(&force_p, &torque_p, &omega);
         Evaluation {
             forces_n: forces,
+            plate_axial_n: forces,
+            cell_n: forces,
+            cell_loads: CellLoads::default(),
+            joint_forces_b: core::array::from_fn(|i| legs.units[i] * forces[i]),
+            joint_torque_b: Vector3::zeros(),
             omega_p: omega,
             acceleration,
         }
@@ -498,7 +565,8 @@ impl Simulator {
     /// With `q̇ = [v_C; ω]` (in B), `M = diag(m𝟙, I_B)`, leg rates `l̇ = G q̇` (row i
     /// `[uᵢᵀ, ((R pᵢ + p − C) × uᵢ)ᵀ]`) and the brake force `F = F_s − c G q̇⁺`, rapier's step
     /// `q̇⁺ = q̇ + h M⁻¹(Gᵀ F + Q)` gives `(M + h c GᵀG) q̇⁺ = M q̇ + h (Gᵀ F_s + Q)`, with `Q`
-    /// gravity and the gyroscopic torque.
+    /// gravity and the gyroscopic torque. With legs of mass `M` and `Q` gain the legs' reflected
+    /// inertia and their wrench without the actuators ([`crate::legs::reflect`] about `C`).
     fn implicit_brake_rates(&self, pose: &Pose, legs: &LegState) -> [f64; 6] {
         let spring = self.actuators.output(&legs.lengths_m, &[0.0; 6]);
         let c = self.actuators.config().brake_damping_n_s_m;
@@ -527,6 +595,13 @@ impl Simulator {
         let weight = p.mass_kg * GRAVITY_M_S2;
         let q = Vector6::new(weight.x, weight.y, weight.z, gyro.x, gyro.y, gyro.z);
         let h = self.substep_s;
+        let (mass, q) = match &self.legs_model {
+            Some(model) => {
+                let (m_l, q_l) = self.legs_about_com(model, pose, legs, &com_b, &v_com, &omega);
+                (mass + m_l, q + q_l)
+            }
+            None => (mass, q),
+        };
         let a = mass + h * c * g.transpose() * g;
         let b = mass * qd + h * (g.transpose() * Vector6::from(spring) + q);
         match a.cholesky() {
@@ -545,12 +620,8 @@ impl Simulator {
         let pose = self.world.pose();
         let legs = self.legs(&pose);
         let e = self.evaluate(&pose, &legs);
-        let applied = core::array::from_fn(|i| {
-            (
-                e.forces_n[i] * legs.units[i],
-                pose.position_m + legs.arms_m[i],
-            )
-        });
+        let applied =
+            core::array::from_fn(|i| (e.joint_forces_b[i], pose.position_m + legs.arms_m[i]));
         let gyroscopic = match self.config.gyroscopic {
             GyroscopicModel::Midpoint => {
                 let w = &e.omega_p;
@@ -558,7 +629,12 @@ impl Simulator {
             }
             GyroscopicModel::Rapier => Vector3::zeros(),
         };
-        self.world.step(&applied, &gyroscopic);
+        let torque = if self.legs_model.is_some() {
+            gyroscopic + e.joint_torque_b
+        } else {
+            gyroscopic
+        };
+        self.world.step(&applied, &torque);
         self.actuators.advance(&e.forces_n);
         Node::new(&e, &self.mount_m())
     }
@@ -616,6 +692,11 @@ impl Simulator {
             pose,
             lengths_m: legs.lengths_m,
             forces_n: e.forces_n,
+            plate_axial_n: e.plate_axial_n,
+            cell_loads: CellLoads {
+                transverse_n: sensed.transverse_n,
+            },
+            joint_forces_b: e.joint_forces_b,
             velocity,
             acceleration: acc,
             clean,
@@ -654,9 +735,24 @@ impl Simulator {
         self.now.acceleration
     }
 
-    /// Ground truth: the axial force each leg applies to the plate at the current sample, N.
+    /// Ground truth: the axial force each leg applies to the plate at the current sample, N
+    /// (the actuator's force when the legs are massless; with the cells at the plate end, what
+    /// they read at the instant).
     pub fn true_leg_forces_n(&self) -> [f64; 6] {
-        self.now.forces_n
+        self.now.plate_axial_n
+    }
+
+    /// Ground truth: the force each leg applies to the plate at its joint, in B, N.
+    pub fn true_joint_forces_n(&self) -> [Vector3<f64>; 6] {
+        self.now.joint_forces_b
+    }
+
+    /// Ground truth: the force across each load cell, along `e₁` and `e₂` of the leg's
+    /// transverse basis (`e₁ = normalize(u × z_B)`, `e₂ = u × e₁`), as the force the leg's
+    /// base side transmits towards the plate, N; the mean over the sample period like the
+    /// cells' readings. Zero for massless, frictionless legs.
+    pub fn true_cell_transverse_n(&self) -> [[f64; 2]; 6] {
+        self.now.cell_loads.transverse_n
     }
 
     /// Ground truth: every channel of the current sample without noise, bias or quantization
@@ -726,5 +822,6 @@ impl Backend for Simulator {
     }
 }
 
+mod coupled;
 #[cfg(test)]
 mod tests;
