@@ -161,6 +161,12 @@ impl Legs {
         active.then_some(Self { config })
     }
 
+    /// The legs of `config` even when massless and frictionless, to run the coupled path.
+    #[cfg(test)]
+    pub fn forced(config: LegsConfig) -> Self {
+        Self { config }
+    }
+
     /// `K(l) = I_c + m_c d_c² + I_r + m_r (l − d_r)²`, the legs' moment of inertia about the base
     /// joint, and `μ(l) = m_c d_c + m_r (l − d_r)`, their first moment along the axis.
     fn moments(&self, length_m: f64) -> (f64, f64) {

@@ -824,4 +824,6 @@ impl Backend for Simulator {
 
 mod coupled;
 #[cfg(test)]
+mod leg_tests;
+#[cfg(test)]
 mod tests;
