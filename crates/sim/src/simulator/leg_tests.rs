@@ -6,7 +6,7 @@ use super::*;
 use crate::legs::Legs;
 use crate::sensors::{NoisePreset, SensorConfig};
 use measure::config::{LegsConfig, LoadCellEnd};
-use nalgebra::Rotation3;
+use nalgebra::{Rotation3, Vector6};
 
 const G: Vector3<f64> = stewart_types::GRAVITY_B_M_S2;
 
@@ -406,4 +406,73 @@ fn rapier_moves_the_plate_with_the_coupled_acceleration() {
     }
     println!("rapier vs coupled: linear {worst_lin:.2e}, angular {worst_ang:.2e}");
     assert!(worst_lin < 1e-9 && worst_ang < 1e-9);
+}
+
+/// The scenario passes the rig description's `[legs]` to the simulator through the world's
+/// switches: `leg_dynamics` keeps or zeroes the masses and inertias, `joint_friction` the
+/// joints' torques.
+#[test]
+fn the_worlds_switches_size_the_simulated_legs() {
+    use measure::load::{load, load_str};
+    let scenario = crate::scenario::Scenario::new(load(None).unwrap(), None, None).unwrap();
+    let described = scenario.loaded.config.legs;
+    assert!(described.cylinder_mass_kg > 0.0 && described.joint_coulomb_torque_nm > 0.0);
+    assert_eq!(scenario.sim_config().legs, described);
+    let text = "[world.imperfections]\nleg_dynamics = false\n";
+    let scenario =
+        crate::scenario::Scenario::new(load_str(text, "s.toml").unwrap(), None, None).unwrap();
+    let legs = scenario.sim_config().legs;
+    assert_eq!(legs.cylinder_mass_kg + legs.rod_mass_kg, 0.0);
+    assert_eq!(legs.cylinder_inertia_kg_m2 + legs.rod_inertia_kg_m2, 0.0);
+    assert_eq!(
+        legs.joint_coulomb_torque_nm,
+        described.joint_coulomb_torque_nm
+    );
+    let text = "[world.imperfections]\njoint_friction = false\n";
+    let scenario =
+        crate::scenario::Scenario::new(load_str(text, "s.toml").unwrap(), None, None).unwrap();
+    let legs = scenario.sim_config().legs;
+    assert_eq!(
+        legs.joint_coulomb_torque_nm + legs.joint_viscous_nm_s_per_rad,
+        0.0
+    );
+    assert_eq!(legs.rod_mass_kg, described.rod_mass_kg);
+}
+
+/// A joint friction too steep for explicit integration with the physics step is refused,
+/// naming its key; the rig description's figures pass.
+#[test]
+fn too_steep_joint_friction_is_refused() {
+    let steep = LegsConfig {
+        joint_coulomb_torque_nm: 1e4,
+        ..legs_config()
+    };
+    let err = Simulator::new(
+        geometry(),
+        BodyProperties::default(),
+        None,
+        &config(steep),
+        0,
+    )
+    .unwrap_err();
+    assert!(matches!(
+        err,
+        SimError::InvalidConfig {
+            field: "legs.joint_coulomb_torque_nm",
+            ..
+        }
+    ));
+    let fine = LegsConfig {
+        joint_coulomb_torque_nm: 1.0,
+        joint_viscous_nm_s_per_rad: 5.0,
+        ..legs_config()
+    };
+    assert!(Simulator::new(
+        geometry(),
+        BodyProperties::default(),
+        None,
+        &config(fine),
+        0
+    )
+    .is_ok());
 }
