@@ -14,7 +14,7 @@ use measure::report::{Quantities, Report};
 use measure::End;
 use sim::NoisePreset;
 use stewart_cli::simulate::{simulate, SimulateOutcome};
-use support::{simulate_args, Scratch, SimulateArgs};
+use support::{simulate_args, Scratch, SimulateArgs, IDEAL_LEGS};
 
 /// Runs `simulate` on `scenario` (laid over the default) in a fresh directory.
 fn run(
@@ -116,7 +116,7 @@ fn default_car_with_realistic_noise() {
 #[test]
 fn default_car_without_noise_is_exact() {
     let (_dir, outcome) = run(
-        "[run]\nduration_s = 10.0\ntare_duration_s = 6.0\n",
+        &format!("{IDEAL_LEGS}[run]\nduration_s = 10.0\ntare_duration_s = 6.0\n"),
         noise(NoisePreset::None),
     );
     let r = report(&outcome);
@@ -146,7 +146,7 @@ fn paper_case_converges_within_100_samples() {
         .unwrap();
     // Shorter than the file's 20 s: convergence is decided in the first tenth of a second.
     let (_dir, outcome) = run(
-        &format!("{paper}\n[run]\nduration_s = 4.0\ntare_duration_s = 4.0\n")
+        &format!("{paper}\n{IDEAL_LEGS}[run]\nduration_s = 4.0\ntare_duration_s = 4.0\n")
             .replace("[run]\nduration_s = 20.0\ntare_duration_s = 20.0\n", ""),
         |_, _| {},
     );
@@ -194,7 +194,7 @@ fn a_saved_tare_carries_its_share_of_the_systematic_sigma() {
 
 #[test]
 fn tare_is_subtracted_saved_and_reused() {
-    let scenario = "[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n";
+    let scenario = &format!("{IDEAL_LEGS}[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n");
     let (dir, first) = run(scenario, |a, d| {
         a.noise = Some(NoisePreset::None);
         a.measure.save_tare = Some(tare_path(d));

@@ -31,6 +31,11 @@ use stewart_cli::CommandError;
 /// tare, the datasheet's (realistic) noise.
 pub const SHORT: &str = "[run]\nduration_s = 6.0\ntare_duration_s = 4.0\n";
 
+/// Rigid, massless legs with frictionless joints: for tests of the ideal world's exactness
+/// (the default world has the legs' dynamics and the joints' friction on).
+pub const IDEAL_LEGS: &str =
+    "[world.imperfections]\nleg_dynamics = false\njoint_friction = false\n";
+
 /// The rig tests' scenario: 500 Hz, a 10 s multi-sine for the tare and the loaded run, two
 /// physics substeps, generous link limits. `[rig]` comes last so that keys appended to the
 /// text land in it.

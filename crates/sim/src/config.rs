@@ -2,8 +2,10 @@
 
 use serde::{Deserialize, Serialize};
 
+use measure::config::LegsConfig;
+
 use crate::actuator::ActuatorConfig;
-use crate::error::{check_positive, SimError};
+use crate::error::{check_non_negative, check_positive, SimError};
 use crate::sensors::SensorConfig;
 
 /// Longest physics substep allowed, s: the physics runs at a time step of 1 ms or less.
@@ -39,11 +41,15 @@ pub struct SimConfig {
     pub actuator: ActuatorConfig,
     /// Sensor models.
     pub sensors: SensorConfig,
+    /// The legs' mass properties, joint friction and the load cells' end (the rig
+    /// description's `[legs]` as the world's switches leave it; zero masses and friction:
+    /// massless, frictionless legs, forces along the leg lines).
+    pub legs: LegsConfig,
 }
 
 impl Default for SimConfig {
     /// 1 kHz sampling with two 0.5 ms physics substeps per sample, midpoint gyroscopic torque,
-    /// default actuators, and the `realistic` sensors.
+    /// default actuators, the `realistic` sensors and massless, frictionless legs.
     fn default() -> Self {
         Self {
             sample_rate_hz: 1000.0,
@@ -51,6 +57,7 @@ impl Default for SimConfig {
             gyroscopic: GyroscopicModel::Midpoint,
             actuator: ActuatorConfig::default(),
             sensors: SensorConfig::default(),
+            legs: LegsConfig::default(),
         }
     }
 }
@@ -84,7 +91,24 @@ impl SimConfig {
             });
         }
         self.actuator.validate()?;
-        self.sensors.validate()
+        self.sensors.validate()?;
+        let l = &self.legs;
+        for (field, value) in [
+            ("legs.cylinder_mass_kg", l.cylinder_mass_kg),
+            ("legs.cylinder_com_from_base_m", l.cylinder_com_from_base_m),
+            ("legs.cylinder_inertia_kg_m2", l.cylinder_inertia_kg_m2),
+            ("legs.rod_mass_kg", l.rod_mass_kg),
+            ("legs.rod_com_from_plate_m", l.rod_com_from_plate_m),
+            ("legs.rod_inertia_kg_m2", l.rod_inertia_kg_m2),
+            ("legs.joint_coulomb_torque_nm", l.joint_coulomb_torque_nm),
+            (
+                "legs.joint_viscous_nm_s_per_rad",
+                l.joint_viscous_nm_s_per_rad,
+            ),
+        ] {
+            check_non_negative(field, value)?;
+        }
+        Ok(())
     }
 }
 

@@ -108,6 +108,28 @@ impl RigidBodyModel {
         }
     }
 
+    /// Forward dynamics with a load whose wrench depends on the motion:
+    /// `(M + M_L) [f; ω̇] = W − b(ω)`, for a load of spatial inertia `extra` (`M_L`, symmetric
+    /// positive semi-definite, about the P origin in P) and a wrench `W` (about the P origin in
+    /// P, with the load's part at `[f; ω̇] = 0`). Falls back to `M⁻¹(W − b)` if `M + M_L` is
+    /// not positive definite.
+    pub fn acceleration_loaded(
+        &self,
+        extra: &Matrix6<f64>,
+        wrench: &Vector6<f64>,
+        omega: &Vector3<f64>,
+    ) -> Acceleration {
+        let rhs = wrench - self.bias(omega);
+        let a = match (Self::spatial_inertia(&self.params) + extra).cholesky() {
+            Some(chol) => chol.solve(&rhs),
+            None => self.inverse * rhs,
+        };
+        Acceleration {
+            specific_force_m_s2: a.fixed_rows::<3>(0).into(),
+            angular_rad_s2: a.fixed_rows::<3>(3).into(),
+        }
+    }
+
     /// Inverse dynamics: the leg wrench `(F, τ_O)` that produces a given motion.
     pub fn wrench(
         &self,

@@ -4,9 +4,13 @@
 //!   with explicit mass properties; the tare world is the same without the payload collider.
 //!   Gyroscopic forces on, gravity [`GRAVITY_M_S2`] = (0, 0, −9.80665) m/s² in B (z up),
 //!   substeps of at most [`MAX_SUBSTEP_S`].
-//! - Legs are massless axial force elements: every substep the forces are reset and each
-//!   actuator's force is applied along the current leg line at its plate joint. (Rapier's joint
-//!   reaction impulses do not serve as load cells.)
+//! - Legs ([`SimConfig::legs`], the rig description's `[legs]`): massless by default, axial
+//!   force elements: every substep the forces are reset and each actuator's force is applied
+//!   along the current leg line at its plate joint. With mass, inertia or joint friction
+//!   (`legs`), each leg is a cylinder on its universal joint and a rod on its spherical joint,
+//!   slaved to the plate's motion; the plate's acceleration is solved with the legs' reflected
+//!   inertia and rapier gets the joint forces; the load cells read the axial force at the
+//!   plate or the base end. (Rapier's joint reaction impulses do not serve as load cells.)
 //! - Actuators ([`ActuatorConfig`]): first-order lag, saturation, viscous and Coulomb friction,
 //!   and a brake.
 //! - Sensors ([`SensorConfig`]): encoders, load cells, gyro and accelerometer with seeded noise,
@@ -34,6 +38,7 @@ mod config;
 mod dynamics;
 mod error;
 mod imperfections;
+mod legs;
 mod sensors;
 mod simulator;
 mod world;

@@ -146,11 +146,24 @@ impl Scenario {
                 mount_m: s.imu.position_m,
             },
         };
+        let imperfections = &self.world.imperfections;
+        let mut legs = self.loaded.config.legs;
+        if !imperfections.leg_dynamics {
+            legs.cylinder_mass_kg = 0.0;
+            legs.cylinder_inertia_kg_m2 = 0.0;
+            legs.rod_mass_kg = 0.0;
+            legs.rod_inertia_kg_m2 = 0.0;
+        }
+        if !imperfections.joint_friction {
+            legs.joint_coulomb_torque_nm = 0.0;
+            legs.joint_viscous_nm_s_per_rad = 0.0;
+        }
         crate::SimConfig {
             sample_rate_hz: s.sample_rate_hz,
             substeps: self.world.physics_substeps,
             actuator: self.world.actuator,
             sensors,
+            legs,
             ..crate::SimConfig::default()
         }
     }
@@ -185,6 +198,8 @@ impl Scenario {
                     format!("world.actuator.{rest}")
                 } else if *field == "substeps" {
                     "world.physics_substeps".to_string()
+                } else if field.starts_with("legs.") {
+                    field.to_string()
                 } else if field.starts_with("sensors.") {
                     "sensors".to_string()
                 } else {

@@ -3,14 +3,16 @@
 
 use control::io::{Backend, CommandFrame, SensorFrame, Status, LEG_COUNT};
 use kinematics::{Geometry, Pose};
-use nalgebra::{Matrix3, Matrix6, SymmetricEigen, Vector3, Vector6};
+use nalgebra::{Matrix3, Vector3};
 use stewart_types::InertialParameters;
 
 use crate::actuator::Actuators;
 use crate::body::BodyProperties;
+use crate::cell_loads::CellLoads;
 use crate::config::{GyroscopicModel, SimConfig};
 use crate::dynamics::{Acceleration, RigidBodyModel};
 use crate::error::SimError;
+use crate::legs::Legs;
 use crate::sensors::SensorModel;
 use crate::world::{PlateWorld, GRAVITY_M_S2};
 
@@ -37,7 +39,18 @@ struct LegState {
 /// Forces and motion at one instant.
 #[derive(Clone, Copy, Debug)]
 struct Evaluation {
+    /// The actuators' output between cylinder and rod, N.
     forces_n: [f64; 6],
+    /// Axial force each leg applies to the plate, `u·F`, N.
+    plate_axial_n: [f64; 6],
+    /// What the load cells read (at the plate or the base end), N.
+    cell_n: [f64; 6],
+    /// The force across each load cell.
+    cell_loads: CellLoads,
+    /// Force each leg applies to the plate at its joint, in B.
+    joint_forces_b: [Vector3<f64>; 6],
+    /// Torque of the spherical joints' friction on the plate, in B.
+    joint_torque_b: Vector3<f64>,
     omega_p: Vector3<f64>,
     acceleration: Acceleration,
 }
@@ -47,7 +60,14 @@ struct Evaluation {
 struct Instant {
     pose: Pose,
     lengths_m: [f64; 6],
+    /// The actuators' output (what a brake engaging now holds).
     forces_n: [f64; 6],
+    /// Axial force each leg applies to the plate.
+    plate_axial_n: [f64; 6],
+    /// The force across each load cell (the period's mean, as the cells' readings).
+    cell_loads: CellLoads,
+    /// Force each leg applies to the plate at its joint, in B.
+    joint_forces_b: [Vector3<f64>; 6],
     velocity: PlateVelocity,
     acceleration: Acceleration,
     clean: SensorFrame,
@@ -57,6 +77,7 @@ struct Instant {
 #[derive(Clone, Copy, Debug, Default)]
 struct Node {
     forces_n: [f64; 6],
+    transverse_n: [[f64; 2]; 6],
     gyro_rad_s: Vector3<f64>,
     accel_m_s2: Vector3<f64>,
 }
@@ -67,7 +88,8 @@ impl Node {
     fn new(e: &Evaluation, mount_m: &Vector3<f64>) -> Self {
         let (omega, acc) = (e.omega_p, e.acceleration);
         Self {
-            forces_n: e.forces_n,
+            forces_n: e.cell_n,
+            transverse_n: e.cell_loads.transverse_n,
             gyro_rad_s: omega,
             accel_m_s2: acc.specific_force_m_s2
                 + acc.angular_rad_s2.cross(mount_m)
@@ -89,6 +111,10 @@ impl PeriodSum {
         for (sum, f) in s.forces_n.iter_mut().zip(node.forces_n) {
             *sum += weight * f;
         }
+        for (sum, f) in s.transverse_n.iter_mut().zip(node.transverse_n) {
+            sum[0] += weight * f[0];
+            sum[1] += weight * f[1];
+        }
         s.gyro_rad_s += weight * node.gyro_rad_s;
         s.accel_m_s2 += weight * node.accel_m_s2;
         self.weight += weight;
@@ -103,6 +129,7 @@ impl PeriodSum {
         let s = &self.sum;
         Some(Node {
             forces_n: s.forces_n.map(|v| v * k),
+            transverse_n: s.transverse_n.map(|v| v.map(|x| x * k)),
             gyro_rad_s: s.gyro_rad_s * k,
             accel_m_s2: s.accel_m_s2 * k,
         })
@@ -151,7 +178,9 @@ impl PeriodSum {
 ///
 /// - **pose, leg lengths**: rapier's pose after `n` steps (positions live on step boundaries).
 /// - **load cells**: the axial force each actuator applies at `t_n`, i.e. the force rapier
-///   integrates over the next substep. At `t_k` it depends only on the actuator state (the lag
+///   integrates over the next substep. With legs of mass, inertia or joint friction
+///   ([`crate::legs`], `SimConfig::legs`), the axial force through the cell at the plate or the
+///   base end, from the legs' motion at `t_n` (see `simulator/coupled.rs`). At `t_k` it depends only on the actuator state (the lag
 ///   applies its state, then advances), never on the command written after the read, so it is
 ///   known when the sample is taken.
 /// - **gyro**: rapier's stored velocity is that of the half step *before* `t_k` (symplectic
@@ -163,6 +192,13 @@ impl PeriodSum {
 ///   parameters and `ω(t_k)` — exactly the acceleration of rapier's next kick with the default
 ///   [`GyroscopicModel::Midpoint`] — moved to the mounting point:
 ///   `f_a = f + ω̇ × r_a + ω × (ω × r_a)`.
+///
+/// With legs, the accelerometer's `f`, `ω̇` are those of the plate coupled to the legs (one
+/// 6×6 solve with their reflected inertia, twice per substep to take the velocities to the
+/// instant), rapier applies the joint forces that solve gives, and its plate moves with exactly
+/// that acceleration (test `rapier_moves_the_plate_with_the_coupled_acceleration`, 10⁻¹²). The
+/// Newton–Euler property below then holds for the joint forces (the plate's wrench), not for
+/// the cells' axial readings, which miss the joints' transverse force.
 ///
 /// So the load cells, the pose, the gyro and the accelerometer of one node satisfy the rigid
 /// body's equations at one instant, and their means over a period satisfy them on average. A
@@ -195,6 +231,8 @@ pub struct Simulator {
     fixture: BodyProperties,
     payload: Option<BodyProperties>,
     model: RigidBodyModel,
+    /// The legs' mass, inertia and joint friction (`None`: massless, frictionless legs).
+    legs_model: Option<Legs>,
     /// Tensor of fixture + payload about their joint centre of mass, in P.
     inertia_com: Matrix3<f64>,
     world: PlateWorld,
@@ -267,6 +305,7 @@ impl Simulator {
             payload,
             inertia_com: model.inertia_com(),
             model,
+            legs_model: Legs::new(config.legs),
             world,
             actuators: placeholder,
             sensors: SensorModel::new(config.sensors, config.sample_rate_hz, seed),
@@ -276,6 +315,9 @@ impl Simulator {
                 pose,
                 lengths_m: [0.0; 6],
                 forces_n: [0.0; 6],
+                plate_axial_n: [0.0; 6],
+                cell_loads: CellLoads::default(),
+                joint_forces_b: [Vector3::zeros(); 6],
                 velocity: PlateVelocity {
                     linear_m_s: Vector3::zeros(),
                     angular_rad_s: Vector3::zeros(),
@@ -346,94 +388,6 @@ impl Simulator {
         self.refresh()
     }
 
-    /// Explicit integration of the brake's spring and of the actuators' viscous and smoothed
-    /// Coulomb friction is stable when, for the lightest mode of the plate on its legs,
-    /// `h² k μ ≤ 2` and `2 h c μ ≤ 2` (half the bounds of symplectic Euler), where
-    /// `μ = λ_max(M⁻¹ Jᵀ J)` at the home pose, `M` the spatial inertia about the P origin and
-    /// `J` the leg Jacobian in P. (The brake's damper is implicit and needs no check.)
-    fn check_stability(&self) -> Result<(), SimError> {
-        let pose = self.geometry.home_pose();
-        let legs = self.legs(&pose);
-        let rt = pose.rotation.inverse();
-        let mut j = Matrix6::zeros();
-        for i in 0..LEG_COUNT {
-            let u = rt * legs.units[i];
-            let m = self.geometry.plate_joints_m()[i].cross(&u);
-            for c in 0..3 {
-                j[(i, c)] = u[c];
-                j[(i, c + 3)] = m[c];
-            }
-        }
-        let mass = RigidBodyModel::spatial_inertia(self.model.params());
-        let Some(chol) = mass.cholesky() else {
-            return Err(SimError::InvalidBody {
-                body: "plate + payload",
-                reason: "spatial inertia is not positive definite",
-            });
-        };
-        let l_inv = chol.l().try_inverse().unwrap_or_else(Matrix6::zeros);
-        let a = l_inv * j.transpose() * j * l_inv.transpose();
-        let mu = SymmetricEigen::new(0.5 * (a + a.transpose()))
-            .eigenvalues
-            .max();
-        let h = self.substep_s;
-        let act = &self.config.actuator;
-        if h * h * act.brake_stiffness_n_m * mu > 2.0 {
-            return Err(SimError::InvalidConfig {
-                field: "actuator.brake_stiffness_n_m",
-                value: act.brake_stiffness_n_m,
-                reason: "brake stiffness too high for the physics substep and the lightest \
-                         mode of the plate (lower it or raise substeps)",
-            });
-        }
-        let friction =
-            act.viscous_friction_n_s_m + act.coulomb_friction_n / act.coulomb_velocity_scale_m_s;
-        if 2.0 * h * friction * mu > 2.0 {
-            return Err(SimError::InvalidConfig {
-                field: "actuator.coulomb_velocity_scale_m_s",
-                value: act.coulomb_velocity_scale_m_s,
-                reason: "actuator friction slope (viscous + coulomb / velocity scale) too steep \
-                         for the physics substep (raise the velocity scale or substeps)",
-            });
-        }
-        Ok(())
-    }
-
-    /// Leg forces that hold the plate at rest at `pose` against gravity: `Jᵀ f = −W_gravity`.
-    fn static_forces(&self, pose: &Pose, legs: &LegState) -> Result<[f64; 6], SimError> {
-        let p = self.model.params();
-        let weight = p.mass_kg * GRAVITY_M_S2;
-        let com_b = pose.rotation * (p.first_moment_kg_m / p.mass_kg);
-        let need_force = -weight;
-        let need_torque = -com_b.cross(&weight);
-        let mut jt = Matrix6::zeros();
-        for i in 0..LEG_COUNT {
-            let m = legs.arms_m[i].cross(&legs.units[i]);
-            for c in 0..3 {
-                jt[(c, i)] = legs.units[i][c];
-                jt[(c + 3, i)] = m[c];
-            }
-        }
-        let rhs = Vector6::new(
-            need_force.x,
-            need_force.y,
-            need_force.z,
-            need_torque.x,
-            need_torque.y,
-            need_torque.z,
-        );
-        let f = jt
-            .lu()
-            .solve(&rhs)
-            .filter(|f| f.iter().all(|v| v.is_finite()))
-            .ok_or(SimError::InvalidConfig {
-                field: "geometry",
-                value: f64::NAN,
-                reason: "the leg Jacobian is singular at the pose",
-            })?;
-        Ok(core::array::from_fn(|i| f[i]))
-    }
-
     /// Leg lengths, unit vectors, arms and extension rates at `pose` with rapier's velocities.
     fn legs(&self, pose: &Pose) -> LegState {
         let (v_com, omega) = self.world.raw_velocities();
@@ -471,6 +425,9 @@ impl Simulator {
         } else {
             self.actuators.output(&legs.lengths_m, &legs.rates_m_s)
         };
+        if let Some(model) = &self.legs_model {
+            return self.evaluate_coupled(model, pose, legs, &forces);
+        }
         let rt = pose.rotation.inverse();
         let mut force_p = Vector3::zeros();
         let mut torque_p = Vector3::zeros();
@@ -487,54 +444,13 @@ impl Simulator {
         let acceleration = self.model.acceleration(&force_p, &torque_p, &omega);
         Evaluation {
             forces_n: forces,
+            plate_axial_n: forces,
+            cell_n: forces,
+            cell_loads: CellLoads::default(),
+            joint_forces_b: core::array::from_fn(|i| legs.units[i] * forces[i]),
+            joint_torque_b: Vector3::zeros(),
             omega_p: omega,
             acceleration,
-        }
-    }
-
-    /// Leg rates at the end of the coming substep when the brake's damper acts with them
-    /// (backward Euler for the damping, so any damping is stable).
-    ///
-    /// With `q̇ = [v_C; ω]` (in B), `M = diag(m𝟙, I_B)`, leg rates `l̇ = G q̇` (row i
-    /// `[uᵢᵀ, ((R pᵢ + p − C) × uᵢ)ᵀ]`) and the brake force `F = F_s − c G q̇⁺`, rapier's step
-    /// `q̇⁺ = q̇ + h M⁻¹(Gᵀ F + Q)` gives `(M + h c GᵀG) q̇⁺ = M q̇ + h (Gᵀ F_s + Q)`, with `Q`
-    /// gravity and the gyroscopic torque.
-    fn implicit_brake_rates(&self, pose: &Pose, legs: &LegState) -> [f64; 6] {
-        let spring = self.actuators.output(&legs.lengths_m, &[0.0; 6]);
-        let c = self.actuators.config().brake_damping_n_s_m;
-        let p = self.model.params();
-        let com_b = pose.rotation * (p.first_moment_kg_m / p.mass_kg);
-        let inertia_b =
-            pose.rotation.matrix() * self.inertia_com * pose.rotation.matrix().transpose();
-        let (v_com, omega) = self.world.raw_velocities();
-        let mut g = Matrix6::zeros();
-        for i in 0..LEG_COUNT {
-            let m = (legs.arms_m[i] - com_b).cross(&legs.units[i]);
-            for k in 0..3 {
-                g[(i, k)] = legs.units[i][k];
-                g[(i, k + 3)] = m[k];
-            }
-        }
-        let mut mass = Matrix6::zeros();
-        mass.fixed_view_mut::<3, 3>(0, 0)
-            .copy_from(&(Matrix3::identity() * p.mass_kg));
-        mass.fixed_view_mut::<3, 3>(3, 3).copy_from(&inertia_b);
-        let qd = Vector6::new(v_com.x, v_com.y, v_com.z, omega.x, omega.y, omega.z);
-        let gyro = match self.config.gyroscopic {
-            GyroscopicModel::Midpoint => -omega.cross(&(inertia_b * omega)),
-            GyroscopicModel::Rapier => Vector3::zeros(),
-        };
-        let weight = p.mass_kg * GRAVITY_M_S2;
-        let q = Vector6::new(weight.x, weight.y, weight.z, gyro.x, gyro.y, gyro.z);
-        let h = self.substep_s;
-        let a = mass + h * c * g.transpose() * g;
-        let b = mass * qd + h * (g.transpose() * Vector6::from(spring) + q);
-        match a.cholesky() {
-            Some(chol) => {
-                let rates = g * chol.solve(&b);
-                core::array::from_fn(|i| rates[i])
-            }
-            None => legs.rates_m_s,
         }
     }
 
@@ -545,12 +461,8 @@ impl Simulator {
         let pose = self.world.pose();
         let legs = self.legs(&pose);
         let e = self.evaluate(&pose, &legs);
-        let applied = core::array::from_fn(|i| {
-            (
-                e.forces_n[i] * legs.units[i],
-                pose.position_m + legs.arms_m[i],
-            )
-        });
+        let applied =
+            core::array::from_fn(|i| (e.joint_forces_b[i], pose.position_m + legs.arms_m[i]));
         let gyroscopic = match self.config.gyroscopic {
             GyroscopicModel::Midpoint => {
                 let w = &e.omega_p;
@@ -558,7 +470,12 @@ impl Simulator {
             }
             GyroscopicModel::Rapier => Vector3::zeros(),
         };
-        self.world.step(&applied, &gyroscopic);
+        let torque = if self.legs_model.is_some() {
+            gyroscopic + e.joint_torque_b
+        } else {
+            gyroscopic
+        };
+        self.world.step(&applied, &torque);
         self.actuators.advance(&e.forces_n);
         Node::new(&e, &self.mount_m())
     }
@@ -616,6 +533,11 @@ impl Simulator {
             pose,
             lengths_m: legs.lengths_m,
             forces_n: e.forces_n,
+            plate_axial_n: e.plate_axial_n,
+            cell_loads: CellLoads {
+                transverse_n: sensed.transverse_n,
+            },
+            joint_forces_b: e.joint_forces_b,
             velocity,
             acceleration: acc,
             clean,
@@ -654,9 +576,24 @@ impl Simulator {
         self.now.acceleration
     }
 
-    /// Ground truth: the axial force each leg applies to the plate at the current sample, N.
+    /// Ground truth: the axial force each leg applies to the plate at the current sample, N
+    /// (the actuator's force when the legs are massless; with the cells at the plate end, what
+    /// they read at the instant).
     pub fn true_leg_forces_n(&self) -> [f64; 6] {
-        self.now.forces_n
+        self.now.plate_axial_n
+    }
+
+    /// Ground truth: the force each leg applies to the plate at its joint, in B, N.
+    pub fn true_joint_forces_n(&self) -> [Vector3<f64>; 6] {
+        self.now.joint_forces_b
+    }
+
+    /// Ground truth: the force across each load cell, along `e₁` and `e₂` of the leg's
+    /// transverse basis (`e₁ = normalize(u × z_B)`, `e₂ = u × e₁`), as the force the leg's
+    /// base side transmits towards the plate, N; the mean over the sample period like the
+    /// cells' readings. Zero for massless, frictionless legs.
+    pub fn true_cell_transverse_n(&self) -> [[f64; 2]; 6] {
+        self.now.cell_loads.transverse_n
     }
 
     /// Ground truth: every channel of the current sample without noise, bias or quantization
@@ -726,5 +663,9 @@ impl Backend for Simulator {
     }
 }
 
+mod coupled;
+mod hold;
+#[cfg(test)]
+mod leg_tests;
 #[cfg(test)]
 mod tests;

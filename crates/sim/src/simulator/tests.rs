@@ -3,7 +3,7 @@
 use super::*;
 use crate::sensors::{NoisePreset, SensorConfig};
 use kinematics::StrokeLimits;
-use nalgebra::Rotation3;
+use nalgebra::{Rotation3, Vector6};
 use stewart_types::STANDARD_GRAVITY_M_S2;
 
 const G: Vector3<f64> = stewart_types::GRAVITY_B_M_S2;
