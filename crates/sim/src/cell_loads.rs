@@ -15,6 +15,7 @@ pub(crate) struct CellLoads {
 /// Two unit vectors across the leg axis `u` (unit, base → plate, in B), fixed to the leg's
 /// orientation: `e₁ = normalize(u × z_B)` (horizontal), or `normalize(u × x_B)` for a vertical
 /// leg; `e₂ = u × e₁`. A cell's two transverse sensitivities act along these.
+#[allow(dead_code)]
 pub(crate) fn transverse_basis(u: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
     let mut e1 = u.cross(&Vector3::z());
     if e1.norm() < 1e-6 {

@@ -8,10 +8,11 @@ use stewart_types::InertialParameters;
 
 use crate::actuator::Actuators;
 use crate::body::BodyProperties;
+use crate::cell_loads::CellLoads;
 use crate::config::{GyroscopicModel, SimConfig};
 use crate::dynamics::{Acceleration, RigidBodyModel};
 use crate::error::SimError;
-use crate::sensors::SensorModel;
+use crate::sensor_model::SensorModel;
 use crate::world::{PlateWorld, GRAVITY_M_S2};
 
 /// Velocity of the plate at the current sample instant.
@@ -51,6 +52,8 @@ struct Instant {
     velocity: PlateVelocity,
     acceleration: Acceleration,
     clean: SensorFrame,
+    /// The transverse force through each load cell (what a cell's crosstalk reads).
+    cell_loads: CellLoads,
 }
 
 /// The filtered channels at one physics node, in P.
@@ -189,6 +192,14 @@ impl PeriodSum {
 ///
 /// Exception: a brake engaging or releasing takes effect from the next substep, so the force of
 /// the sample taken just before such a command differs by the brake's damping term.
+///
+/// # Sensor errors
+///
+/// `read` returns the clean channels above ([`Simulator::clean_frame`], the IMU's in P at its
+/// true position) through the sensor model (`sensor_model`'s docs give each error's equation):
+/// noise, biases, drift, gains, crosstalk, the IMU's axes and scale errors, its skew and the
+/// frame's jitter (the frame's `time_s` is its jittered sampling instant). A frame the model
+/// loses never reaches `read`: `write` runs one more period on the same command.
 pub struct Simulator {
     geometry: Geometry,
     config: SimConfig,
@@ -285,6 +296,7 @@ impl Simulator {
                     angular_rad_s2: Vector3::zeros(),
                 },
                 clean: SensorFrame::default(),
+                cell_loads: CellLoads::default(),
             },
             period: PeriodSum::default(),
             frame: SensorFrame::default(),
@@ -563,8 +575,9 @@ impl Simulator {
         Node::new(&e, &self.mount_m())
     }
 
+    /// The accelerometer's true position in P (the described one plus its tolerance's draw).
     fn mount_m(&self) -> Vector3<f64> {
-        Vector3::from(self.config.sensors.accelerometer.mount_m)
+        self.sensors.mount_m()
     }
 
     /// Evaluates every channel at the current instant (see the module docs), closes the
@@ -576,6 +589,8 @@ impl Simulator {
         let e = self.evaluate(&pose, &legs);
         let node = Node::new(&e, &self.mount_m());
         self.period.add(&node, 0.5);
+        // A period lies behind this instant: the motion ran on from the previous sample.
+        let continuous = self.period.weight > 0.5;
         let sensed = if self.config.substeps > 1 && self.period.weight > 0.5 {
             self.period.mean().unwrap_or(node)
         } else {
@@ -619,8 +634,12 @@ impl Simulator {
             velocity,
             acceleration: acc,
             clean,
+            // Massless, frictionless legs put no force across the cells.
+            cell_loads: CellLoads::default(),
         };
-        self.frame = self.sensors.measure(&clean);
+        self.frame = self
+            .sensors
+            .measure(&clean, &self.now.cell_loads, continuous);
         Ok(())
     }
 
@@ -693,6 +712,19 @@ impl Simulator {
     }
 }
 
+impl Simulator {
+    /// One sample period of physics under the current command, then the next sample.
+    fn advance(&mut self) -> Result<(), SimError> {
+        self.period = PeriodSum::default();
+        for j in 0..self.config.substeps {
+            let node = self.substep();
+            self.period.add(&node, if j == 0 { 0.5 } else { 1.0 });
+        }
+        self.sample += 1;
+        self.refresh()
+    }
+}
+
 impl Backend for Simulator {
     type Error = SimError;
 
@@ -701,7 +733,9 @@ impl Backend for Simulator {
         Ok(self.frame)
     }
 
-    /// Applies `command` and advances the physics by one sample period.
+    /// Applies `command` and advances the physics by one sample period, or more while the
+    /// sampled frames are lost on their way to the host (each lost frame: one more period on
+    /// the same command), so the next `read` may skip sequence numbers.
     fn write(&mut self, command: &CommandFrame) -> Result<(), SimError> {
         if let Some(leg) = command.leg_forces_n.iter().position(|f| !f.is_finite()) {
             return Err(SimError::InvalidCommand { leg });
@@ -712,13 +746,11 @@ impl Backend for Simulator {
             &self.now.lengths_m,
             &self.now.forces_n,
         );
-        self.period = PeriodSum::default();
-        for j in 0..self.config.substeps {
-            let node = self.substep();
-            self.period.add(&node, if j == 0 { 0.5 } else { 1.0 });
+        self.advance()?;
+        while self.sensors.frame_lost() {
+            self.advance()?;
         }
-        self.sample += 1;
-        self.refresh()
+        Ok(())
     }
 
     fn sample_period_s(&self) -> f64 {
@@ -726,5 +758,7 @@ impl Backend for Simulator {
     }
 }
 
+#[cfg(test)]
+mod imperfection_tests;
 #[cfg(test)]
 mod tests;
