@@ -377,9 +377,9 @@ fn scale_errors_multiply_each_axis() {
             ..Default::default()
         };
         let out = m.measure(&clean, &CellLoads::default(), true);
-        for i in 0..3 {
-            gyro.push(out.gyro_rad_s[i] / v[i] - 1.0);
-            accel.push(out.accel_m_s2[i] / v[i] - 1.0);
+        for (i, x) in v.iter().enumerate() {
+            gyro.push(out.gyro_rad_s[i] / x - 1.0);
+            accel.push(out.accel_m_s2[i] / x - 1.0);
         }
     }
     assert_spread(&gyro, cfg.gyro.scale_sigma, "gyro scale");
@@ -571,5 +571,36 @@ fn each_source_draws_the_same_with_the_others_off() {
             assert_eq!(all[k].1, loss[k].1);
         }
         assert!(all.iter().any(|f| f.1), "some frame lost");
+    }
+}
+
+#[test]
+fn the_sources_draws_are_uncorrelated() {
+    // The first draw of each source per rig, over many seeds: no two move together.
+    let cfg = SensorConfig::preset(NoisePreset::Realistic);
+    let n = 2000;
+    let draws: Vec<[f64; 8]> = (0..n)
+        .map(|seed| {
+            let m = SensorModel::new(cfg, RATE_HZ, seed);
+            [
+                m.gyro_bias_rad_s[0] / cfg.gyro.bias_sigma_rad_s,
+                m.accel_bias_m_s2[0] / cfg.accelerometer.bias_sigma_m_s2,
+                m.load_cell_bias_n[0] / cfg.load_cell.bias_sigma_n,
+                m.load_cell_gain[0] / cfg.load_cell.gain_sigma,
+                m.load_cell_transverse[0][0] / cfg.load_cell.transverse_sigma,
+                m.gyro_scale[0] / cfg.gyro.scale_sigma,
+                m.mount_m.x / cfg.accelerometer.mount_sigma_m,
+                m.skew_s / cfg.timing.imu_skew_sigma_s,
+            ]
+        })
+        .collect();
+    for a in 0..8 {
+        for b in 0..a {
+            let c = draws.iter().map(|d| d[a] * d[b]).sum::<f64>() / n as f64;
+            assert!(
+                c.abs() < 5.0 / (n as f64).sqrt(),
+                "sources {a} and {b}: {c}"
+            );
+        }
     }
 }
