@@ -289,3 +289,5 @@ fn shifted(now: &SensorFrame, prev: &SensorFrame, a: f64, b: f64) -> SensorFrame
 
 #[cfg(test)]
 mod tests;
+#[cfg(test)]
+mod timing_tests;

@@ -1,21 +1,22 @@
-//! Each error's statistics or exact effect, checked on frames whose truth is known.
+//! Each error of the rig as built: its statistics or exact effect, checked on frames whose truth
+//! is known; and the helpers of `timing_tests`.
 
 use super::*;
 use crate::sensors::{
     AccelerometerConfig, GyroConfig, LegLengthSensorConfig, LoadCellConfig, NoisePreset,
 };
 
-const RATE_HZ: f64 = 1000.0;
-const T: f64 = 1e-3;
+pub(super) const RATE_HZ: f64 = 1000.0;
+pub(super) const T: f64 = 1e-3;
 
 /// Every figure zero.
-fn off() -> SensorConfig {
+pub(super) fn off() -> SensorConfig {
     SensorConfig::preset(NoisePreset::None)
 }
 
 /// The `realistic` figures of `source` alone (the others zero), as `Scenario::sim_config` maps
 /// the switches.
-fn only(source: ErrorSource) -> SensorConfig {
+pub(super) fn only(source: ErrorSource) -> SensorConfig {
     let r = SensorConfig::preset(NoisePreset::Realistic);
     let mut c = off();
     match source {
@@ -50,7 +51,7 @@ fn only(source: ErrorSource) -> SensorConfig {
     c
 }
 
-fn stats(xs: &[f64]) -> (f64, f64) {
+pub(super) fn stats(xs: &[f64]) -> (f64, f64) {
     let n = xs.len() as f64;
     let mean = xs.iter().sum::<f64>() / n;
     let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
@@ -59,7 +60,7 @@ fn stats(xs: &[f64]) -> (f64, f64) {
 
 /// The sample standard deviation of `xs` (zero-mean draws) is `sigma` within 5 standard errors
 /// of a standard deviation, `sigma/√(2n)`.
-fn assert_spread(xs: &[f64], sigma: f64, what: &str) {
+pub(super) fn assert_spread(xs: &[f64], sigma: f64, what: &str) {
     let (mean, s) = stats(xs);
     let n = xs.len() as f64;
     assert!(mean.abs() < 5.0 * sigma / n.sqrt(), "{what}: mean {mean}");
@@ -70,7 +71,7 @@ fn assert_spread(xs: &[f64], sigma: f64, what: &str) {
 }
 
 /// Frame `k` of a motion where every channel is `f(t)` plus a per-channel offset.
-fn frame(k: u64, f: impl Fn(f64) -> f64) -> SensorFrame {
+pub(super) fn frame(k: u64, f: impl Fn(f64) -> f64) -> SensorFrame {
     let t = k as f64 * T;
     let x = f(t);
     SensorFrame {
@@ -85,7 +86,7 @@ fn frame(k: u64, f: impl Fn(f64) -> f64) -> SensorFrame {
 }
 
 /// The channels of a frame as one list.
-fn channels(f: &SensorFrame) -> Vec<f64> {
+pub(super) fn channels(f: &SensorFrame) -> Vec<f64> {
     let mut v = f.leg_lengths_m.to_vec();
     v.extend(f.leg_forces_n);
     v.extend(f.gyro_rad_s);
@@ -398,129 +399,6 @@ fn the_lever_arm_spreads_about_the_described_point() {
         })
         .collect();
     assert_spread(&offsets, cfg.accelerometer.mount_sigma_m, "lever arm");
-}
-
-#[test]
-fn skew_shifts_a_ramp_by_tau_and_leaves_the_other_channels() {
-    let cfg = only(ErrorSource::TimeSkew);
-    let mut taus = Vec::new();
-    let mut signs = [false; 2];
-    for seed in 0..2000 {
-        let mut m = SensorModel::new(cfg, RATE_HZ, seed);
-        let tau = m.skew_s;
-        taus.push(tau);
-        signs[usize::from(tau > 0.0)] = true;
-        if seed >= 50 {
-            continue;
-        }
-        for k in 0..10 {
-            let ramp = |t: f64| 3.0 * t;
-            let out = m.measure(&frame(k, ramp), &CellLoads::default(), true);
-            // The first frame has no previous one and is not shifted.
-            let want = if k == 0 {
-                frame(0, ramp)
-            } else {
-                frame(k, |t| ramp(t - tau))
-            };
-            assert_eq!(out.leg_lengths_m, frame(k, ramp).leg_lengths_m);
-            assert_eq!(out.leg_forces_n, frame(k, ramp).leg_forces_n);
-            assert_eq!(out.time_s, k as f64 * T);
-            for (a, b) in out
-                .gyro_rad_s
-                .iter()
-                .chain(&out.accel_m_s2)
-                .zip(want.gyro_rad_s.iter().chain(&want.accel_m_s2))
-            {
-                assert!((a - b).abs() < 1e-12, "{a} vs {b}");
-            }
-        }
-    }
-    assert!(signs[0] && signs[1], "both signs of τ drawn");
-    assert_spread(&taus, cfg.timing.imu_skew_sigma_s, "skew");
-}
-
-#[test]
-fn the_shift_errs_by_the_documented_second_order_term() {
-    // On x = t² the linear rule's error is exactly −½ Δ (Δ + T) ẍ = −Δ (Δ + T).
-    let mut cfg = off();
-    cfg.timing.imu_skew_sigma_s = 5e-4;
-    for seed in 0..20 {
-        let mut m = SensorModel::new(cfg, RATE_HZ, seed);
-        let delta = -m.skew_s;
-        let square = |k: u64| {
-            let t = k as f64 * T;
-            SensorFrame {
-                gyro_rad_s: [t * t; 3],
-                ..Default::default()
-            }
-        };
-        m.measure(&square(4), &CellLoads::default(), true);
-        let out = m.measure(&square(5), &CellLoads::default(), true);
-        let t = 5.0 * T;
-        let err = out.gyro_rad_s[0] - (t + delta).powi(2);
-        assert!((err + delta * (delta + T)).abs() < 1e-15, "{err}");
-    }
-}
-
-#[test]
-fn jitter_moves_time_stamps_and_values_together() {
-    let cfg = only(ErrorSource::TimestampJitter);
-    let mut m = SensorModel::new(cfg, RATE_HZ, 9);
-    let ramp = |t: f64| 2.0 * t - 0.3;
-    let mut deltas = Vec::new();
-    for k in 0..20_000u64 {
-        let out = m.measure(&frame(k, ramp), &CellLoads::default(), true);
-        assert_eq!(out.sequence, k);
-        let delta = out.time_s - k as f64 * T;
-        assert!(delta.abs() <= 0.5 * T);
-        if k > 0 {
-            // Every channel describes the frame's own time stamp.
-            let want = frame(k, |t| ramp(t + delta));
-            for (a, b) in channels(&out).iter().zip(channels(&want)) {
-                assert!((a - b).abs() < 1e-9 * b.abs().max(1.0), "{a} vs {b}");
-            }
-        }
-        deltas.push(delta);
-    }
-    assert_spread(&deltas, cfg.timing.jitter_sigma_s, "jitter");
-    let lag1 = deltas.windows(2).map(|w| w[0] * w[1]).sum::<f64>()
-        / (deltas.len() as f64 * cfg.timing.jitter_sigma_s.powi(2));
-    assert!(lag1.abs() < 5.0 / (deltas.len() as f64).sqrt(), "{lag1}");
-}
-
-#[test]
-fn skew_and_jitter_add() {
-    let mut cfg = only(ErrorSource::TimeSkew);
-    cfg.timing.jitter_sigma_s = 2e-5;
-    let mut m = SensorModel::new(cfg, RATE_HZ, 4);
-    let tau = m.skew_s;
-    let ramp = |t: f64| 5.0 * t;
-    m.measure(&frame(0, ramp), &CellLoads::default(), true);
-    for k in 1..100 {
-        let out = m.measure(&frame(k, ramp), &CellLoads::default(), true);
-        let delta = out.time_s - k as f64 * T;
-        let want = frame(k, |t| ramp(t + delta - tau));
-        assert!((out.gyro_rad_s[2] - want.gyro_rad_s[2]).abs() < 1e-12);
-        let lengths = frame(k, |t| ramp(t + delta)).leg_lengths_m;
-        assert!((out.leg_lengths_m[1] - lengths[1]).abs() < 1e-12);
-    }
-}
-
-#[test]
-fn frames_are_lost_at_the_configured_rate() {
-    let mut cfg = off();
-    cfg.timing.frame_loss = 0.01;
-    let mut m = SensorModel::new(cfg, RATE_HZ, 5);
-    let n = 100_000;
-    let clean = frame(0, |t| t);
-    let lost = (0..n)
-        .filter(|_| {
-            m.measure(&clean, &CellLoads::default(), true);
-            m.frame_lost()
-        })
-        .count() as f64;
-    let (mean, sd) = (0.01 * n as f64, (0.01 * 0.99 * n as f64).sqrt());
-    assert!((lost - mean).abs() < 5.0 * sd, "{lost} lost of {n}");
 }
 
 #[test]
