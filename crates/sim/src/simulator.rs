@@ -199,7 +199,9 @@ impl PeriodSum {
 /// true position) through the sensor model (`sensor_model`'s docs give each error's equation):
 /// noise, biases, drift, gains, crosstalk, the IMU's axes and scale errors, its skew and the
 /// frame's jitter (the frame's `time_s` is its jittered sampling instant). A frame the model
-/// loses never reaches `read`: `write` runs one more period on the same command.
+/// loses never reaches `read`: `write` runs one more period on the same command. (The frame at
+/// construction and after [`Simulator::set_state`] or [`Simulator::set_payload`] is always
+/// delivered.)
 pub struct Simulator {
     geometry: Geometry,
     config: SimConfig,
@@ -678,9 +680,10 @@ impl Simulator {
         self.now.forces_n
     }
 
-    /// Ground truth: every channel of the current sample without noise, bias or quantization
+    /// Ground truth: every channel of the current sample without the sensor model's errors
     /// (like the sensed frame: leg lengths at the instant, the rest means over the sample
-    /// period; see the module docs).
+    /// period; see the module docs), at the grid instant `t_k`, the IMU's in P axes at the
+    /// accelerometer's true position.
     pub fn clean_frame(&self) -> SensorFrame {
         self.now.clean
     }
