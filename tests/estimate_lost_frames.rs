@@ -54,9 +54,14 @@ fn report(dir: &std::path::Path, log: &std::path::Path, name: &str) -> serde_jso
 fn frames_lost_from_a_log_are_bridged_and_reported() {
     let dir = tempfile::tempdir().unwrap();
     let whole = dir.path().join("whole.mcap");
+    // A simulated rig that loses no frame of its own: every gap is the one made below.
+    let config = dir.path().join("no_loss.toml");
+    std::fs::write(&config, "[world.imperfections]\nframe_loss = false\n").unwrap();
     let out = stewart(&[
         "simulate",
         "--quiet",
+        "--config",
+        config.to_str().unwrap(),
         "--duration",
         "20",
         "--log",

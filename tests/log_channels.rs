@@ -137,15 +137,21 @@ fn a_simulate_log_reads_back_as_documented() {
     for run_name in log.runs() {
         let frames: Vec<_> = log.sensors_of(&run_name).collect();
         let span = frames.last().unwrap().time_s - frames[0].time_s;
-        // One frame per sample period, strictly increasing times, consecutive sequences.
+        // One sequence number per sample period, strictly increasing times and sequences; the
+        // simulated rig loses a few frames (0.1 % by the datasheet), whose numbers are skipped.
+        let periods = frames.last().unwrap().sequence - frames[0].sequence;
         assert!(
-            ((frames.len() - 1) as f64 - span * rate_hz).abs() < 1.0,
-            "{run_name}: {} frames over {span} s",
-            frames.len()
+            (periods as f64 - span * rate_hz).abs() < 1.0,
+            "{run_name}: {periods} sample periods over {span} s"
+        );
+        let missing = periods + 1 - frames.len() as u64;
+        assert!(
+            missing as f64 <= 0.01 * periods as f64,
+            "{run_name}: {missing} frames lost of {periods}"
         );
         for w in frames.windows(2) {
             assert!(w[1].time_s > w[0].time_s);
-            assert_eq!(w[1].sequence, w[0].sequence + 1);
+            assert!(w[1].sequence > w[0].sequence);
         }
         let settings = log.settings_of(&run_name).unwrap();
         let excite = settings.window_end_s.unwrap() - settings.window_start_s.unwrap();

@@ -1,7 +1,9 @@
 //! `stewart simulate --runs N [--jobs J]`: what accuracy will I get with these sensors?
 //!
 //! N runs of the configured scenario with seeds `seed, seed+1, …` (every random number of a run
-//! — sensor noise, biases — follows from its seed), J at a time on a rayon pool. Each run is
+//! — sensor errors, the built joints — follows from its seed; each error source draws from its
+//! own stream, so a `--only SOURCE` campaign sees exactly that source's errors of the full
+//! world's runs), J at a time on a rayon pool. Each run is
 //! the ordinary single run ([`crate::simulate::simulate`], quiet, its log written to a
 //! temporary file and deleted). Then, per parameter of the payload (mass, centre of mass, J_C):
 //!
@@ -38,6 +40,9 @@ pub struct CampaignReport {
     pub config: String,
     /// Noise preset.
     pub noise: String,
+    /// The one error source the simulated rig had (`--only`), or every source switched on in
+    /// `[world.imperfections]` (`None`).
+    pub only: Option<String>,
     /// 10 or 6.
     pub params: u8,
     /// Excitation time of each loaded run including the fades, s.
@@ -146,6 +151,7 @@ pub fn run(args: &SimulateArgs, interrupt: &AtomicBool) -> Result<CampaignReport
     Ok(CampaignReport {
         config: scenario.loaded.source.clone(),
         noise: scenario.noise.name().into(),
+        only: args.only.map(|s| s.id().to_string()),
         params: config.estimator.params.into(),
         duration_s: config.run.duration_s,
         tare_duration_s: if args.measure.tare.is_some() {
@@ -207,9 +213,13 @@ pub fn render(c: &CampaignReport) -> String {
     let last = c
         .first_seed
         .wrapping_add(u64::from(c.runs).saturating_sub(1));
+    let only = c
+        .only
+        .as_ref()
+        .map_or_else(String::new, |s| format!(", only {s}"));
     let _ = writeln!(
         out,
-        "{} of {} runs completed (seeds {}–{}), noise {}, {} parameters, {} s excitation, {} jobs, {:.0} s wall",
+        "{} of {} runs completed (seeds {}–{}), noise {}{only}, {} parameters, {} s excitation, {} jobs, {:.0} s wall",
         c.completed, c.runs, c.first_seed, last, c.noise, c.params, c.duration_s, c.jobs, c.wall_s
     );
     for f in &c.failed {
@@ -353,6 +363,7 @@ mod tests {
             seed: Some(40),
             runs: Some(2),
             jobs: Some(2),
+            only: None,
         };
         let c = run(&args, &AtomicBool::new(false)).unwrap();
         assert_eq!((c.completed, c.runs, c.jobs, c.first_seed), (2, 2, 2, 40));

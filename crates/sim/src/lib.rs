@@ -14,7 +14,10 @@
 //! - Actuators ([`ActuatorConfig`]): first-order lag, saturation, viscous and Coulomb friction,
 //!   and a brake.
 //! - Sensors ([`SensorConfig`]): encoders, load cells, gyro and accelerometer with seeded noise,
-//!   bias and quantization; presets `none`, `realistic`, `harsh` ([`NoisePreset`]).
+//!   biases and quantization, the load cells' drift, gain and transverse sensitivity, the IMU's
+//!   misalignment, scale errors and position, the IMU's time skew, sampling jitter and lost
+//!   frames (the model and its equations: `sensor_model`); presets `none`, `realistic`,
+//!   `harsh` ([`NoisePreset`]). Each error source draws from its own stream of the seed.
 //! - [`Simulator`]: the backend; load cells, gyro and accelerometer report their mean over the
 //!   sample period, as behind an anti-alias filter, and the encoders the instant (see the
 //!   [`Simulator`] docs). Ground truth is exposed through `true_*` methods, for reports and
@@ -39,8 +42,10 @@ mod dynamics;
 mod error;
 mod imperfections;
 mod legs;
+mod sensor_model;
 mod sensors;
 mod simulator;
+mod streams;
 mod world;
 
 pub use actuator::ActuatorConfig;
@@ -52,8 +57,8 @@ pub use imperfections::{Imperfections, SuspensionConfig};
 pub mod scenario;
 
 pub use sensors::{
-    AccelerometerConfig, GyroConfig, LegLengthSensorConfig, LoadCellConfig, NoisePreset,
-    SensorConfig, UnknownPreset,
+    AccelerometerConfig, GyroConfig, ImuAxesConfig, LegLengthSensorConfig, LoadCellConfig,
+    NoisePreset, SensorConfig, TimingConfig, UnknownPreset,
 };
 pub use simulator::{PlateVelocity, Simulator};
 /// The ten inertial parameters about the P origin, defined once in `stewart-types`.

@@ -1,22 +1,19 @@
-//! Sensor models: leg-length encoders, load cells, gyroscope, accelerometer.
+//! The sensors' configuration: each channel's datasheet figures as the simulator uses them
+//! (one standard deviation each), and the named grades [`NoisePreset`]. The model that draws
+//! from them is [`crate::sensor_model`]; its docs give every error's equation.
 //!
-//! Each channel is `quantize(truth + bias + noise)`:
-//! - **bias**: a constant per channel, drawn once when the simulator is built from
-//!   `N(0, bias_sigma)` (a turn-on bias / zero offset that calibration left behind);
-//! - **noise**: white, drawn every sample. For the IMU it is given as a noise density `N_d`
-//!   (unit/√Hz) and the per-sample standard deviation is `σ = N_d √f_s` at sample rate `f_s`
-//!   (the usual discrete-time equivalent of continuous white noise, e.g. Kalibr's IMU model);
-//! - **quantization** to `resolution` (rounding; 0 = none), after bias and noise.
-//!
-//! All draws come from one seeded generator in a fixed order, so a seed reproduces a run exactly.
+//! The `realistic` figures are the default rig description's (`configs/default.toml`, which
+//! gives each one's source): load cells 4 N noise and zero offset (0.02 % of 20 kN), 0.5 N
+//! resolution, 0.05 % gain error (a C3-class cell's 0.02 % plus its mounting), 0.2 % transverse
+//! sensitivity (a column or S-beam cell's side-load rejection), 0.4 N/min zero drift (creep and
+//! temperature, 0.02 % of range per 10 minutes); encoders 1 µm resolution, 0.5 µm noise; a
+//! tactical-grade MEMS IMU (gyro 0.17 °/√h, 4 °/h bias, accelerometer 40 µg/√Hz, 100 µg bias,
+//! both 500 ppm scale factor) aligned to 0.05° per axis and placed to 1 mm per coordinate;
+//! timing: the IMU 100 µs apart from the load cells, 10 µs sampling jitter, 0.1 % lost frames.
 
 use core::fmt;
 use core::str::FromStr;
 
-use control::io::SensorFrame;
-use rand::rngs::StdRng;
-use rand::{Rng, SeedableRng};
-use rand_distr::StandardNormal;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{check_finite, check_non_negative, SimError};
@@ -41,9 +38,17 @@ pub struct LoadCellConfig {
     pub bias_sigma_n: f64,
     /// Resolution (quantization step), N; 0 = continuous.
     pub resolution_n: f64,
+    /// Standard deviation of each cell's relative gain error `g` (reading `(1 + g) F`).
+    pub gain_sigma: f64,
+    /// Standard deviation of each cell's two transverse sensitivities `s₁, s₂` (reading
+    /// `s₁ T₁ + s₂ T₂` of the force `T` across its axis).
+    pub transverse_sigma: f64,
+    /// Standard deviation of each cell's zero drift rate, N/s (the rig description gives it
+    /// per minute).
+    pub drift_sigma_n_s: f64,
 }
 
-/// Three-axis gyroscope on the plate, axes along P.
+/// Three-axis gyroscope on the plate, in the IMU's axes ([`ImuAxesConfig`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct GyroConfig {
@@ -51,9 +56,12 @@ pub struct GyroConfig {
     pub noise_density_rad_s_sqrt_hz: f64,
     /// Standard deviation of each axis' constant bias, rad/s.
     pub bias_sigma_rad_s: f64,
+    /// Standard deviation of each axis' relative scale-factor error.
+    pub scale_sigma: f64,
 }
 
-/// Three-axis accelerometer on the plate, axes along P, reading specific force `a − g`.
+/// Three-axis accelerometer on the plate, in the IMU's axes ([`ImuAxesConfig`]), reading
+/// specific force `a − g` at its mounting point.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct AccelerometerConfig {
@@ -61,8 +69,37 @@ pub struct AccelerometerConfig {
     pub noise_density_m_s2_sqrt_hz: f64,
     /// Standard deviation of each axis' constant bias, m/s².
     pub bias_sigma_m_s2: f64,
-    /// Mounting point in P, m (default: the P origin).
+    /// Standard deviation of each axis' relative scale-factor error.
+    pub scale_sigma: f64,
+    /// Described mounting point in P, m (default: the P origin).
     pub mount_m: [f64; 3],
+    /// Standard deviation of each coordinate of the true mounting point about `mount_m`, m.
+    pub mount_sigma_m: f64,
+}
+
+/// How the IMU's axes (gyro and accelerometer alike) are turned against P.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ImuAxesConfig {
+    /// Described orientation as roll, pitch, yaw, degrees: a vector `v` in the IMU's axes is
+    /// `R v` in P with `R = Rx(roll) Ry(pitch) Rz(yaw)` (the rig description's convention).
+    pub orientation_deg: [f64; 3],
+    /// Standard deviation of the mounting rotation about each of P's axes on top of the
+    /// described orientation, degrees.
+    pub misalignment_sigma_deg: f64,
+}
+
+/// How the channels of one frame are timed and how many frames arrive.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TimingConfig {
+    /// Standard deviation of the IMU's constant delay `τ` against the load cells and encoders,
+    /// s (positive: the IMU reports an older instant).
+    pub imu_skew_sigma_s: f64,
+    /// Standard deviation of each frame's sampling instant about its place on the grid, s.
+    pub jitter_sigma_s: f64,
+    /// Probability that a frame is lost on the way to the host (0 to 0.5).
+    pub frame_loss: f64,
 }
 
 /// All sensors. `Default` is the `realistic` preset.
@@ -77,6 +114,10 @@ pub struct SensorConfig {
     pub gyro: GyroConfig,
     /// Accelerometer.
     pub accelerometer: AccelerometerConfig,
+    /// The IMU's axes.
+    pub imu: ImuAxesConfig,
+    /// Timing of the channels and lost frames.
+    pub timing: TimingConfig,
 }
 
 /// Named sensor quality levels.
@@ -85,8 +126,8 @@ pub struct SensorConfig {
 pub enum NoisePreset {
     /// Ideal sensors: no noise, no bias, no quantization.
     None,
-    /// Industrial grade: load cells 0.02 % of a 20 kN range (4 N), 1 µm encoders,
-    /// tactical-grade MEMS IMU.
+    /// Industrial grade, the default rig description's figures: load cells 0.02 % of a
+    /// 20 kN range (4 N), 1 µm encoders, tactical-grade MEMS IMU (see the module docs).
     Realistic,
     /// About ten times worse than `realistic` on every figure.
     Harsh,
@@ -160,6 +201,16 @@ impl Default for AccelerometerConfig {
         SensorConfig::preset(NoisePreset::Realistic).accelerometer
     }
 }
+impl Default for ImuAxesConfig {
+    fn default() -> Self {
+        SensorConfig::preset(NoisePreset::Realistic).imu
+    }
+}
+impl Default for TimingConfig {
+    fn default() -> Self {
+        SensorConfig::preset(NoisePreset::Realistic).timing
+    }
+}
 impl Default for SensorConfig {
     fn default() -> Self {
         SensorConfig::preset(NoisePreset::Realistic)
@@ -167,12 +218,14 @@ impl Default for SensorConfig {
 }
 
 impl SensorConfig {
-    /// The figures of a preset (accelerometer at the P origin).
+    /// The figures of a preset (IMU at the P origin, axes along P's).
     ///
     /// `realistic`: encoders 1 µm resolution, 0.5 µm noise; load cells 4 N noise (0.02 % of
-    /// 20 kN), 4 N zero offset, 0.5 N resolution; gyro 5·10⁻⁵ rad/s/√Hz (0.17 °/√h) and
-    /// 2·10⁻⁵ rad/s (4 °/h) bias; accelerometer 4·10⁻⁴ m/s²/√Hz (40 µg/√Hz) and 10⁻³ m/s²
-    /// (100 µg) bias. `harsh` multiplies every figure by ten.
+    /// 20 kN), 4 N zero offset, 0.5 N resolution, 5·10⁻⁴ gain, 2·10⁻³ transverse sensitivity,
+    /// 0.4 N/min drift; gyro 5·10⁻⁵ rad/s/√Hz (0.17 °/√h), 2·10⁻⁵ rad/s (4 °/h) bias, 5·10⁻⁴
+    /// scale; accelerometer 4·10⁻⁴ m/s²/√Hz (40 µg/√Hz), 10⁻³ m/s² (100 µg) bias, 5·10⁻⁴ scale,
+    /// 1 mm position; 0.05° misalignment; 100 µs IMU skew, 10 µs jitter, 0.1 % frame loss.
+    /// `harsh` multiplies every figure by ten (the frame loss capped at 0.5).
     pub fn preset(preset: NoisePreset) -> Self {
         let k = preset.scale();
         Self {
@@ -184,15 +237,30 @@ impl SensorConfig {
                 noise_sigma_n: k * 4.0,
                 bias_sigma_n: k * 4.0,
                 resolution_n: k * 0.5,
+                gain_sigma: k * 5e-4,
+                transverse_sigma: k * 2e-3,
+                drift_sigma_n_s: k * 0.4 / 60.0,
             },
             gyro: GyroConfig {
                 noise_density_rad_s_sqrt_hz: k * 5e-5,
                 bias_sigma_rad_s: k * 2e-5,
+                scale_sigma: k * 5e-4,
             },
             accelerometer: AccelerometerConfig {
                 noise_density_m_s2_sqrt_hz: k * 4e-4,
                 bias_sigma_m_s2: k * 1e-3,
+                scale_sigma: k * 5e-4,
                 mount_m: [0.0; 3],
+                mount_sigma_m: k * 1e-3,
+            },
+            imu: ImuAxesConfig {
+                orientation_deg: [0.0; 3],
+                misalignment_sigma_deg: k * 0.05,
+            },
+            timing: TimingConfig {
+                imu_skew_sigma_s: k * 1e-4,
+                jitter_sigma_s: k * 1e-5,
+                frame_loss: (k * 1e-3).min(0.5),
             },
         }
     }
@@ -206,102 +274,46 @@ impl SensorConfig {
         check_non_negative("sensors.load_cell.noise_sigma_n", c.noise_sigma_n)?;
         check_non_negative("sensors.load_cell.bias_sigma_n", c.bias_sigma_n)?;
         check_non_negative("sensors.load_cell.resolution_n", c.resolution_n)?;
+        check_non_negative("sensors.load_cell.gain_sigma", c.gain_sigma)?;
+        check_non_negative("sensors.load_cell.transverse_sigma", c.transverse_sigma)?;
+        check_non_negative("sensors.load_cell.drift_sigma_n_s", c.drift_sigma_n_s)?;
         let g = &self.gyro;
         check_non_negative(
             "sensors.gyro.noise_density_rad_s_sqrt_hz",
             g.noise_density_rad_s_sqrt_hz,
         )?;
         check_non_negative("sensors.gyro.bias_sigma_rad_s", g.bias_sigma_rad_s)?;
+        check_non_negative("sensors.gyro.scale_sigma", g.scale_sigma)?;
         let a = &self.accelerometer;
         check_non_negative(
             "sensors.accelerometer.noise_density_m_s2_sqrt_hz",
             a.noise_density_m_s2_sqrt_hz,
         )?;
         check_non_negative("sensors.accelerometer.bias_sigma_m_s2", a.bias_sigma_m_s2)?;
+        check_non_negative("sensors.accelerometer.scale_sigma", a.scale_sigma)?;
         for v in a.mount_m {
             check_finite("sensors.accelerometer.mount_m", v)?;
         }
+        check_non_negative("sensors.accelerometer.mount_sigma_m", a.mount_sigma_m)?;
+        for v in self.imu.orientation_deg {
+            check_finite("sensors.imu.orientation_deg", v)?;
+        }
+        check_non_negative(
+            "sensors.imu.misalignment_sigma_deg",
+            self.imu.misalignment_sigma_deg,
+        )?;
+        let t = &self.timing;
+        check_non_negative("sensors.timing.imu_skew_sigma_s", t.imu_skew_sigma_s)?;
+        check_non_negative("sensors.timing.jitter_sigma_s", t.jitter_sigma_s)?;
+        check_non_negative("sensors.timing.frame_loss", t.frame_loss)?;
+        if t.frame_loss > 0.5 {
+            return Err(SimError::InvalidConfig {
+                field: "sensors.timing.frame_loss",
+                value: t.frame_loss,
+                reason: "must be at most 0.5",
+            });
+        }
         Ok(())
-    }
-}
-
-/// The sensors' random state: one seeded generator and the biases drawn from it.
-#[derive(Clone, Debug)]
-pub(crate) struct SensorModel {
-    config: SensorConfig,
-    rng: StdRng,
-    load_cell_bias_n: [f64; 6],
-    gyro_bias_rad_s: [f64; 3],
-    accel_bias_m_s2: [f64; 3],
-    gyro_sigma_rad_s: f64,
-    accel_sigma_m_s2: f64,
-}
-
-fn quantize(value: f64, step: f64) -> f64 {
-    if step > 0.0 {
-        (value / step).round() * step
-    } else {
-        value
-    }
-}
-
-impl SensorModel {
-    pub fn new(config: SensorConfig, sample_rate_hz: f64, seed: u64) -> Self {
-        let mut rng = StdRng::seed_from_u64(seed);
-        let mut normal = |sigma: f64| sigma * rng.sample::<f64, _>(StandardNormal);
-        let load_cell_bias_n = core::array::from_fn(|_| normal(config.load_cell.bias_sigma_n));
-        let gyro_bias_rad_s = core::array::from_fn(|_| normal(config.gyro.bias_sigma_rad_s));
-        let accel_bias_m_s2 =
-            core::array::from_fn(|_| normal(config.accelerometer.bias_sigma_m_s2));
-        let root_rate = sample_rate_hz.sqrt();
-        Self {
-            config,
-            rng,
-            load_cell_bias_n,
-            gyro_bias_rad_s,
-            accel_bias_m_s2,
-            gyro_sigma_rad_s: config.gyro.noise_density_rad_s_sqrt_hz * root_rate,
-            accel_sigma_m_s2: config.accelerometer.noise_density_m_s2_sqrt_hz * root_rate,
-        }
-    }
-
-    /// Per-sample standard deviations of the gyro and accelerometer noise.
-    #[cfg(test)]
-    pub fn imu_sigmas(&self) -> (f64, f64) {
-        (self.gyro_sigma_rad_s, self.accel_sigma_m_s2)
-    }
-
-    /// The channels a real rig would report for the true values in `clean`.
-    pub fn measure(&mut self, clean: &SensorFrame) -> SensorFrame {
-        let c = self.config;
-        let rng = &mut self.rng;
-        let mut normal = |sigma: f64| {
-            if sigma > 0.0 {
-                sigma * rng.sample::<f64, _>(StandardNormal)
-            } else {
-                0.0
-            }
-        };
-        let mut out = *clean;
-        for v in out.leg_lengths_m.iter_mut() {
-            *v = quantize(
-                *v + normal(c.leg_length.noise_sigma_m),
-                c.leg_length.resolution_m,
-            );
-        }
-        for (v, b) in out.leg_forces_n.iter_mut().zip(self.load_cell_bias_n) {
-            *v = quantize(
-                *v + b + normal(c.load_cell.noise_sigma_n),
-                c.load_cell.resolution_n,
-            );
-        }
-        for (v, b) in out.gyro_rad_s.iter_mut().zip(self.gyro_bias_rad_s) {
-            *v += b + normal(self.gyro_sigma_rad_s);
-        }
-        for (v, b) in out.accel_m_s2.iter_mut().zip(self.accel_bias_m_s2) {
-            *v += b + normal(self.accel_sigma_m_s2);
-        }
-        out
     }
 }
 
@@ -322,109 +334,45 @@ mod tests {
             h.gyro.noise_density_rad_s_sqrt_hz,
             10.0 * r.gyro.noise_density_rad_s_sqrt_hz
         );
-        // 0.02 % of a 20 kN range.
+        assert_eq!(h.timing.frame_loss, 10.0 * r.timing.frame_loss);
+        // 0.02 % of a 20 kN range; 0.4 N per minute.
         assert!((r.load_cell.noise_sigma_n - 2e-4 * 20_000.0).abs() < 1e-12);
+        assert!((60.0 * r.load_cell.drift_sigma_n_s - 0.4).abs() < 1e-12);
         let n = SensorConfig::preset(NoisePreset::None);
         n.validate().unwrap();
         assert_eq!(n.load_cell.noise_sigma_n, 0.0);
-    }
-
-    #[test]
-    fn none_preset_passes_truth_through_exactly() {
-        let mut m = SensorModel::new(SensorConfig::preset(NoisePreset::None), 1000.0, 7);
-        let clean = SensorFrame {
-            leg_lengths_m: [1.234_567_891; 6],
-            leg_forces_n: [3210.987; 6],
-            gyro_rad_s: [0.1, -0.2, 0.3],
-            accel_m_s2: [0.5, 0.1, 9.8],
-            ..Default::default()
-        };
-        assert_eq!(m.measure(&clean), clean);
-    }
-
-    fn stats(xs: &[f64]) -> (f64, f64) {
-        let n = xs.len() as f64;
-        let mean = xs.iter().sum::<f64>() / n;
-        let var = xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
-        (mean, var.sqrt())
-    }
-
-    #[test]
-    fn noise_statistics_match_the_config() {
-        for preset in [NoisePreset::Realistic, NoisePreset::Harsh] {
-            let cfg = SensorConfig::preset(preset);
-            let mut m = SensorModel::new(cfg, 1000.0, 42);
-            let (gyro_sigma, accel_sigma) = m.imu_sigmas();
-            assert!(
-                (gyro_sigma - cfg.gyro.noise_density_rad_s_sqrt_hz * 1000f64.sqrt()).abs() < 1e-15
-            );
-            let clean = SensorFrame {
-                leg_forces_n: [5000.0; 6],
-                accel_m_s2: [0.0, 0.0, stewart_types::STANDARD_GRAVITY_M_S2],
-                ..Default::default()
-            };
-            let n = 20_000;
-            let mut force = Vec::with_capacity(n);
-            let mut gyro = Vec::with_capacity(n);
-            let mut accel = Vec::with_capacity(n);
-            for _ in 0..n {
-                let f = m.measure(&clean);
-                force.push(f.leg_forces_n[2] - 5000.0);
-                gyro.push(f.gyro_rad_s[1]);
-                accel.push(f.accel_m_s2[2] - stewart_types::STANDARD_GRAVITY_M_S2);
+        assert_eq!(
+            n.timing,
+            TimingConfig {
+                imu_skew_sigma_s: 0.0,
+                jitter_sigma_s: 0.0,
+                frame_loss: 0.0
             }
-            // Sample standard deviation within 3 % (its own standard error is 0.5 % here);
-            // quantization adds step²/12 to the variance.
-            let q = cfg.load_cell.resolution_n;
-            let want_force = (cfg.load_cell.noise_sigma_n.powi(2) + q * q / 12.0).sqrt();
-            for ((_, s), want) in [
-                (stats(&force), want_force),
-                (stats(&gyro), gyro_sigma),
-                (stats(&accel), accel_sigma),
-            ] {
-                assert!((s / want - 1.0).abs() < 0.03, "{preset}: {s} vs {want}");
-            }
-            // The mean is the channel's constant bias: the same over both halves of the run,
-            // within the noise of the means (5 standard errors).
-            for (xs, sigma) in [
-                (&force, want_force),
-                (&gyro, gyro_sigma),
-                (&accel, accel_sigma),
-            ] {
-                let (a, _) = stats(&xs[..n / 2]);
-                let (b, _) = stats(&xs[n / 2..]);
-                assert!((a - b).abs() < 5.0 * sigma * (4.0 / n as f64).sqrt());
-            }
-        }
+        );
     }
 
     #[test]
-    fn biases_spread_like_their_sigma() {
-        // Across many seeds, a load cell's bias has the configured standard deviation.
-        let cfg = SensorConfig::preset(NoisePreset::Realistic);
-        let biases: Vec<f64> = (0..4000)
-            .flat_map(|seed| SensorModel::new(cfg, 1000.0, seed).load_cell_bias_n)
-            .collect();
-        let (mean, s) = stats(&biases);
-        assert!(mean.abs() < 5.0 * cfg.load_cell.bias_sigma_n / (biases.len() as f64).sqrt());
-        assert!((s / cfg.load_cell.bias_sigma_n - 1.0).abs() < 0.03);
-    }
-
-    #[test]
-    fn quantization_rounds_to_the_resolution() {
-        let cfg = SensorConfig {
-            leg_length: LegLengthSensorConfig {
-                noise_sigma_m: 0.0,
-                resolution_m: 1e-6,
-            },
-            ..SensorConfig::preset(NoisePreset::None)
-        };
-        let mut m = SensorModel::new(cfg, 1000.0, 1);
-        let clean = SensorFrame {
-            leg_lengths_m: [1.000_000_7; 6],
-            ..Default::default()
-        };
-        let out = m.measure(&clean);
-        assert!((out.leg_lengths_m[0] - 1.000_001).abs() < 1e-12);
+    fn bad_figures_name_their_field() {
+        let mut c = SensorConfig::default();
+        c.timing.frame_loss = 0.7;
+        assert!(matches!(
+            c.validate(),
+            Err(SimError::InvalidConfig {
+                field: "sensors.timing.frame_loss",
+                ..
+            })
+        ));
+        let mut c = SensorConfig::default();
+        c.imu.orientation_deg[1] = f64::INFINITY;
+        assert!(matches!(
+            c.validate(),
+            Err(SimError::InvalidConfig {
+                field: "sensors.imu.orientation_deg",
+                ..
+            })
+        ));
+        let mut c = SensorConfig::default();
+        c.load_cell.gain_sigma = -1e-3;
+        assert!(c.validate().is_err());
     }
 }

@@ -13,7 +13,7 @@ use crate::config::{GyroscopicModel, SimConfig};
 use crate::dynamics::{Acceleration, RigidBodyModel};
 use crate::error::SimError;
 use crate::legs::Legs;
-use crate::sensors::SensorModel;
+use crate::sensor_model::SensorModel;
 use crate::world::{PlateWorld, GRAVITY_M_S2};
 
 /// Velocity of the plate at the current sample instant.
@@ -225,6 +225,16 @@ impl PeriodSum {
 ///
 /// Exception: a brake engaging or releasing takes effect from the next substep, so the force of
 /// the sample taken just before such a command differs by the brake's damping term.
+///
+/// # Sensor errors
+///
+/// `read` returns the clean channels above ([`Simulator::clean_frame`], the IMU's in P at its
+/// true position) through the sensor model (`sensor_model`'s docs give each error's equation):
+/// noise, biases, drift, gains, crosstalk, the IMU's axes and scale errors, its skew and the
+/// frame's jitter (the frame's `time_s` is its jittered sampling instant). A frame the model
+/// loses never reaches `read`: `write` runs one more period on the same command. (The frame at
+/// construction and after [`Simulator::set_state`] or [`Simulator::set_payload`] is always
+/// delivered.)
 pub struct Simulator {
     geometry: Geometry,
     config: SimConfig,
@@ -480,8 +490,9 @@ impl Simulator {
         Node::new(&e, &self.mount_m())
     }
 
+    /// The accelerometer's true position in P (the described one plus its tolerance's draw).
     fn mount_m(&self) -> Vector3<f64> {
-        Vector3::from(self.config.sensors.accelerometer.mount_m)
+        self.sensors.mount_m()
     }
 
     /// Evaluates every channel at the current instant (see the module docs), closes the
@@ -493,6 +504,8 @@ impl Simulator {
         let e = self.evaluate(&pose, &legs);
         let node = Node::new(&e, &self.mount_m());
         self.period.add(&node, 0.5);
+        // A period lies behind this instant: the motion ran on from the previous sample.
+        let continuous = self.period.weight > 0.5;
         let sensed = if self.config.substeps > 1 && self.period.weight > 0.5 {
             self.period.mean().unwrap_or(node)
         } else {
@@ -542,7 +555,9 @@ impl Simulator {
             acceleration: acc,
             clean,
         };
-        self.frame = self.sensors.measure(&clean);
+        self.frame = self
+            .sensors
+            .measure(&clean, &self.now.cell_loads, continuous);
         Ok(())
     }
 
@@ -596,9 +611,10 @@ impl Simulator {
         self.now.cell_loads.transverse_n
     }
 
-    /// Ground truth: every channel of the current sample without noise, bias or quantization
+    /// Ground truth: every channel of the current sample without the sensor model's errors
     /// (like the sensed frame: leg lengths at the instant, the rest means over the sample
-    /// period; see the module docs).
+    /// period; see the module docs), at the grid instant `t_k`, the IMU's in P axes at the
+    /// accelerometer's true position.
     pub fn clean_frame(&self) -> SensorFrame {
         self.now.clean
     }
@@ -630,6 +646,19 @@ impl Simulator {
     }
 }
 
+impl Simulator {
+    /// One sample period of physics under the current command, then the next sample.
+    fn advance(&mut self) -> Result<(), SimError> {
+        self.period = PeriodSum::default();
+        for j in 0..self.config.substeps {
+            let node = self.substep();
+            self.period.add(&node, if j == 0 { 0.5 } else { 1.0 });
+        }
+        self.sample += 1;
+        self.refresh()
+    }
+}
+
 impl Backend for Simulator {
     type Error = SimError;
 
@@ -638,7 +667,9 @@ impl Backend for Simulator {
         Ok(self.frame)
     }
 
-    /// Applies `command` and advances the physics by one sample period.
+    /// Applies `command` and advances the physics by one sample period, or more while the
+    /// sampled frames are lost on their way to the host (each lost frame: one more period on
+    /// the same command), so the next `read` may skip sequence numbers.
     fn write(&mut self, command: &CommandFrame) -> Result<(), SimError> {
         if let Some(leg) = command.leg_forces_n.iter().position(|f| !f.is_finite()) {
             return Err(SimError::InvalidCommand { leg });
@@ -649,13 +680,11 @@ impl Backend for Simulator {
             &self.now.lengths_m,
             &self.now.forces_n,
         );
-        self.period = PeriodSum::default();
-        for j in 0..self.config.substeps {
-            let node = self.substep();
-            self.period.add(&node, if j == 0 { 0.5 } else { 1.0 });
+        self.advance()?;
+        while self.sensors.frame_lost() {
+            self.advance()?;
         }
-        self.sample += 1;
-        self.refresh()
+        Ok(())
     }
 
     fn sample_period_s(&self) -> f64 {
@@ -667,5 +696,7 @@ mod coupled;
 mod hold;
 #[cfg(test)]
 mod leg_tests;
+#[cfg(test)]
+mod imperfection_tests;
 #[cfg(test)]
 mod tests;
