@@ -25,6 +25,7 @@
 #![warn(missing_docs)]
 
 pub mod accuracy;
+pub mod budget;
 pub mod config;
 pub mod feed;
 pub mod link;

@@ -1,0 +1,1 @@
+//! The budget's effects against independent checks on synthetic runs.
