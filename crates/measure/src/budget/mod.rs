@@ -184,7 +184,9 @@ pub fn analyse(
             }
             let dr = s.residual_change(&ctx, sigma);
             effects.push(fit.effect(&dr).into());
-            modes.push(rows.iter().map(|&k| dr[k]).collect::<Vec<Vector6<f64>>>());
+            if s.is_smooth() {
+                modes.push(rows.iter().map(|&k| dr[k]).collect::<Vec<Vector6<f64>>>());
+            }
         }
         override_exact(source, &mut effects, exact);
         budget.effects.push(SourceEffects {

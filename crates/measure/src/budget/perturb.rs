@@ -68,6 +68,21 @@ impl Scalar {
         }
     }
 
+    /// Whether its residual change is a smooth function of the motion (the pose, the legs'
+    /// model, time, the mean forces): the IMU's errors act through the noisy recorded rates
+    /// and accelerations, so their residual changes carry that noise, which a fit of their
+    /// amplitudes would absorb ([`super::rigid`] leaves them out).
+    pub fn is_smooth(&self) -> bool {
+        !matches!(
+            self,
+            Scalar::Misalignment(_)
+                | Scalar::GyroScale(_)
+                | Scalar::AccelScale(_)
+                | Scalar::LeverArm(_)
+                | Scalar::TimeSkew
+        )
+    }
+
     /// One sigma of this error from the rig description's figures.
     pub fn sigma(&self, f: &Figures) -> f64 {
         let s = &f.sensors;
@@ -290,3 +305,4 @@ fn joint_change(
         })
         .collect()
 }
+

@@ -1,21 +1,24 @@
-//! Does the rigid-body model explain the data? The record's fit residual, once the rigid body
-//! and every modelled error (each elementary error's residual change, [`super::perturb`], at a
-//! free amplitude) are fitted out, should be the sensors' noise alone. Two figures:
+//! Does the rigid-body model explain the data? The residual of the budget's fit about the
+//! run's estimate, r = y − Φ θ̂, should hold no more than the sensors' noise and the modelled
+//! errors. Two figures:
 //!
-//! - `residual_ratio`: rms of what is left of the equations' residual (the force rows with ten
-//!   parameters, the torque rows about the centre of mass with six), over the rms the datasheet
-//!   noise predicts for them ([`super::statistical`]), corrected for the fitted columns
-//!   (N/(N − p)); the prediction has a floor of 1e-4 of the rows' own rms (the fit's numerical
-//!   floor, for ideal sensors). About 1 for a rigid payload; a body that moves on the plate
-//!   (a car on its suspension) leaves its own motion's force, far above the noise.
-//! - `peak_hz`: the frequency of the largest peak of the left residual's power spectrum
-//!   (a direct Fourier sum at the entries' times, from 0.2 Hz to the lower of 20 Hz and the
-//!   entries' Nyquist frequency, in steps of 1/(2T)).
+//! - `residual_ratio`: rms of the residual of the force rows (with six parameters, the torque
+//!   rows about the centre of mass) over the rms that is expected of it: the datasheet noise
+//!   ([`super::statistical`]) plus each modelled error's residual change at one sigma
+//!   ([`super::perturb`], those smooth in the motion: [`super::perturb::Scalar::is_smooth`]),
+//!   added as independent; with a floor of 1e-4 of the rows' own rms (the fit's numerical
+//!   floor, for ideal sensors). About 1 or below for a rigid payload (θ̂ absorbs part of the
+//!   errors); a body that moves on the plate (a car on its suspension) leaves its own motion's
+//!   force, far above both. The errors' amplitudes are not fitted: a column made of the noisy
+//!   data (a gain times the noisy force) would absorb the noise.
+//! - `peak_hz`: the frequency of the largest peak of the residual's power spectrum (a direct
+//!   Fourier sum at the entries' times, from 0.2 Hz to the lower of 20 Hz and the entries'
+//!   Nyquist frequency, in steps of 1/(2T)).
 //!
 //! The check passes when the ratio is below [`RATIO_LIMIT`]. At most [`MAX_ROWS`] entries
 //! (evenly strided) take part, to bound the memory of the error columns.
 
-use nalgebra::{DMatrix, DVector, Vector6};
+use nalgebra::Vector6;
 use serde::{Deserialize, Serialize};
 
 use super::fit::Fit;
@@ -44,8 +47,8 @@ pub fn subset(fit: &Fit) -> Vec<usize> {
     (0..n).step_by(step).collect()
 }
 
-/// The check on `fit`'s residual at the entries `rows` (from [`subset`]), with the error
-/// columns `modes` (each a residual change at those entries), the noise's predicted variance
+/// The check on `fit`'s residual at the entries `rows` (from [`subset`]), with the modelled
+/// errors' residual changes `modes` (each at those entries), the noise's predicted variance
 /// per entry `noise` (at every interior entry) and the entries' `times`.
 pub fn check(
     fit: &Fit,
@@ -56,71 +59,25 @@ pub fn check(
     six: bool,
 ) -> Option<RigidBody> {
     let eq = if six { 3..6 } else { 0..3 };
-    let sw: Vector6<f64> = fit.weights.map(f64::sqrt);
-    let active: Vec<usize> = (0..10)
-        .filter(|&p| fit.phi.iter().any(|phi| phi.column(p).iter().any(|v| *v != 0.0)))
-        .collect();
-    let live: Vec<&Vec<Vector6<f64>>> = modes
-        .iter()
-        .filter(|m| m.iter().any(|v| v.iter().any(|x| *x != 0.0)))
-        .collect();
-    let cols = active.len() + live.len();
-    let n_rows = rows.len() * 6;
-    if rows.len() < 10 || n_rows <= cols {
+    if rows.len() < 10 {
         return None;
     }
-    let mut x = DMatrix::<f64>::zeros(n_rows, cols);
-    let mut y = DVector::<f64>::zeros(n_rows);
-    for (k, &row) in rows.iter().enumerate() {
-        for r in 0..6 {
-            let at = 6 * k + r;
-            y[at] = sw[r] * fit.r0[row][r];
-            for (c, &p) in active.iter().enumerate() {
-                x[(at, c)] = sw[r] * fit.phi[row][(r, p)];
-            }
-            for (c, m) in live.iter().enumerate() {
-                x[(at, active.len() + c)] = sw[r] * m[k][r];
-            }
-        }
-    }
-    // Columns scaled to unit norm, a tiny ridge for collinear ones.
-    let scale: Vec<f64> = (0..cols)
-        .map(|c| {
-            let n = x.column(c).norm();
-            if n > 0.0 {
-                1.0 / n
-            } else {
-                0.0
-            }
-        })
-        .collect();
-    for (c, s) in scale.iter().enumerate() {
-        x.column_mut(c).scale_mut(*s);
-    }
-    let mut a = x.tr_mul(&x);
-    for c in 0..cols {
-        a[(c, c)] += 1e-10;
-    }
-    let beta = a.cholesky()?.solve(&x.tr_mul(&y));
-    let left = &y - &x * beta;
-    // Unweighted residual of the check's rows, and the predicted noise.
     let (mut sum_r, mut sum_v, mut sum_y) = (0.0, 0.0, 0.0);
     let mut series = Vec::with_capacity(rows.len());
     for (k, &row) in rows.iter().enumerate() {
+        let y = fit.r0[row] + fit.phi[row] * fit.theta;
         let mut e = [0.0; 3];
         for (j, r) in eq.clone().enumerate() {
-            let v = if sw[r] > 0.0 { left[6 * k + r] / sw[r] } else { 0.0 };
+            let v = fit.r0[row][r];
             e[j] = v;
             sum_r += v * v;
-            sum_v += noise[row][r];
-            let yr = fit.r0[row][r] + (fit.phi[row] * fit.theta)[r];
-            sum_y += yr * yr;
+            sum_v += noise[row][r] + modes.iter().map(|m| m[k][r] * m[k][r]).sum::<f64>();
+            sum_y += y[r] * y[r];
         }
         series.push(e);
     }
     let floor = 1e-8 * sum_y;
-    let dof = n_rows as f64 / (n_rows - cols) as f64;
-    let ratio = (sum_r * dof / (sum_v + floor)).sqrt();
+    let ratio = (sum_r / (sum_v + floor)).sqrt();
     let t: Vec<f64> = rows.iter().map(|&k| times[fit.idx[k]]).collect();
     let peak_hz = spectrum_peak(&t, &series);
     Some(RigidBody {
