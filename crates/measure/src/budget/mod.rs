@@ -95,6 +95,57 @@ pub struct RunBudget {
 }
 
 impl RunBudget {
+    /// JSON schema (inside a tare file and `/run/tare`).
+    pub fn schema() -> crate::schema::Schema {
+        use crate::schema::{array, boolean, int, nullable, num, numbers, object, string};
+        object(
+            vec![
+                (
+                    "effects",
+                    array(
+                        object(
+                            vec![
+                                ("source", string("error source id")),
+                                (
+                                    "effects",
+                                    array(
+                                        numbers(10, ""),
+                                        None,
+                                        "change of theta from one sigma of each elementary error",
+                                    ),
+                                ),
+                            ],
+                            "one source's effects",
+                        ),
+                        None,
+                        "per systematic source",
+                    ),
+                ),
+                ("used", int("samples used")),
+                ("lost", int("frames lost")),
+                ("jitter_share", num("timestamp jitter's share of the statistical variance")),
+                (
+                    "rigid_body",
+                    nullable(object(
+                        vec![
+                            ("ok", boolean("the rigid-body model explains the data")),
+                            (
+                                "residual_ratio",
+                                nullable(num("residual rms over the expected rms")),
+                            ),
+                            (
+                                "peak_hz",
+                                nullable(num("largest peak of the residual spectrum, Hz")),
+                            ),
+                        ],
+                        "rigid-body check",
+                    )),
+                ),
+            ],
+            "the run's error-budget inputs",
+        )
+    }
+
     /// The effects of `source` (empty when not known).
     pub fn effects_of(&self, source: ErrorSource) -> &[[f64; 10]] {
         self.effects
