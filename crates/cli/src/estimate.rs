@@ -57,6 +57,11 @@ pub struct EstimateArgs {
     /// description instead of the one the log recorded.
     #[arg(long, value_name = "FILE")]
     pub rig: Option<PathBuf>,
+    /// Also print the error budget: one row per error source with its one sigma of the
+    /// mass, the centre of mass and each J_C entry (from the rig description's figures and
+    /// the log's own data); the total row is the printed sigma.
+    #[arg(long)]
+    pub budget: bool,
     /// No table.
     #[arg(long)]
     pub quiet: bool,
@@ -173,7 +178,11 @@ pub fn estimate(args: &EstimateArgs) -> Result<EstimateOutcome> {
     if quality.is_ok() {
         if !args.quiet {
             out(&crate::table::render(&report));
+            if args.budget {
+                out(&crate::table::render_budget(&report));
+            }
         }
+        crate::table::warn_rigid_body(&report);
         if let Some(path) = &args.report {
             std::fs::write(path, report.to_json())
                 .with_context(|| format!("cannot write the report {}", path.display()))?;

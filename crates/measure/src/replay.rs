@@ -133,11 +133,8 @@ impl Replay {
     /// Also records the used samples for the error budget, with the rig description's
     /// `figures` ([`crate::budget`]), as the online measurement does.
     pub fn with_budget(mut self, figures: crate::budget::Figures) -> Self {
-        let record = crate::budget::RunRecord::new(
-            self.config.geometry,
-            self.config.sample_period_s,
-            0,
-        );
+        let record =
+            crate::budget::RunRecord::new(self.config.geometry, self.config.sample_period_s, 0);
         self.budget = Some((record, figures));
         self
     }

@@ -653,7 +653,13 @@ mod tests {
         // The budget: one line per source, the bias's line the systematic part, the noise's
         // the two runs' covariances (no frames lost), and the lines add up to `sigma`.
         assert_eq!(r.error_budget.len(), ErrorSource::ALL.len());
-        let line = |id: &str| r.error_budget.iter().find(|l| l.source == id).unwrap().sigma;
+        let line = |id: &str| {
+            r.error_budget
+                .iter()
+                .find(|l| l.source == id)
+                .unwrap()
+                .sigma
+        };
         assert!((line("accel_bias").mass - 0.15).abs() < 1e-12);
         assert!((line("noise").mass - 3e-4f64.sqrt()).abs() < 1e-12);
         assert_eq!(line("geometry").mass, 0.0);
@@ -749,7 +755,11 @@ mod tests {
             }
         }
         for (k, (s, t)) in sum.iter().zip(&total).enumerate() {
-            assert!((s.sqrt() - t).abs() <= 1e-9 * t.max(1e-12), "entry {k}: {} vs {t}", s.sqrt());
+            assert!(
+                (s.sqrt() - t).abs() <= 1e-9 * t.max(1e-12),
+                "entry {k}: {} vs {t}",
+                s.sqrt()
+            );
         }
     }
 
@@ -761,7 +771,9 @@ mod tests {
         let body = InertialParameters::from_com(
             1900.0,
             Vector3::new(0.12, -0.06, 0.41),
-            Matrix3::new(840.0, -25.0, 60.0, -25.0, 2740.0, -15.0, 60.0, -15.0, 3150.0),
+            Matrix3::new(
+                840.0, -25.0, 60.0, -25.0, 2740.0, -15.0, 60.0, -15.0, 3150.0,
+            ),
         );
         let fixture = InertialParameters::from_com(
             400.0,
@@ -812,7 +824,10 @@ mod tests {
             run: RunInfo::default(),
         });
         assert!(r.budget_notes.is_empty(), "{:?}", r.budget_notes);
-        assert!(r.error_budget.iter().all(|l| l.sigma.inertia_com[0][0] > 0.0));
+        assert!(r
+            .error_budget
+            .iter()
+            .all(|l| l.sigma.inertia_com[0][0] > 0.0));
         assert_budget_adds_up(&r);
     }
 

@@ -431,7 +431,9 @@ mod tests {
         let back = TareFile::load(&path, &b, &p).unwrap();
         assert_eq!(back, t);
         assert_eq!(
-            back.budget.unwrap().effects_of(crate::sources::ErrorSource::Geometry)[35][4],
+            back.budget
+                .unwrap()
+                .effects_of(crate::sources::ErrorSource::Geometry)[35][4],
             0.125
         );
         let mut old = serde_json::to_value(tare()).unwrap();

@@ -108,7 +108,10 @@ mod tests {
         let of = |v: &[SourceCovariance], s: ErrorSource| {
             v.iter().find(|c| c.source == s).unwrap().covariance
         };
-        assert_eq!(of(&same, ErrorSource::AccelBias), ParameterCovariance::zeros());
+        assert_eq!(
+            of(&same, ErrorSource::AccelBias),
+            ParameterCovariance::zeros()
+        );
         assert!((of(&same, ErrorSource::FrameLoss)[(0, 0)] - 0.4).abs() < 1e-12);
         assert!((of(&same, ErrorSource::TimestampJitter)[(0, 0)] - 0.2).abs() < 1e-12);
         let (diff, _) = payload_covariances(&budget(0.3), &cov, Some(&budget(0.1)), &cov);

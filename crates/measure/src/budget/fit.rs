@@ -269,7 +269,10 @@ impl Fit {
 }
 
 /// The inverse of `a` restricted to the `active` block (Cholesky), zero elsewhere.
-fn invert_active(a: &SMatrix<f64, 10, 10>, active: core::ops::Range<usize>) -> Option<SMatrix<f64, 10, 10>> {
+fn invert_active(
+    a: &SMatrix<f64, 10, 10>,
+    active: core::ops::Range<usize>,
+) -> Option<SMatrix<f64, 10, 10>> {
     let n = active.len();
     let o = active.start;
     let sub = nalgebra::DMatrix::from_fn(n, n, |r, c| a[(o + r, o + c)]);

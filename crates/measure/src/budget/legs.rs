@@ -98,7 +98,8 @@ pub fn effects(data: &Data, idx: &[usize], h: f64, legs: &LegsConfig) -> LegEffe
             let a2 = qdd - udd * legs.rod_com_from_plate_m;
             let r1 = ui * legs.cylinder_com_from_base_m;
             let r2 = ui * (len - legs.rod_com_from_plate_m);
-            let inertial = (gravity - a1) * legs.cylinder_mass_kg + (gravity - a2) * legs.rod_mass_kg;
+            let inertial =
+                (gravity - a1) * legs.cylinder_mass_kg + (gravity - a2) * legs.rod_mass_kg;
             let m_dyn = r1.cross(&((gravity - a1) * legs.cylinder_mass_kg))
                 + r2.cross(&((gravity - a2) * legs.rod_mass_kg))
                 - wd_leg * (legs.cylinder_inertia_kg_m2 + legs.rod_inertia_kg_m2);
@@ -192,13 +193,13 @@ mod tests {
             // Vertical part of the transverse share: weight·(1 − cos²) downward on the plate.
             expected -= share * 9.80665 * (1.0 - cos * cos);
         }
-        let fz_b = (pose.rotation * Vector3::new(
-            fx.dynamics[10][0],
-            fx.dynamics[10][1],
-            fx.dynamics[10][2],
-        ))
+        let fz_b = (pose.rotation
+            * Vector3::new(fx.dynamics[10][0], fx.dynamics[10][1], fx.dynamics[10][2]))
         .z;
-        assert!((fz_b - expected).abs() < 1e-6 * expected.abs(), "{fz_b} vs {expected}");
+        assert!(
+            (fz_b - expected).abs() < 1e-6 * expected.abs(),
+            "{fz_b} vs {expected}"
+        );
         assert!(fx.friction[10].norm() < 1e-12);
         // With the cell at the base end the whole weight of both bodies is unseen along the
         // legs as well: the plate then misses (m₁ + m₂) g less the part the base carries.
@@ -207,11 +208,8 @@ mod tests {
             ..l
         };
         let fb = effects(&data, &idx, 0.01, &base);
-        let fz_base = (pose.rotation * Vector3::new(
-            fb.dynamics[10][0],
-            fb.dynamics[10][1],
-            fb.dynamics[10][2],
-        ))
+        let fz_base = (pose.rotation
+            * Vector3::new(fb.dynamics[10][0], fb.dynamics[10][1], fb.dynamics[10][2]))
         .z;
         assert!(fz_base < fz_b, "{fz_base} vs {fz_b}");
     }
@@ -221,7 +219,11 @@ mod tests {
         let data = still_data();
         let idx: Vec<usize> = (2..data.entries.len() - 2).collect();
         let fx = effects(&data, &idx, 0.01, &LegsConfig::default());
-        assert!(fx.dynamics.iter().chain(&fx.friction).all(|w| w.norm() == 0.0));
+        assert!(fx
+            .dynamics
+            .iter()
+            .chain(&fx.friction)
+            .all(|w| w.norm() == 0.0));
         assert!(fx.transverse.iter().flatten().flatten().all(|v| *v == 0.0));
     }
 }

@@ -123,7 +123,10 @@ impl RunBudget {
                 ),
                 ("used", int("samples used")),
                 ("lost", int("frames lost")),
-                ("jitter_share", num("timestamp jitter's share of the statistical variance")),
+                (
+                    "jitter_share",
+                    num("timestamp jitter's share of the statistical variance"),
+                ),
                 (
                     "rigid_body",
                     nullable(object(

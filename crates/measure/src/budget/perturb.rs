@@ -128,7 +128,9 @@ pub fn scalars(source: ErrorSource) -> Vec<Scalar> {
         ErrorSource::TimeSkew => vec![Scalar::TimeSkew],
         ErrorSource::Geometry => [false, true]
             .into_iter()
-            .flat_map(|plate| (0..6).flat_map(move |l| (0..3).map(move |c| Scalar::Joint(plate, l, c))))
+            .flat_map(|plate| {
+                (0..6).flat_map(move |l| (0..3).map(move |c| Scalar::Joint(plate, l, c)))
+            })
             .collect(),
         ErrorSource::LegDynamics => vec![Scalar::LegDynamics],
         ErrorSource::JointFriction => vec![Scalar::JointFriction],
@@ -155,7 +157,14 @@ fn transform_products(q: &Vector6<f64>, m: &Matrix3<f64>) -> Vector6<f64> {
         q[4], q[5], q[2],
     );
     let t = m * full * m.transpose();
-    Vector6::new(t[(0, 0)], t[(1, 1)], t[(2, 2)], t[(0, 1)], t[(0, 2)], t[(1, 2)])
+    Vector6::new(
+        t[(0, 0)],
+        t[(1, 1)],
+        t[(2, 2)],
+        t[(0, 1)],
+        t[(0, 2)],
+        t[(1, 2)],
+    )
 }
 
 /// The IMU's readings through M (gyro, products) and N (accelerometer).
@@ -206,9 +215,7 @@ impl Scalar {
         };
         match *self {
             Scalar::Offset(leg) => leg_force(leg, &|_| sigma),
-            Scalar::Drift(leg) => {
-                leg_force(leg, &|i| sigma * (base.entries[i].time_s - t0) / 60.0)
-            }
+            Scalar::Drift(leg) => leg_force(leg, &|i| sigma * (base.entries[i].time_s - t0) / 60.0),
             Scalar::Gain(leg) => leg_force(leg, &|i| sigma * base.entries[i].leg_forces_n[leg]),
             Scalar::Crosstalk(leg, dir) => {
                 leg_force(leg, &|i| sigma * ctx.legs.transverse[i][leg][dir])
@@ -305,4 +312,3 @@ fn joint_change(
         })
         .collect()
 }
-

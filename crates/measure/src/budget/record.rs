@@ -172,7 +172,13 @@ impl RunRecord {
             let merged: Vec<Entry> = self
                 .entries
                 .chunks(2)
-                .map(|c| if c.len() == 2 { c[0].merge(&c[1]) } else { c[0] })
+                .map(|c| {
+                    if c.len() == 2 {
+                        c[0].merge(&c[1])
+                    } else {
+                        c[0]
+                    }
+                })
                 .collect();
             self.entries.clear();
             self.entries.extend_from_slice(&merged);

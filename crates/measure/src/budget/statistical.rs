@@ -138,7 +138,11 @@ pub fn predict(data: &Data, fit: &Fit, figures: &Figures) -> Prediction {
         .sum::<f64>()
         / count;
     Prediction {
-        jitter_share: if share.is_finite() { share.clamp(0.0, 1.0) } else { 0.0 },
+        jitter_share: if share.is_finite() {
+            share.clamp(0.0, 1.0)
+        } else {
+            0.0
+        },
         noise_variance,
     }
 }

@@ -107,7 +107,11 @@ impl Synth {
         let w = self.frequencies.map(|f| 2.0 * core::f64::consts::PI * f);
         let home = g.home_pose().position_m;
         Pose::from_rpy(
-            home + Vector3::new(a * (w[0] * t).sin(), a * (w[1] * t).sin(), a * (w[2] * t).sin()),
+            home + Vector3::new(
+                a * (w[0] * t).sin(),
+                a * (w[1] * t).sin(),
+                a * (w[2] * t).sin(),
+            ),
             r * (w[3] * t).sin(),
             r * (w[4] * t).sin(),
             r * (w[5] * t).sin(),
@@ -120,7 +124,11 @@ impl Synth {
         let r = |t: f64| *self.pose(g, t).rotation.matrix();
         let rd = (r(t - 2.0 * d) - r(t - d) * 8.0 + r(t + d) * 8.0 - r(t + 2.0 * d)) / (12.0 * d);
         let s = r(t).transpose() * rd;
-        Vector3::new(s[(2, 1)] - s[(1, 2)], s[(0, 2)] - s[(2, 0)], s[(1, 0)] - s[(0, 1)]) * 0.5
+        Vector3::new(
+            s[(2, 1)] - s[(1, 2)],
+            s[(0, 2)] - s[(2, 0)],
+            s[(1, 0)] - s[(0, 1)],
+        ) * 0.5
     }
 
     /// The true state at `t` on design `g`.
@@ -166,7 +174,9 @@ impl Synth {
     ) -> Vec<Sample> {
         let n = (self.duration_s * self.rate_hz) as u64;
         let built = self.built.unwrap_or(*g);
-        let mut rng = self.noise.map(|(_, seed)| seed.wrapping_mul(6364136223846793005) | 1);
+        let mut rng = self
+            .noise
+            .map(|(_, seed)| seed.wrapping_mul(6364136223846793005) | 1);
         let mut gauss = move || -> f64 {
             let Some(s) = rng.as_mut() else { return 0.0 };
             let mut u = || {

@@ -29,7 +29,13 @@ fn fitted(g: &Geometry, synth: &Synth, samples: &[Sample]) -> ParameterVector {
 }
 
 /// The effect of `scalar` at `sigma` on `synth`'s clean run, with the legs of `legs`.
-fn effect(g: &Geometry, synth: &Synth, scalar: Scalar, sigma: f64, l: &LegsConfig) -> ParameterVector {
+fn effect(
+    g: &Geometry,
+    synth: &Synth,
+    scalar: Scalar,
+    sigma: f64,
+    l: &LegsConfig,
+) -> ParameterVector {
     let samples = synth.samples(g, |_, _, _| {});
     let data = Data::new(synth.record(g, &samples).entries(), model(g, synth));
     let theta = synth.body.to_vector();
@@ -80,7 +86,12 @@ fn the_budgets_fit_recovers_the_body() {
     let truth = synth.body.to_vector();
     for i in 0..10 {
         let tol = 1e-5 * truth.amax();
-        assert!((theta[i] - truth[i]).abs() < tol, "θ[{i}] {} vs {}", theta[i], truth[i]);
+        assert!(
+            (theta[i] - truth[i]).abs() < tol,
+            "θ[{i}] {} vs {}",
+            theta[i],
+            truth[i]
+        );
     }
 }
 
@@ -255,7 +266,11 @@ fn point_mass_legs_at_the_plate_joints_are_missed_whole() {
     assert_close("linearity", &got2, &(got * 2.0), 1e-9);
     // Massless, frictionless legs: nothing, and no crosstalk either.
     let none = LegsConfig::default();
-    for s in [Scalar::LegDynamics, Scalar::JointFriction, Scalar::Crosstalk(2, 1)] {
+    for s in [
+        Scalar::LegDynamics,
+        Scalar::JointFriction,
+        Scalar::Crosstalk(2, 1),
+    ] {
         assert_eq!(effect(&g, &synth, s, 1.0, &none), ParameterVector::zeros());
     }
 }
@@ -303,7 +318,11 @@ fn the_fits_bias_effect_matches_the_estimators_sensitivity() {
         let g = estimator::uncertainty::derived_jacobian(&synth.body.to_vector());
         let (got, want) = (g * got, g * want);
         // Floors: what is negligible beside the z bias's 1.9 kg, 0.3 mm and 0.5 kg·m².
-        for (name, range, floor) in [("mass", 0..1, 0.02), ("com", 1..4, 3e-6), ("J_C", 4..10, 5e-3)] {
+        for (name, range, floor) in [
+            ("mass", 0..1, 0.02),
+            ("com", 1..4, 3e-6),
+            ("J_C", 4..10, 5e-3),
+        ] {
             let scale = want.rows(range.start, range.len()).amax().max(floor);
             let err = (got - want).rows(range.start, range.len()).amax();
             assert!(
@@ -323,7 +342,11 @@ fn noisy(f: &Figures) -> Synth {
     Synth {
         duration_s: 30.0,
         noise: Some((
-            [s.gyro_noise_rad_s(), s.accel_noise_m_s2(), s.load_cell.noise_n],
+            [
+                s.gyro_noise_rad_s(),
+                s.accel_noise_m_s2(),
+                s.load_cell.noise_n,
+            ],
             7,
         )),
         frequencies: [0.3, 0.7, 1.1, 0.5, 0.9, 1.7],
@@ -335,7 +358,10 @@ fn run_budget(g: &Geometry, synth: &Synth, samples: &[Sample], f: &Figures) -> R
     let mut c = EstimatorConfig::new(*g, 1.0 / synth.rate_hz);
     c.accelerometer_position_m = synth.lever_m;
     c.equation_sigma = Vector6::new(5.0, 5.0, 5.0, 2.0, 2.0, 2.0);
-    let mut e = estimator::Estimate::from_parameters(synth.body, estimator::ParameterCovariance::identity());
+    let mut e = estimator::Estimate::from_parameters(
+        synth.body,
+        estimator::ParameterCovariance::identity(),
+    );
     e.counts.used = samples.len() as u64;
     analyse(
         &synth.record(g, samples),
@@ -366,10 +392,15 @@ fn the_rigid_body_check_passes_a_rigid_body_and_flags_a_resonance() {
         let t = k as f64 / synth.rate_hz;
         let fz = 300.0 * (2.0 * core::f64::consts::PI * 1.3 * t).sin();
         let j = g.jacobian(&s.pose).transpose();
-        let df = j.lu().solve(&Vector6::new(0.0, 0.0, fz, 0.0, 0.0, 0.0)).unwrap();
+        let df = j
+            .lu()
+            .solve(&Vector6::new(0.0, 0.0, fz, 0.0, 0.0, 0.0))
+            .unwrap();
         x.leg_forces_n += df;
     });
-    let b = run_budget(&g, &synth, &bounce, &f).rigid_body.expect("checked");
+    let b = run_budget(&g, &synth, &bounce, &f)
+        .rigid_body
+        .expect("checked");
     assert!(!b.ok, "{b:?}");
     assert!((b.peak_hz - 1.3).abs() < 0.05, "{b:?}");
 }
@@ -388,9 +419,15 @@ fn every_systematic_source_has_an_effect() {
         let e = b.effects_of(source);
         assert_eq!(e.len(), n, "{source}");
         if n > 0 {
-            assert!(e.iter().flatten().any(|v| *v != 0.0), "{source} has no effect");
+            assert!(
+                e.iter().flatten().any(|v| *v != 0.0),
+                "{source} has no effect"
+            );
         }
     }
-    assert!(b.jitter_share > 0.0 && b.jitter_share < 0.1, "{}", b.jitter_share);
+    assert!(
+        b.jitter_share > 0.0 && b.jitter_share < 0.1,
+        "{}",
+        b.jitter_share
+    );
 }
-
