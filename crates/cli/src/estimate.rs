@@ -239,7 +239,7 @@ mod tests {
     use runlog::reestimate::reestimate;
 
     /// `estimate --rig FILE` takes the datasheet from FILE: its accelerometer bias figure sets
-    /// the systematic sigma, its gyro noise the estimator's settings; without it, the log's own
+    /// the budget's `accel_bias` line, its gyro noise the estimator's settings; without it, the log's own
     /// rig description reproduces the run's report.
     #[test]
     fn another_rig_description_changes_the_estimators_settings_and_the_systematic_sigma() {
@@ -280,7 +280,14 @@ mod tests {
         let rig = measure::load::load(Some(&other)).unwrap();
         let (changed, loaded, ..) = reestimate(&log, &o, None, Some(&rig)).unwrap();
         assert_eq!(changed.systematic.accel_bias_sigma_m_s2, 0.01);
-        let ratio = changed.systematic.sigma.mass / online.systematic.sigma.mass;
+        let bias = |r: &Report| {
+            r.error_budget
+                .iter()
+                .find(|l| l.source == "accel_bias")
+                .map(|l| l.sigma.mass)
+                .unwrap_or_default()
+        };
+        let ratio = bias(&changed) / bias(&online);
         assert!(
             (5.0..20.0).contains(&ratio),
             "systematic mass sigma ratio {ratio}"

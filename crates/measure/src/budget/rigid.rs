@@ -93,7 +93,7 @@ pub fn spectrum_peak(t: &[f64], e: &[[f64; 3]]) -> f64 {
         return f64::NAN;
     };
     let span = last - first;
-    if !(span > 0.0) || t.len() < 4 {
+    if span.is_nan() || span <= 0.0 || t.len() < 4 {
         return f64::NAN;
     }
     let dt = span / (t.len() - 1) as f64;
