@@ -40,6 +40,12 @@ fn report_numbers(r: &Report) -> Vec<(String, f64)> {
     add("tare.sigma", r.tare.sigma.to_vec());
     add("systematic.sigma", numbers(&r.systematic.sigma));
     add("systematic.bias", vec![r.systematic.accel_bias_sigma_m_s2]);
+    for line in &r.error_budget {
+        add(
+            &format!("error_budget.{}", line.source),
+            numbers(&line.sigma),
+        );
+    }
     out
 }
 

@@ -19,6 +19,14 @@ fn numbers(q: &Quantities) -> Vec<f64> {
     v
 }
 
+/// Every number of the error budget, line by line.
+fn budget_numbers(r: &Report) -> Vec<f64> {
+    r.error_budget
+        .iter()
+        .flat_map(|l| numbers(&l.sigma))
+        .collect()
+}
+
 /// Runs `rig ARGS` (with `--log LOG --quiet` added) to completion and returns its report.
 fn rig_report(args: &[&str], log: &std::path::Path) -> Report {
     let mut all = args.to_vec();
@@ -61,6 +69,15 @@ fn assert_systematic_as_estimate(rig: &Report, log: &std::path::Path) {
         for (i, (a, b)) in numbers(online).iter().zip(numbers(offline)).enumerate() {
             assert!(close(*a, b, 1e-9), "{part}[{i}]: rig {a:e}, estimate {b:e}");
         }
+    }
+    // The whole error budget alike.
+    let (a, b) = (budget_numbers(rig), budget_numbers(&offline));
+    assert_eq!(a.len(), b.len());
+    for (i, (a, b)) in a.iter().zip(&b).enumerate() {
+        assert!(
+            close(*a, *b, 1e-9),
+            "error_budget[{i}]: rig {a:e}, estimate {b:e}"
+        );
     }
 }
 
@@ -120,6 +137,7 @@ fn the_rig_reports_the_systematic_part_estimate_computes() {
     let mut old = saved.clone();
     old.accel_bias_sensitivity = None;
     old.load_cell_offset_sensitivity = None;
+    old.budget = None;
     let old_path = scratch.path("old-tare.json");
     std::fs::write(&old_path, serde_json::to_string(&old).unwrap()).unwrap();
     let log = LogContents::read(&log).unwrap();
@@ -174,10 +192,18 @@ fn a_datasheet_figure_in_the_rig_description_reaches_the_rig_report() {
     let ((base, base_gyro), (worse, worse_gyro)) = (&reports[0], &reports[1]);
     assert_eq!(base.systematic.accel_bias_sigma_m_s2, 1e-3);
     assert_eq!(worse.systematic.accel_bias_sigma_m_s2, 1e-2);
-    let ratio = worse.systematic.sigma.mass / base.systematic.sigma.mass;
+    // The bias's own line of the budget: ten times the figure, about ten times it.
+    let bias = |r: &Report| {
+        r.error_budget
+            .iter()
+            .find(|l| l.source == "accel_bias")
+            .map(|l| l.sigma.mass)
+            .unwrap_or_default()
+    };
+    let ratio = bias(worse) / bias(base);
     assert!(
         (5.0..20.0).contains(&ratio),
-        "systematic mass sigma ratio {ratio}"
+        "accelerometer bias's mass sigma ratio {ratio}"
     );
     // Per-sample noise: density × √(500 Hz).
     assert!(

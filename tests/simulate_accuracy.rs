@@ -131,7 +131,28 @@ fn default_car_without_noise_is_exact() {
         };
         assert!((est - truth).abs() <= tol, "{name}: {est} vs {truth}");
     }
-    assert_eq!(r.systematic.sigma.mass, 0.0);
+    // Ideal sensors: every sensor's systematic line of the error budget is zero (the `noise`
+    // line is the estimator's covariance, which sees the integration's model error); the
+    // rig's own tolerances (the joints' positions) and the legs are no sensor's and stay.
+    let line = |id: &str| {
+        r.error_budget
+            .iter()
+            .find(|l| l.source == id)
+            .unwrap()
+            .sigma
+    };
+    for id in [
+        "accel_bias",
+        "load_cell_offset",
+        "load_cell_scale",
+        "imu_misalignment",
+        "imu_lever_arm",
+        "time_skew",
+        "timestamp_jitter",
+    ] {
+        assert_eq!(line(id).mass, 0.0, "{id}");
+    }
+    assert!(line("geometry").inertia_com[0][0] > 0.0);
     // Ideal sensors leave only the integration's model error in the residual.
     assert!(
         r.residual_rms.torque_nm.iter().all(|v| *v < 0.1),
@@ -181,6 +202,10 @@ fn a_saved_tare_carries_its_share_of_the_systematic_sigma() {
     for key in ["accel_bias_sensitivity", "load_cell_offset_sensitivity"] {
         assert!(file[key].is_array(), "{key} missing from the saved tare");
     }
+    assert!(
+        file["budget"]["effects"].is_array(),
+        "the budget's effects missing from the saved tare"
+    );
     let (_dir2, second) = run(scenario, |a, _| a.measure.tare = Some(saved.clone()));
     let same_run = report(&first).systematic.sigma.mass;
     let from_file = report(&second).systematic.sigma.mass;

@@ -54,6 +54,14 @@ pub struct MeasureArgs {
     /// Write the JSON report here.
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,
+    /// Also print the error budget: one row per error source (noise, accelerometer bias,
+    /// load-cell offset, scale and crosstalk, IMU misalignment and lever arm, time skew,
+    /// timestamp jitter, frame loss, leg dynamics, joint friction, geometry) with its one
+    /// sigma of the mass, the centre of mass and each J_C entry, from the rig description's
+    /// figures and the run's own data; the total row is the printed sigma (the rows added in
+    /// quadrature).
+    #[arg(long)]
+    pub budget: bool,
 }
 
 impl MeasureArgs {

@@ -57,6 +57,11 @@ pub struct EstimateArgs {
     /// description instead of the one the log recorded.
     #[arg(long, value_name = "FILE")]
     pub rig: Option<PathBuf>,
+    /// Also print the error budget: one row per error source with its one sigma of the
+    /// mass, the centre of mass and each J_C entry (from the rig description's figures and
+    /// the log's own data); the total row is the printed sigma.
+    #[arg(long)]
+    pub budget: bool,
     /// No table.
     #[arg(long)]
     pub quiet: bool,
@@ -173,7 +178,11 @@ pub fn estimate(args: &EstimateArgs) -> Result<EstimateOutcome> {
     if quality.is_ok() {
         if !args.quiet {
             out(&crate::table::render(&report));
+            if args.budget {
+                out(&crate::table::render_budget(&report));
+            }
         }
+        crate::table::warn_rigid_body(&report);
         if let Some(path) = &args.report {
             std::fs::write(path, report.to_json())
                 .with_context(|| format!("cannot write the report {}", path.display()))?;
@@ -230,7 +239,7 @@ mod tests {
     use runlog::reestimate::reestimate;
 
     /// `estimate --rig FILE` takes the datasheet from FILE: its accelerometer bias figure sets
-    /// the systematic sigma, its gyro noise the estimator's settings; without it, the log's own
+    /// the budget's `accel_bias` line, its gyro noise the estimator's settings; without it, the log's own
     /// rig description reproduces the run's report.
     #[test]
     fn another_rig_description_changes_the_estimators_settings_and_the_systematic_sigma() {
@@ -271,7 +280,14 @@ mod tests {
         let rig = measure::load::load(Some(&other)).unwrap();
         let (changed, loaded, ..) = reestimate(&log, &o, None, Some(&rig)).unwrap();
         assert_eq!(changed.systematic.accel_bias_sigma_m_s2, 0.01);
-        let ratio = changed.systematic.sigma.mass / online.systematic.sigma.mass;
+        let bias = |r: &Report| {
+            r.error_budget
+                .iter()
+                .find(|l| l.source == "accel_bias")
+                .map(|l| l.sigma.mass)
+                .unwrap_or_default()
+        };
+        let ratio = bias(&changed) / bias(&online);
         assert!(
             (5.0..20.0).contains(&ratio),
             "systematic mass sigma ratio {ratio}"

@@ -28,7 +28,11 @@ pub fn finish_measurement(
     if let Some((report, json)) = report {
         if !args.shared.quiet {
             print!("{}", crate::table::render(report));
+            if args.budget {
+                print!("{}", crate::table::render_budget(report));
+            }
         }
+        crate::table::warn_rigid_body(report);
         if let Some(path) = &args.report {
             if let Err(e) = std::fs::write(path, json) {
                 eprintln!("error: cannot write the report {}: {e}", path.display());

@@ -128,6 +128,9 @@ pub struct RigMeasureArgs {
     /// Write the JSON report here.
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,
+    /// Also print the error budget (one row per error source; see `stewart rig --help`).
+    #[arg(long)]
+    pub budget: bool,
     /// How to reach the rig.
     #[command(flatten)]
     pub link: LinkArgs,
@@ -185,6 +188,7 @@ pub fn resolve(args: &RigArgs) -> Result<(Plan, RigRunArgs), CommandError> {
                     report: m.report.clone(),
                     shared: m.shared.clone(),
                     save_tare: None,
+                    budget: m.budget,
                 },
             },
         ),

@@ -282,8 +282,9 @@ mod tests {
         simulate(&args, &AtomicBool::new(false)).unwrap()
     }
 
-    /// The estimator's assumptions and the systematic sigma come from the rig description's
-    /// datasheet: a worse accelerometer bias figure widens the reported sigma, and the logged
+    /// The estimator's assumptions and the budget come from the rig description's datasheet:
+    /// a worse accelerometer bias figure widens its line of the budget and the reported
+    /// sigma, and the logged
     /// estimator settings carry the datasheet's gyro noise.
     #[test]
     fn a_datasheet_figure_reaches_the_estimator_and_the_systematic_sigma() {
@@ -298,7 +299,14 @@ mod tests {
         assert_eq!(b.systematic.accel_bias_sigma_m_s2, 1e-3);
         assert_eq!(w.systematic.accel_bias_sigma_m_s2, 1e-2);
         // The bias's effect on the mass is about m·b_z/g: ten times the figure, ten times it.
-        let ratio = w.systematic.sigma.mass / b.systematic.sigma.mass;
+        let bias = |r: &Report| {
+            r.error_budget
+                .iter()
+                .find(|l| l.source == "accel_bias")
+                .map(|l| l.sigma.mass)
+                .unwrap_or_default()
+        };
+        let ratio = bias(&w) / bias(&b);
         assert!(
             (5.0..20.0).contains(&ratio),
             "systematic mass sigma ratio {ratio}"

@@ -154,6 +154,62 @@ pub fn render(report: &Report) -> String {
     out
 }
 
+/// The error budget as a table: one row per source of the report's `error_budget`, columns
+/// mass, com x/y/z, J_C xx yy zz xy xz yz (each one sigma of that quantity from that source
+/// alone), and a total row, the rows added in quadrature: the report's sigma.
+pub fn render_budget(report: &Report) -> String {
+    let mut out = String::new();
+    let _ = write!(
+        out,
+        "\nerror budget (one sigma per source)\n{:<20}",
+        "source"
+    );
+    for row in &ROWS {
+        let _ = write!(out, " {:>9}", row.name);
+    }
+    out.push('\n');
+    let _ = write!(out, "{:<20}", "");
+    for row in &ROWS {
+        let _ = write!(out, " {:>9}", row.unit);
+    }
+    out.push('\n');
+    let cells = |out: &mut String, name: &str, q: &Quantities| {
+        let _ = write!(out, "{name:<20}");
+        for row in &ROWS {
+            let _ = write!(out, " {:>9.2e}", (row.get)(q));
+        }
+        out.push('\n');
+    };
+    for line in &report.error_budget {
+        cells(&mut out, &line.source, &line.sigma);
+    }
+    cells(&mut out, "total", &report.sigma);
+    for note in &report.budget_notes {
+        let _ = writeln!(out, "note: {note}");
+    }
+    out
+}
+
+/// Warns on standard error when the rigid-body check says the model does not explain the
+/// data, naming the frequency of the residual's largest peak.
+pub fn warn_rigid_body(report: &Report) {
+    if let Some(w) = rigid_body_warning(report) {
+        eprintln!("warning: {w}");
+    }
+}
+
+/// The warning of [`warn_rigid_body`], if any.
+pub fn rigid_body_warning(report: &Report) -> Option<String> {
+    let r = report.rigid_body.filter(|r| !r.ok)?;
+    Some(format!(
+        "the rigid-body model does not explain the data: the fit residual is {:.1} times what \
+         the sensors' noise and the modelled errors predict, with its largest peak at {:.2} Hz \
+         (a payload that moves on the plate, e.g. a car body bouncing on its suspension); the \
+         estimate and its sigma assume a rigid payload",
+        r.residual_ratio, r.peak_hz
+    ))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -173,6 +229,43 @@ mod tests {
         assert!(mass.contains("1500.30 ± 0.20"), "{mass}");
         assert!(mass.contains("0.300"), "{mass}");
         assert!(mass.contains("1.50"), "{mass}");
+    }
+
+    #[test]
+    fn the_budget_table_has_a_row_per_source_and_the_total() {
+        let mut report = Report::default();
+        report.sigma.mass = 0.5;
+        report.error_budget = measure::sources::ErrorSource::ALL
+            .iter()
+            .map(|s| measure::report::BudgetLine {
+                source: s.id().into(),
+                sigma: Quantities {
+                    mass: 0.1,
+                    ..Quantities::default()
+                },
+            })
+            .collect();
+        let text = render_budget(&report);
+        for s in measure::sources::ErrorSource::ALL {
+            assert!(text.lines().any(|l| l.starts_with(s.id())), "{s}");
+        }
+        let total = text.lines().find(|l| l.starts_with("total")).unwrap();
+        assert!(total.contains("5.00e-1"), "{total}");
+        assert!(text.lines().next().is_some_and(str::is_empty));
+        assert!(text.contains("J_C yz"));
+    }
+
+    #[test]
+    fn a_failed_rigid_body_check_names_the_frequency() {
+        let mut report = Report::default();
+        assert_eq!(rigid_body_warning(&report), None);
+        report.rigid_body = Some(measure::budget::RigidBody {
+            ok: false,
+            residual_ratio: 12.0,
+            peak_hz: 1.3,
+        });
+        let w = rigid_body_warning(&report).unwrap();
+        assert!(w.contains("1.30 Hz"), "{w}");
     }
 
     #[test]

@@ -16,8 +16,9 @@
 //!   per-sample tick the product runs.
 //! - [`measurement`] (one measurement), [`session`] (tare, payload change, loaded run) and
 //!   [`observer`] (where they report).
-//! - [`tare`], [`systematic`], [`report`]: the tare file, the datasheet part of the
-//!   uncertainty, the report.
+//! - [`tare`], [`systematic`], [`budget`], [`report`]: the tare file, the estimator's exact
+//!   accelerometer-bias and load-cell-offset effects, the error budget (every source's share of
+//!   sigma, from the rig description's figures and each run's own data), the report.
 //! - [`sources`]: the real rig's error sources, named once for the simulated world's switches
 //!   and the report's error budget.
 //! - [`replay`]: the estimator re-run on recorded frames; [`accuracy`]: error statistics of
@@ -25,6 +26,7 @@
 #![warn(missing_docs)]
 
 pub mod accuracy;
+pub mod budget;
 pub mod config;
 pub mod feed;
 pub mod link;

@@ -80,6 +80,10 @@ pub struct MeasureOutcome {
     /// Change of θ caused by a zero offset of one datasheet sigma on each load cell (rows:
     /// legs); `None` without a figure or an excitation.
     pub load_cell_bias_effect: Option<[[f64; 10]; 6]>,
+    /// The run's error-budget inputs ([`crate::budget`]): each systematic source's effects
+    /// from the run's own record, its counts and statistical shares, the rigid-body check;
+    /// `None` without an excitation.
+    pub budget: Option<crate::budget::RunBudget>,
     /// How it ended.
     pub end: End,
 }
@@ -95,6 +99,7 @@ impl MeasureOutcome {
             fk_failures,
             accel_bias_effect: None,
             load_cell_bias_effect: None,
+            budget: None,
             end,
         }
     }
@@ -173,8 +178,10 @@ where
     let load_cell_sigma = setup::load_cell_bias_sigma(config);
     // θ after every used sample, reserved for the whole window (or the history's bounded
     // capacity) so the loop never allocates.
-    let mut history =
-        ThetaHistory::with_room_for((trajectory.duration_s() * rate_hz).ceil() as usize + 16);
+    let window_samples = (trajectory.duration_s() * rate_hz).ceil() as usize + 16;
+    let mut history = ThetaHistory::with_room_for(window_samples);
+    // The error budget's record of the samples the estimator uses, reserved alike.
+    let mut record = crate::budget::RunRecord::new(setup.geometry, period_s, window_samples);
     let mut fk_failures = 0u64;
 
     observer.measurement_started(measurement)?;
@@ -240,8 +247,9 @@ where
             Some(s) => last_pose = s.pose,
             None => fk_failures += 1,
         }
-        if let Some(Ok(Outcome::Used)) = step.estimator {
+        if let (Some(Ok(Outcome::Used)), Some(sample)) = (step.estimator, &step.sample) {
             history.push(tick.estimator.theta().into());
+            record.push(sample);
             last_fed_s = frame.time_s;
         }
         if step.window_opened {
@@ -284,6 +292,19 @@ where
                 return Ok(MeasureOutcome::ended_early(end, fk_failures));
             };
             let estimator = &tick.estimator;
+            let exact = crate::budget::EstimatorEffects {
+                accel: crate::systematic::accel_bias_effect(estimator, bias_sigma),
+                load_cell: crate::systematic::load_cell_bias_effect(estimator, load_cell_sigma),
+            };
+            let budget = estimate.as_ref().map(|e| {
+                crate::budget::analyse(
+                    &record,
+                    estimator.config(),
+                    &crate::budget::Figures::of(config),
+                    e,
+                    &exact,
+                )
+            });
             return Ok(MeasureOutcome {
                 estimate,
                 theta_history: history,
@@ -294,11 +315,9 @@ where
                     0.0
                 },
                 fk_failures,
-                accel_bias_effect: crate::systematic::accel_bias_effect(estimator, bias_sigma),
-                load_cell_bias_effect: crate::systematic::load_cell_bias_effect(
-                    estimator,
-                    load_cell_sigma,
-                ),
+                accel_bias_effect: exact.accel,
+                load_cell_bias_effect: exact.load_cell,
+                budget,
                 end,
             });
         }

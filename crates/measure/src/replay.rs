@@ -47,6 +47,9 @@ pub struct ReplayOutcome {
     /// Change of θ from one sigma of zero offset on each load cell (rows), when a figure is
     /// known.
     pub load_cell_bias_effect: Option<[[f64; 10]; 6]>,
+    /// The run's error-budget inputs ([`crate::budget`]), when the replay was given the rig
+    /// description's figures ([`Replay::with_budget`]).
+    pub budget: Option<crate::budget::RunBudget>,
 }
 
 /// Why a replay gave nothing.
@@ -95,6 +98,8 @@ pub struct Replay {
     start_s: f64,
     last_used_s: f64,
     last_time_s: f64,
+    /// The budget's record and figures, when asked for.
+    budget: Option<(crate::budget::RunRecord, crate::budget::Figures)>,
 }
 
 impl Replay {
@@ -121,7 +126,17 @@ impl Replay {
             start_s: f64::NAN,
             last_used_s: f64::NAN,
             last_time_s: f64::NAN,
+            budget: None,
         })
+    }
+
+    /// Also records the used samples for the error budget, with the rig description's
+    /// `figures` ([`crate::budget`]), as the online measurement does.
+    pub fn with_budget(mut self, figures: crate::budget::Figures) -> Self {
+        let record =
+            crate::budget::RunRecord::new(self.config.geometry, self.config.sample_period_s, 0);
+        self.budget = Some((record, figures));
+        self
     }
 
     /// The next frame of the measurement.
@@ -137,6 +152,9 @@ impl Replay {
             Some(s) if frame.time_s <= config.window_end_s => {
                 if let Ok(Outcome::Used) = self.estimator.update(&s) {
                     self.history.push(self.estimator.theta().into());
+                    if let Some((record, _)) = &mut self.budget {
+                        record.push(&s);
+                    }
                     self.last_used_s = frame.time_s;
                 }
             }
@@ -191,6 +209,16 @@ impl Replay {
                 estimate,
             });
         }
+        let exact = crate::budget::EstimatorEffects {
+            accel: crate::systematic::accel_bias_effect(&self.estimator, self.sigmas.accel_m_s2),
+            load_cell: crate::systematic::load_cell_bias_effect(
+                &self.estimator,
+                self.sigmas.load_cell_n,
+            ),
+        };
+        let budget = self.budget.as_ref().map(|(record, figures)| {
+            crate::budget::analyse(record, &config, figures, &estimate, &exact)
+        });
         Ok(ReplayOutcome {
             config,
             estimate,
@@ -204,14 +232,9 @@ impl Replay {
             },
             fk_failures: self.fk_failures,
             frames: self.frames,
-            accel_bias_effect: crate::systematic::accel_bias_effect(
-                &self.estimator,
-                self.sigmas.accel_m_s2,
-            ),
-            load_cell_bias_effect: crate::systematic::load_cell_bias_effect(
-                &self.estimator,
-                self.sigmas.load_cell_n,
-            ),
+            accel_bias_effect: exact.accel,
+            load_cell_bias_effect: exact.load_cell,
+            budget,
         })
     }
 }

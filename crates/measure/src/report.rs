@@ -1,7 +1,8 @@
 //! The JSON report (`--report FILE.json`): `estimate`, `sigma`, `truth` (when known),
 //! `principal`, `samples`, `excitation_s`, `convergence`, `residual_rms` (docs/log-schema.md
 //! gives every field), plus rejected samples, the consistency verdict, the tare used, the
-//! systematic part and the run's settings.
+//! error budget (each source's one sigma of every quantity; `sigma` is their sum in
+//! quadrature), the rigid-body check, the systematic part and the run's settings.
 //!
 //! Everything is for the payload alone (tare removed), `com` in metres in P, `inertia_com` = J_C
 //! in kg·m² in P axes, `sigma` one standard deviation of each entry.
@@ -9,7 +10,9 @@
 use estimator::Estimate;
 use serde::{Deserialize, Serialize};
 
+use crate::budget::{RunBudget, SourceEffects};
 use crate::config::ParamCount;
+use crate::sources::ErrorSource;
 use crate::tare::TareFile;
 
 /// Mass, centre of mass and inertia about the centre of mass.
@@ -76,8 +79,17 @@ pub struct TareUsed {
     pub estimate: Quantities,
 }
 
-/// The systematic part of `sigma` (already included in it): the effect of the accelerometer's
-/// bias and of the load cells' zero offsets.
+/// One source's line of the error budget.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct BudgetLine {
+    /// The source's id ([`crate::sources::ErrorSource::id`]).
+    pub source: String,
+    /// One sigma of each reported quantity from this source alone.
+    pub sigma: Quantities,
+}
+
+/// The systematic part of `sigma` (already included in it): the error budget's sources other
+/// than `noise`, `frame_loss` and `timestamp_jitter`, added in quadrature.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Systematic {
     /// One sigma of the accelerometer bias assumed (datasheet), m/s².
@@ -85,7 +97,7 @@ pub struct Systematic {
     /// One sigma of each load cell's zero offset assumed (datasheet), N.
     #[serde(default)]
     pub load_cell_bias_sigma_n: f64,
-    /// One sigma of each entry due to that bias alone.
+    /// One sigma of each entry from the systematic sources together.
     pub sigma: Quantities,
 }
 
@@ -174,8 +186,19 @@ pub struct Report {
     pub consistency: Consistency,
     /// The tare subtracted.
     pub tare: TareUsed,
-    /// The systematic part of `sigma` (accelerometer bias, load-cell offsets), included in
-    /// `sigma`.
+    /// The error budget: one line per source of [`crate::sources::ErrorSource::ALL`], in that
+    /// order; `sigma` is their sum in quadrature (covariances added).
+    #[serde(default)]
+    pub error_budget: Vec<BudgetLine>,
+    /// What the budget could not know (a tare without its effects).
+    #[serde(default)]
+    pub budget_notes: Vec<String>,
+    /// Whether the rigid-body model explains the loaded run's data ([`crate::budget::rigid`]);
+    /// `null` when the run's record was too short to tell.
+    #[serde(default)]
+    pub rigid_body: Option<crate::budget::RigidBody>,
+    /// The systematic part of `sigma` (the budget's sources but the statistical ones),
+    /// included in `sigma`.
     #[serde(default)]
     pub systematic: Systematic,
     /// How the run was made.
@@ -247,18 +270,15 @@ pub struct ReportInputs<'a> {
     pub tare_kind: TareKind,
     /// The tare file's path, when one was given.
     pub tare_path: Option<String>,
-    /// Change of the loaded θ from one sigma of accelerometer bias along x, y, z.
-    pub loaded_bias_effect: Option<&'a [[f64; 10]; 3]>,
-    /// The same for the tare run, when it was measured with the same accelerometer; `None`
-    /// takes the tare file's own sensitivity ([`TareFile::accel_bias_effect`]) if it has one.
-    pub tare_bias_effect: Option<&'a [[f64; 10]; 3]>,
+    /// The loaded run's error-budget inputs ([`crate::budget::analyse`]); `None` counts every
+    /// systematic effect of the loaded run as zero.
+    pub loaded_budget: Option<&'a RunBudget>,
+    /// The tare run's, when it was measured in the same session or log; `None` takes the tare
+    /// file's own ([`TareFile::budget`], else its accelerometer-bias and load-cell-offset
+    /// sensitivities alone).
+    pub tare_budget: Option<&'a RunBudget>,
     /// The accelerometer bias's one sigma assumed, m/s².
     pub accel_bias_sigma_m_s2: f64,
-    /// Change of the loaded θ from one sigma of zero offset on each load cell.
-    pub loaded_load_cell_effect: Option<&'a [[f64; 10]; 6]>,
-    /// The same for the tare run; `None` takes the tare file's own sensitivity
-    /// ([`TareFile::load_cell_bias_effect`]) if it has one.
-    pub tare_load_cell_effect: Option<&'a [[f64; 10]; 6]>,
     /// The load cells' zero-offset sigma assumed, N.
     pub load_cell_bias_sigma_n: f64,
     /// 10 or 6 parameters (which ones count for `samples_to_1pct`).
@@ -269,29 +289,88 @@ pub struct ReportInputs<'a> {
     pub run: RunInfo,
 }
 
-/// The report of the payload alone: loaded minus tare, with the covariance of both plus the
-/// systematic part of the accelerometer's bias and the load cells' offsets
-/// ([`crate::systematic`]). The tare's share comes from the tare run's effects when given,
-/// else from the sensitivities a saved tare carries, else counts as zero.
+/// The tare's budget inputs when the session gave none: the tare file's own, else a partial
+/// one from its accelerometer-bias and load-cell-offset sensitivities (with a note), else none.
+fn tare_budget_of(i: &ReportInputs<'_>, notes: &mut Vec<String>) -> Option<RunBudget> {
+    if let Some(b) = i.tare_budget {
+        return Some(b.clone());
+    }
+    if let Some(b) = &i.tare.budget {
+        return Some(b.clone());
+    }
+    let accel = i.tare.accel_bias_effect(i.accel_bias_sigma_m_s2);
+    let cells = i.tare.load_cell_bias_effect(i.load_cell_bias_sigma_n);
+    if accel.is_none() && cells.is_none() {
+        return None;
+    }
+    notes.push(
+        "the tare file carries only its accelerometer-bias and load-cell-offset sensitivities: \
+         its share of the other sources counts as zero, which overstates them"
+            .to_string(),
+    );
+    let mut effects = Vec::new();
+    if let Some(a) = accel {
+        effects.push(SourceEffects {
+            source: ErrorSource::AccelBias.id().into(),
+            effects: a.to_vec(),
+        });
+    }
+    if let Some(c) = cells {
+        effects.push(SourceEffects {
+            source: ErrorSource::LoadCellOffset.id().into(),
+            effects: c.to_vec(),
+        });
+    }
+    Some(RunBudget {
+        effects,
+        ..RunBudget::default()
+    })
+}
+
+/// True for the sources of the estimator's own covariance.
+pub fn is_statistical(source: ErrorSource) -> bool {
+    matches!(
+        source,
+        ErrorSource::Noise | ErrorSource::FrameLoss | ErrorSource::TimestampJitter
+    )
+}
+
+/// The report of the payload alone: loaded minus tare, its covariance the error budget's
+/// ([`crate::budget::combine`]): the statistical part (both runs' covariances, split into
+/// noise, frame loss and timestamp jitter) plus each systematic source's Σ d dᵀ with
+/// d = loaded effect − tare effect. Each budget line is one sigma of every quantity from that
+/// source's covariance through the same Jacobian as `sigma` ([`Estimate::from_parameters`]),
+/// so the lines' variances add up to `sigma`'s.
 pub fn build(i: &ReportInputs<'_>) -> Report {
     let tare_params = (i.tare.parameters(), i.tare.covariance_matrix());
-    let tare_bias_effect = i
-        .tare_bias_effect
-        .copied()
-        .or_else(|| i.tare.accel_bias_effect(i.accel_bias_sigma_m_s2));
-    let tare_load_cell_effect = i
-        .tare_load_cell_effect
-        .copied()
-        .or_else(|| i.tare.load_cell_bias_effect(i.load_cell_bias_sigma_n));
-    let systematic = crate::systematic::bias_covariance(
-        i.loaded_bias_effect.map(|e| &e[..]),
-        tare_bias_effect.as_ref().map(|e| &e[..]),
-    ) + crate::systematic::bias_covariance(
-        i.loaded_load_cell_effect.map(|e| &e[..]),
-        tare_load_cell_effect.as_ref().map(|e| &e[..]),
+    let mut notes = Vec::new();
+    let tare_budget = tare_budget_of(i, &mut notes);
+    let empty = RunBudget::default();
+    let (covariances, more) = crate::budget::payload_covariances(
+        i.loaded_budget.unwrap_or(&empty),
+        &i.loaded.covariance,
+        tare_budget.as_ref(),
+        &tare_params.1,
     );
-    let payload = crate::systematic::payload_with_systematics(i.loaded, &tare_params, &systematic);
-    let systematic_only = Estimate::from_parameters(payload.parameters, systematic);
+    notes.extend(more);
+    let theta = i.loaded.parameters - tare_params.0;
+    let total: estimator::ParameterCovariance = covariances.iter().map(|c| c.covariance).sum();
+    let systematic: estimator::ParameterCovariance = covariances
+        .iter()
+        .filter(|c| !is_statistical(c.source))
+        .map(|c| c.covariance)
+        .sum();
+    let mut payload = Estimate::from_parameters(theta, total);
+    payload.residual_rms = i.loaded.residual_rms;
+    payload.counts = i.loaded.counts;
+    let error_budget = covariances
+        .iter()
+        .map(|c| BudgetLine {
+            source: c.source.id().into(),
+            sigma: sigmas(&Estimate::from_parameters(theta, c.covariance)),
+        })
+        .collect();
+    let systematic_only = Estimate::from_parameters(theta, systematic);
     let axes = payload.principal_axes;
     let consistency = payload.consistency;
     let tare_estimate = Estimate::from_parameters(tare_params.0, tare_params.1);
@@ -354,6 +433,9 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
             sigma: core::array::from_fn(|k| i.tare.covariance[k][k].max(0.0).sqrt()),
             estimate: quantities(&tare_estimate),
         },
+        error_budget,
+        budget_notes: notes,
+        rigid_body: i.loaded_budget.and_then(|b| b.rigid_body),
         systematic: Systematic {
             accel_bias_sigma_m_s2: i.accel_bias_sigma_m_s2,
             load_cell_bias_sigma_n: i.load_cell_bias_sigma_n,
@@ -529,6 +611,14 @@ mod tests {
         let mut tare_effect = [[0.0; 10]; 3];
         loaded_effect[2][0] = 0.2;
         tare_effect[2][0] = 0.05;
+        let budget = |e: [[f64; 10]; 3]| RunBudget {
+            effects: vec![SourceEffects {
+                source: "accel_bias".into(),
+                effects: e.to_vec(),
+            }],
+            ..RunBudget::default()
+        };
+        let (loaded_budget, tare_budget) = (budget(loaded_effect), budget(tare_effect));
         let mut history = ThetaHistory::default();
         for theta in [
             [0.0; 10],
@@ -545,11 +635,9 @@ mod tests {
             tare: &tare,
             tare_kind: TareKind::Measured,
             tare_path: None,
-            loaded_bias_effect: Some(&loaded_effect),
-            tare_bias_effect: Some(&tare_effect),
+            loaded_budget: Some(&loaded_budget),
+            tare_budget: Some(&tare_budget),
             accel_bias_sigma_m_s2: 1e-3,
-            loaded_load_cell_effect: None,
-            tare_load_cell_effect: None,
             load_cell_bias_sigma_n: 0.0,
             params: ParamCount::Ten,
             truth: None,
@@ -562,6 +650,20 @@ mod tests {
         assert!((r.sigma.mass - (3e-4f64 + 0.0225).sqrt()).abs() < 1e-12);
         assert!((r.systematic.sigma.mass - 0.15).abs() < 1e-12);
         assert_eq!(r.systematic.accel_bias_sigma_m_s2, 1e-3);
+        // The budget: one line per source, the bias's line the systematic part, the noise's
+        // the two runs' covariances (no frames lost), and the lines add up to `sigma`.
+        assert_eq!(r.error_budget.len(), ErrorSource::ALL.len());
+        let line = |id: &str| {
+            r.error_budget
+                .iter()
+                .find(|l| l.source == id)
+                .unwrap()
+                .sigma
+        };
+        assert!((line("accel_bias").mass - 0.15).abs() < 1e-12);
+        assert!((line("noise").mass - 3e-4f64.sqrt()).abs() < 1e-12);
+        assert_eq!(line("geometry").mass, 0.0);
+        assert_budget_adds_up(&r);
         assert_eq!((r.samples, r.rejected_samples), (1000, 5));
         assert_eq!(r.tare.source, "measured");
         assert!((r.tare.estimate.mass - 400.0).abs() < 1e-9);
@@ -602,8 +704,16 @@ mod tests {
             .with_bias_effects(None, 0.0, Some(&per_sigma), 2.0);
         let mut loaded_effect = [[0.0; 10]; 6];
         loaded_effect[4][0] = 0.1; // the loaded run at 4 N: the tare's share is 0.04 kg.
-        let explicit = [[0.0; 10]; 6];
-        let systematic_mass = |tare: &TareFile, tare_effect: Option<&[[f64; 10]; 6]>| {
+        let cells = |e: [[f64; 10]; 6]| RunBudget {
+            effects: vec![SourceEffects {
+                source: "load_cell_offset".into(),
+                effects: e.to_vec(),
+            }],
+            ..RunBudget::default()
+        };
+        let loaded_budget = cells(loaded_effect);
+        let explicit = cells([[0.0; 10]; 6]);
+        let systematic_mass = |tare: &TareFile, tare_effect: Option<RunBudget>| {
             build(&ReportInputs {
                 loaded: &loaded,
                 theta_history: &ThetaHistory::default(),
@@ -612,11 +722,9 @@ mod tests {
                 tare,
                 tare_kind: TareKind::File,
                 tare_path: None,
-                loaded_bias_effect: None,
-                tare_bias_effect: None,
+                loaded_budget: Some(&loaded_budget),
+                tare_budget: tare_effect.as_ref(),
                 accel_bias_sigma_m_s2: 0.0,
-                loaded_load_cell_effect: Some(&loaded_effect),
-                tare_load_cell_effect: tare_effect,
                 load_cell_bias_sigma_n: 4.0,
                 params: ParamCount::Ten,
                 truth: None,
@@ -628,7 +736,99 @@ mod tests {
         };
         assert!((systematic_mass(&saved, None) - 0.06).abs() < 1e-12);
         assert!((systematic_mass(&plain, None) - 0.1).abs() < 1e-12);
-        assert!((systematic_mass(&saved, Some(&explicit)) - 0.1).abs() < 1e-12);
+        assert!((systematic_mass(&saved, Some(explicit)) - 0.1).abs() < 1e-12);
+    }
+
+    /// Σ over the budget's lines of σ² equals `sigma`² for every quantity.
+    fn assert_budget_adds_up(r: &Report) {
+        let flat = |q: &Quantities| {
+            let mut v = vec![q.mass];
+            v.extend(q.com);
+            v.extend(q.inertia_com.iter().flatten());
+            v
+        };
+        let total = flat(&r.sigma);
+        let mut sum = vec![0.0; total.len()];
+        for line in &r.error_budget {
+            for (s, v) in sum.iter_mut().zip(flat(&line.sigma)) {
+                *s += v * v;
+            }
+        }
+        for (k, (s, t)) in sum.iter().zip(&total).enumerate() {
+            assert!(
+                (s.sqrt() - t).abs() <= 1e-9 * t.max(1e-12),
+                "entry {k}: {} vs {t}",
+                s.sqrt()
+            );
+        }
+    }
+
+    /// A full budget (every source, statistical shares) adds up to the report's sigma.
+    #[test]
+    fn the_budget_adds_up_to_sigma() {
+        use estimator::{InertialParameters, ParameterCovariance};
+        use nalgebra::{Matrix3, Vector3};
+        let body = InertialParameters::from_com(
+            1900.0,
+            Vector3::new(0.12, -0.06, 0.41),
+            Matrix3::new(
+                840.0, -25.0, 60.0, -25.0, 2740.0, -15.0, 60.0, -15.0, 3150.0,
+            ),
+        );
+        let fixture = InertialParameters::from_com(
+            400.0,
+            Vector3::new(0.0, 0.0, 0.05),
+            Matrix3::from_diagonal(&Vector3::new(240.0, 240.0, 450.0)),
+        );
+        let mut stat = ParameterCovariance::identity() * 1e-3;
+        stat[(0, 4)] = 2e-4;
+        stat[(4, 0)] = 2e-4;
+        let loaded = Estimate::from_parameters(body, stat);
+        let tare = TareFile::from_estimate(
+            &Estimate::from_parameters(fixture, stat * 0.5),
+            &[[0.0; 3]; 6],
+            &[[0.0; 3]; 6],
+            "x",
+            "sim",
+        );
+        let budget = |k: f64| RunBudget {
+            effects: ErrorSource::ALL
+                .iter()
+                .map(|s| SourceEffects {
+                    source: s.id().into(),
+                    effects: (0..3)
+                        .map(|j| core::array::from_fn(|i| k * ((i + j) as f64 * 0.37).sin() * 0.01))
+                        .collect(),
+                })
+                .collect(),
+            used: 10_000,
+            lost: 40,
+            jitter_share: 0.02,
+            rigid_body: None,
+        };
+        let (lb, tb) = (budget(1.0), budget(0.3));
+        let r = build(&ReportInputs {
+            loaded: &loaded,
+            theta_history: &ThetaHistory::default(),
+            excitation_s: 1.0,
+            fk_failures: 0,
+            tare: &tare,
+            tare_kind: TareKind::Measured,
+            tare_path: None,
+            loaded_budget: Some(&lb),
+            tare_budget: Some(&tb),
+            accel_bias_sigma_m_s2: 1e-3,
+            load_cell_bias_sigma_n: 4.0,
+            params: ParamCount::Ten,
+            truth: None,
+            run: RunInfo::default(),
+        });
+        assert!(r.budget_notes.is_empty(), "{:?}", r.budget_notes);
+        assert!(r
+            .error_budget
+            .iter()
+            .all(|l| l.sigma.inertia_com[0][0] > 0.0));
+        assert_budget_adds_up(&r);
     }
 
     #[test]

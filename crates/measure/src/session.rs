@@ -74,13 +74,15 @@ pub enum TarePlan {
 }
 
 /// The tare run's effects of one datasheet sigma of accelerometer bias and of load-cell
-/// offsets on its θ, kept for the loaded run's systematic part.
-#[derive(Clone, Copy, Debug, Default)]
+/// offsets on its θ, and its error-budget inputs, kept for the loaded run's report.
+#[derive(Clone, Debug, Default)]
 pub struct TareEffects {
     /// Per accelerometer axis.
     pub accel: Option<[[f64; 10]; 3]>,
     /// Per load cell.
     pub load_cell: Option<[[f64; 10]; 6]>,
+    /// The tare run's error-budget inputs ([`crate::budget`]).
+    pub budget: Option<crate::budget::RunBudget>,
 }
 
 /// The tare a session subtracts.
@@ -153,7 +155,7 @@ impl SessionOutcome {
         let estimate = loaded.estimate.as_ref()?;
         let tare = self.tare.as_ref()?;
         let (kind, path, effects) = match tare {
-            TareSource::Measured(_, e) => (TareKind::Measured, None, **e),
+            TareSource::Measured(_, e) => (TareKind::Measured, None, (**e).clone()),
             TareSource::File(_, p) => (TareKind::File, Some(p.clone()), TareEffects::default()),
         };
         Some(report::build(&ReportInputs {
@@ -164,11 +166,9 @@ impl SessionOutcome {
             tare: tare.file(),
             tare_kind: kind,
             tare_path: path,
-            loaded_bias_effect: loaded.accel_bias_effect.as_ref(),
-            tare_bias_effect: effects.accel.as_ref(),
+            loaded_budget: loaded.budget.as_ref(),
+            tare_budget: effects.budget.as_ref(),
             accel_bias_sigma_m_s2: setup::accel_bias_sigma(config),
-            loaded_load_cell_effect: loaded.load_cell_bias_effect.as_ref(),
-            tare_load_cell_effect: effects.load_cell.as_ref(),
             load_cell_bias_sigma_n: setup::load_cell_bias_sigma(config),
             params: config.estimator.params,
             truth,
@@ -229,6 +229,7 @@ pub fn run<S: Station, O: Observer>(
             let effects = TareEffects {
                 accel: outcome.accel_bias_effect,
                 load_cell: outcome.load_cell_bias_effect,
+                budget: outcome.budget.clone(),
             };
             let (base, plate) = joints(&plan.geometry);
             // With the run's sensitivities, so a saved tare reused later counts its share of
@@ -240,7 +241,8 @@ pub fn run<S: Station, O: Observer>(
                         setup::accel_bias_sigma(config),
                         effects.load_cell.as_ref(),
                         setup::load_cell_bias_sigma(config),
-                    );
+                    )
+                    .with_budget(effects.budget.clone());
             observer.tare(&file)?;
             if let Some(path) = plan.save_tare {
                 file.save(path)?;

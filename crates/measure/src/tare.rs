@@ -44,6 +44,13 @@ pub struct TareFile {
     /// The same for a constant zero offset on each load cell (rows: legs), θ per N.
     #[serde(default)]
     pub load_cell_offset_sensitivity: Option<[[f64; 10]; 6]>,
+    /// The tare run's error-budget inputs ([`crate::budget::RunBudget`]: θ's change from one
+    /// sigma of each elementary error of each source, at the tare run's rig description, its
+    /// counts and statistical shares), so that a loaded run made later with this file counts
+    /// the tare's share of each source. `null` in a file written without them (which still
+    /// loads: the report then counts the tare's share as zero and says so).
+    #[serde(default)]
+    pub budget: Option<crate::budget::RunBudget>,
 }
 
 impl TareFile {
@@ -79,6 +86,7 @@ impl TareFile {
                         "d theta / d zero offset of each load cell (rows: legs), per N",
                     )),
                 ),
+                ("budget", nullable(crate::budget::RunBudget::schema())),
             ],
             "The empty fixture's inertial parameters, subtracted from loaded runs",
         )
@@ -142,6 +150,11 @@ impl TareFile {
         {
             bail!("`load_cell_offset_sensitivity` has a non-finite entry");
         }
+        if !self.budget.as_ref().is_none_or(|b| {
+            b.effects.iter().all(|e| finite(&e.effects)) && b.jitter_share.is_finite()
+        }) {
+            bail!("`budget` has a non-finite entry");
+        }
         if self.theta[0].is_nan() || self.theta[0] <= 0.0 {
             bail!("`theta[0]` (mass) must be positive, got {}", self.theta[0]);
         }
@@ -196,7 +209,14 @@ impl TareFile {
             backend: backend.into(),
             accel_bias_sensitivity: None,
             load_cell_offset_sensitivity: None,
+            budget: None,
         }
+    }
+
+    /// Keeps the tare run's error-budget inputs.
+    pub fn with_budget(mut self, budget: Option<crate::budget::RunBudget>) -> Self {
+        self.budget = budget;
+        self
     }
 
     /// Keeps the tare run's systematic effects (θ change per one sigma, as
@@ -287,6 +307,7 @@ mod tests {
             backend: "sim".into(),
             accel_bias_sensitivity: None,
             load_cell_offset_sensitivity: None,
+            budget: None,
         }
     }
 
@@ -368,6 +389,7 @@ mod tests {
         let map = old.as_object_mut().unwrap();
         map.remove("accel_bias_sensitivity");
         map.remove("load_cell_offset_sensitivity");
+        map.remove("budget");
         std::fs::write(&path, old.to_string()).unwrap();
         let old = TareFile::load(&path, &b, &p).unwrap();
         assert_eq!(old, tare());
@@ -376,5 +398,47 @@ mod tests {
         let mut bad = t.clone();
         bad.load_cell_offset_sensitivity.as_mut().unwrap()[0][0] = f64::NAN;
         assert!(bad.check(&b, &p).is_err());
+    }
+
+    /// A tare with the budget's effects round-trips through its file and its schema; one
+    /// without them (an older file, no `budget` key) loads with none.
+    #[test]
+    fn keeps_the_budget_and_loads_files_without_it() {
+        use crate::budget::{RigidBody, RunBudget, SourceEffects};
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("tare.json");
+        let (b, p) = joints();
+        let mut e = [0.0; 10];
+        e[4] = 0.125;
+        let t = tare().with_budget(Some(RunBudget {
+            effects: vec![SourceEffects {
+                source: "geometry".into(),
+                effects: vec![e; 36],
+            }],
+            used: 29_000,
+            lost: 30,
+            jitter_share: 1e-3,
+            rigid_body: Some(RigidBody {
+                ok: true,
+                residual_ratio: 0.7,
+                peak_hz: 1.1,
+            }),
+        }));
+        TareFile::schema()
+            .check(&serde_json::to_value(&t).unwrap())
+            .unwrap();
+        t.save(&path).unwrap();
+        let back = TareFile::load(&path, &b, &p).unwrap();
+        assert_eq!(back, t);
+        assert_eq!(
+            back.budget
+                .unwrap()
+                .effects_of(crate::sources::ErrorSource::Geometry)[35][4],
+            0.125
+        );
+        let mut old = serde_json::to_value(tare()).unwrap();
+        old.as_object_mut().unwrap().remove("budget");
+        std::fs::write(&path, old.to_string()).unwrap();
+        assert_eq!(TareFile::load(&path, &b, &p).unwrap().budget, None);
     }
 }

@@ -179,6 +179,7 @@ fn start_replay(config: EstimatorConfig, fk: FkOptions, rig: &LoadedConfig) -> R
         load_cell_n: setup::load_cell_bias_sigma(&rig.config),
     };
     Replay::new(config, fk, &rig.config.sensors.imu, sigmas, trace_every)
+        .map(|r| r.with_budget(measure::budget::Figures::of(&rig.config)))
         .map_err(|e| anyhow!("{e}"))
 }
 
@@ -258,14 +259,9 @@ pub fn build_report(
     tare_origin: &TareOrigin,
 ) -> Result<Report> {
     let meta = log.meta;
-    let (tare_kind, tare_path, tare_effect, tare_load_cell_effect) = match tare_origin {
-        TareOrigin::Measured(r) => (
-            TareKind::Measured,
-            None,
-            r.replay.accel_bias_effect.as_ref(),
-            r.replay.load_cell_bias_effect.as_ref(),
-        ),
-        TareOrigin::File(p) => (TareKind::File, p.clone(), None, None),
+    let (tare_kind, tare_path, tare_budget) = match tare_origin {
+        TareOrigin::Measured(r) => (TareKind::Measured, None, r.replay.budget.as_ref()),
+        TareOrigin::File(p) => (TareKind::File, p.clone(), None),
     };
     let params = match loaded.replay.config.parameters {
         ParameterSet::InertiaAboutKnownCom { .. } => ParamCount::Six,
@@ -280,11 +276,9 @@ pub fn build_report(
         tare,
         tare_kind,
         tare_path,
-        loaded_bias_effect: r.accel_bias_effect.as_ref(),
-        tare_bias_effect: tare_effect,
+        loaded_budget: r.budget.as_ref(),
+        tare_budget,
         accel_bias_sigma_m_s2: setup::accel_bias_sigma(&rig.config),
-        loaded_load_cell_effect: r.load_cell_bias_effect.as_ref(),
-        tare_load_cell_effect,
         load_cell_bias_sigma_n: setup::load_cell_bias_sigma(&rig.config),
         params,
         truth: truth_of(log.truth),

@@ -1,0 +1,281 @@
+//! The error budget: for every error source of a real rig ([`crate::sources::ErrorSource`]),
+//! its one-sigma contribution to every reported quantity, from the rig description's figures
+//! and the measurement's own data, never from a simulator's truth.
+//!
+//! - [`record`]: a bounded record of each run (the estimator's samples, averaged to ~100 Hz),
+//!   fed on the estimator's path, online ([`crate::measurement`]) and offline
+//!   ([`crate::replay`]).
+//! - [`fit`]: at the end of a run, an independent least-squares fit of the rigid-body
+//!   equations on the record; A = Σ Φᵀ W Φ.
+//! - [`perturb`]: each elementary error of each systematic source applied to the recorded
+//!   data, one sigma at a time; its effect δθ = A⁻¹ Σ Φᵀ W (r(ε) − r(0)). The accelerometer's
+//!   bias and the load cells' zero offsets use the estimator's own exact sensitivities instead
+//!   when the run has them ([`crate::systematic`]; they include its conditioning), the
+//!   budget's fit giving the rest (the cells' drift among them).
+//! - [`legs`]: the legs' mass and the joints' friction as the estimator misses them, and the
+//!   transverse force through each cell (its crosstalk).
+//! - [`statistical`]: the estimator's covariance split into noise, frame loss and timestamp
+//!   jitter.
+//! - [`rigid`]: whether the rigid-body model explains the data.
+//! - [`combine`]: the payload's share (loaded − tare, the same physical error in both runs)
+//!   and each source's covariance.
+
+pub mod combine;
+pub mod fit;
+pub mod legs;
+pub mod perturb;
+pub mod record;
+pub mod rigid;
+pub mod statistical;
+pub mod util;
+
+#[cfg(test)]
+pub(crate) mod testkit;
+#[cfg(test)]
+mod tests;
+
+use estimator::{EstimatorConfig, ParameterVector};
+use nalgebra::Vector6;
+use serde::{Deserialize, Serialize};
+
+use crate::config::{Config, LegsConfig, SensorsConfig};
+use crate::sources::ErrorSource;
+pub use combine::{payload_covariances, SourceCovariance};
+pub use record::RunRecord;
+pub use rigid::RigidBody;
+
+/// The rig description's figures the budget reads: the sensors' datasheets, the joints'
+/// tolerance and the legs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Figures {
+    /// `[sensors]`.
+    pub sensors: SensorsConfig,
+    /// `platform.joint_position_tolerance_m`.
+    pub joint_tolerance_m: f64,
+    /// `[legs]`.
+    pub legs: LegsConfig,
+}
+
+impl Figures {
+    /// The figures of `config`.
+    pub fn of(config: &Config) -> Self {
+        Self {
+            sensors: config.sensors.clone(),
+            joint_tolerance_m: config.platform.joint_position_tolerance_m,
+            legs: config.legs,
+        }
+    }
+}
+
+/// One source's effects: θ's change from one sigma of each of its elementary errors
+/// ([`perturb::scalars`] order).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SourceEffects {
+    /// The source's id ([`ErrorSource::id`]).
+    pub source: String,
+    /// δθ per elementary error, θ's units.
+    pub effects: Vec<[f64; 10]>,
+}
+
+/// The budget's inputs of one run: its systematic effects, its sample counts and its
+/// statistical split; also what a saved tare keeps.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct RunBudget {
+    /// Per systematic source.
+    pub effects: Vec<SourceEffects>,
+    /// Samples the estimator used.
+    pub used: u64,
+    /// Frames lost in its window.
+    pub lost: u64,
+    /// The timestamp jitter's share of the statistical variance ([`statistical`]).
+    pub jitter_share: f64,
+    /// The rigid-body check on the run's record; `None` when the record was too short.
+    pub rigid_body: Option<RigidBody>,
+}
+
+impl RunBudget {
+    /// JSON schema (inside a tare file and `/run/tare`).
+    pub fn schema() -> crate::schema::Schema {
+        use crate::schema::{array, boolean, int, nullable, num, numbers, object, string};
+        object(
+            vec![
+                (
+                    "effects",
+                    array(
+                        object(
+                            vec![
+                                ("source", string("error source id")),
+                                (
+                                    "effects",
+                                    array(
+                                        numbers(10, ""),
+                                        None,
+                                        "change of theta from one sigma of each elementary error",
+                                    ),
+                                ),
+                            ],
+                            "one source's effects",
+                        ),
+                        None,
+                        "per systematic source",
+                    ),
+                ),
+                ("used", int("samples used")),
+                ("lost", int("frames lost")),
+                (
+                    "jitter_share",
+                    num("timestamp jitter's share of the statistical variance"),
+                ),
+                (
+                    "rigid_body",
+                    nullable(object(
+                        vec![
+                            ("ok", boolean("the rigid-body model explains the data")),
+                            (
+                                "residual_ratio",
+                                nullable(num("residual rms over the expected rms")),
+                            ),
+                            (
+                                "peak_hz",
+                                nullable(num("largest peak of the residual spectrum, Hz")),
+                            ),
+                        ],
+                        "rigid-body check",
+                    )),
+                ),
+            ],
+            "the run's error-budget inputs",
+        )
+    }
+
+    /// The effects of `source` (empty when not known).
+    pub fn effects_of(&self, source: ErrorSource) -> &[[f64; 10]] {
+        self.effects
+            .iter()
+            .find(|e| e.source == source.id())
+            .map_or(&[], |e| &e.effects[..])
+    }
+
+    /// The frame loss's share of the statistical variance, lost/(lost + used).
+    pub fn loss_share(&self) -> f64 {
+        let n = (self.used + self.lost) as f64;
+        if n > 0.0 {
+            self.lost as f64 / n
+        } else {
+            0.0
+        }
+    }
+}
+
+/// The estimator's own exact effects, used in place of the fit's where given.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct EstimatorEffects {
+    /// One sigma of accelerometer bias along x, y, z.
+    pub accel: Option<[[f64; 10]; 3]>,
+    /// One sigma of zero offset on each load cell.
+    pub load_cell: Option<[[f64; 10]; 6]>,
+}
+
+/// The budget of one run at its end: the record, the estimator's settings, the rig
+/// description's figures, the run's estimate θ̂ with its counts, and the estimator's own
+/// effects. Without a usable record (too short) only the estimator's effects are known.
+pub fn analyse(
+    record: &RunRecord,
+    config: &EstimatorConfig,
+    figures: &Figures,
+    estimate: &estimator::Estimate,
+    exact: &EstimatorEffects,
+) -> RunBudget {
+    let model = fit::Model {
+        geometry: *record.geometry(),
+        lever_m: config.accelerometer_position_m,
+        equation_sigma: config.equation_sigma,
+        mode: fit::Mode::of(&config.parameters),
+    };
+    let theta: ParameterVector = estimate.parameters.to_vector();
+    let data = fit::Data::new(record.entries(), model);
+    let fitted = fit::Fit::new(&data, &theta);
+    let mut budget = RunBudget {
+        used: estimate.counts.used,
+        lost: estimate.counts.lost,
+        ..RunBudget::default()
+    };
+    let Some(fit) = fitted else {
+        for source in ErrorSource::ALL {
+            let n = perturb::scalars(source).len();
+            if n == 0 {
+                continue;
+            }
+            let mut effects = vec![[0.0; 10]; n];
+            override_exact(source, &mut effects, exact);
+            budget.effects.push(SourceEffects {
+                source: source.id().into(),
+                effects,
+            });
+        }
+        return budget;
+    };
+    let legs = legs::effects(&data, &fit.idx, fit.h, &figures.legs);
+    let ctx = perturb::Context {
+        data: &data,
+        fit: &fit,
+        legs: &legs,
+    };
+    let rows = rigid::subset(&fit);
+    let mut modes = Vec::new();
+    for source in ErrorSource::ALL {
+        let scalars = perturb::scalars(source);
+        if scalars.is_empty() {
+            continue;
+        }
+        let mut effects = Vec::with_capacity(scalars.len());
+        for s in &scalars {
+            let sigma = s.sigma(figures);
+            if !(sigma.is_finite() && sigma != 0.0) {
+                effects.push([0.0; 10]);
+                continue;
+            }
+            let dr = s.residual_change(&ctx, sigma);
+            effects.push(fit.effect(&dr).into());
+            if s.is_smooth() {
+                modes.push(rows.iter().map(|&k| dr[k]).collect::<Vec<Vector6<f64>>>());
+            }
+        }
+        override_exact(source, &mut effects, exact);
+        budget.effects.push(SourceEffects {
+            source: source.id().into(),
+            effects,
+        });
+    }
+    let prediction = statistical::predict(&data, &fit, figures);
+    budget.jitter_share = prediction.jitter_share;
+    let times: Vec<f64> = data.entries.iter().map(|e| e.time_s).collect();
+    budget.rigid_body = rigid::check(
+        &fit,
+        &rows,
+        &modes,
+        &prediction.noise_variance,
+        &times,
+        matches!(data.model.mode, fit::Mode::Six { .. }),
+    );
+    budget
+}
+
+/// The estimator's exact effects in place of the fit's (accelerometer bias; the cells' zero
+/// offsets, the first six of their source).
+fn override_exact(source: ErrorSource, effects: &mut [[f64; 10]], exact: &EstimatorEffects) {
+    match source {
+        ErrorSource::AccelBias => {
+            if let Some(a) = exact.accel {
+                effects[..3].copy_from_slice(&a);
+            }
+        }
+        ErrorSource::LoadCellOffset => {
+            if let Some(l) = exact.load_cell {
+                effects[..6].copy_from_slice(&l);
+            }
+        }
+        _ => {}
+    }
+}

@@ -1,0 +1,314 @@
+//! The elementary errors of each systematic source, each applied to a run's recorded data as
+//! the physical error would act, one datasheet sigma at a time ([`Scalar::residual_change`]).
+//! The budget's effect of each is then [`super::fit::Fit::effect`] of the residual's change:
+//! right to first order by construction, with no hand linearisation of the estimator.
+//!
+//! The list is fixed (every source has the same number of scalars whatever the figures, a zero
+//! figure giving a zero effect), so the tare run's and the loaded run's effects pair up by
+//! index ([`super::combine`]).
+
+use kinematics::{Geometry, Pose};
+use nalgebra::{Matrix3, Rotation3, Vector3, Vector6};
+
+use super::fit::{Data, Fit};
+use super::legs::LegEffects;
+use super::util::d1;
+use super::Figures;
+use crate::sources::ErrorSource;
+
+/// One elementary error.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Scalar {
+    /// Accelerometer bias along P's axis (0..3), `bias_m_s2`.
+    AccelBias(usize),
+    /// Zero offset of a load cell (leg 0..6), `zero_offset_n`.
+    Offset(usize),
+    /// Zero drift of a load cell, linear in time from the run's start, `zero_drift_n_per_min`.
+    Drift(usize),
+    /// Gain error of a load cell, `gain_error`.
+    Gain(usize),
+    /// A load cell's reading of the transverse force through it along its direction (0, 1),
+    /// `transverse_sensitivity`.
+    Crosstalk(usize, usize),
+    /// The IMU's axes turned about P's axis, `misalignment_deg`.
+    Misalignment(usize),
+    /// A gyro axis's scale error, `scale_error`.
+    GyroScale(usize),
+    /// An accelerometer axis's scale error, `scale_error`.
+    AccelScale(usize),
+    /// The accelerometer's position off along P's axis, `position_tolerance_m`.
+    LeverArm(usize),
+    /// The IMU's channels late by `imu_skew_s`.
+    TimeSkew,
+    /// A joint coordinate off the drawing: plate joint (else base), leg, coordinate;
+    /// `joint_position_tolerance_m`.
+    Joint(bool, usize, usize),
+    /// The legs' mass and inertia (the whole predicted effect).
+    LegDynamics,
+    /// The joints' friction (the whole predicted effect).
+    JointFriction,
+}
+
+impl Scalar {
+    /// The source it belongs to.
+    pub fn source(&self) -> ErrorSource {
+        match self {
+            Scalar::AccelBias(_) => ErrorSource::AccelBias,
+            Scalar::Offset(_) | Scalar::Drift(_) => ErrorSource::LoadCellOffset,
+            Scalar::Gain(_) => ErrorSource::LoadCellScale,
+            Scalar::Crosstalk(..) => ErrorSource::LoadCellCrosstalk,
+            Scalar::Misalignment(_) | Scalar::GyroScale(_) | Scalar::AccelScale(_) => {
+                ErrorSource::ImuMisalignment
+            }
+            Scalar::LeverArm(_) => ErrorSource::ImuLeverArm,
+            Scalar::TimeSkew => ErrorSource::TimeSkew,
+            Scalar::Joint(..) => ErrorSource::Geometry,
+            Scalar::LegDynamics => ErrorSource::LegDynamics,
+            Scalar::JointFriction => ErrorSource::JointFriction,
+        }
+    }
+
+    /// Whether its residual change is a smooth function of the motion (the pose, the legs'
+    /// model, time, the mean forces): the IMU's errors act through the noisy recorded rates
+    /// and accelerations, so their residual changes carry that noise, which a fit of their
+    /// amplitudes would absorb ([`super::rigid`] leaves them out).
+    pub fn is_smooth(&self) -> bool {
+        !matches!(
+            self,
+            Scalar::Misalignment(_)
+                | Scalar::GyroScale(_)
+                | Scalar::AccelScale(_)
+                | Scalar::LeverArm(_)
+                | Scalar::TimeSkew
+        )
+    }
+
+    /// One sigma of this error from the rig description's figures.
+    pub fn sigma(&self, f: &Figures) -> f64 {
+        let s = &f.sensors;
+        match self {
+            Scalar::AccelBias(_) => s.accelerometer.bias_m_s2,
+            Scalar::Offset(_) => s.load_cell.zero_offset_n,
+            Scalar::Drift(_) => s.load_cell.zero_drift_n_per_min,
+            Scalar::Gain(_) => s.load_cell.gain_error,
+            Scalar::Crosstalk(..) => s.load_cell.transverse_sensitivity,
+            Scalar::Misalignment(_) => s.imu.misalignment_deg.to_radians(),
+            Scalar::GyroScale(_) => s.gyro.scale_error,
+            Scalar::AccelScale(_) => s.accelerometer.scale_error,
+            Scalar::LeverArm(_) => s.imu.position_tolerance_m,
+            Scalar::TimeSkew => s.timing.imu_skew_s,
+            Scalar::Joint(..) => f.joint_tolerance_m,
+            Scalar::LegDynamics | Scalar::JointFriction => 1.0,
+        }
+    }
+}
+
+/// Every scalar of `source`, in a fixed order (empty for the statistical sources).
+pub fn scalars(source: ErrorSource) -> Vec<Scalar> {
+    let axes = 0..3;
+    let legs = 0..6;
+    match source {
+        ErrorSource::AccelBias => axes.map(Scalar::AccelBias).collect(),
+        ErrorSource::LoadCellOffset => legs
+            .clone()
+            .map(Scalar::Offset)
+            .chain(legs.map(Scalar::Drift))
+            .collect(),
+        ErrorSource::LoadCellScale => legs.map(Scalar::Gain).collect(),
+        ErrorSource::LoadCellCrosstalk => legs
+            .flat_map(|l| [Scalar::Crosstalk(l, 0), Scalar::Crosstalk(l, 1)])
+            .collect(),
+        ErrorSource::ImuMisalignment => axes
+            .clone()
+            .map(Scalar::Misalignment)
+            .chain(axes.clone().map(Scalar::GyroScale))
+            .chain(axes.map(Scalar::AccelScale))
+            .collect(),
+        ErrorSource::ImuLeverArm => axes.map(Scalar::LeverArm).collect(),
+        ErrorSource::TimeSkew => vec![Scalar::TimeSkew],
+        ErrorSource::Geometry => [false, true]
+            .into_iter()
+            .flat_map(|plate| {
+                (0..6).flat_map(move |l| (0..3).map(move |c| Scalar::Joint(plate, l, c)))
+            })
+            .collect(),
+        ErrorSource::LegDynamics => vec![Scalar::LegDynamics],
+        ErrorSource::JointFriction => vec![Scalar::JointFriction],
+        _ => Vec::new(),
+    }
+}
+
+/// What the perturbations read besides the scalar: the base data and fit, the legs' model.
+pub struct Context<'a> {
+    /// The record's data.
+    pub data: &'a Data,
+    /// Its fit.
+    pub fit: &'a Fit,
+    /// The legs' unmodelled effects at each entry.
+    pub legs: &'a LegEffects,
+}
+
+/// M Q Mᵀ for the products Q (entries of ω ωᵀ) of ω' = M ω.
+fn transform_products(q: &Vector6<f64>, m: &Matrix3<f64>) -> Vector6<f64> {
+    #[rustfmt::skip]
+    let full = Matrix3::new(
+        q[0], q[3], q[4],
+        q[3], q[1], q[5],
+        q[4], q[5], q[2],
+    );
+    let t = m * full * m.transpose();
+    Vector6::new(
+        t[(0, 0)],
+        t[(1, 1)],
+        t[(2, 2)],
+        t[(0, 1)],
+        t[(0, 2)],
+        t[(1, 2)],
+    )
+}
+
+/// The IMU's readings through M (gyro, products) and N (accelerometer).
+fn transform_imu(data: &mut Data, m: &Matrix3<f64>, n: &Matrix3<f64>) {
+    for e in &mut data.entries {
+        e.gyro_rad_s = m * e.gyro_rad_s;
+        e.products = transform_products(&e.products, m);
+        e.accel_m_s2 = n * e.accel_m_s2;
+    }
+}
+
+/// The wrench of leg forces `df` at `pose` (P axes, about the P origin).
+fn leg_wrench(g: &Geometry, pose: &Pose, df: &Vector6<f64>) -> Vector6<f64> {
+    let w = g.wrench_in_platform(pose, df);
+    Vector6::new(
+        w.force_n.x,
+        w.force_n.y,
+        w.force_n.z,
+        w.torque_nm.x,
+        w.torque_nm.y,
+        w.torque_nm.z,
+    )
+}
+
+impl Scalar {
+    /// The change of the fit's residual at its interior entries when `sigma` of this error is
+    /// applied to the recorded data.
+    pub fn residual_change(&self, ctx: &Context<'_>, sigma: f64) -> Vec<Vector6<f64>> {
+        let fit = ctx.fit;
+        let base = ctx.data;
+        let model = &base.model;
+        let t0 = base.entries.first().map_or(0.0, |e| e.time_s);
+        // A change of the leg forces or of the wrench only: Δr = Δy.
+        let wrench_only = |dy: &dyn Fn(usize) -> Vector6<f64>| -> Vec<Vector6<f64>> {
+            fit.idx.iter().map(|&i| model.map_wrench(&dy(i))).collect()
+        };
+        let leg_force = |leg: usize, df: &dyn Fn(usize) -> f64| {
+            wrench_only(&|i| {
+                let mut f = Vector6::zeros();
+                f[leg] = df(i);
+                leg_wrench(&model.geometry, &base.poses[i], &f)
+            })
+        };
+        let with_data = |change: &dyn Fn(&mut Data)| {
+            let mut d = base.clone();
+            change(&mut d);
+            fit.residual_change(&d)
+        };
+        match *self {
+            Scalar::Offset(leg) => leg_force(leg, &|_| sigma),
+            Scalar::Drift(leg) => leg_force(leg, &|i| sigma * (base.entries[i].time_s - t0) / 60.0),
+            Scalar::Gain(leg) => leg_force(leg, &|i| sigma * base.entries[i].leg_forces_n[leg]),
+            Scalar::Crosstalk(leg, dir) => {
+                leg_force(leg, &|i| sigma * ctx.legs.transverse[i][leg][dir])
+            }
+            Scalar::LegDynamics => wrench_only(&|i| ctx.legs.dynamics[i] * sigma),
+            Scalar::JointFriction => wrench_only(&|i| ctx.legs.friction[i] * sigma),
+            Scalar::Joint(plate, leg, coord) => joint_change(ctx, plate, leg, coord, sigma),
+            Scalar::AccelBias(axis) => with_data(&|d| {
+                for e in &mut d.entries {
+                    e.accel_m_s2[axis] += sigma;
+                }
+            }),
+            Scalar::Misalignment(axis) => {
+                // The IMU turned by a small rotation about P's axis: both sensors alike.
+                let r = *Rotation3::new(Vector3::ith(axis, sigma)).matrix();
+                with_data(&|d| transform_imu(d, &r, &r))
+            }
+            Scalar::GyroScale(axis) => {
+                let mut m = Matrix3::identity();
+                m[(axis, axis)] += sigma;
+                with_data(&|d| transform_imu(d, &m, &Matrix3::identity()))
+            }
+            Scalar::AccelScale(axis) => {
+                let mut n = Matrix3::identity();
+                n[(axis, axis)] += sigma;
+                with_data(&|d| transform_imu(d, &Matrix3::identity(), &n))
+            }
+            Scalar::LeverArm(axis) => with_data(&|d| d.model.lever_m[axis] += sigma),
+            Scalar::TimeSkew => with_data(&|d| skew(d, fit.h, sigma)),
+        }
+    }
+}
+
+/// The IMU's channels (rate, products, specific force) read `s` late: x(t − s) ≈ x − s ẋ with
+/// the zero-phase derivative; the entries within two of the record's ends keep their values.
+fn skew(d: &mut Data, h: f64, s: f64) {
+    let n = d.entries.len();
+    if n < 5 {
+        return;
+    }
+    let gyro: Vec<Vector3<f64>> = d.entries.iter().map(|e| e.gyro_rad_s).collect();
+    let prod: Vec<Vector6<f64>> = d.entries.iter().map(|e| e.products).collect();
+    let acc: Vec<Vector3<f64>> = d.entries.iter().map(|e| e.accel_m_s2).collect();
+    for i in 2..n - 2 {
+        let e = &mut d.entries[i];
+        e.gyro_rad_s -= d1(&gyro, i, h) * s;
+        e.products -= d1(&prod, i, h) * s;
+        e.accel_m_s2 -= d1(&acc, i, h) * s;
+    }
+}
+
+/// A joint coordinate off by `sigma`: the same leg lengths give another pose (one Newton step
+/// of forward kinematics from the described pose, J' Δx = l − l'(pose)) and other leg
+/// directions; the wrench changes by L'(pose') f − L(pose) f.
+fn joint_change(
+    ctx: &Context<'_>,
+    plate: bool,
+    leg: usize,
+    coord: usize,
+    sigma: f64,
+) -> Vec<Vector6<f64>> {
+    let base = ctx.data;
+    let model = &base.model;
+    let g = &model.geometry;
+    let zero = vec![Vector6::zeros(); ctx.fit.idx.len()];
+    if sigma == 0.0 {
+        return zero;
+    }
+    let mut b = *g.base_joints_m();
+    let mut p = *g.plate_joints_m();
+    if plate {
+        p[leg][coord] += sigma;
+    } else {
+        b[leg][coord] += sigma;
+    }
+    let Ok(built) = Geometry::from_points(b, p, g.stroke()) else {
+        return zero;
+    };
+    ctx.fit
+        .idx
+        .iter()
+        .map(|&i| {
+            let pose = base.poses[i];
+            let dl = g.leg_lengths(&pose) - built.leg_lengths(&pose);
+            let Some(dx) = built.jacobian(&pose).lu().solve(&dl) else {
+                return Vector6::zeros();
+            };
+            let moved = Pose::new(
+                pose.position_m + Vector3::new(dx[0], dx[1], dx[2]),
+                Rotation3::new(Vector3::new(dx[3], dx[4], dx[5])) * pose.rotation,
+            );
+            let f = base.entries[i].leg_forces_n;
+            model.map_wrench(&(leg_wrench(&built, &moved, &f) - leg_wrench(g, &pose, &f)))
+        })
+        .collect()
+}

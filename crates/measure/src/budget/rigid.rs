@@ -1,0 +1,140 @@
+//! Does the rigid-body model explain the data? The residual of the budget's fit about the
+//! run's estimate, r = y − Φ θ̂, should hold no more than the sensors' noise and the modelled
+//! errors. Two figures:
+//!
+//! - `residual_ratio`: rms of the residual of the force rows (with six parameters, the torque
+//!   rows about the centre of mass) over the rms that is expected of it: the datasheet noise
+//!   ([`super::statistical`]) plus each modelled error's residual change at one sigma
+//!   ([`super::perturb`], those smooth in the motion: [`super::perturb::Scalar::is_smooth`]),
+//!   added as independent; with a floor of 1e-4 of the rows' own rms (the fit's numerical
+//!   floor, for ideal sensors). About 1 or below for a rigid payload (θ̂ absorbs part of the
+//!   errors); a body that moves on the plate (a car on its suspension) leaves its own motion's
+//!   force, far above both. The errors' amplitudes are not fitted: a column made of the noisy
+//!   data (a gain times the noisy force) would absorb the noise.
+//! - `peak_hz`: the frequency of the largest peak of the residual's power spectrum (a direct
+//!   Fourier sum at the entries' times, from 0.2 Hz to the lower of 20 Hz and the entries'
+//!   Nyquist frequency, in steps of 1/(2T)).
+//!
+//! The check passes when the ratio is below [`RATIO_LIMIT`]. At most [`MAX_ROWS`] entries
+//! (evenly strided) take part, to bound the memory of the error columns.
+
+use nalgebra::Vector6;
+use serde::{Deserialize, Serialize};
+
+use super::fit::Fit;
+
+/// Largest residual ratio of a rigid payload.
+pub const RATIO_LIMIT: f64 = 3.0;
+
+/// Entries at most in the check.
+pub const MAX_ROWS: usize = 4096;
+
+/// The check's verdict.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct RigidBody {
+    /// The rigid-body model (with the modelled errors) explains the data.
+    pub ok: bool,
+    /// Residual rms over the noise's predicted rms.
+    pub residual_ratio: f64,
+    /// Frequency of the residual spectrum's largest peak, Hz.
+    pub peak_hz: f64,
+}
+
+/// The entries of `fit` that take part (indices into `fit.idx`).
+pub fn subset(fit: &Fit) -> Vec<usize> {
+    let n = fit.idx.len();
+    let step = n.div_ceil(MAX_ROWS).max(1);
+    (0..n).step_by(step).collect()
+}
+
+/// The check on `fit`'s residual at the entries `rows` (from [`subset`]), with the modelled
+/// errors' residual changes `modes` (each at those entries), the noise's predicted variance
+/// per entry `noise` (at every interior entry) and the entries' `times`.
+pub fn check(
+    fit: &Fit,
+    rows: &[usize],
+    modes: &[Vec<Vector6<f64>>],
+    noise: &[Vector6<f64>],
+    times: &[f64],
+    six: bool,
+) -> Option<RigidBody> {
+    let eq = if six { 3..6 } else { 0..3 };
+    if rows.len() < 10 {
+        return None;
+    }
+    let (mut sum_r, mut sum_v, mut sum_y) = (0.0, 0.0, 0.0);
+    let mut series = Vec::with_capacity(rows.len());
+    for (k, &row) in rows.iter().enumerate() {
+        let y = fit.r0[row] + fit.phi[row] * fit.theta;
+        let mut e = [0.0; 3];
+        for (j, r) in eq.clone().enumerate() {
+            let v = fit.r0[row][r];
+            e[j] = v;
+            sum_r += v * v;
+            sum_v += noise[row][r] + modes.iter().map(|m| m[k][r] * m[k][r]).sum::<f64>();
+            sum_y += y[r] * y[r];
+        }
+        series.push(e);
+    }
+    let floor = 1e-8 * sum_y;
+    let ratio = (sum_r / (sum_v + floor)).sqrt();
+    let t: Vec<f64> = rows.iter().map(|&k| times[fit.idx[k]]).collect();
+    let peak_hz = spectrum_peak(&t, &series);
+    Some(RigidBody {
+        ok: ratio.is_finite() && ratio < RATIO_LIMIT,
+        residual_ratio: ratio,
+        peak_hz,
+    })
+}
+
+/// The frequency of the largest peak of Σ_rows |Σₖ eₖ e^(−2πi f tₖ)|² (see the module docs).
+pub fn spectrum_peak(t: &[f64], e: &[[f64; 3]]) -> f64 {
+    let (Some(first), Some(last)) = (t.first(), t.last()) else {
+        return f64::NAN;
+    };
+    let span = last - first;
+    if span.is_nan() || span <= 0.0 || t.len() < 4 {
+        return f64::NAN;
+    }
+    let dt = span / (t.len() - 1) as f64;
+    let top = 20.0f64.min(0.5 / dt);
+    let df = 0.5 / span;
+    let mut best = (f64::NAN, -1.0);
+    let mut f = 0.2;
+    while f <= top {
+        let w = 2.0 * core::f64::consts::PI * f;
+        let (mut re, mut im) = ([0.0; 3], [0.0; 3]);
+        for (tk, ek) in t.iter().zip(e) {
+            let (s, c) = (w * (tk - first)).sin_cos();
+            for r in 0..3 {
+                re[r] += ek[r] * c;
+                im[r] -= ek[r] * s;
+            }
+        }
+        let p: f64 = (0..3).map(|r| re[r] * re[r] + im[r] * im[r]).sum();
+        if p > best.1 {
+            best = (f, p);
+        }
+        f += df;
+    }
+    best.0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_spectrum_peak_is_at_the_sines_frequency() {
+        let t: Vec<f64> = (0..3000).map(|k| k as f64 * 0.01).collect();
+        let e: Vec<[f64; 3]> = t
+            .iter()
+            .map(|t| {
+                let s = (2.0 * core::f64::consts::PI * 1.3 * t).sin();
+                [0.1 * s, 0.0, s]
+            })
+            .collect();
+        let f = spectrum_peak(&t, &e);
+        assert!((f - 1.3).abs() < 0.02, "{f}");
+    }
+}
