@@ -420,7 +420,8 @@ impl Simulator {
         self.truth = truth;
         self.payload = payload;
         self.world.set_payload(rigid.as_ref());
-        self.world.set_sprung(self.suspension.as_ref().map(Suspension::body));
+        self.world
+            .set_sprung(self.suspension.as_ref().map(Suspension::body));
         self.period = PeriodSum::default();
         self.refresh()
     }
@@ -476,7 +477,10 @@ impl Simulator {
         }
         let (_, omega_b) = self.world.raw_velocities();
         let omega_raw = rt * omega_b;
-        let plate_raw = self.suspension.as_ref().map(|_| self.plate_raw_motion(pose));
+        let plate_raw = self
+            .suspension
+            .as_ref()
+            .map(|_| self.plate_raw_motion(pose));
         let start = plate_raw.as_ref().and_then(|m| self.sprung_start(m));
         let (mut f1, mut t1) = (force_p, torque_p);
         if let Some(st) = &start {
@@ -536,11 +540,7 @@ impl Simulator {
             gyroscopic
         };
         let (units_on_plate, units_on_body, body_torque) = match &e.sprung {
-            Some(s) => (
-                s.forces.plate_loads(),
-                s.forces.body_loads(),
-                s.torque_b,
-            ),
+            Some(s) => (s.forces.plate_loads(), s.forces.body_loads(), s.torque_b),
             None => Default::default(),
         };
         let plate_groups: [&[(Vector3<f64>, Vector3<f64>)]; 2] = [&applied, &units_on_plate];
@@ -753,8 +753,8 @@ impl Backend for Simulator {
 
 mod coupled;
 mod hold;
-mod sprung;
 #[cfg(test)]
 mod leg_tests;
+mod sprung;
 #[cfg(test)]
 mod tests;

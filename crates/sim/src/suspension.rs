@@ -203,9 +203,7 @@ impl Suspension {
     /// `plate` and the body at `body`.
     fn deflections(&self, plate: &Pose, body: &Pose) -> ([Vector3<f64>; 4], [Vector3<f64>; 4]) {
         let rt = plate.rotation.inverse();
-        let x = self
-            .corners_m
-            .map(|a| body.position_m + body.rotation * a);
+        let x = self.corners_m.map(|a| body.position_m + body.rotation * a);
         let d = core::array::from_fn(|i| {
             rt * (x[i] - plate.position_m - plate.rotation * self.corners_m[i])
         });
@@ -332,7 +330,10 @@ impl Suspension {
                 reason: "the sprung body's spatial inertia is not positive definite",
             });
         };
-        let l_inv = chol.l().try_inverse().unwrap_or_else(nalgebra::Matrix6::zeros);
+        let l_inv = chol
+            .l()
+            .try_inverse()
+            .unwrap_or_else(nalgebra::Matrix6::zeros);
         let a = l_inv * g * l_inv.transpose();
         let mu = nalgebra::SymmetricEigen::new(0.5 * (a + a.transpose()))
             .eigenvalues

@@ -183,6 +183,15 @@ impl PlateWorld {
         self.place(self.plate, pose, v_origin, omega);
     }
 
+    /// Teleports the sprung body alone (its frame's pose, velocity of its origin and angular
+    /// velocity, in B).
+    #[cfg(test)]
+    pub fn set_sprung_state(&mut self, pose: &Pose, v_origin: &Vector3<f64>, omega: &Vector3<f64>) {
+        if let Some(h) = self.sprung {
+            self.place(h, pose, v_origin, omega);
+        }
+    }
+
     fn place(
         &mut self,
         handle: RigidBodyHandle,
@@ -221,7 +230,11 @@ impl PlateWorld {
     pub fn sprung_state(&self) -> Option<(Pose, Vector3<f64>, Vector3<f64>)> {
         let h = self.sprung?;
         let rb = self.world.bodies.get(h)?;
-        Some((self.pose_of(h), from_glam(rb.linvel()), from_glam(rb.angvel())))
+        Some((
+            self.pose_of(h),
+            from_glam(rb.linvel()),
+            from_glam(rb.angvel()),
+        ))
     }
 
     /// Rapier's stored velocities: of the centre of mass and angular, both in B.

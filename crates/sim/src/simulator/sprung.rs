@@ -12,8 +12,8 @@
 use kinematics::Pose;
 use nalgebra::Vector3;
 
-pub(super) use crate::suspension::Motion;
 use crate::config::GyroscopicModel;
+pub(super) use crate::suspension::Motion;
 use crate::suspension::UnitForces;
 
 use super::Simulator;
@@ -67,7 +67,12 @@ impl Simulator {
         let s = self.suspension.as_ref()?;
         let body_raw = self.sprung_raw_motion()?;
         let forces = s.forces(plate_raw, &body_raw);
-        let body = s.body_instant(&body_raw, &forces, self.substep_s, self.midpoint_gyroscopic());
+        let body = s.body_instant(
+            &body_raw,
+            &forces,
+            self.substep_s,
+            self.midpoint_gyroscopic(),
+        );
         Some(SprungStart { forces, body })
     }
 
