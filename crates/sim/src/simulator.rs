@@ -757,4 +757,6 @@ mod hold;
 mod leg_tests;
 mod sprung;
 #[cfg(test)]
+mod sprung_tests;
+#[cfg(test)]
 mod tests;
