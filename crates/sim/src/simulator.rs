@@ -219,6 +219,17 @@ impl PeriodSum {
 /// gyro), with the default 100 Hz actuator: 1.6·10⁻⁵ rms with one substep, 1.3·10⁻⁶ with
 /// four, against 3.9·10⁻⁴ with four when the load cells were read at the instant.
 ///
+/// # Suspended payload
+///
+/// With `[world.suspension]` enabled ([`SimConfig::suspension`]), the payload's sprung share is
+/// a second rapier body on four spring-damper units (`crate::suspension`); the plate carries the
+/// fixture and the unsprung part rigidly. The units' forces at each substep's start instant
+/// (both bodies' velocities taken to the instant like the plate's) enter the plate's
+/// Newton–Euler or coupled solve, the brake's implicit rates and the hold, so the
+/// accelerometer still reports the plate's true acceleration and the load cells the legs' true
+/// forces; rapier applies the opposite forces to the sprung body. The truth
+/// ([`Simulator::true_payload`], [`Simulator::true_parameters`]) stays the whole payload at rest.
+///
 /// # Gyroscopic torque
 ///
 /// Rapier 0.36's gyroscopic forces (`RigidBodyBuilder::gyroscopic_forces_enabled`, on by
