@@ -6,6 +6,7 @@ use measure::config::LegsConfig;
 
 use crate::actuator::ActuatorConfig;
 use crate::error::{check_non_negative, check_positive, SimError};
+use crate::imperfections::SuspensionConfig;
 use crate::sensors::SensorConfig;
 
 /// Longest physics substep allowed, s: the physics runs at a time step of 1 ms or less.
@@ -45,11 +46,15 @@ pub struct SimConfig {
     /// description's `[legs]` as the world's switches leave it; zero masses and friction:
     /// massless, frictionless legs, forces along the leg lines).
     pub legs: LegsConfig,
+    /// The payload as a car body on its suspension (the world's `[world.suspension]`; off: the
+    /// payload is rigid on the plate). See `crate::suspension`.
+    pub suspension: SuspensionConfig,
 }
 
 impl Default for SimConfig {
     /// 1 kHz sampling with two 0.5 ms physics substeps per sample, midpoint gyroscopic torque,
-    /// default actuators, the `realistic` sensors and massless, frictionless legs.
+    /// default actuators, the `realistic` sensors, massless, frictionless legs and a rigid
+    /// payload.
     fn default() -> Self {
         Self {
             sample_rate_hz: 1000.0,
@@ -58,6 +63,7 @@ impl Default for SimConfig {
             actuator: ActuatorConfig::default(),
             sensors: SensorConfig::default(),
             legs: LegsConfig::default(),
+            suspension: SuspensionConfig::default(),
         }
     }
 }
@@ -108,7 +114,7 @@ impl SimConfig {
         ] {
             check_non_negative(field, value)?;
         }
-        Ok(())
+        crate::suspension::validate(&self.suspension)
     }
 }
 

@@ -11,6 +11,9 @@
 //!   slaved to the plate's motion; the plate's acceleration is solved with the legs' reflected
 //!   inertia and rapier gets the joint forces; the load cells read the axial force at the
 //!   plate or the base end. (Rapier's joint reaction impulses do not serve as load cells.)
+//! - Suspension ([`SuspensionConfig`], off by default): a share of the payload rides on four
+//!   spring-damper units as a second rapier body, the rest stays rigid on the plate; the
+//!   plate's equations carry the units' forces (module `suspension`).
 //! - Actuators ([`ActuatorConfig`]): first-order lag, saturation, viscous and Coulomb friction,
 //!   and a brake.
 //! - Sensors ([`SensorConfig`]): encoders, load cells, gyro and accelerometer with seeded noise,
@@ -46,6 +49,7 @@ mod sensor_model;
 mod sensors;
 mod simulator;
 mod streams;
+mod suspension;
 mod world;
 
 pub use actuator::ActuatorConfig;

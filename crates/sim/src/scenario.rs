@@ -192,6 +192,7 @@ impl Scenario {
             actuator: self.world.actuator,
             sensors,
             legs,
+            suspension: self.world.suspension,
             ..crate::SimConfig::default()
         }
     }
@@ -259,6 +260,8 @@ impl Scenario {
                     format!("world.actuator.{rest}")
                 } else if *field == "substeps" {
                     "world.physics_substeps".to_string()
+                } else if let Some(rest) = field.strip_prefix("suspension.") {
+                    format!("world.suspension.{rest}")
                 } else if field.starts_with("legs.") {
                     field.to_string()
                 } else if field.starts_with("sensors.") {

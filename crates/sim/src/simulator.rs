@@ -14,7 +14,10 @@ use crate::dynamics::{Acceleration, RigidBodyModel};
 use crate::error::SimError;
 use crate::legs::Legs;
 use crate::sensor_model::SensorModel;
-use crate::world::{PlateWorld, GRAVITY_M_S2};
+use crate::suspension::Suspension;
+use crate::world::{Loads, PlateWorld, GRAVITY_M_S2};
+
+use sprung::SprungLoads;
 
 /// Velocity of the plate at the current sample instant.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -53,6 +56,8 @@ struct Evaluation {
     joint_torque_b: Vector3<f64>,
     omega_p: Vector3<f64>,
     acceleration: Acceleration,
+    /// The suspension units' forces and the sprung body's torque at the instant.
+    sprung: Option<SprungLoads>,
 }
 
 /// Everything true about the current sample instant.
@@ -214,6 +219,17 @@ impl PeriodSum {
 /// gyro), with the default 100 Hz actuator: 1.6·10⁻⁵ rms with one substep, 1.3·10⁻⁶ with
 /// four, against 3.9·10⁻⁴ with four when the load cells were read at the instant.
 ///
+/// # Suspended payload
+///
+/// With `[world.suspension]` enabled ([`SimConfig::suspension`]), the payload's sprung share is
+/// a second rapier body on four spring-damper units (`crate::suspension`); the plate carries the
+/// fixture and the unsprung part rigidly. The units' forces at each substep's start instant
+/// (both bodies' velocities taken to the instant like the plate's) enter the plate's
+/// Newton–Euler or coupled solve, the brake's implicit rates and the hold, so the
+/// accelerometer still reports the plate's true acceleration and the load cells the legs' true
+/// forces; rapier applies the opposite forces to the sprung body. The truth
+/// ([`Simulator::true_payload`], [`Simulator::true_parameters`]) stays the whole payload at rest.
+///
 /// # Gyroscopic torque
 ///
 /// Rapier 0.36's gyroscopic forces (`RigidBodyBuilder::gyroscopic_forces_enabled`, on by
@@ -240,7 +256,13 @@ pub struct Simulator {
     config: SimConfig,
     fixture: BodyProperties,
     payload: Option<BodyProperties>,
+    /// Everything rigid on the plate: fixture + payload, or fixture + the payload's unsprung
+    /// part when it rides on a suspension.
     model: RigidBodyModel,
+    /// Fixture + the whole payload at rest: the truth a rigid measurement aims at.
+    truth: InertialParameters,
+    /// The sprung body and its units (`None`: a rigid payload, or no payload).
+    suspension: Option<Suspension>,
     /// The legs' mass, inertia and joint friction (`None`: massless, frictionless legs).
     legs_model: Option<Legs>,
     /// Tensor of fixture + payload about their joint centre of mass, in P.
@@ -262,6 +284,19 @@ impl core::fmt::Debug for Simulator {
             .field("time_s", &self.time_s())
             .field("payload", &self.payload.is_some())
             .finish_non_exhaustive()
+    }
+}
+
+/// The payload's part rigid on the plate and its suspension, per `config`, with P level at
+/// `rest` when the sprung body rests on its preload.
+fn split_payload(
+    config: &SimConfig,
+    payload: Option<&BodyProperties>,
+    rest: &nalgebra::Rotation3<f64>,
+) -> (Option<BodyProperties>, Option<Suspension>) {
+    match payload.and_then(|p| Suspension::new(&config.suspension, p, rest).map(|s| (p, s))) {
+        Some((p, s)) => (Suspension::unsprung(&config.suspension, p), Some(s)),
+        None => (payload.copied(), None),
     }
 }
 
@@ -297,16 +332,19 @@ impl Simulator {
         if let Some(p) = &payload {
             p.validate("payload")?;
         }
-        let model = total_model(&fixture, payload.as_ref())?;
         let pose = geometry.home_pose();
+        let (rigid, suspension) = split_payload(config, payload.as_ref(), &pose.rotation);
+        let model = total_model(&fixture, rigid.as_ref())?;
+        let truth = *total_model(&fixture, payload.as_ref())?.params();
         let substep_s = config.substep_s();
-        let world = PlateWorld::new(
+        let mut world = PlateWorld::new(
             &fixture,
-            payload.as_ref(),
+            rigid.as_ref(),
             &pose,
             substep_s,
             config.gyroscopic == GyroscopicModel::Rapier,
         );
+        world.set_sprung(suspension.as_ref().map(Suspension::body));
         let placeholder = Actuators::new_braked(config.actuator, substep_s, &[0.0; 6], &[0.0; 6]);
         let mut sim = Self {
             geometry,
@@ -315,6 +353,8 @@ impl Simulator {
             payload,
             inertia_com: model.inertia_com(),
             model,
+            truth,
+            suspension,
             legs_model: Legs::new(config.legs),
             world,
             actuators: placeholder,
@@ -379,21 +419,30 @@ impl Simulator {
     }
 
     /// Puts a payload on the plate or takes it off (`None`: the tare world), keeping the
-    /// current motion and actuator state. Also re-checks brake and friction stability, which
-    /// is worst for the lightest body.
+    /// current motion and actuator state (a sprung body is put on resting, moving with the
+    /// plate). Also re-checks brake and friction stability, which is worst for the lightest
+    /// body.
     pub fn set_payload(&mut self, payload: Option<BodyProperties>) -> Result<(), SimError> {
         if let Some(p) = &payload {
             p.validate("payload")?;
         }
-        let model = total_model(&self.fixture, payload.as_ref())?;
+        let rest = self.geometry.home_pose().rotation;
+        let (rigid, suspension) = split_payload(&self.config, payload.as_ref(), &rest);
+        let model = total_model(&self.fixture, rigid.as_ref())?;
+        let truth = *total_model(&self.fixture, payload.as_ref())?.params();
         let old = core::mem::replace(&mut self.model, model);
+        let old_suspension = core::mem::replace(&mut self.suspension, suspension);
         if let Err(e) = self.check_stability() {
             self.model = old;
+            self.suspension = old_suspension;
             return Err(e);
         }
         self.inertia_com = self.model.inertia_com();
+        self.truth = truth;
         self.payload = payload;
-        self.world.set_payload(self.payload.as_ref());
+        self.world.set_payload(rigid.as_ref());
+        self.world
+            .set_sprung(self.suspension.as_ref().map(Suspension::body));
         self.period = PeriodSum::default();
         self.refresh()
     }
@@ -449,8 +498,33 @@ impl Simulator {
         }
         let (_, omega_b) = self.world.raw_velocities();
         let omega_raw = rt * omega_b;
-        let first = self.model.acceleration(&force_p, &torque_p, &omega_raw);
+        let plate_raw = self
+            .suspension
+            .as_ref()
+            .map(|_| self.plate_raw_motion(pose));
+        let start = plate_raw.as_ref().and_then(|m| self.sprung_start(m));
+        let (mut f1, mut t1) = (force_p, torque_p);
+        if let Some(st) = &start {
+            let (f, t) = sprung::plate_wrench_p(&st.forces, pose);
+            f1 += f;
+            t1 += t;
+        }
+        let first = self.model.acceleration(&f1, &t1, &omega_raw);
         let omega = omega_raw + 0.5 * self.substep_s * first.angular_rad_s2;
+        let mut sprung = None;
+        if let (Some(st), Some(raw)) = (&start, &plate_raw) {
+            let a_origin = pose.rotation * first.specific_force_m_s2 + GRAVITY_M_S2;
+            let plate = sprung::Motion {
+                pose: *pose,
+                v_origin: raw.v_origin + 0.5 * self.substep_s * a_origin,
+                omega: pose.rotation * omega,
+            };
+            let loads = self.sprung_at(st, &plate);
+            let (f, t) = sprung::plate_wrench_p(&loads.forces, pose);
+            force_p += f;
+            torque_p += t;
+            sprung = Some(loads);
+        }
         let acceleration = self.model.acceleration(&force_p, &torque_p, &omega);
         Evaluation {
             forces_n: forces,
@@ -461,6 +535,7 @@ impl Simulator {
             joint_torque_b: Vector3::zeros(),
             omega_p: omega,
             acceleration,
+            sprung,
         }
     }
 
@@ -471,7 +546,7 @@ impl Simulator {
         let pose = self.world.pose();
         let legs = self.legs(&pose);
         let e = self.evaluate(&pose, &legs);
-        let applied =
+        let applied: [(Vector3<f64>, Vector3<f64>); 6] =
             core::array::from_fn(|i| (e.joint_forces_b[i], pose.position_m + legs.arms_m[i]));
         let gyroscopic = match self.config.gyroscopic {
             GyroscopicModel::Midpoint => {
@@ -485,7 +560,22 @@ impl Simulator {
         } else {
             gyroscopic
         };
-        self.world.step(&applied, &torque);
+        let (units_on_plate, units_on_body, body_torque) = match &e.sprung {
+            Some(s) => (s.forces.plate_loads(), s.forces.body_loads(), s.torque_b),
+            None => Default::default(),
+        };
+        let plate_groups: [&[(Vector3<f64>, Vector3<f64>)]; 2] = [&applied, &units_on_plate];
+        let groups = if e.sprung.is_some() { 2 } else { 1 };
+        self.world.step(
+            &Loads {
+                forces: &plate_groups[..groups],
+                torque,
+            },
+            &Loads {
+                forces: &[&units_on_body],
+                torque: body_torque,
+            },
+        );
         self.actuators.advance(&e.forces_n);
         Node::new(&e, &self.mount_m())
     }
@@ -619,9 +709,16 @@ impl Simulator {
         self.now.clean
     }
 
-    /// Ground truth: the payload's properties (`None` in the tare world).
+    /// Ground truth: the payload's properties (`None` in the tare world); with a suspension,
+    /// the whole payload (sprung and unsprung) at rest.
     pub fn true_payload(&self) -> Option<BodyProperties> {
         self.payload
+    }
+
+    /// Ground truth: the pose of the sprung body's frame in B (it coincides with P when the
+    /// body rests on its units), or `None` without a suspension.
+    pub fn true_sprung_pose(&self) -> Option<Pose> {
+        self.world.sprung_state().map(|(pose, _, _)| pose)
     }
 
     /// Ground truth: the fixture plate's properties.
@@ -629,13 +726,15 @@ impl Simulator {
         self.fixture
     }
 
-    /// Ground truth: parameters of everything on the legs (fixture + payload) about the P origin.
+    /// Ground truth: parameters of everything on the legs (fixture + payload) about the P
+    /// origin; with a suspension, of the whole payload at rest.
     pub fn true_parameters(&self) -> InertialParameters {
-        *self.model.params()
+        self.truth
     }
 
-    /// Rapier's own view of the moving body (mass, centre of mass in P, tensor about the centre
-    /// of mass in P axes), to check that it matches [`Self::true_parameters`].
+    /// Rapier's own view of the plate body (mass, centre of mass in P, tensor about the centre
+    /// of mass in P axes), to check that it matches [`Self::true_parameters`] (with a
+    /// suspension: fixture + the unsprung part).
     pub fn rapier_body(&self) -> BodyProperties {
         let (m, c, j) = self.world.body_mass_properties();
         BodyProperties {
@@ -695,8 +794,11 @@ impl Backend for Simulator {
 mod coupled;
 mod hold;
 #[cfg(test)]
-mod leg_tests;
-#[cfg(test)]
 mod imperfection_tests;
+#[cfg(test)]
+mod leg_tests;
+mod sprung;
+#[cfg(test)]
+mod sprung_tests;
 #[cfg(test)]
 mod tests;

@@ -1,4 +1,6 @@
-//! The rapier world: a fixed base and one dynamic body (plate + payload) made of two colliders.
+//! The rapier world: a fixed base and one dynamic body (plate + payload) made of two colliders,
+//! and, with a suspended payload ([`crate::suspension`]), a second dynamic body: the sprung body,
+//! whose frame coincides with P when it rests on the plate.
 //!
 //! The body's frame *is* P: the colliders sit at the body origin, so rapier's local centre of
 //! mass and local inertia are in P. Each collider carries its own explicit mass properties
@@ -55,11 +57,21 @@ pub(crate) fn mass_properties(body: &BodyProperties) -> MassProperties {
     )
 }
 
+/// What one body is pushed with over a step: forces at points (in groups) and a pure torque,
+/// all in B.
+pub(crate) struct Loads<'a> {
+    pub forces: &'a [&'a [(Vector3<f64>, Vector3<f64>)]],
+    pub torque: Vector3<f64>,
+}
+
 /// The rapier side of the simulator.
 pub(crate) struct PlateWorld {
     world: PhysicsWorld,
     plate: RigidBodyHandle,
     payload: Option<ColliderHandle>,
+    /// The sprung body, when the payload rides on a suspension.
+    sprung: Option<RigidBodyHandle>,
+    rapier_gyroscopic: bool,
 }
 
 fn collider(body: &BodyProperties) -> ColliderBuilder {
@@ -98,6 +110,8 @@ impl PlateWorld {
             world,
             plate,
             payload: None,
+            sprung: None,
+            rapier_gyroscopic,
         };
         w.set_payload(payload);
         w.set_state(pose, &Vector3::zeros(), &Vector3::zeros());
@@ -119,9 +133,73 @@ impl PlateWorld {
         }
     }
 
-    /// Teleports the plate: pose of P, velocity of the P origin (in B) and angular velocity (in B).
+    /// Puts the sprung body in the world (or takes it out), resting on the plate: its frame at
+    /// P, moving with the plate.
+    pub fn set_sprung(&mut self, body: Option<&BodyProperties>) {
+        if let Some(h) = self.sprung.take() {
+            self.world.remove_body(h);
+        }
+        let Some(b) = body else {
+            return;
+        };
+        let handle = self.world.insert_body(
+            RigidBodyBuilder::dynamic()
+                .can_sleep(false)
+                .gyroscopic_forces_enabled(self.rapier_gyroscopic)
+                .allow_fast_rotation(true)
+                .ccd_enabled(false),
+        );
+        self.world.insert_collider(collider(b), Some(handle));
+        let w = &mut self.world;
+        if let Some(rb) = w.bodies.get_mut(handle) {
+            rb.recompute_mass_properties_from_colliders(&w.colliders);
+        }
+        self.sprung = Some(handle);
+        let (v_com, omega) = self.raw_velocities();
+        let pose = self.pose();
+        let com_b = pose.rotation * self.plate_com();
+        self.place(handle, &pose, &(v_com - omega.cross(&com_b)), &omega);
+    }
+
+    fn plate_com(&self) -> Vector3<f64> {
+        self.world
+            .bodies
+            .get(self.plate)
+            .map_or(Vector3::zeros(), |rb| from_glam(rb.local_center_of_mass()))
+    }
+
+    /// Teleports the plate, and the sprung body resting on it: pose of P, velocity of the P
+    /// origin (in B) and angular velocity (in B).
     pub fn set_state(&mut self, pose: &Pose, v_origin: &Vector3<f64>, omega: &Vector3<f64>) {
-        let Some(rb) = self.world.bodies.get_mut(self.plate) else {
+        self.place(self.plate, pose, v_origin, omega);
+        if let Some(h) = self.sprung {
+            self.place(h, pose, v_origin, omega);
+        }
+    }
+
+    /// Teleports the plate alone.
+    #[cfg(test)]
+    pub fn set_plate_state(&mut self, pose: &Pose, v_origin: &Vector3<f64>, omega: &Vector3<f64>) {
+        self.place(self.plate, pose, v_origin, omega);
+    }
+
+    /// Teleports the sprung body alone (its frame's pose, velocity of its origin and angular
+    /// velocity, in B).
+    #[cfg(test)]
+    pub fn set_sprung_state(&mut self, pose: &Pose, v_origin: &Vector3<f64>, omega: &Vector3<f64>) {
+        if let Some(h) = self.sprung {
+            self.place(h, pose, v_origin, omega);
+        }
+    }
+
+    fn place(
+        &mut self,
+        handle: RigidBodyHandle,
+        pose: &Pose,
+        v_origin: &Vector3<f64>,
+        omega: &Vector3<f64>,
+    ) {
+        let Some(rb) = self.world.bodies.get_mut(handle) else {
             return;
         };
         let com_b = pose.rotation * from_glam(rb.local_center_of_mass());
@@ -134,13 +212,29 @@ impl PlateWorld {
 
     /// Pose of P in B.
     pub fn pose(&self) -> Pose {
-        match self.world.bodies.get(self.plate) {
+        self.pose_of(self.plate)
+    }
+
+    fn pose_of(&self, handle: RigidBodyHandle) -> Pose {
+        match self.world.bodies.get(handle) {
             Some(rb) => Pose::new(
                 from_glam(rb.translation()),
                 rotation_from_glam(*rb.rotation()),
             ),
             None => Pose::identity(),
         }
+    }
+
+    /// The sprung body's pose and rapier's stored velocities (of its centre of mass and
+    /// angular, in B), if there is one.
+    pub fn sprung_state(&self) -> Option<(Pose, Vector3<f64>, Vector3<f64>)> {
+        let h = self.sprung?;
+        let rb = self.world.bodies.get(h)?;
+        Some((
+            self.pose_of(h),
+            from_glam(rb.linvel()),
+            from_glam(rb.angvel()),
+        ))
     }
 
     /// Rapier's stored velocities: of the centre of mass and angular, both in B.
@@ -169,14 +263,20 @@ impl PlateWorld {
     }
 
     /// One physics step with the given forces (in B) acting at the given points (in B) and a
-    /// pure torque (in B); forces and torques are reset first, so nothing carries over.
-    pub fn step(&mut self, forces: &[(Vector3<f64>, Vector3<f64>); 6], torque: &Vector3<f64>) {
-        if let Some(rb) = self.world.bodies.get_mut(self.plate) {
+    /// pure torque (in B) on the plate, and the loads of the sprung body (forces at points and
+    /// a torque, in B); forces and torques are reset first, so nothing carries over.
+    pub fn step(&mut self, plate: &Loads<'_>, sprung: &Loads<'_>) {
+        for (handle, loads) in [(Some(self.plate), plate), (self.sprung, sprung)] {
+            let Some(rb) = handle.and_then(|h| self.world.bodies.get_mut(h)) else {
+                continue;
+            };
             rb.reset_forces(false);
             rb.reset_torques(false);
-            rb.add_torque(to_glam(torque), false);
-            for (force, point) in forces {
-                rb.add_force_at_point(to_glam(force), to_glam(point), false);
+            rb.add_torque(to_glam(&loads.torque), false);
+            for part in loads.forces {
+                for (force, point) in *part {
+                    rb.add_force_at_point(to_glam(force), to_glam(point), false);
+                }
             }
         }
         self.world.step();

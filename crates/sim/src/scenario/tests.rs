@@ -214,3 +214,18 @@ fn a_bad_world_is_refused_with_its_key_and_line() {
     assert_eq!(err.issues[0].line, Some(2));
     assert!(err.issues[0].problem.contains("seed"), "{err}");
 }
+
+#[test]
+fn the_suspension_reaches_the_simulator_and_its_refusals_name_its_keys() {
+    let text = "[world.suspension]\nenabled = true\n";
+    let s = Scenario::new(load_str(text, "s.toml").unwrap(), None, None).unwrap();
+    assert!(s.sim_config().suspension.enabled);
+    let geometry = measure::setup::geometry(&s.loaded).unwrap();
+    let sim = s.simulator(geometry, true).unwrap();
+    assert!(sim.true_sprung_pose().is_some());
+    assert_eq!(sim.true_payload(), Some(s.world.payload.to_sim()));
+    let text = "[world.suspension]\nenabled = true\nsprung_share = 1.5\n";
+    let s = Scenario::new(load_str(text, "s.toml").unwrap(), None, None).unwrap();
+    let err = s.simulator(geometry, true).unwrap_err();
+    assert_eq!(err.issues[0].key, "world.suspension.sprung_share");
+}

@@ -15,13 +15,14 @@
 //! true acceleration. The velocities the legs' terms use are those of the instant, as for the
 //! gyroscopic torque: a first solve with rapier's stored (half-step-old) velocities gives the
 //! acceleration that moves them to the instant, `v(t_n) = v_{n−½} + (h/2) a`, and a second
-//! solve uses those.
+//! solve uses those. The suspension's units ([`crate::suspension`]) add their wrench on the plate
+//! to `Q`, from the same two passes (`simulator/sprung.rs`).
 
 use control::io::LEG_COUNT;
 use kinematics::Pose;
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
 
-use super::{Evaluation, LegState, Simulator};
+use super::{sprung, Evaluation, LegState, Simulator};
 use crate::cell_loads::{transverse_basis, CellLoads};
 use crate::dynamics::Acceleration;
 use crate::legs::{reflect, to_plate_axes, JointLaw, LegMotion, Legs};
@@ -59,7 +60,9 @@ fn laws_at(
 
 impl Simulator {
     /// The plate's acceleration with the legs' laws `laws` and plate rate `omega` (B): the
-    /// coupled system of the module docs.
+    /// coupled system of the module docs, with the suspension's wrench `units` (force and
+    /// torque about the P origin, in P) added to `Q`.
+    #[allow(clippy::too_many_arguments)]
     fn coupled_acceleration(
         &self,
         pose: &Pose,
@@ -67,11 +70,15 @@ impl Simulator {
         laws: &[JointLaw; 6],
         omega: &Vector3<f64>,
         forces: &[f64; 6],
+        units: Option<(Vector3<f64>, Vector3<f64>)>,
     ) -> Acceleration {
         let (m_l, q) = reflect(laws, &legs.arms_m, omega, Some(forces));
         let w0 = q - m_l * spatial(&GRAVITY_M_S2, &Vector3::zeros());
         let rt = pose.rotation.inverse();
-        let (m_p, w_p) = to_plate_axes(rt.matrix(), &m_l, &w0);
+        let (m_p, mut w_p) = to_plate_axes(rt.matrix(), &m_l, &w0);
+        if let Some((f, t)) = units {
+            w_p += spatial(&f, &t);
+        }
         self.model.acceleration_loaded(&m_p, &w_p, &(rt * omega))
     }
 
@@ -89,12 +96,35 @@ impl Simulator {
         let (v_com, omega_raw) = self.world.raw_velocities();
         let v_raw = v_com - omega_raw.cross(&(r * (p.first_moment_kg_m / p.mass_kg)));
         let (_, laws) = laws_at(model, base, pose, legs, &v_raw, &omega_raw);
-        let first = self.coupled_acceleration(pose, legs, &laws, &omega_raw, forces);
+        let start = self.suspension.as_ref().and_then(|_| {
+            self.sprung_start(&sprung::Motion {
+                pose: *pose,
+                v_origin: v_raw,
+                omega: omega_raw,
+            })
+        });
+        let units = start
+            .as_ref()
+            .map(|s| sprung::plate_wrench_p(&s.forces, pose));
+        let first = self.coupled_acceleration(pose, legs, &laws, &omega_raw, forces, units);
         let half = 0.5 * self.substep_s;
         let omega = omega_raw + half * (r * first.angular_rad_s2);
         let v_origin = v_raw + half * (r * first.specific_force_m_s2 + GRAVITY_M_S2);
         let (motions, laws) = laws_at(model, base, pose, legs, &v_origin, &omega);
-        let acceleration = self.coupled_acceleration(pose, legs, &laws, &omega, forces);
+        let sprung_loads = start.as_ref().map(|s| {
+            self.sprung_at(
+                s,
+                &sprung::Motion {
+                    pose: *pose,
+                    v_origin,
+                    omega,
+                },
+            )
+        });
+        let units = sprung_loads
+            .as_ref()
+            .map(|s| sprung::plate_wrench_p(&s.forces, pose));
+        let acceleration = self.coupled_acceleration(pose, legs, &laws, &omega, forces, units);
         let a_origin = r * acceleration.specific_force_m_s2 + GRAVITY_M_S2;
         let omega_dot = r * acceleration.angular_rad_s2;
         let mut e = Evaluation {
@@ -106,6 +136,7 @@ impl Simulator {
             joint_torque_b: Vector3::zeros(),
             omega_p: r.inverse() * omega,
             acceleration,
+            sprung: sprung_loads,
         };
         for i in 0..LEG_COUNT {
             let arm = &legs.arms_m[i];

@@ -69,6 +69,9 @@ impl Simulator {
                          for the physics substep (raise the velocity scale or substeps)",
             });
         }
+        if let Some(s) = &self.suspension {
+            s.check_stability(h)?;
+        }
         if let Some((_, damping)) = &leg_terms {
             let d = l_inv * damping * l_inv.transpose();
             let nu = SymmetricEigen::new(0.5 * (d + d.transpose()))
@@ -87,8 +90,10 @@ impl Simulator {
     }
 
     /// Actuator forces that hold the plate at rest at `pose` against gravity:
-    /// `Jᵀ f = −W_gravity − Q_rest`, `Q_rest` the wrench the legs' own weight puts on the plate
-    /// at rest (zero for massless legs; [`crate::legs::reflect`]).
+    /// `Jᵀ f = −W_gravity − Q_rest − W_units`, `Q_rest` the wrench the legs' own weight puts on
+    /// the plate at rest (zero for massless legs; [`crate::legs::reflect`]) and `W_units` that
+    /// of a suspension's units with the sprung body resting on them (their preloads: the sprung
+    /// body's weight with P level; [`crate::suspension`]).
     pub(super) fn static_forces(&self, pose: &Pose, legs: &LegState) -> Result<[f64; 6], SimError> {
         let p = self.model.params();
         let weight = p.mass_kg * GRAVITY_M_S2;
@@ -115,6 +120,10 @@ impl Simulator {
             // The legs' own weight at rest, carried through the joints: `Jᵀ f + Q_rest = −W`.
             rhs -= self.legs_at_rest(model, pose, legs, &Vector3::zeros()).1;
         }
+        if let Some(s) = &self.suspension {
+            // The sprung body resting on its units: their preloads, its weight at home.
+            rhs -= s.rest_forces(pose).on_plate(&pose.position_m);
+        }
         let f = jt
             .lu()
             .solve(&rhs)
@@ -134,7 +143,8 @@ impl Simulator {
     /// `[uᵢᵀ, ((R pᵢ + p − C) × uᵢ)ᵀ]`) and the brake force `F = F_s − c G q̇⁺`, rapier's step
     /// `q̇⁺ = q̇ + h M⁻¹(Gᵀ F + Q)` gives `(M + h c GᵀG) q̇⁺ = M q̇ + h (Gᵀ F_s + Q)`, with `Q`
     /// gravity and the gyroscopic torque. With legs of mass `M` and `Q` gain the legs' reflected
-    /// inertia and their wrench without the actuators ([`crate::legs::reflect`] about `C`).
+    /// inertia and their wrench without the actuators ([`crate::legs::reflect`] about `C`);
+    /// with a suspension `Q` gains its units' wrench (explicit, at rapier's velocities).
     pub(super) fn implicit_brake_rates(&self, pose: &Pose, legs: &LegState) -> [f64; 6] {
         let spring = self.actuators.output(&legs.lengths_m, &[0.0; 6]);
         let c = self.actuators.config().brake_damping_n_s_m;
@@ -163,13 +173,18 @@ impl Simulator {
         let weight = p.mass_kg * GRAVITY_M_S2;
         let q = Vector6::new(weight.x, weight.y, weight.z, gyro.x, gyro.y, gyro.z);
         let h = self.substep_s;
-        let (mass, q) = match &self.legs_model {
+        let (mass, mut q) = match &self.legs_model {
             Some(model) => {
                 let (m_l, q_l) = self.legs_about_com(model, pose, legs, &com_b, &v_com, &omega);
                 (mass + m_l, q + q_l)
             }
             None => (mass, q),
         };
+        if self.suspension.is_some() {
+            if let Some(start) = self.sprung_start(&self.plate_raw_motion(pose)) {
+                q += start.forces.on_plate(&(pose.position_m + com_b));
+            }
+        }
         let a = mass + h * c * g.transpose() * g;
         let b = mass * qd + h * (g.transpose() * Vector6::from(spring) + q);
         match a.cholesky() {
