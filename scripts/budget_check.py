@@ -37,6 +37,14 @@ def rms(xs):
     return math.sqrt(sum(x * x for x in xs) / len(xs)) if xs else float("nan")
 
 
+def line_of(report, source):
+    """The budget's sigma of `source` in one run's report."""
+    for line in report["error_budget"]:
+        if line["source"] == source:
+            return line["sigma"]
+    sys.exit(f"no `{source}` line in the report's error_budget")
+
+
 def source_of(path, campaign):
     only = campaign.get("only")
     if only:
@@ -66,7 +74,7 @@ def main():
         print("|---|---|---|---|---|---|")
         for k, (name, get) in enumerate(PARAMS):
             errors = [get(r["estimate"]) - get(r["truth"]) for r in reports]
-            predicted = [get(r["error_budget"][source]) for r in reports]
+            predicted = [get(line_of(r, source)) for r in reports]
             measured, pred = rms(errors), rms(predicted)
             ratio = measured / pred if pred > 0 else float("inf")
             sigma = full_sigma[k] if full_sigma else float("nan")
