@@ -22,7 +22,10 @@ fn a_payload_on_its_suspension_is_flagged_and_a_rigid_one_passes() {
     assert!((0.8..=2.0).contains(&check.peak_hz), "{check:?}");
 
     let rigid = simulate_with(SHORT, |_, _| {});
-    let check = rigid.report.rigid_body.expect("a loaded run carries the check");
+    let check = rigid
+        .report
+        .rigid_body
+        .expect("a loaded run carries the check");
     assert!(check.ok, "{check:?}");
     assert!(check.residual_ratio < 1.0, "{check:?}");
 }
