@@ -530,8 +530,7 @@ mod tests {
         assert_eq!(l.force_min_n, -s.world.actuator.max_force_n);
     }
 
-    /// Regression test: the emulator prints a line when its watchdog trips or a session times
-    /// out.
+    /// The emulator prints a line when its watchdog trips or a session times out.
     #[test]
     fn watchdog_trips_and_timeouts_are_one_line_each_naming_the_session_and_cause() {
         let peer = rig::transport::Peer::Udp("127.0.0.1:5000".parse().unwrap());
@@ -560,8 +559,8 @@ mod tests {
         assert!(!trip.contains('\n') && !timeout.contains('\n'));
     }
 
-    /// Regression test: `emulate --watchdog-ms 0` is blamed on the flag, not on
-    /// `rig.watchdog_ms` at a line of the embedded configuration.
+    /// `emulate --watchdog-ms 0` is blamed on the flag, not on `rig.watchdog_ms` at a line of
+    /// the embedded configuration.
     #[test]
     fn a_bad_watchdog_flag_is_blamed_on_the_flag() {
         for (args, flag) in [

@@ -415,7 +415,7 @@ impl Backend for RigBackend {
                 // A host that was descheduled past the deadline has not looked at what arrived
                 // meanwhile: the rig's frames, and its fault report, may be waiting. Silence is
                 // declared only on an empty socket, so that the fault reported is the first
-                // that happened (regression: "link silent" reported over a waiting WATCHDOG).
+                // that happened (a waiting WATCHDOG, not "link silent").
                 match self.poll_waiting() {
                     Err(e) => return Err(self.fail(e)),
                     Ok(Some(sensor)) => break sensor,

@@ -165,8 +165,8 @@ fn connected_host_answering(answers: usize) -> (Scripted, RigBackend) {
     (link, host)
 }
 
-/// Regression test: a host stalled 100 ms with the rig's WATCHDOG fault already waiting in its
-/// socket reports that fault, the one that happened first, not "link silent".
+/// A host stalled 100 ms with the rig's WATCHDOG fault already waiting in its socket reports
+/// that fault, the one that happened first, not "link silent".
 #[test]
 fn a_stalled_host_reports_the_rigs_waiting_fault_not_silence() {
     let (link, mut host) = connected_host();
@@ -207,9 +207,9 @@ fn a_stalled_host_reports_the_rigs_waiting_fault_not_silence() {
     ));
 }
 
-/// Regression test (for the flaky a_session_runs_over_a_serial_line): a host that repeats its
-/// Hello while the rig's answer is on its way gets the same HelloAck twice; the second, after
-/// the handshake, counts as a duplicate, not as an unexpected frame.
+/// A host that repeats its Hello while the rig's answer is on its way gets the same HelloAck
+/// twice; the second, after the handshake, counts as a duplicate, not as an unexpected frame
+/// (which would fail a session over a slow serial line).
 #[test]
 fn a_repeated_hello_ack_after_the_handshake_is_a_duplicate() {
     let (link, mut host) = connected_host_answering(2);
@@ -419,8 +419,8 @@ fn forged_and_replayed_commands_from_a_spoofed_host_are_rejected() {
     );
 }
 
-/// Regression test: the emulator's watchdog tripping and a session timing out are each an event
-/// (which `stewart emulate` prints as one line) naming the session and cause.
+/// The emulator's watchdog tripping and a session timing out are each an event (which
+/// `stewart emulate` prints as one line) naming the session and cause.
 #[test]
 fn a_watchdog_trip_and_a_session_timeout_are_told() {
     let key = Key::from_hex(&"5a".repeat(32)).unwrap();
