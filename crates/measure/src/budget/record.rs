@@ -169,19 +169,15 @@ impl RunRecord {
         self.entries.push(self.open);
         self.open = Entry::default();
         if self.entries.len() >= self.capacity {
-            let merged: Vec<Entry> = self
-                .entries
-                .chunks(2)
-                .map(|c| {
-                    if c.len() == 2 {
-                        c[0].merge(&c[1])
-                    } else {
-                        c[0]
-                    }
-                })
-                .collect();
-            self.entries.clear();
-            self.entries.extend_from_slice(&merged);
+            // Pairwise in place: the per-sample loop never allocates.
+            let n = self.entries.len();
+            for i in 0..n.div_ceil(2) {
+                self.entries[i] = match self.entries.get(2 * i + 1) {
+                    Some(next) => self.entries[2 * i].merge(next),
+                    None => self.entries[2 * i],
+                };
+            }
+            self.entries.truncate(n.div_ceil(2));
             self.stride = self.stride.saturating_mul(2);
         }
     }
