@@ -104,21 +104,8 @@ impl Feed {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use kinematics::StrokeLimits;
 
-    fn geometry() -> Geometry {
-        Geometry::from_radii(
-            1.5,
-            1.2,
-            20f64.to_radians(),
-            20f64.to_radians(),
-            StrokeLimits {
-                min_length_m: 1.5,
-                max_length_m: 2.3,
-            },
-        )
-        .expect("reference design")
-    }
+    use crate::budget::testkit::geometry;
 
     fn frame_at(g: &Geometry, pose: &Pose) -> SensorFrame {
         let lengths = g.leg_lengths(pose);

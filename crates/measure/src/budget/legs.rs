@@ -140,17 +140,15 @@ mod tests {
     use crate::budget::fit::{Mode, Model};
     use crate::budget::testkit;
 
+    /// The default rig's legs (configs/default.toml) without joint friction.
     fn legs() -> LegsConfig {
         LegsConfig {
-            load_cell_end: LoadCellEnd::Plate,
-            cylinder_mass_kg: 28.0,
-            cylinder_com_from_base_m: 0.45,
-            cylinder_inertia_kg_m2: 2.8,
-            rod_mass_kg: 12.0,
-            rod_com_from_plate_m: 0.55,
-            rod_inertia_kg_m2: 1.0,
             joint_coulomb_torque_nm: 0.0,
             joint_viscous_nm_s_per_rad: 0.0,
+            ..crate::load::load(None)
+                .expect("the embedded default loads")
+                .config
+                .legs
         }
     }
 
