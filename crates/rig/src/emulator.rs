@@ -219,6 +219,8 @@ pub struct Emulator<B> {
     config: EmulatorConfig,
     period: Duration,
     session: Option<Session>,
+    /// The last command of a session that timed out, for [`Self::last_command`].
+    timed_out_command: Option<Command>,
     stats: EmulatorStats,
     rng: StdRng,
     delayed: VecDeque<(Instant, Peer, Vec<u8>)>,
@@ -301,6 +303,7 @@ where
             transport,
             period: Duration::from_secs_f64(period_s),
             session: None,
+            timed_out_command: None,
             stats: EmulatorStats::default(),
             rng: StdRng::seed_from_u64(config.seed),
             delayed: VecDeque::new(),
@@ -347,10 +350,14 @@ where
         }
     }
 
-    /// The newest command accepted from the current (or last) session's host, braking ones
-    /// included; `None` before the first.
+    /// The newest command accepted from the current session's host, or, when no session is
+    /// open (the last one timed out), from the last session's; braking ones included; `None`
+    /// before the first.
     pub fn last_command(&self) -> Option<Command> {
-        self.session.as_ref().and_then(|s| s.latest)
+        match &self.session {
+            Some(s) => s.latest,
+            None => self.timed_out_command,
+        }
     }
 
     /// The current session's host.
@@ -443,6 +450,7 @@ where
             let silent_for = now.saturating_duration_since(s.last_heard);
             if silent_for > self.config.session_timeout {
                 let (session, peer) = (s.number, s.peer);
+                self.timed_out_command = s.latest;
                 self.session = None;
                 self.event(EmulatorEvent::SessionTimedOut {
                     session,

@@ -420,7 +420,8 @@ fn forged_and_replayed_commands_from_a_spoofed_host_are_rejected() {
 }
 
 /// The emulator's watchdog tripping and a session timing out are each an event (which
-/// `stewart emulate` prints as one line) naming the session and cause.
+/// `stewart emulate` prints as one line) naming the session and cause; the timed-out session's
+/// last command stays known.
 #[test]
 fn a_watchdog_trip_and_a_session_timeout_are_told() {
     let key = Key::from_hex(&"5a".repeat(32)).unwrap();
@@ -449,7 +450,10 @@ fn a_watchdog_trip_and_a_session_timeout_are_told() {
         std::thread::sleep(Duration::from_millis(10));
     }
     let events = rig.events.lock().unwrap().clone();
-    rig.stop();
+    let emulator = rig.stop();
+    // The timed-out session's last command stays known (what the end-to-end tests check the
+    // host's last word with, however long after the session the emulator is stopped).
+    assert_eq!(emulator.last_command().map(|c| c.sequence), Some(1));
     match events[0] {
         EmulatorEvent::Fault {
             session,
