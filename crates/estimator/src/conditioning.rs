@@ -37,13 +37,23 @@
 
 use crate::error::EstimatorError;
 use crate::filter::{Biquad, LowPass};
+use crate::legs::PlateMotion;
 use crate::regressor::{rate_products, RegressorSignals};
 use crate::timebase::{TimeBase, Timing};
-use kinematics::Wrench;
-use nalgebra::{Matrix6, SVector, Vector3, Vector6};
+use kinematics::{Pose, Wrench};
+use nalgebra::{Matrix3, Matrix6, Rotation3, SVector, Vector3, Vector6};
+use stewart_types::GRAVITY_B_M_S2;
 
 /// Channels through the low-pass.
 const CHANNELS: usize = 18;
+
+/// Raw motion channels of a sample that carries its pose: position (3) and the rotation
+/// matrix's entries (9, column-major).
+const POSE_CHANNELS: usize = 12;
+
+/// Filtered motion channels: position (3), rotation (9), ω (3) and the position's derivative
+/// v (3).
+const MOTION_CHANNELS: usize = 18;
 
 /// Largest magnitude accepted for any conditioned channel (SI units). Far beyond any rig; it
 /// keeps every later product finite, so a finite but absurd sample is rejected up front.
@@ -81,6 +91,13 @@ pub struct Conditioned {
     /// ([`Conditioner::push_with_leg_map`]): a constant leg-force offset δf adds exactly
     /// `leg_map · δf` to `wrench`.
     pub leg_map: Option<Matrix6<f64>>,
+    /// The plate's motion through the same conditioning, when the samples carried their pose
+    /// ([`Conditioner::push_sequenced`]): pose, v (the position's derivative, on the stencil
+    /// as ω̇ is), ω, and from the conditioned signals ω̇ and a = R f_O + g. Entries pass the
+    /// low-pass one by one, so the rotation is orthonormal only to the filter's distortion of
+    /// the motion (far below 1e-4 for motion well inside the pass band); it feeds the legs'
+    /// model ([`crate::legs`]), a small correction, where that is negligible.
+    pub motion: Option<PlateMotion>,
 }
 
 /// What one pushed sample produced.
@@ -102,6 +119,26 @@ struct Raw {
     rest: SVector<f64, 15>,
     /// The leg-force → wrench map, column-major (zero when not given).
     leg_map: SVector<f64, 36>,
+    /// Position and rotation (zero when not given).
+    pose: SVector<f64, POSE_CHANNELS>,
+}
+
+impl Raw {
+    fn zero() -> Self {
+        Self {
+            omega: Vector3::zeros(),
+            rest: SVector::zeros(),
+            leg_map: SVector::zeros(),
+            pose: SVector::zeros(),
+        }
+    }
+}
+
+/// Which optional channels a stream carries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Carried {
+    leg_map: bool,
+    pose: bool,
 }
 
 /// Samples in the interpolation stencil.
@@ -121,6 +158,8 @@ pub struct Conditioner {
     filter: LowPass<CHANNELS>,
     /// The same low-pass for the 36 entries of the leg-force → wrench map.
     map_filter: LowPass<36>,
+    /// The same low-pass for the motion channels.
+    motion_filter: LowPass<MOTION_CHANNELS>,
     /// The last samples, oldest first; `held` of them are valid.
     history: [Raw; STENCIL],
     held: usize,
@@ -229,16 +268,12 @@ impl Conditioner {
             Some(fc) => Biquad::butterworth(fc, t)?,
             None => Biquad::identity(),
         };
-        let empty = Raw {
-            omega: Vector3::zeros(),
-            rest: SVector::zeros(),
-            leg_map: SVector::zeros(),
-        };
         Ok(Self {
             config,
             filter: LowPass::new(biquad),
             map_filter: LowPass::new(biquad),
-            history: [empty; STENCIL],
+            motion_filter: LowPass::new(biquad),
+            history: [Raw::zero(); STENCIL],
             held: 0,
             primed: false,
             warming: 0,
@@ -346,7 +381,7 @@ impl Conditioner {
         accel_m_s2: &Vector3<f64>,
         wrench: &Wrench,
     ) -> Result<Step, EstimatorError> {
-        self.push_sequenced(time_s, None, gyro_rad_s, accel_m_s2, wrench, None)
+        self.push_sequenced(time_s, None, gyro_rad_s, accel_m_s2, wrench, None, None)
     }
 
     /// [`Self::push`] with the sample's leg-force → wrench map (column i: the wrench of a unit
@@ -360,12 +395,24 @@ impl Conditioner {
         wrench: &Wrench,
         leg_map: &Matrix6<f64>,
     ) -> Result<Step, EstimatorError> {
-        self.push_sequenced(time_s, None, gyro_rad_s, accel_m_s2, wrench, Some(leg_map))
+        self.push_sequenced(
+            time_s,
+            None,
+            gyro_rad_s,
+            accel_m_s2,
+            wrench,
+            Some(leg_map),
+            None,
+        )
     }
 
     /// [`Self::push`] or [`Self::push_with_leg_map`] with the frame's sequence counter, when
     /// it carries one: the counter then places the sample on the grid, so that a late frame
-    /// keeps its place and a gap in the counter is a lost frame ([`crate::timebase`]).
+    /// keeps its place and a gap in the counter is a lost frame ([`crate::timebase`]); and
+    /// with the plate's pose, when given, conditioned alike into [`Conditioned::motion`]. A
+    /// stream should carry the leg map and the pose on every sample or on none.
+    // One argument per input channel; a struct would only rename them.
+    #[allow(clippy::too_many_arguments)]
     pub fn push_sequenced(
         &mut self,
         time_s: f64,
@@ -374,6 +421,7 @@ impl Conditioner {
         accel_m_s2: &Vector3<f64>,
         wrench: &Wrench,
         leg_map: Option<&Matrix6<f64>>,
+        pose: Option<&Pose>,
     ) -> Result<Step, EstimatorError> {
         if !time_s.is_finite() {
             return Err(EstimatorError::NonFiniteSample("time"));
@@ -405,20 +453,36 @@ impl Conditioner {
         if !all_bounded(&map) {
             return Err(EstimatorError::Overflow("leg map"));
         }
+        let mut pose_channels = SVector::<f64, POSE_CHANNELS>::zeros();
+        if let Some(p) = pose {
+            pose_channels
+                .fixed_rows_mut::<3>(0)
+                .copy_from(&p.position_m);
+            for (k, v) in p.rotation.matrix().iter().enumerate() {
+                pose_channels[3 + k] = *v;
+            }
+            if !all_bounded(&pose_channels) {
+                return Err(EstimatorError::NonFiniteSample("pose"));
+            }
+        }
         let raw = Raw {
             omega: *gyro_rad_s,
             rest,
             leg_map: map,
+            pose: pose_channels,
         };
 
         let place = self
             .time
             .place(time_s, sequence)
             .ok_or(EstimatorError::TimeNotIncreasing)?;
-        let with_map = leg_map.is_some();
+        let with = Carried {
+            leg_map: leg_map.is_some(),
+            pose: pose.is_some(),
+        };
         let missing = place.step.saturating_sub(1);
         let step = if missing == 0 || self.held == 0 {
-            self.advance(raw, with_map)?
+            self.advance(raw, with)?
         } else {
             // Work on a copy: a sample rejected halfway through a bridge changes nothing.
             let mut next = *self;
@@ -427,9 +491,9 @@ impl Conditioner {
                 next.restarts += 1;
                 next.restart();
             } else {
-                next.bridge(&raw, missing, with_map)?;
+                next.bridge(&raw, missing, with)?;
             }
-            let step = next.advance(raw, with_map)?;
+            let step = next.advance(raw, with)?;
             *self = next;
             step
         };
@@ -442,7 +506,7 @@ impl Conditioner {
     /// Fills the `missing` grid steps before `raw` by Lagrange interpolation through the last
     /// [`FILL_POINTS_BEFORE`] samples held and `raw` (see the [module docs](self)), and runs
     /// each through both stages, its output discarded.
-    fn bridge(&mut self, raw: &Raw, missing: u64, with_map: bool) -> Result<(), EstimatorError> {
+    fn bridge(&mut self, raw: &Raw, missing: u64, with: Carried) -> Result<(), EstimatorError> {
         let m = self.held.min(FILL_POINTS_BEFORE);
         let mut xs = [0.0; STENCIL];
         let mut points = [*raw; STENCIL];
@@ -455,19 +519,18 @@ impl Conditioner {
         points[m] = *raw;
         for j in 1..=missing {
             let w = lagrange_weights(&xs, m + 1, j as f64);
-            let mut fill = Raw {
-                omega: Vector3::zeros(),
-                rest: SVector::zeros(),
-                leg_map: SVector::zeros(),
-            };
+            let mut fill = Raw::zero();
             for k in 0..=m {
                 fill.omega += points[k].omega * w[k];
                 fill.rest += points[k].rest * w[k];
-                if with_map {
+                if with.leg_map {
                     fill.leg_map += points[k].leg_map * w[k];
                 }
+                if with.pose {
+                    fill.pose += points[k].pose * w[k];
+                }
             }
-            self.advance(fill, with_map)?;
+            self.advance(fill, with)?;
             self.bridged += 1;
         }
         self.bridged_gaps += 1;
@@ -475,7 +538,7 @@ impl Conditioner {
     }
 
     /// One grid step of both stages; on an error nothing has changed.
-    fn advance(&mut self, raw: Raw, with_map: bool) -> Result<Step, EstimatorError> {
+    fn advance(&mut self, raw: Raw, with: Carried) -> Result<Step, EstimatorError> {
         if self.held + 1 < STENCIL {
             self.hold(raw);
             return Ok(Step::Started);
@@ -488,11 +551,20 @@ impl Conditioner {
         let mut omega_dot = Vector3::zeros();
         let mut rest_mid = SVector::<f64, 15>::zeros();
         let mut map_mid = SVector::<f64, 36>::zeros();
+        let mut motion_mid = SVector::<f64, MOTION_CHANNELS>::zeros();
         for k in 0..STENCIL {
             omega_dot += window[k].omega * slope[k];
             rest_mid += window[k].rest * value[k];
-            if with_map {
+            if with.leg_map {
                 map_mid += window[k].leg_map * value[k];
+            }
+            if with.pose {
+                let mut m = motion_mid.fixed_rows_mut::<POSE_CHANNELS>(0);
+                m += window[k].pose * value[k];
+                let mut w = motion_mid.fixed_rows_mut::<3>(POSE_CHANNELS);
+                w += window[k].omega * value[k];
+                let mut v = motion_mid.fixed_rows_mut::<3>(POSE_CHANNELS + 3);
+                v += window[k].pose.fixed_rows::<3>(0) * slope[k];
             }
         }
         let mut x = SVector::<f64, CHANNELS>::zeros();
@@ -505,17 +577,19 @@ impl Conditioner {
         if !self.primed {
             self.filter.reset_to(&x);
             self.map_filter.reset_to(&map_mid);
+            self.motion_filter.reset_to(&motion_mid);
             self.primed = true;
             self.warming = self.warmup;
         }
         let y = self.filter.step(&x);
-        let map_y = if with_map {
+        let map_y = if with.leg_map {
             Some(Matrix6::from_iterator(
                 self.map_filter.step(&map_mid).iter().copied(),
             ))
         } else {
             None
         };
+        let motion_y = with.pose.then(|| self.motion_filter.step(&motion_mid));
         self.hold(raw);
         if self.warming > 0 {
             self.warming -= 1;
@@ -534,6 +608,7 @@ impl Conditioner {
         let r = self.config.accelerometer_position_m;
         signals.specific_force_m_s2 -=
             signals.angular_acceleration_rad_s2.cross(&r) + signals.centripetal(&r);
+        let motion = motion_y.map(|m| plate_motion(&m, &signals));
         Ok(Step::Ready(Conditioned {
             signals,
             wrench: Wrench {
@@ -541,7 +616,26 @@ impl Conditioner {
                 torque_nm: y.fixed_rows::<3>(15).into_owned(),
             },
             leg_map: map_y,
+            motion,
         }))
+    }
+}
+
+/// The plate's motion from the filtered motion channels and the conditioned signals:
+/// a = R f_O + g, f_O the specific force at the P origin.
+fn plate_motion(m: &SVector<f64, MOTION_CHANNELS>, signals: &RegressorSignals) -> PlateMotion {
+    let rotation = Rotation3::from_matrix_unchecked(Matrix3::from_iterator(
+        m.fixed_rows::<9>(3).iter().copied(),
+    ));
+    PlateMotion {
+        pose: Pose {
+            position_m: m.fixed_rows::<3>(0).into_owned(),
+            rotation,
+        },
+        velocity_m_s: m.fixed_rows::<3>(POSE_CHANNELS + 3).into_owned(),
+        acceleration_m_s2: rotation * signals.specific_force_m_s2 + GRAVITY_B_M_S2,
+        angular_velocity_rad_s: m.fixed_rows::<3>(POSE_CHANNELS).into_owned(),
+        angular_acceleration_rad_s2: signals.angular_acceleration_rad_s2,
     }
 }
 
@@ -710,7 +804,7 @@ mod tests {
             }
             let t = k as f64 * 1e-3;
             let step = c
-                .push_sequenced(t, Some(k), &g, &g, &Wrench::default(), None)
+                .push_sequenced(t, Some(k), &g, &g, &Wrench::default(), None, None)
                 .unwrap();
             if let Step::Ready(out) = step {
                 if k > 1000 {

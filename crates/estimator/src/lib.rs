@@ -3,7 +3,8 @@
 //!
 //! Data flow of one sample (`OnlineEstimator::update`):
 //! leg forces + pose → [`wrench::measured`] → with the gyro and accelerometer →
-//! [`conditioning`] (filtered derivative, one low-pass for everything, lever arm) →
+//! [`conditioning`] (filtered derivative, one low-pass for everything, lever arm) → plus what
+//! the cells do not see of the legs' mass and the joints' friction ([`legs`], when described) →
 //! [`regressor`] (Newton–Euler about the P origin, linear in θ) → rows weighted by their noise →
 //! [`rls`] (U-D factorised recursive least squares) → [`uncertainty`] (block-sandwich
 //! covariance, propagated to c and J_C) → [`Estimate`].
@@ -23,6 +24,7 @@ pub mod conditioning;
 mod error;
 mod estimate;
 mod filter;
+pub mod legs;
 mod online;
 pub mod regressor;
 pub mod rls;
@@ -38,6 +40,7 @@ mod tests;
 pub use conditioning::{Conditioner, ConditioningConfig};
 pub use error::{ErrorKind, EstimatorError};
 pub use estimate::{ConvergenceTolerances, Counts, Estimate, ParameterCovariance};
+pub use legs::{CellEnd, LegModel};
 pub use online::{EstimatorConfig, OnlineEstimator, Outcome, ParameterSet, Sample};
 pub use rls::Rls;
 /// The inertial parameters and their θ layout, defined once in `stewart-types`.

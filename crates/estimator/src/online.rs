@@ -4,6 +4,7 @@
 use crate::conditioning::{Conditioned, Conditioner, ConditioningConfig, Step, MAX_ABS_SIGNAL};
 use crate::error::EstimatorError;
 use crate::estimate::{Counts, Estimate, ParameterCovariance};
+use crate::legs::{unseen, LegModel};
 use crate::regressor::{from_signals, inertia_columns, RegressorSignals};
 use crate::rls::Rls;
 use crate::timebase::Timing;
@@ -11,7 +12,7 @@ use crate::uncertainty::ScoreCovariance;
 use crate::wrench::{measured, to_vector};
 use kinematics::{Geometry, Pose, Wrench};
 use nalgebra::{Matrix6, SMatrix, SVector, Vector3, Vector6};
-use stewart_types::{InertialParameters, ParameterVector};
+use stewart_types::{InertialParameters, ParameterVector, GRAVITY_B_M_S2};
 
 /// Which parameters are estimated.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,6 +80,12 @@ pub struct EstimatorConfig {
     /// noise (which grow with f_c and matter most for slow motion), and a run needs some tens
     /// of them for a steady sigma.
     pub covariance_block_samples: u32,
+    /// The legs' mass properties and the joints' friction, when known: each conditioned
+    /// sample's wrench then gains what the load cells do not see of them ([`crate::legs`]),
+    /// from the plate's conditioned motion. `None`: the cells' wrench is taken as the whole
+    /// wrench on the plate (massless, frictionless legs). Samples without a pose
+    /// ([`OnlineEstimator::update_with_wrench`]) are not compensated.
+    pub legs: Option<LegModel>,
 }
 
 impl EstimatorConfig {
@@ -117,6 +124,7 @@ impl EstimatorConfig {
             accel_noise_m_s2: 0.0,
             leg_force_offsets: false,
             covariance_block_samples: block,
+            legs: None,
         }
     }
 }
@@ -427,6 +435,11 @@ impl OnlineEstimator {
                 "window_start_s must be before window_end_s",
             ));
         }
+        if !config.legs.is_none_or(|l| l.is_valid()) {
+            return Err(EstimatorError::InvalidConfig(
+                "every leg figure must be finite and not negative",
+            ));
+        }
         if config.covariance_block_samples == 0 {
             return Err(EstimatorError::InvalidConfig(
                 "covariance_block_samples must be at least 1",
@@ -602,6 +615,7 @@ impl OnlineEstimator {
             &sample.gyro_rad_s,
             &sample.accel_m_s2,
             map.as_ref(),
+            self.config.legs.is_some().then_some(&sample.pose),
         )
     }
 
@@ -614,7 +628,7 @@ impl OnlineEstimator {
         gyro_rad_s: &Vector3<f64>,
         accel_m_s2: &Vector3<f64>,
     ) -> Result<Outcome, EstimatorError> {
-        self.update_inner(time_s, None, wrench, gyro_rad_s, accel_m_s2, None)
+        self.update_inner(time_s, None, wrench, gyro_rad_s, accel_m_s2, None, None)
     }
 
     // One argument per input of the conditioning; a struct would only rename them.
@@ -627,25 +641,31 @@ impl OnlineEstimator {
         gyro_rad_s: &Vector3<f64>,
         accel_m_s2: &Vector3<f64>,
         leg_map: Option<&Matrix6<f64>>,
+        pose: Option<&Pose>,
     ) -> Result<Outcome, EstimatorError> {
         if time_s > self.config.window_end_s {
             self.counts.after_window += 1;
             return Ok(Outcome::AfterWindow);
         }
-        let pushed = self
-            .conditioner
-            .push_sequenced(time_s, sequence, gyro_rad_s, accel_m_s2, wrench, leg_map);
+        let pushed = self.conditioner.push_sequenced(
+            time_s, sequence, gyro_rad_s, accel_m_s2, wrench, leg_map, pose,
+        );
         let step = match pushed {
             Ok(s) => s,
             Err(e) => return self.reject(e),
         };
-        let c = match step {
+        let mut c = match step {
             Step::Ready(c) if time_s >= self.config.window_start_s => c,
             _ => {
                 self.counts.conditioning += 1;
                 return Ok(Outcome::Conditioning);
             }
         };
+        if let (Some(legs), Some(motion)) = (&self.config.legs, &c.motion) {
+            let u = unseen(&self.config.geometry, legs, motion, &GRAVITY_B_M_S2).total();
+            c.wrench.force_n += u.force_n;
+            c.wrench.torque_nm += u.torque_nm;
+        }
         if let Err(e) = self.solve(&c) {
             return self.reject(e);
         }

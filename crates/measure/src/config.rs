@@ -87,6 +87,66 @@ pub struct LegsConfig {
     pub joint_coulomb_torque_nm: f64,
     /// Viscous friction of each joint, N·m per rad/s of relative rotation.
     pub joint_viscous_nm_s_per_rad: f64,
+    /// How far the built legs' masses may lie from these figures, one relative standard
+    /// deviation (the same for cylinder and rod, all legs alike).
+    pub mass_tolerance: f64,
+    /// How far their centres of mass may lie from these figures, one standard deviation, m.
+    pub com_tolerance_m: f64,
+    /// How far their transverse inertias may lie from these figures, one relative standard
+    /// deviation.
+    pub inertia_tolerance: f64,
+    /// How far the joints' friction (Coulomb and viscous alike) may lie from these figures, one
+    /// relative standard deviation.
+    pub friction_tolerance: f64,
+}
+
+impl LegsConfig {
+    /// The estimator's model of these legs ([`estimator::legs`]).
+    pub fn model(&self) -> estimator::LegModel {
+        estimator::LegModel {
+            cell_end: match self.load_cell_end {
+                LoadCellEnd::Plate => estimator::CellEnd::Plate,
+                LoadCellEnd::Base => estimator::CellEnd::Base,
+            },
+            cylinder_mass_kg: self.cylinder_mass_kg,
+            cylinder_com_from_base_m: self.cylinder_com_from_base_m,
+            cylinder_inertia_kg_m2: self.cylinder_inertia_kg_m2,
+            rod_mass_kg: self.rod_mass_kg,
+            rod_com_from_plate_m: self.rod_com_from_plate_m,
+            rod_inertia_kg_m2: self.rod_inertia_kg_m2,
+            joint_coulomb_torque_nm: self.joint_coulomb_torque_nm,
+            joint_viscous_nm_s_per_rad: self.joint_viscous_nm_s_per_rad,
+        }
+    }
+
+    /// The figures of an estimator's leg model (tolerances zero): [`Self::model`]'s inverse.
+    pub fn from_model(m: &estimator::LegModel) -> Self {
+        Self {
+            load_cell_end: match m.cell_end {
+                estimator::CellEnd::Plate => LoadCellEnd::Plate,
+                estimator::CellEnd::Base => LoadCellEnd::Base,
+            },
+            cylinder_mass_kg: m.cylinder_mass_kg,
+            cylinder_com_from_base_m: m.cylinder_com_from_base_m,
+            cylinder_inertia_kg_m2: m.cylinder_inertia_kg_m2,
+            rod_mass_kg: m.rod_mass_kg,
+            rod_com_from_plate_m: m.rod_com_from_plate_m,
+            rod_inertia_kg_m2: m.rod_inertia_kg_m2,
+            joint_coulomb_torque_nm: m.joint_coulomb_torque_nm,
+            joint_viscous_nm_s_per_rad: m.joint_viscous_nm_s_per_rad,
+            ..Self::default()
+        }
+    }
+
+    /// True when the legs have mass or the joints friction: something for the cells to miss.
+    pub fn matter(&self) -> bool {
+        self.cylinder_mass_kg > 0.0
+            || self.rod_mass_kg > 0.0
+            || self.cylinder_inertia_kg_m2 > 0.0
+            || self.rod_inertia_kg_m2 > 0.0
+            || self.joint_coulomb_torque_nm > 0.0
+            || self.joint_viscous_nm_s_per_rad > 0.0
+    }
 }
 
 impl Default for LegsConfig {
@@ -102,6 +162,10 @@ impl Default for LegsConfig {
             rod_inertia_kg_m2: 0.0,
             joint_coulomb_torque_nm: 0.0,
             joint_viscous_nm_s_per_rad: 0.0,
+            mass_tolerance: 0.0,
+            com_tolerance_m: 0.0,
+            inertia_tolerance: 0.0,
+            friction_tolerance: 0.0,
         }
     }
 }
@@ -511,6 +575,15 @@ pub struct EstimatorSection {
     /// Known fixture centre of mass in P for `params = 6`, m.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub known_fixture_com_m: Option<[f64; 3]>,
+    /// Add what the load cells do not see of the legs' mass and the joints' friction
+    /// (`[legs]`) to the measured wrench ([`estimator::legs`]); the error budget then counts
+    /// the `[legs]` tolerances instead of the legs' whole effect.
+    #[serde(default = "default_true")]
+    pub compensate_legs: bool,
+}
+
+fn default_true() -> bool {
+    true
 }
 
 /// The run's phases.

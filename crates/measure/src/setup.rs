@@ -350,6 +350,7 @@ pub fn estimator_config(
     c.leg_force_offsets = load_cell_bias_sigma(config) > 0.0;
     c.window_start_s = window_start_s;
     c.window_end_s = window_end_s;
+    c.legs = (est.compensate_legs && config.legs.matter()).then(|| config.legs.model());
     if est.params == ParamCount::Six {
         let fm = est.known_fixture_mass_kg.unwrap_or(0.0);
         let fc = Vector3::from(est.known_fixture_com_m.unwrap_or_default());

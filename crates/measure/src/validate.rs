@@ -504,6 +504,10 @@ fn legs(p: &mut Problems, l: &crate::config::LegsConfig) {
         "legs.joint_viscous_nm_s_per_rad",
         l.joint_viscous_nm_s_per_rad,
     );
+    p.non_negative("legs.mass_tolerance", l.mass_tolerance);
+    p.non_negative("legs.com_tolerance_m", l.com_tolerance_m);
+    p.non_negative("legs.inertia_tolerance", l.inertia_tolerance);
+    p.non_negative("legs.friction_tolerance", l.friction_tolerance);
 }
 
 /// The tare run's own excitation passes the same checks as the loaded run's, said of its keys.

@@ -145,6 +145,9 @@ pub struct EstimatorSettings {
     pub fk_max_jump_m: f64,
     /// Forward kinematics: largest accepted rotation from the warm start, rad.
     pub fk_max_jump_rad: f64,
+    /// The legs the estimator compensated (`[legs]` figures; `null`: none).
+    #[serde(default)]
+    pub legs: Option<measure::config::LegsConfig>,
 }
 
 impl EstimatorSettings {
@@ -202,6 +205,7 @@ impl EstimatorSettings {
                     "fk_max_jump_rad",
                     num("largest accepted FK rotation from the warm start, rad"),
                 ),
+                ("legs", nullable(legs_schema())),
             ],
             "Estimator settings of one measurement: enough to re-run it from /sensors",
         )
@@ -243,6 +247,7 @@ impl EstimatorSettings {
             fk_max_iterations: fk.max_iterations,
             fk_max_jump_m: fk.max_jump_m,
             fk_max_jump_rad: fk.max_jump_rad,
+            legs: c.legs.as_ref().map(measure::config::LegsConfig::from_model),
         }
     }
 
@@ -274,6 +279,7 @@ impl EstimatorSettings {
         c.covariance_block_samples = self.covariance_block_samples;
         c.gyro_noise_rad_s = self.gyro_noise_rad_s;
         c.accel_noise_m_s2 = self.accel_noise_m_s2;
+        c.legs = self.legs.as_ref().map(|l| l.model());
         let fk = kinematics::FkOptions {
             tolerance_m: self.fk_tolerance_m,
             max_iterations: self.fk_max_iterations,
@@ -282,6 +288,34 @@ impl EstimatorSettings {
         };
         Ok((c, fk))
     }
+}
+
+/// The `[legs]` table as the log carries it.
+fn legs_schema() -> Schema {
+    object(
+        vec![
+            ("load_cell_end", string("plate or base")),
+            ("cylinder_mass_kg", num("kg")),
+            ("cylinder_com_from_base_m", num("m")),
+            (
+                "cylinder_inertia_kg_m2",
+                num("transverse, about its centre of mass, kg m^2"),
+            ),
+            ("rod_mass_kg", num("kg")),
+            ("rod_com_from_plate_m", num("m")),
+            (
+                "rod_inertia_kg_m2",
+                num("transverse, about its centre of mass, kg m^2"),
+            ),
+            ("joint_coulomb_torque_nm", num("N m")),
+            ("joint_viscous_nm_s_per_rad", num("N m s/rad")),
+            ("mass_tolerance", num("relative, one sigma")),
+            ("com_tolerance_m", num("m, one sigma")),
+            ("inertia_tolerance", num("relative, one sigma")),
+            ("friction_tolerance", num("relative, one sigma")),
+        ],
+        "The legs the estimator compensated (rig description's [legs])",
+    )
 }
 
 /// A body's true properties, both ways.

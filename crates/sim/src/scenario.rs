@@ -102,6 +102,11 @@ impl Scenario {
         loaded.config.sensors = loaded.config.sensors.scaled(noise.scale());
         // The grade is the whole rig's: the joints' tolerance follows the sensors'.
         loaded.config.platform.joint_position_tolerance_m *= noise.scale();
+        let legs = &mut loaded.config.legs;
+        legs.mass_tolerance *= noise.scale();
+        legs.com_tolerance_m *= noise.scale();
+        legs.inertia_tolerance *= noise.scale();
+        legs.friction_tolerance *= noise.scale();
         let problems = validate(&world, loaded.config.sensors.sample_rate_hz);
         if !problems.is_empty() {
             return Err(ConfigError {
@@ -174,18 +179,7 @@ impl Scenario {
                 frame_loss: on(ErrorSource::FrameLoss, s.timing.frame_loss),
             },
         };
-        let imperfections = &self.world.imperfections;
-        let mut legs = self.loaded.config.legs;
-        if !imperfections.leg_dynamics {
-            legs.cylinder_mass_kg = 0.0;
-            legs.cylinder_inertia_kg_m2 = 0.0;
-            legs.rod_mass_kg = 0.0;
-            legs.rod_inertia_kg_m2 = 0.0;
-        }
-        if !imperfections.joint_friction {
-            legs.joint_coulomb_torque_nm = 0.0;
-            legs.joint_viscous_nm_s_per_rad = 0.0;
-        }
+        let legs = self.built_legs();
         crate::SimConfig {
             sample_rate_hz: s.sample_rate_hz,
             substeps: self.world.physics_substeps,
@@ -195,6 +189,47 @@ impl Scenario {
             suspension: self.world.suspension,
             ..crate::SimConfig::default()
         }
+    }
+
+    /// The legs as built from the rig description's `[legs]`. The estimator compensates the
+    /// described legs, so what it cannot know is how far the built ones differ: with the
+    /// `leg_dynamics` source on, each mass and inertia is scaled by 1 + N(0, σ²) (σ the
+    /// `mass_tolerance`, `inertia_tolerance`) and each centre of mass moved by N(0, σ²)
+    /// (`com_tolerance_m`), all six legs alike (one drawing), drawn from the seed's
+    /// `leg_dynamics` stream in the order cylinder mass, centre, inertia, rod mass, centre,
+    /// inertia; with `joint_friction` on, the Coulomb and viscous figures are scaled alike
+    /// from the `joint_friction` stream (`friction_tolerance`). A source off leaves its figures
+    /// as described. Figures stay non-negative.
+    pub fn built_legs(&self) -> measure::config::LegsConfig {
+        use crate::streams::{normal, stream};
+        let described = self.loaded.config.legs;
+        let mut legs = described;
+        let seed = self.world.seed;
+        let imperfections = &self.world.imperfections;
+        if imperfections.leg_dynamics {
+            let mut rng = stream(seed, ErrorSource::LegDynamics);
+            let mut scaled = |x: f64, tol: f64| (x * (1.0 + normal(&mut rng, tol))).max(0.0);
+            legs.cylinder_mass_kg = scaled(described.cylinder_mass_kg, described.mass_tolerance);
+            let d = scaled(1.0, described.com_tolerance_m) - 1.0;
+            legs.cylinder_com_from_base_m = (described.cylinder_com_from_base_m + d).max(0.0);
+            legs.cylinder_inertia_kg_m2 = scaled(
+                described.cylinder_inertia_kg_m2,
+                described.inertia_tolerance,
+            );
+            legs.rod_mass_kg = scaled(described.rod_mass_kg, described.mass_tolerance);
+            let d = scaled(1.0, described.com_tolerance_m) - 1.0;
+            legs.rod_com_from_plate_m = (described.rod_com_from_plate_m + d).max(0.0);
+            legs.rod_inertia_kg_m2 =
+                scaled(described.rod_inertia_kg_m2, described.inertia_tolerance);
+        }
+        if imperfections.joint_friction {
+            let mut rng = stream(seed, ErrorSource::JointFriction);
+            let k = (1.0 + normal(&mut rng, described.friction_tolerance)).max(0.0);
+            legs.joint_coulomb_torque_nm = described.joint_coulomb_torque_nm * k;
+            let k = (1.0 + normal(&mut rng, described.friction_tolerance)).max(0.0);
+            legs.joint_viscous_nm_s_per_rad = described.joint_viscous_nm_s_per_rad * k;
+        }
+        legs
     }
 
     /// The rig as built from the `described` geometry: with the `geometry` source on, each of

@@ -1,49 +1,26 @@
-//! The legs' own model, from the rig description's `[legs]` table alone: what the estimator
-//! does not compensate of the legs' mass and of the joints' friction.
+//! The legs' effects on a run's record, from the rig description's `[legs]` table and the
+//! estimator's own model of what the load cells do not see ([`estimator::legs`]): the plate's
+//! motion at each interior entry of the record (the pose, v and a by zero-phase derivatives of
+//! the mean position, ω the mean gyro rate, ω̇ its derivative) through that model.
 //!
-//! Each leg i runs from its base joint bᵢ (B) to its plate joint qᵢ = p + R pᵢ along the unit
-//! vector u, length L. It is two slender bodies turning together with the leg's angular
-//! velocity ω_l = u × u̇ (ω̇_l = u × ü; no spin about the axis): a cylinder of mass m₁,
-//! transverse inertia I₁, centre of mass at bᵢ + c₁u (acceleration c₁ü), and a rod of mass m₂,
-//! I₂, centre of mass at qᵢ − c₂u (acceleration q̈ᵢ − c₂ü). With F the force the leg applies
-//! to the plate at qᵢ, the leg's moment balance about the fixed base joint gives
-//!
-//! ```text
-//! L u × F = M = Σₖ (rₖ − bᵢ) × mₖ (g − aₖ) − (I₁ + I₂) ω̇_l + τ_b + τ_r
-//! ```
-//! so the force across the leg is F⊥ = (M⊥ / L) × u (M⊥: M without its axial part, which the
-//! universal joint carries). τ_b = −T(ω_l) is the base joint's friction on the cylinder and
-//! τ_r = −T(ω_l − ω_p) the plate joint's on the rod (ω_p the plate's rate in B), with
-//! T(w) = τ_c w/√(|w|² + ε²) + c_v w (Coulomb smoothed below ε = 1 mrad/s, and viscous), the
-//! signs from the recorded motion. The plate joint also passes +T(ω_l − ω_p) straight to the
-//! plate.
-//!
-//! The estimator takes the load cell's reading as the whole leg force, along u:
-//! - cell at the **plate** end: it reads F·u; unseen are F⊥ and the plate joint's torque;
-//! - cell at the **base** end: it reads the base joint's axial force F_b·u with
-//!   F = F_b + Σₖ mₖ (g − aₖ) (the leg's Newton equation), so the axial Σₖ mₖ (g − aₖ)·u is
-//!   unseen too.
-//!
-//! The transverse force through the cell (for its crosstalk) is F⊥ at the plate end and
-//! (F − Σₖ mₖ (g − aₖ))⊥ at the base end, in the cell's directions e₁ = u × z / |u × z| and
-//! e₂ = u × e₁.
+//! When the estimator compensates the legs ([`estimator::EstimatorConfig::legs`]), the record
+//! gains the same compensation, and what remains unknown is how far the built legs differ from
+//! the description: each `[legs]` figure moved by its tolerance ([`tolerance`], [`moved`]).
+//! Otherwise the legs' whole effect is the error.
 
-use kinematics::Geometry;
+use estimator::legs::{unseen, PlateMotion};
 use nalgebra::{Vector3, Vector6};
 use stewart_types::GRAVITY_B_M_S2;
 
 use super::fit::Data;
 use super::util::{d1, d2};
-use crate::config::{LegsConfig, LoadCellEnd};
+use crate::config::LegsConfig;
 
-/// Smoothing rate of the Coulomb friction's sign, rad/s.
-const COULOMB_EPS_RAD_S: f64 = 1e-3;
-
-/// The legs' unmodelled effects at each entry of a record (zero outside the interior).
+/// The legs' effects at each entry of a record (zero outside the interior).
 #[derive(Clone, Debug, Default)]
 pub struct LegEffects {
-    /// Wrench on the plate (P axes, about the P origin) the estimator misses from the legs'
-    /// mass and inertia.
+    /// Wrench on the plate (P axes, about the P origin) the cells miss from the legs' mass and
+    /// inertia.
     pub dynamics: Vec<Vector6<f64>>,
     /// The same from the joints' friction.
     pub friction: Vec<Vector6<f64>>,
@@ -51,87 +28,87 @@ pub struct LegEffects {
     pub transverse: Vec<[[f64; 2]; 6]>,
 }
 
-fn friction(c: &LegsConfig, w: &Vector3<f64>) -> Vector3<f64> {
-    let n = (w.norm_squared() + COULOMB_EPS_RAD_S * COULOMB_EPS_RAD_S).sqrt();
-    w * (c.joint_coulomb_torque_nm / n) + w * c.joint_viscous_nm_s_per_rad
+/// The plate's motion at the interior entries `idx` of `data` (step `h`); `None` elsewhere.
+pub fn motions(data: &Data, idx: &[usize], h: f64) -> Vec<Option<PlateMotion>> {
+    let mut out = vec![None; data.entries.len()];
+    let positions: Vec<Vector3<f64>> = data.poses.iter().map(|p| p.position_m).collect();
+    let gyro = data.gyro();
+    for &i in idx {
+        out[i] = Some(PlateMotion {
+            pose: data.poses[i],
+            velocity_m_s: d1(&positions, i, h),
+            acceleration_m_s2: d2(&positions, i, h),
+            angular_velocity_rad_s: gyro[i],
+            angular_acceleration_rad_s2: d1(&gyro, i, h),
+        });
+    }
+    out
 }
 
-/// The cell's transverse directions for leg direction `u` (B).
-pub fn transverse_axes(u: &Vector3<f64>) -> [Vector3<f64>; 2] {
-    let z = Vector3::z();
-    let e1 = u.cross(&z);
-    let e1 = if e1.norm() > 1e-6 {
-        e1.normalize()
-    } else {
-        u.cross(&Vector3::x()).normalize()
-    };
-    [e1, u.cross(&e1)]
-}
-
-/// The legs' effects on `data` at its interior entries `idx` (step `h`), from `legs`.
-pub fn effects(data: &Data, idx: &[usize], h: f64, legs: &LegsConfig) -> LegEffects {
-    let n = data.entries.len();
-    let g: &Geometry = &data.model.geometry;
+/// The effects of `legs` along `motions` on the record's rig.
+pub fn effects(data: &Data, motions: &[Option<PlateMotion>], legs: &LegsConfig) -> LegEffects {
+    let n = motions.len();
     let mut out = LegEffects {
         dynamics: vec![Vector6::zeros(); n],
         friction: vec![Vector6::zeros(); n],
         transverse: vec![[[0.0; 2]; 6]; n],
     };
-    let gravity = Vector3::from(GRAVITY_B_M_S2);
-    for leg in 0..6 {
-        let b = g.base_joints_m()[leg];
-        let pj = g.plate_joints_m()[leg];
-        let q: Vec<Vector3<f64>> = data
-            .poses
-            .iter()
-            .map(|p| p.position_m + p.rotation * pj)
-            .collect();
-        let u: Vec<Vector3<f64>> = q.iter().map(|q| (q - b).normalize()).collect();
-        for &i in idx {
-            let pose = &data.poses[i];
-            let (ui, qi) = (u[i], q[i]);
-            let len = (qi - b).norm();
-            let (ud, udd, qdd) = (d1(&u, i, h), d2(&u, i, h), d2(&q, i, h));
-            let w_leg = ui.cross(&ud);
-            let wd_leg = ui.cross(&udd);
-            let a1 = udd * legs.cylinder_com_from_base_m;
-            let a2 = qdd - udd * legs.rod_com_from_plate_m;
-            let r1 = ui * legs.cylinder_com_from_base_m;
-            let r2 = ui * (len - legs.rod_com_from_plate_m);
-            let inertial =
-                (gravity - a1) * legs.cylinder_mass_kg + (gravity - a2) * legs.rod_mass_kg;
-            let m_dyn = r1.cross(&((gravity - a1) * legs.cylinder_mass_kg))
-                + r2.cross(&((gravity - a2) * legs.rod_mass_kg))
-                - wd_leg * (legs.cylinder_inertia_kg_m2 + legs.rod_inertia_kg_m2);
-            let w_plate = pose.rotation * data.entries[i].gyro_rad_s;
-            let t_plate = friction(legs, &(w_leg - w_plate));
-            let m_fric = -friction(legs, &w_leg) - t_plate;
-            let perp = |m: Vector3<f64>| {
-                let m = m - ui * m.dot(&ui);
-                (m / len).cross(&ui)
-            };
-            let (f_dyn, f_fric) = (perp(m_dyn), perp(m_fric));
-            let (missing_dyn, through_cell) = match legs.load_cell_end {
-                LoadCellEnd::Plate => (f_dyn, f_dyn + f_fric),
-                LoadCellEnd::Base => {
-                    let axial = ui * inertial.dot(&ui);
-                    let through = f_dyn + f_fric - (inertial - axial);
-                    (f_dyn + axial, through)
-                }
-            };
-            let to_p = pose.rotation.inverse();
-            let wrench = |f_b: Vector3<f64>, t_b: Vector3<f64>| {
-                let f = to_p * f_b;
-                let t = pj.cross(&f) + to_p * t_b;
-                Vector6::new(f.x, f.y, f.z, t.x, t.y, t.z)
-            };
-            out.dynamics[i] += wrench(missing_dyn, Vector3::zeros());
-            out.friction[i] += wrench(f_fric, t_plate);
-            let e = transverse_axes(&ui);
-            out.transverse[i][leg] = [through_cell.dot(&e[0]), through_cell.dot(&e[1])];
-        }
+    let model = legs.model();
+    for (i, m) in motions.iter().enumerate() {
+        let Some(m) = m else { continue };
+        let u = unseen(&data.model.geometry, &model, m, &GRAVITY_B_M_S2);
+        let v = |w: &kinematics::Wrench| {
+            Vector6::new(
+                w.force_n.x,
+                w.force_n.y,
+                w.force_n.z,
+                w.torque_nm.x,
+                w.torque_nm.y,
+                w.torque_nm.z,
+            )
+        };
+        out.dynamics[i] = v(&u.dynamics);
+        out.friction[i] = v(&u.friction);
+        out.transverse[i] = u.transverse_n;
     }
     out
+}
+
+/// The `[legs]` figures the budget moves, in order: cylinder mass, cylinder centre, cylinder
+/// inertia, rod mass, rod centre, rod inertia (the `leg_dynamics` source), Coulomb friction,
+/// viscous friction (`joint_friction`).
+pub const FIGURES: usize = 8;
+
+/// One sigma of figure `k` ([`FIGURES`]) from its tolerance (zero beyond the last).
+pub fn tolerance(legs: &LegsConfig, k: usize) -> f64 {
+    match k {
+        0 => legs.cylinder_mass_kg * legs.mass_tolerance,
+        1 | 4 => legs.com_tolerance_m,
+        2 => legs.cylinder_inertia_kg_m2 * legs.inertia_tolerance,
+        3 => legs.rod_mass_kg * legs.mass_tolerance,
+        5 => legs.rod_inertia_kg_m2 * legs.inertia_tolerance,
+        6 => legs.joint_coulomb_torque_nm * legs.friction_tolerance,
+        7 => legs.joint_viscous_nm_s_per_rad * legs.friction_tolerance,
+        _ => 0.0,
+    }
+}
+
+/// `legs` with figure `k` ([`FIGURES`]) moved by `by` (unchanged beyond the last).
+pub fn moved(legs: &LegsConfig, k: usize, by: f64) -> LegsConfig {
+    let mut l = *legs;
+    let field = match k {
+        0 => &mut l.cylinder_mass_kg,
+        1 => &mut l.cylinder_com_from_base_m,
+        2 => &mut l.cylinder_inertia_kg_m2,
+        3 => &mut l.rod_mass_kg,
+        4 => &mut l.rod_com_from_plate_m,
+        5 => &mut l.rod_inertia_kg_m2,
+        6 => &mut l.joint_coulomb_torque_nm,
+        7 => &mut l.joint_viscous_nm_s_per_rad,
+        _ => return l,
+    };
+    *field += by;
+    l
 }
 
 #[cfg(test)]
@@ -139,18 +116,6 @@ mod tests {
     use super::*;
     use crate::budget::fit::{Mode, Model};
     use crate::budget::testkit;
-
-    /// The default rig's legs (configs/default.toml) without joint friction.
-    fn legs() -> LegsConfig {
-        LegsConfig {
-            joint_coulomb_torque_nm: 0.0,
-            joint_viscous_nm_s_per_rad: 0.0,
-            ..crate::load::load(None)
-                .expect("the embedded default loads")
-                .config
-                .legs
-        }
-    }
 
     fn still_data() -> Data {
         let g = testkit::geometry();
@@ -166,62 +131,61 @@ mod tests {
         )
     }
 
-    /// At rest, a point check by statics: each leg's weight splits between its two joints by
-    /// the lever rule along the leg's horizontal projection; the plate joint's share of the
-    /// rod's and cylinder's weight across the leg is what the plate-end cell misses. Summed
-    /// over the legs, the missing vertical force is Σ (m₁c₁ + m₂(L − c₂))/L · g · sin²φ with
-    /// φ the leg's angle to the vertical (the vertical part of the transverse force).
+    /// On a plate at rest the record's motion is rest (zero rates), and the effects are the
+    /// model's at that pose: the legs' weight across them, which pulls the plate down.
     #[test]
-    fn at_rest_the_plate_joint_carries_the_lever_rules_share() {
+    fn a_still_record_gives_the_weight_across_the_legs() {
         let data = still_data();
         let idx: Vec<usize> = (2..data.entries.len() - 2).collect();
-        let l = legs();
-        let fx = effects(&data, &idx, 0.01, &l);
-        let g = &data.model.geometry;
-        let pose = data.poses[10];
-        let mut expected = 0.0;
-        for leg in 0..6 {
-            let q = pose.position_m + pose.rotation * g.plate_joints_m()[leg];
-            let d = q - g.base_joints_m()[leg];
-            let len = d.norm();
-            let cos = d.z / len;
-            let share = (l.cylinder_mass_kg * l.cylinder_com_from_base_m
-                + l.rod_mass_kg * (len - l.rod_com_from_plate_m))
-                / len;
-            // Vertical part of the transverse share: weight·(1 − cos²) downward on the plate.
-            expected -= share * 9.80665 * (1.0 - cos * cos);
-        }
-        let fz_b = (pose.rotation
+        let m = motions(&data, &idx, 0.01);
+        assert!(m[0].is_none() && m[10].is_some());
+        let rest = m[10].expect("interior");
+        assert!(rest.velocity_m_s.norm() < 1e-9 && rest.acceleration_m_s2.norm() < 1e-9);
+        let legs = testkit::default_legs();
+        let fx = effects(&data, &m, &legs);
+        let fz_b = (data.poses[10].rotation
             * Vector3::new(fx.dynamics[10][0], fx.dynamics[10][1], fx.dynamics[10][2]))
         .z;
-        assert!(
-            (fz_b - expected).abs() < 1e-6 * expected.abs(),
-            "{fz_b} vs {expected}"
-        );
-        assert!(fx.friction[10].norm() < 1e-12);
-        // With the cell at the base end the whole weight of both bodies is unseen along the
-        // legs as well: the plate then misses (m₁ + m₂) g less the part the base carries.
-        let base = LegsConfig {
-            load_cell_end: LoadCellEnd::Base,
-            ..l
-        };
-        let fb = effects(&data, &idx, 0.01, &base);
-        let fz_base = (pose.rotation
-            * Vector3::new(fb.dynamics[10][0], fb.dynamics[10][1], fb.dynamics[10][2]))
-        .z;
-        assert!(fz_base < fz_b, "{fz_base} vs {fz_b}");
-    }
-
-    #[test]
-    fn massless_frictionless_legs_miss_nothing() {
-        let data = still_data();
-        let idx: Vec<usize> = (2..data.entries.len() - 2).collect();
-        let fx = effects(&data, &idx, 0.01, &LegsConfig::default());
-        assert!(fx
+        assert!(fz_b < -1.0, "{fz_b}");
+        assert_eq!(fx.dynamics[0], Vector6::zeros());
+        let none = effects(&data, &m, &LegsConfig::default());
+        assert!(none
             .dynamics
             .iter()
-            .chain(&fx.friction)
+            .chain(&none.friction)
             .all(|w| w.norm() == 0.0));
-        assert!(fx.transverse.iter().flatten().flatten().all(|v| *v == 0.0));
+    }
+
+    /// Each perturbation moves its own figure, by its tolerance, and nothing else.
+    #[test]
+    fn each_perturbation_moves_one_figure_by_its_tolerance() {
+        let legs = testkit::default_legs();
+        let figures = |l: &LegsConfig| {
+            [
+                l.cylinder_mass_kg,
+                l.cylinder_com_from_base_m,
+                l.cylinder_inertia_kg_m2,
+                l.rod_mass_kg,
+                l.rod_com_from_plate_m,
+                l.rod_inertia_kg_m2,
+                l.joint_coulomb_torque_nm,
+                l.joint_viscous_nm_s_per_rad,
+            ]
+        };
+        let before = figures(&legs);
+        for k in 0..FIGURES {
+            let step = tolerance(&legs, k);
+            let after = figures(&moved(&legs, k, step));
+            for j in 0..FIGURES {
+                let expected = if j == k { before[j] + step } else { before[j] };
+                assert_eq!(after[j], expected, "figure {j} of perturbation {k}");
+            }
+            assert!(step > 0.0, "perturbation {k}");
+        }
+        assert_eq!(tolerance(&legs, FIGURES), 0.0);
+        assert_eq!(figures(&moved(&legs, FIGURES, 1.0)), before);
+        assert_eq!(tolerance(&legs, 0), 28.0 * 0.02);
+        assert_eq!(tolerance(&legs, 4), 0.01);
+        assert_eq!(tolerance(&legs, 6), 0.3);
     }
 }

@@ -54,6 +54,9 @@ pub struct Figures {
     pub joint_tolerance_m: f64,
     /// `[legs]`.
     pub legs: LegsConfig,
+    /// Whether the estimator compensates the legs (`estimator.compensate_legs`): the budget
+    /// then counts the `[legs]` tolerances, else the legs' whole effect.
+    pub legs_compensated: bool,
 }
 
 impl Figures {
@@ -63,6 +66,7 @@ impl Figures {
             sensors: config.sensors.clone(),
             joint_tolerance_m: config.platform.joint_position_tolerance_m,
             legs: config.legs,
+            legs_compensated: config.estimator.compensate_legs && config.legs.matter(),
         }
     }
 }
@@ -194,7 +198,26 @@ pub fn analyse(
         mode: fit::Mode::of(&config.parameters),
     };
     let theta: ParameterVector = estimate.parameters.to_vector();
-    let data = fit::Data::new(record.entries(), model);
+    let mut data = fit::Data::new(record.entries(), model);
+    // The record holds the cells' wrench; the estimator fitted it with the legs compensated
+    // when it had their model, and so does the budget's fit.
+    let figures = &Figures {
+        legs_compensated: config.legs.is_some(),
+        ..figures.clone()
+    };
+    let times: Vec<f64> = data.entries.iter().map(|e| e.time_s).collect();
+    let (interior, h) = util::interior(&times);
+    let motions = legs::motions(&data, &interior, h);
+    let described = legs::effects(&data, &motions, &figures.legs);
+    if figures.legs_compensated {
+        for (e, (d, f)) in data
+            .entries
+            .iter_mut()
+            .zip(described.dynamics.iter().zip(&described.friction))
+        {
+            e.wrench += d + f;
+        }
+    }
     let fitted = fit::Fit::new(&data, &theta);
     let mut budget = RunBudget {
         used: estimate.counts.used,
@@ -216,11 +239,12 @@ pub fn analyse(
         }
         return budget;
     };
-    let legs = legs::effects(&data, &fit.idx, fit.h, &figures.legs);
     let ctx = perturb::Context {
         data: &data,
         fit: &fit,
-        legs: &legs,
+        legs: &described,
+        described: &figures.legs,
+        motions: &motions,
     };
     let rows = rigid::subset(&fit);
     let mut modes = Vec::new();
@@ -250,7 +274,6 @@ pub fn analyse(
     }
     let prediction = statistical::predict(&data, &fit, figures);
     budget.jitter_share = prediction.jitter_share;
-    let times: Vec<f64> = data.entries.iter().map(|e| e.time_s).collect();
     budget.rigid_body = rigid::check(
         &fit,
         &rows,

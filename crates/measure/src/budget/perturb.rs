@@ -10,8 +10,10 @@
 use kinematics::{Geometry, Pose};
 use nalgebra::{Matrix3, Rotation3, Vector3, Vector6};
 
+use estimator::legs::PlateMotion;
+
 use super::fit::{Data, Fit};
-use super::legs::LegEffects;
+use super::legs::{self as leg_model, LegEffects};
 use super::util::d1;
 use super::Figures;
 use crate::sources::ErrorSource;
@@ -43,10 +45,14 @@ pub enum Scalar {
     /// A joint coordinate off the drawing: plate joint (else base), leg, coordinate;
     /// `joint_position_tolerance_m`.
     Joint(bool, usize, usize),
-    /// The legs' mass and inertia (the whole predicted effect).
+    /// The legs' mass and inertia, the whole predicted effect: the error when the estimator
+    /// does not compensate the legs.
     LegDynamics,
-    /// The joints' friction (the whole predicted effect).
+    /// The joints' friction, the whole predicted effect, likewise.
     JointFriction,
+    /// One `[legs]` figure ([`leg_model::FIGURES`]) off by its tolerance: the error when the
+    /// estimator compensates the legs with the described figures.
+    LegFigure(usize),
 }
 
 impl Scalar {
@@ -65,6 +71,8 @@ impl Scalar {
             Scalar::Joint(..) => ErrorSource::Geometry,
             Scalar::LegDynamics => ErrorSource::LegDynamics,
             Scalar::JointFriction => ErrorSource::JointFriction,
+            Scalar::LegFigure(k) if *k >= 6 => ErrorSource::JointFriction,
+            Scalar::LegFigure(_) => ErrorSource::LegDynamics,
         }
     }
 
@@ -98,7 +106,20 @@ impl Scalar {
             Scalar::LeverArm(_) => s.imu.position_tolerance_m,
             Scalar::TimeSkew => s.timing.imu_skew_s,
             Scalar::Joint(..) => f.joint_tolerance_m,
-            Scalar::LegDynamics | Scalar::JointFriction => 1.0,
+            Scalar::LegDynamics | Scalar::JointFriction => {
+                if f.legs_compensated {
+                    0.0
+                } else {
+                    1.0
+                }
+            }
+            Scalar::LegFigure(k) => {
+                if f.legs_compensated {
+                    leg_model::tolerance(&f.legs, *k)
+                } else {
+                    0.0
+                }
+            }
         }
     }
 }
@@ -132,8 +153,14 @@ pub fn scalars(source: ErrorSource) -> Vec<Scalar> {
                 (0..6).flat_map(move |l| (0..3).map(move |c| Scalar::Joint(plate, l, c)))
             })
             .collect(),
-        ErrorSource::LegDynamics => vec![Scalar::LegDynamics],
-        ErrorSource::JointFriction => vec![Scalar::JointFriction],
+        ErrorSource::LegDynamics => core::iter::once(Scalar::LegDynamics)
+            .chain((0..6).map(Scalar::LegFigure))
+            .collect(),
+        ErrorSource::JointFriction => vec![
+            Scalar::JointFriction,
+            Scalar::LegFigure(6),
+            Scalar::LegFigure(7),
+        ],
         _ => Vec::new(),
     }
 }
@@ -144,8 +171,12 @@ pub struct Context<'a> {
     pub data: &'a Data,
     /// Its fit.
     pub fit: &'a Fit,
-    /// The legs' unmodelled effects at each entry.
+    /// The described legs' effects at each entry.
     pub legs: &'a LegEffects,
+    /// The described legs.
+    pub described: &'a crate::config::LegsConfig,
+    /// The plate's motion at each entry ([`leg_model::motions`]).
+    pub motions: &'a [Option<PlateMotion>],
 }
 
 /// M Q Mᵀ for the products Q (entries of ω ωᵀ) of ω' = M ω.
@@ -222,6 +253,14 @@ impl Scalar {
             }
             Scalar::LegDynamics => wrench_only(&|i| ctx.legs.dynamics[i] * sigma),
             Scalar::JointFriction => wrench_only(&|i| ctx.legs.friction[i] * sigma),
+            Scalar::LegFigure(k) => {
+                // The built legs carry the figure off by σ; the compensation the described one.
+                let off = leg_model::moved(ctx.described, k, sigma);
+                let e = leg_model::effects(base, ctx.motions, &off);
+                wrench_only(&|i| {
+                    e.dynamics[i] + e.friction[i] - ctx.legs.dynamics[i] - ctx.legs.friction[i]
+                })
+            }
             Scalar::Joint(plate, leg, coord) => joint_change(ctx, plate, leg, coord, sigma),
             Scalar::AccelBias(axis) => with_data(&|d| {
                 for e in &mut d.entries {

@@ -25,6 +25,14 @@ pub fn geometry() -> Geometry {
     .expect("reference design")
 }
 
+/// The default rig description's legs (the embedded `configs/default.toml`).
+pub fn default_legs() -> crate::config::LegsConfig {
+    crate::load::load(None)
+        .expect("the embedded default loads")
+        .config
+        .legs
+}
+
 /// `n` entries of a platform at rest at home, 10 ms apart.
 pub fn still_entries(g: &Geometry, n: usize) -> Vec<Entry> {
     let mut r = RunRecord::new(*g, 1e-2, n);

@@ -40,11 +40,14 @@ fn effect(
     let data = Data::new(synth.record(g, &samples).entries(), model(g, synth));
     let theta = synth.body.to_vector();
     let fit = Fit::new(&data, &theta).expect("fit");
-    let legs: LegEffects = legs::effects(&data, &fit.idx, fit.h, l);
+    let motions = legs::motions(&data, &fit.idx, fit.h);
+    let legs: LegEffects = legs::effects(&data, &motions, l);
     let ctx = Context {
         data: &data,
         fit: &fit,
         legs: &legs,
+        described: l,
+        motions: &motions,
     };
     fit.effect(&scalar.residual_change(&ctx, sigma))
 }
@@ -247,8 +250,7 @@ fn point_mass_legs_at_the_plate_joints_are_missed_whole() {
         rod_mass_kg: m2,
         rod_com_from_plate_m: 0.0,
         rod_inertia_kg_m2: 0.0,
-        joint_coulomb_torque_nm: 0.0,
-        joint_viscous_nm_s_per_rad: 0.0,
+        ..LegsConfig::default()
     };
     let got = effect(&g, &synth, Scalar::LegDynamics, 1.0, &l);
     let masses = g
@@ -264,6 +266,15 @@ fn point_mass_legs_at_the_plate_joints_are_missed_whole() {
     };
     let got2 = effect(&g, &synth, Scalar::LegDynamics, 1.0, &twice);
     assert_close("linearity", &got2, &(got * 2.0), 1e-9);
+    // Compensated with the described legs, a rod mass off by δ leaves six point masses of δ.
+    let delta = 0.24;
+    let off = effect(&g, &synth, Scalar::LegFigure(3), delta, &l);
+    assert_close(
+        "rod mass off",
+        &off,
+        &(-masses.to_vector() * (delta / m2)),
+        2e-3,
+    );
     // Massless, frictionless legs: nothing, and no crosstalk either.
     let none = LegsConfig::default();
     for s in [
@@ -300,11 +311,15 @@ fn the_fits_bias_effect_matches_the_estimators_sensitivity() {
     let exact = est.accel_bias_sensitivity() * 0.01;
     let data = Data::new(used.entries(), model(&g, &synth));
     let fit = Fit::new(&data, &synth.body.to_vector()).expect("fit");
-    let legs = legs::effects(&data, &fit.idx, fit.h, &LegsConfig::default());
+    let motions = legs::motions(&data, &fit.idx, fit.h);
+    let described = LegsConfig::default();
+    let legs = legs::effects(&data, &motions, &described);
     let ctx = Context {
         data: &data,
         fit: &fit,
         legs: &legs,
+        described: &described,
+        motions: &motions,
     };
     for axis in 0..3 {
         let got = fit.effect(&Scalar::AccelBias(axis).residual_change(&ctx, 0.01));

@@ -16,6 +16,7 @@ pub(crate) fn config() -> LegsConfig {
         rod_inertia_kg_m2: 1.0,
         joint_coulomb_torque_nm: 1.0,
         joint_viscous_nm_s_per_rad: 5.0,
+        ..LegsConfig::default()
     }
 }
 

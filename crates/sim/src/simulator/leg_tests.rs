@@ -406,35 +406,118 @@ fn rapier_moves_the_plate_with_the_coupled_acceleration() {
     assert!(worst_lin < 1e-9 && worst_ang < 1e-9);
 }
 
-/// The scenario passes the rig description's `[legs]` to the simulator through the world's
-/// switches: `leg_dynamics` keeps or zeroes the masses and inertias, `joint_friction` the
-/// joints' torques.
+/// The scenario builds the simulated legs from the rig description's `[legs]` through the
+/// world's switches: `leg_dynamics` on draws the masses, centres and inertias within their
+/// tolerances, `joint_friction` on the friction figures, each from its own stream of the seed;
+/// a source off leaves its figures as described.
 #[test]
-fn the_worlds_switches_size_the_simulated_legs() {
+fn the_worlds_switches_draw_the_built_legs_within_their_tolerances() {
     use measure::load::{load, load_str};
     let scenario = crate::scenario::Scenario::new(load(None).unwrap(), None, None).unwrap();
     let described = scenario.loaded.config.legs;
     assert!(described.cylinder_mass_kg > 0.0 && described.joint_coulomb_torque_nm > 0.0);
-    assert_eq!(scenario.sim_config().legs, described);
+    let built = scenario.sim_config().legs;
+    let within = |got: f64, want: f64, sigma: f64| got != want && (got - want).abs() < 5.0 * sigma;
+    assert!(within(
+        built.cylinder_mass_kg,
+        described.cylinder_mass_kg,
+        described.cylinder_mass_kg * described.mass_tolerance
+    ));
+    assert!(within(
+        built.rod_com_from_plate_m,
+        described.rod_com_from_plate_m,
+        described.com_tolerance_m
+    ));
+    assert!(within(
+        built.joint_coulomb_torque_nm,
+        described.joint_coulomb_torque_nm,
+        described.joint_coulomb_torque_nm * described.friction_tolerance
+    ));
+    // The same seed builds the same legs; another seed other legs.
+    assert_eq!(scenario.built_legs(), built);
+    let other = crate::scenario::Scenario::new(load(None).unwrap(), Some(2), None).unwrap();
+    assert_ne!(other.built_legs().rod_mass_kg, built.rod_mass_kg);
     let text = "[world.imperfections]\nleg_dynamics = false\n";
     let scenario =
         crate::scenario::Scenario::new(load_str(text, "s.toml").unwrap(), None, None).unwrap();
     let legs = scenario.sim_config().legs;
-    assert_eq!(legs.cylinder_mass_kg + legs.rod_mass_kg, 0.0);
-    assert_eq!(legs.cylinder_inertia_kg_m2 + legs.rod_inertia_kg_m2, 0.0);
-    assert_eq!(
-        legs.joint_coulomb_torque_nm,
-        described.joint_coulomb_torque_nm
-    );
+    assert_eq!(legs.cylinder_mass_kg, described.cylinder_mass_kg);
+    assert_eq!(legs.rod_inertia_kg_m2, described.rod_inertia_kg_m2);
+    assert_eq!(legs.joint_coulomb_torque_nm, built.joint_coulomb_torque_nm);
     let text = "[world.imperfections]\njoint_friction = false\n";
     let scenario =
         crate::scenario::Scenario::new(load_str(text, "s.toml").unwrap(), None, None).unwrap();
     let legs = scenario.sim_config().legs;
     assert_eq!(
-        legs.joint_coulomb_torque_nm + legs.joint_viscous_nm_s_per_rad,
-        0.0
+        legs.joint_viscous_nm_s_per_rad,
+        described.joint_viscous_nm_s_per_rad
     );
-    assert_eq!(legs.rod_mass_kg, described.rod_mass_kg);
+    assert_eq!(legs.rod_mass_kg, built.rod_mass_kg);
+}
+
+/// The estimator's model of what the cells miss ([`estimator::legs`], written apart from this
+/// simulator's coupled legs) closes the plate's Newton–Euler equations: with heavy legs and
+/// joint friction, the cells' clean wrench plus the model's unseen wrench at the true motion
+/// equals the regressor of the true motion times the true parameters, at either cell end.
+/// Without it the equations miss the unseen wrench whole.
+#[test]
+fn the_estimators_leg_model_closes_the_plates_newton_euler_equations() {
+    use estimator::legs::{unseen, PlateMotion};
+    use estimator::regressor::{from_signals, RegressorSignals};
+    for end in [LoadCellEnd::Plate, LoadCellEnd::Base] {
+        let c = LegsConfig {
+            load_cell_end: end,
+            joint_coulomb_torque_nm: 1.0,
+            joint_viscous_nm_s_per_rad: 5.0,
+            ..legs_config()
+        };
+        let mut s = leg_sim(c);
+        let hold = s.true_leg_forces_n();
+        let theta = s.true_parameters().to_vector();
+        let (mut worst, mut unseen_peak) = (0.0f64, 0.0f64);
+        for k in 0..600u64 {
+            if k > 50 {
+                let pose = s.true_pose();
+                let v = s.true_velocity();
+                let a = s.true_acceleration();
+                let omega_p = pose.rotation.inverse() * v.angular_rad_s;
+                let motion = PlateMotion {
+                    pose,
+                    velocity_m_s: v.linear_m_s,
+                    acceleration_m_s2: pose.rotation * a.specific_force_m_s2 + G,
+                    angular_velocity_rad_s: omega_p,
+                    angular_acceleration_rad_s2: a.angular_rad_s2,
+                };
+                let forces = Vector6::from(s.clean_frame().leg_forces_n);
+                let cells = s.geometry().wrench_in_platform(&pose, &forces);
+                let u = unseen(s.geometry(), &c.model(), &motion, &G).total();
+                let signals =
+                    RegressorSignals::new(&omega_p, &a.angular_rad_s2, &a.specific_force_m_s2);
+                let want = from_signals(&signals) * theta;
+                let got = Vector6::new(
+                    cells.force_n.x + u.force_n.x,
+                    cells.force_n.y + u.force_n.y,
+                    cells.force_n.z + u.force_n.z,
+                    cells.torque_nm.x + u.torque_nm.x,
+                    cells.torque_nm.y + u.torque_nm.y,
+                    cells.torque_nm.z + u.torque_nm.z,
+                );
+                worst = worst.max((got - want).amax());
+                unseen_peak = unseen_peak.max(u.force_n.amax()).max(u.torque_nm.amax());
+            }
+            let cmd = command(k, wave(&hold, s.time_s()), k > 0);
+            s.write(&cmd).unwrap();
+        }
+        println!("{end:?}: unseen up to {unseen_peak:.1}, equations closed within {worst:.2e}");
+        assert!(
+            unseen_peak > 50.0,
+            "{end:?}: the legs hardly matter: {unseen_peak}"
+        );
+        assert!(
+            worst < 1e-3 * unseen_peak,
+            "{end:?}: off by {worst} (unseen {unseen_peak})"
+        );
+    }
 }
 
 /// A joint friction too steep for explicit integration with the physics step is refused,
