@@ -53,8 +53,8 @@ pub struct EstimateArgs {
     /// Write SVG and PNG figures (estimates with ±σ and truth, tracking error, excitation) here.
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
-    /// Take the datasheet figures (sensor noise, biases, IMU mounting) from this rig
-    /// description instead of the one the log recorded.
+    /// Take the datasheet figures (sensor noise, biases, IMU mounting, the legs the estimator
+    /// compensates) from this rig description instead of the one the log recorded.
     #[arg(long, value_name = "FILE")]
     pub rig: Option<PathBuf>,
     /// Also print the error budget: one row per error source with its one sigma of the

@@ -317,6 +317,12 @@ impl Measurement {
     }
 }
 
+/// The legs the estimator compensates: the rig description's `[legs]` when
+/// `estimator.compensate_legs` is set and the legs have mass or friction.
+pub fn leg_model(config: &Config) -> Option<estimator::LegModel> {
+    (config.estimator.compensate_legs && config.legs.matter()).then(|| config.legs.model())
+}
+
 /// The estimator's settings for one measurement whose excitation runs over backend times
 /// `[window_start_s, window_end_s]`. With `params = 6` the known mass and centre of mass are
 /// the fixture's (tare) or the fixture's plus the payload's (loaded), from the `known_*` keys —
@@ -350,7 +356,7 @@ pub fn estimator_config(
     c.leg_force_offsets = load_cell_bias_sigma(config) > 0.0;
     c.window_start_s = window_start_s;
     c.window_end_s = window_end_s;
-    c.legs = (est.compensate_legs && config.legs.matter()).then(|| config.legs.model());
+    c.legs = leg_model(config);
     if est.params == ParamCount::Six {
         let fm = est.known_fixture_mass_kg.unwrap_or(0.0);
         let fc = Vector3::from(est.known_fixture_com_m.unwrap_or_default());

@@ -410,6 +410,17 @@ mod tests {
         c.gyro_noise_rad_s = 1.7e-4;
         c.accel_noise_m_s2 = 2.3e-3;
         c.covariance_block_samples = 321;
+        c.legs = Some(estimator::LegModel {
+            cell_end: estimator::CellEnd::Base,
+            cylinder_mass_kg: 28.5,
+            cylinder_com_from_base_m: 0.45,
+            cylinder_inertia_kg_m2: 2.75,
+            rod_mass_kg: 12.25,
+            rod_com_from_plate_m: 0.5,
+            rod_inertia_kg_m2: 1.125,
+            joint_coulomb_torque_nm: 0.75,
+            joint_viscous_nm_s_per_rad: 5.5,
+        });
         c.parameters = estimator::ParameterSet::InertiaAboutKnownCom {
             mass_kg: 1900.0,
             com_m: Vector3::new(0.1, 0.2, 0.45),
