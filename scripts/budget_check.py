@@ -11,7 +11,12 @@ source (root mean square of `error_budget[SOURCE]`). A source that moves a param
 a tenth of the full sigma (the `--full` campaign's mean reported sigma) must agree within a
 factor of 2 (issue 12). Prints one Markdown table per source.
 
-    python3 scripts/budget_check.py --full full.json only-*.json
+With `--floor floor.json`, a campaign on the same seeds in a world with every source off, each
+run's error first loses that seed's error in the floor world: the estimator's own error in an
+ideal world (the same in every one-source campaign, and not a source of the budget), so that the
+measured column is the source's alone.
+
+    python3 scripts/budget_check.py --full full.json --floor floor.json only-*.json
 """
 import argparse
 import json
@@ -58,8 +63,13 @@ def source_of(path, campaign):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--full", help="campaign with every source on (its sigmas scale the 0.1 σ rule)")
+    ap.add_argument("--floor", help="campaign with every source off, on the same seeds")
     ap.add_argument("campaigns", nargs="+")
     args = ap.parse_args()
+    floor = {}
+    if args.floor:
+        for r in json.load(open(args.floor))["reports"]:
+            floor[r["run"]["seed"]] = r
     full_sigma = None
     if args.full:
         full = json.load(open(args.full))
@@ -73,7 +83,14 @@ def main():
         print("| parameter | measured rms error | predicted (budget) | ratio | full σ | checked |")
         print("|---|---|---|---|---|---|")
         for k, (name, get) in enumerate(PARAMS):
-            errors = [get(r["estimate"]) - get(r["truth"]) for r in reports]
+            def own(r):
+                base = floor.get(r["run"]["seed"])
+                off = get(base["estimate"]) - get(base["truth"]) if base else 0.0
+                if args.floor and base is None:
+                    sys.exit(f"{path}: seed {r['run']['seed']} is not in the floor campaign")
+                return off
+
+            errors = [get(r["estimate"]) - get(r["truth"]) - own(r) for r in reports]
             predicted = [get(line_of(r, source)) for r in reports]
             measured, pred = rms(errors), rms(predicted)
             ratio = measured / pred if pred > 0 else float("inf")
