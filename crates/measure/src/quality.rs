@@ -150,6 +150,9 @@ mod tests {
         // Six counted blocks of 0.4 s, the first and one of margin: 3.2 s.
         assert!((needed_seconds(0.4) - 3.2).abs() < 1e-12);
         let text = e.to_string();
-        assert!(text.contains("tare run") && text.contains("at least 3.2 s"), "{text}");
+        assert!(
+            text.contains("tare run") && text.contains("at least 3.2 s"),
+            "{text}"
+        );
     }
 }

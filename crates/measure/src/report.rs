@@ -875,6 +875,35 @@ mod tests {
     }
 
     #[test]
+    fn a_report_with_too_few_residual_blocks_is_refused() {
+        let mut r = Report {
+            samples: 2000,
+            covariance_basis: CovarianceBasis {
+                loaded_blocks: 6,
+                tare_blocks: Some(70),
+                block_s: 0.4,
+            },
+            ..Report::default()
+        };
+        assert_eq!(r.check_quality(), Ok(()));
+        r.covariance_basis.tare_blocks = Some(2);
+        let e = r.check_quality().unwrap_err();
+        assert!(e.to_string().contains("tare run"), "{e}");
+        // A tare file without the count is not held against the report.
+        r.covariance_basis.tare_blocks = None;
+        assert_eq!(r.check_quality(), Ok(()));
+        r.covariance_basis.loaded_blocks = 5;
+        assert!(matches!(
+            r.check_quality(),
+            Err(crate::quality::QualityError::TooShort {
+                run: "loaded",
+                blocks: 5,
+                ..
+            })
+        ));
+    }
+
+    #[test]
     fn samples_to_1pct_finds_the_last_excursion() {
         let mut h = vec![[1.0; 10]; 10];
         h[3][5] = 1.2;
