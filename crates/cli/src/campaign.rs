@@ -196,7 +196,12 @@ fn one_run(
     let _ = std::fs::remove_file(&log);
     let outcome = outcome.map_err(|e| e.to_string())?;
     match (outcome.end, outcome.report) {
-        (End::Completed, Some(report)) => Ok(report),
+        // The rules a single run's table obeys: a run that measured nothing trustworthy is a
+        // failed run, not a row of the statistics.
+        (End::Completed, Some(report)) => report
+            .check_quality()
+            .map(|()| report)
+            .map_err(|e| e.to_string()),
         (End::Completed, None) => Err("no report".into()),
         (End::Interrupted, _) => Err("interrupted".into()),
         (End::Fault(f), _) => Err(format!("fault: {f}")),

@@ -90,6 +90,11 @@ mod tests {
         let fine = Report {
             samples: 60_000,
             rejected_samples: 3,
+            covariance_basis: measure::report::CovarianceBasis {
+                loaded_blocks: 149,
+                tare_blocks: Some(74),
+                block_s: 0.4,
+            },
             ..Report::default()
         };
         let code = finish_measurement(

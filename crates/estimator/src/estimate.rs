@@ -32,6 +32,13 @@ pub struct Counts {
     pub bridged: u64,
     /// Short gaps bridged.
     pub bridged_gaps: u64,
+    /// Residual blocks whose scores the covariance counts (a run's first block does not;
+    /// with λ < 1 the effective number, rounded down). Below
+    /// [`crate::uncertainty::MIN_COVARIANCE_BLOCKS`] the covariance is P from the configured
+    /// equation sigmas, a provisional figure, not a measurement.
+    pub covariance_blocks: u64,
+    /// Samples per residual block ([`crate::EstimatorConfig::covariance_block_samples`]).
+    pub covariance_block_samples: u64,
 }
 
 /// Stop rule for a measurement: every reported sigma below its tolerance.

@@ -547,6 +547,13 @@ impl OnlineEstimator {
         c.lost = self.conditioner.lost();
         c.bridged = self.conditioner.bridged();
         c.bridged_gaps = self.conditioner.bridged_gaps();
+        let blocks = match &self.engine {
+            Engine::Full(s) => s.score.blocks(),
+            Engine::Six { solver, .. } => solver.score.blocks(),
+        };
+        // Σ λ^(2·age) of whole blocks: non-negative and far below u64's range.
+        c.covariance_blocks = libm::floor(blocks + 1e-9) as u64;
+        c.covariance_block_samples = u64::from(self.config.covariance_block_samples);
         c
     }
 

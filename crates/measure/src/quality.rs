@@ -6,6 +6,14 @@
 //! [`MAX_REJECTED_SHARE`] of the samples it was given (rejected: non-finite or out-of-range
 //! inputs, time not increasing, or forward kinematics that failed). Rejections that many mean
 //! the sensors or the log are broken, and what is left is not a fair sample of the excitation.
+//!
+//! It fails too when the loaded run or the tare gave fewer residual blocks than
+//! [`MIN_COVARIANCE_BLOCKS`] (plus the first, which does not count): the sigma's statistical
+//! part would then be the configured equation sigmas' P, not a measurement, and understates
+//! the error (measured: 20 runs of a 1 s window of the default scenario, mean z² of J_C zz
+//! 34; see docs/accuracy.md, "Short measurements"). The error says how long to excite.
+
+pub use estimator::uncertainty::MIN_COVARIANCE_BLOCKS;
 
 /// Largest share of a measurement's samples that may be rejected, 0..1.
 pub const MAX_REJECTED_SHARE: f64 = 0.5;
@@ -39,6 +47,30 @@ pub enum QualityError {
         /// Samples used plus rejected.
         total: u64,
     },
+    /// Too few residual blocks for the sigma to be measured.
+    #[error(
+        "the {run} run is too short for an honest sigma: its excitation gave {blocks} residual \
+         block(s) of {block_s:.2} s after the first, and the noise's covariance needs at least \
+         {needed} (with fewer, the sigma would be the configured equation sigmas' guess and \
+         understate the error); excite for at least {seconds:.1} s",
+        needed = MIN_COVARIANCE_BLOCKS,
+        seconds = needed_seconds(*block_s)
+    )]
+    TooShort {
+        /// `"loaded"` or `"tare"`.
+        run: &'static str,
+        /// Residual blocks that counted.
+        blocks: u64,
+        /// Length of one block, s.
+        block_s: f64,
+    },
+}
+
+/// Excitation that gives [`MIN_COVARIANCE_BLOCKS`] counted blocks of `block_s`, s: two blocks
+/// more, one for the first block (which does not count), one for the samples the conditioning
+/// withholds at the start and the block left unfinished at the end.
+pub fn needed_seconds(block_s: f64) -> f64 {
+    f64::from(MIN_COVARIANCE_BLOCKS + 2) * block_s
 }
 
 /// rejected / (used + rejected); 0 without samples.
@@ -66,6 +98,19 @@ pub fn check(used: u64, rejected: u64) -> Result<(), QualityError> {
     Ok(())
 }
 
+/// The rule on the residual blocks of one run (`run`: `"loaded"` or `"tare"`): at least
+/// [`MIN_COVARIANCE_BLOCKS`] of `block_s` each.
+pub fn check_covariance(run: &'static str, blocks: u64, block_s: f64) -> Result<(), QualityError> {
+    if blocks < u64::from(MIN_COVARIANCE_BLOCKS) {
+        return Err(QualityError::TooShort {
+            run,
+            blocks,
+            block_s,
+        });
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -88,5 +133,26 @@ mod tests {
         assert_eq!(check(1000, 0), Ok(()));
         assert_eq!(rejected_share(0, 0), 0.0);
         assert_eq!(rejected_share(3, 1), 0.25);
+    }
+
+    #[test]
+    fn too_few_residual_blocks_fail_and_say_how_long_to_excite() {
+        assert_eq!(check_covariance("loaded", 6, 0.4), Ok(()));
+        let e = check_covariance("tare", 5, 0.4).unwrap_err();
+        assert_eq!(
+            e,
+            QualityError::TooShort {
+                run: "tare",
+                blocks: 5,
+                block_s: 0.4
+            }
+        );
+        // Six counted blocks of 0.4 s, the first and one of margin: 3.2 s.
+        assert!((needed_seconds(0.4) - 3.2).abs() < 1e-12);
+        let text = e.to_string();
+        assert!(
+            text.contains("tare run") && text.contains("at least 3.2 s"),
+            "{text}"
+        );
     }
 }

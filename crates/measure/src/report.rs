@@ -159,6 +159,18 @@ pub struct DataLoss {
     pub rate_error: f64,
 }
 
+/// What the estimator's covariance (the budget's `noise` line) was measured from: residual
+/// blocks of the loaded run and the tare ([`estimator::uncertainty::MIN_COVARIANCE_BLOCKS`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct CovarianceBasis {
+    /// Residual blocks of the loaded run whose scores count (its first does not).
+    pub loaded_blocks: u64,
+    /// The same for the tare; `null` when not known (a tare file written without it).
+    pub tare_blocks: Option<u64>,
+    /// Length of one block, s (samples per block × sample period).
+    pub block_s: f64,
+}
+
 /// The report. Field order and names are the report convention of docs/log-schema.md; fields
 /// after `convergence` are extras.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -206,12 +218,23 @@ pub struct Report {
     /// What the data lacked (a log cut short or damaged, samples rejected).
     #[serde(default)]
     pub data: DataLoss,
+    /// What the statistical part of `sigma` was measured from ([`crate::quality`] refuses a
+    /// report with too few residual blocks).
+    #[serde(default)]
+    pub covariance_basis: CovarianceBasis,
 }
 
 impl Report {
-    /// The rule of [`crate::quality`] on the loaded run: did it measure anything?
+    /// The rules of [`crate::quality`]: did the loaded run measure anything, and did the
+    /// loaded run and the tare give enough residual blocks for an honest sigma?
     pub fn check_quality(&self) -> Result<(), crate::quality::QualityError> {
-        crate::quality::check(self.samples, self.rejected_samples)
+        crate::quality::check(self.samples, self.rejected_samples)?;
+        let b = &self.covariance_basis;
+        crate::quality::check_covariance("loaded", b.loaded_blocks, b.block_s)?;
+        if let Some(tare) = b.tare_blocks {
+            crate::quality::check_covariance("tare", tare, b.block_s)?;
+        }
+        Ok(())
     }
 
     /// Pretty JSON text.
@@ -442,6 +465,11 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
             sigma: sigmas(&systematic_only),
         },
         run: i.run.clone(),
+        covariance_basis: CovarianceBasis {
+            loaded_blocks: i.loaded.counts.covariance_blocks,
+            tare_blocks: i.tare.covariance_blocks,
+            block_s: i.loaded.counts.covariance_block_samples as f64 * i.loaded.timing.period_s,
+        },
     }
 }
 
@@ -844,6 +872,35 @@ mod tests {
         report.convergence.samples_to_1pct = Some(42);
         let back: Report = serde_json::from_str(&report.to_json()).unwrap();
         assert_eq!(back, report);
+    }
+
+    #[test]
+    fn a_report_with_too_few_residual_blocks_is_refused() {
+        let mut r = Report {
+            samples: 2000,
+            covariance_basis: CovarianceBasis {
+                loaded_blocks: 6,
+                tare_blocks: Some(70),
+                block_s: 0.4,
+            },
+            ..Report::default()
+        };
+        assert_eq!(r.check_quality(), Ok(()));
+        r.covariance_basis.tare_blocks = Some(2);
+        let e = r.check_quality().unwrap_err();
+        assert!(e.to_string().contains("tare run"), "{e}");
+        // A tare file without the count is not held against the report.
+        r.covariance_basis.tare_blocks = None;
+        assert_eq!(r.check_quality(), Ok(()));
+        r.covariance_basis.loaded_blocks = 5;
+        assert!(matches!(
+            r.check_quality(),
+            Err(crate::quality::QualityError::TooShort {
+                run: "loaded",
+                blocks: 5,
+                ..
+            })
+        ));
     }
 
     #[test]

@@ -51,6 +51,10 @@ pub struct TareFile {
     /// loads: the report then counts the tare's share as zero and says so).
     #[serde(default)]
     pub budget: Option<crate::budget::RunBudget>,
+    /// Residual blocks behind `covariance` ([`estimator::Counts::covariance_blocks`]), which
+    /// [`crate::quality::check_covariance`] checks; `null` in a file written without it.
+    #[serde(default)]
+    pub covariance_blocks: Option<u64>,
 }
 
 impl TareFile {
@@ -87,6 +91,10 @@ impl TareFile {
                     )),
                 ),
                 ("budget", nullable(crate::budget::RunBudget::schema())),
+                (
+                    "covariance_blocks",
+                    nullable(int("residual blocks behind the covariance")),
+                ),
             ],
             "The empty fixture's inertial parameters, subtracted from loaded runs",
         )
@@ -210,6 +218,7 @@ impl TareFile {
             accel_bias_sensitivity: None,
             load_cell_offset_sensitivity: None,
             budget: None,
+            covariance_blocks: Some(estimate.counts.covariance_blocks),
         }
     }
 
@@ -308,6 +317,7 @@ mod tests {
             accel_bias_sensitivity: None,
             load_cell_offset_sensitivity: None,
             budget: None,
+            covariance_blocks: Some(40),
         }
     }
 
