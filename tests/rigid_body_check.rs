@@ -27,5 +27,6 @@ fn a_payload_on_its_suspension_is_flagged_and_a_rigid_one_passes() {
         .rigid_body
         .expect("a loaded run carries the check");
     assert!(check.ok, "{check:?}");
-    assert!(check.residual_ratio < 1.0, "{check:?}");
+    // With the legs compensated what remains is the sensors' noise, which the check predicts.
+    assert!(check.residual_ratio < 1.5, "{check:?}");
 }

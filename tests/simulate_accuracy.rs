@@ -133,8 +133,7 @@ fn default_car_without_noise_is_exact() {
     }
     // Ideal sensors: every sensor's systematic line of the error budget is zero (the `noise`
     // line is the estimator's covariance, which sees the integration's model error), and so is
-    // the geometry's (`--noise none` scales the joints' tolerance too: an exactly built rig);
-    // the legs are no sensor's and stay.
+    // the geometry's (`--noise none` scales the joints' tolerance too: an exactly built rig).
     let line = |id: &str| {
         r.error_budget
             .iter()
@@ -154,7 +153,9 @@ fn default_car_without_noise_is_exact() {
         assert_eq!(line(id).mass, 0.0, "{id}");
     }
     assert_eq!(line("geometry").inertia_com[0][0], 0.0);
-    assert!(line("leg_dynamics").inertia_com[0][0] > 0.0);
+    // Massless, frictionless legs: nothing for the cells to miss.
+    assert_eq!(line("leg_dynamics").inertia_com[0][0], 0.0);
+    assert_eq!(line("joint_friction").inertia_com[0][0], 0.0);
     // Ideal sensors leave only the integration's model error in the residual.
     assert!(
         r.residual_rms.torque_nm.iter().all(|v| *v < 0.1),

@@ -31,10 +31,11 @@ use stewart_cli::CommandError;
 /// tare, the datasheet's (realistic) noise.
 pub const SHORT: &str = "[run]\nduration_s = 6.0\ntare_duration_s = 4.0\n";
 
-/// Rigid, massless legs with frictionless joints: for tests of the ideal world's exactness
-/// (the default world has the legs' dynamics and the joints' friction on).
-pub const IDEAL_LEGS: &str =
-    "[world.imperfections]\nleg_dynamics = false\njoint_friction = false\n";
+/// Rigid, massless legs with frictionless joints, described and built so: for tests of the
+/// ideal world's exactness (the default rig's legs are heavy, and built off their description).
+pub const IDEAL_LEGS: &str = "[legs]\ncylinder_mass_kg = 0.0\ncylinder_inertia_kg_m2 = 0.0\n\
+    rod_mass_kg = 0.0\nrod_inertia_kg_m2 = 0.0\njoint_coulomb_torque_nm = 0.0\n\
+    joint_viscous_nm_s_per_rad = 0.0\n";
 
 /// The rig tests' scenario: 500 Hz, a 10 s multi-sine for the tare and the loaded run, two
 /// physics substeps, generous link limits. `[rig]` comes last so that keys appended to the
