@@ -81,7 +81,7 @@ fn ctrl_c_parks_the_platform_and_finishes_the_log() {
         .any(|m| m["interrupted"] == true));
 }
 
-/// Regression test: a second Ctrl-C brakes at once (no park ramp): the last command on the wire
+/// A second Ctrl-C brakes at once (no park ramp): the last command on the wire
 /// is a safe stop, not `enable 1` with ~780 N per leg left to the rig's watchdog; the log is
 /// finished and the run ends as interrupted.
 #[test]

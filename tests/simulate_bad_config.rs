@@ -247,7 +247,7 @@ fn missing_file() {
     );
 }
 
-/// Regression test: a huge bad value (a flag or a config value) is echoed abbreviated, not whole.
+/// A huge bad value (a flag or a config value) is echoed abbreviated, not whole.
 #[test]
 fn a_huge_bad_value_is_echoed_abbreviated() {
     // A single argument may hold at most 128 KiB (Linux MAX_ARG_STRLEN).

@@ -141,7 +141,7 @@ pub fn main_entry() -> std::process::ExitCode {
 mod tests {
     use super::*;
 
-    /// Regression test: a second Ctrl-C on `rig` brakes and finishes the log (an exit at once
+    /// A second Ctrl-C on `rig` brakes and finishes the log (an exit at once
     /// would leave an enabled command on the wire and the log without its footer).
     #[test]
     fn a_second_ctrl_c_on_a_rig_brakes_and_only_a_third_exits() {

@@ -60,7 +60,7 @@ mod tests {
     use super::*;
     use crate::common::SharedArgs;
 
-    /// Regression test: a measurement that used no samples prints no table of NaN and does not
+    /// A measurement that used no samples prints no table of NaN and does not
     /// exit 0.
     #[test]
     fn a_report_that_measured_nothing_is_an_error_and_not_written() {

@@ -164,7 +164,7 @@ mod tests {
         assert_eq!(feed.pose_guess().position_m, before.position_m);
     }
 
-    /// Regression test: a log (or a rig) whose first frame rests further from home than
+    /// A log (or a rig) whose first frame rests further from home than
     /// `fk_max_jump_m` (here: the plate on its lower end stops) is posed; without a pose every
     /// sample of the run would be rejected and the report a table of NaN.
     #[test]

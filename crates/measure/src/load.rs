@@ -646,7 +646,7 @@ mod tests {
         assert_eq!(edit_distance("payloda", "payload"), 2);
     }
 
-    /// Regression test: a 50 MB bad value is echoed abbreviated, not whole.
+    /// A 50 MB bad value is echoed abbreviated, not whole.
     #[test]
     fn a_huge_bad_value_is_echoed_abbreviated() {
         let value = "x".repeat(1_000_000);

@@ -663,7 +663,7 @@ where
     /// Receives and handles frames (and sends delayed ones) until `deadline`. Frames already
     /// waiting are handled even when the deadline has passed: a rig that runs late must still
     /// hear the commands it was sent, or its own watchdog would trip on a host that answered
-    /// (regression: watchdog faults in the loopback tests on a loaded machine).
+    /// (on a loaded machine a descheduled rig wakes past its deadline with commands waiting).
     fn pump_until(&mut self, deadline: Instant) -> Result<(), RigError> {
         let mut drained_late = 0;
         loop {

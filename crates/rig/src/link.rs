@@ -467,7 +467,7 @@ mod tests {
         assert_eq!(faults[0].command_sequence, 2 + heartbeats);
     }
 
-    /// Regression test: when the rig's watchdog trips because this host was late (a loaded host
+    /// When the rig's watchdog trips because this host was late (a loaded host
     /// at normal priority), the fault says so, by how much, and the fix, not only "rig fault:
     /// WATCHDOG".
     #[test]
