@@ -152,6 +152,15 @@ pub struct Unseen {
 }
 
 impl Unseen {
+    /// Nothing missed.
+    pub fn zero() -> Self {
+        Self {
+            dynamics: zero_wrench(),
+            friction: zero_wrench(),
+            transverse_n: [[0.0; 2]; LEG_COUNT],
+        }
+    }
+
     /// Both parts together: what to add to the measured wrench.
     pub fn total(&self) -> Wrench {
         Wrench {
@@ -194,11 +203,7 @@ pub fn unseen(
     motion: &PlateMotion,
     gravity_b_m_s2: &Vector3<f64>,
 ) -> Unseen {
-    let mut out = Unseen {
-        dynamics: zero_wrench(),
-        friction: zero_wrench(),
-        transverse_n: [[0.0; 2]; LEG_COUNT],
-    };
+    let mut out = Unseen::zero();
     for leg in 0..LEG_COUNT {
         let one = unseen_of_leg(geometry, leg, legs, motion, gravity_b_m_s2);
         out.dynamics.force_n += one.dynamics.force_n;
@@ -219,11 +224,7 @@ pub fn unseen_of_leg(
     motion: &PlateMotion,
     gravity_b_m_s2: &Vector3<f64>,
 ) -> Unseen {
-    let mut out = Unseen {
-        dynamics: zero_wrench(),
-        friction: zero_wrench(),
-        transverse_n: [[0.0; 2]; LEG_COUNT],
-    };
+    let mut out = Unseen::zero();
     let (Some(pj), Some(bj)) = (
         geometry.plate_joints_m().get(leg),
         geometry.base_joints_m().get(leg),

@@ -316,4 +316,4 @@ pub(crate) fn to_plate_axes(
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

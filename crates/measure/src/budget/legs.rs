@@ -9,6 +9,7 @@
 //! Otherwise the legs' whole effect is the error.
 
 use estimator::legs::{unseen, PlateMotion};
+use estimator::wrench::to_vector;
 use nalgebra::{Vector3, Vector6};
 use stewart_types::GRAVITY_B_M_S2;
 
@@ -57,18 +58,8 @@ pub fn effects(data: &Data, motions: &[Option<PlateMotion>], legs: &LegsConfig) 
     for (i, m) in motions.iter().enumerate() {
         let Some(m) = m else { continue };
         let u = unseen(&data.model.geometry, &model, m, &GRAVITY_B_M_S2);
-        let v = |w: &kinematics::Wrench| {
-            Vector6::new(
-                w.force_n.x,
-                w.force_n.y,
-                w.force_n.z,
-                w.torque_nm.x,
-                w.torque_nm.y,
-                w.torque_nm.z,
-            )
-        };
-        out.dynamics[i] = v(&u.dynamics);
-        out.friction[i] = v(&u.friction);
+        out.dynamics[i] = to_vector(&u.dynamics);
+        out.friction[i] = to_vector(&u.friction);
         out.transverse[i] = u.transverse_n;
     }
     out

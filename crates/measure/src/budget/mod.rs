@@ -66,7 +66,7 @@ impl Figures {
             sensors: config.sensors.clone(),
             joint_tolerance_m: config.platform.joint_position_tolerance_m,
             legs: config.legs,
-            legs_compensated: config.estimator.compensate_legs && config.legs.matter(),
+            legs_compensated: crate::setup::leg_model(config).is_some(),
         }
     }
 }

@@ -209,15 +209,7 @@ fn transform_imu(data: &mut Data, m: &Matrix3<f64>, n: &Matrix3<f64>) {
 
 /// The wrench of leg forces `df` at `pose` (P axes, about the P origin).
 fn leg_wrench(g: &Geometry, pose: &Pose, df: &Vector6<f64>) -> Vector6<f64> {
-    let w = g.wrench_in_platform(pose, df);
-    Vector6::new(
-        w.force_n.x,
-        w.force_n.y,
-        w.force_n.z,
-        w.torque_nm.x,
-        w.torque_nm.y,
-        w.torque_nm.z,
-    )
+    estimator::wrench::to_vector(&g.wrench_in_platform(pose, df))
 }
 
 impl Scalar {

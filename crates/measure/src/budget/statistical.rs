@@ -64,14 +64,7 @@ fn equation_covariance(
         let mut f = Vector6::zeros();
         f[leg] = 1.0;
         let w = model.geometry.wrench_in_platform(pose, &f);
-        let col = model.map_wrench(&Vector6::new(
-            w.force_n.x,
-            w.force_n.y,
-            w.force_n.z,
-            w.torque_nm.x,
-            w.torque_nm.y,
-            w.torque_nm.z,
-        ));
+        let col = model.map_wrench(&estimator::wrench::to_vector(&w));
         v += col * col.transpose() * var_f[leg];
     }
     v

@@ -5,6 +5,7 @@ use super::*;
 
 const G: Vector3<f64> = stewart_types::GRAVITY_B_M_S2;
 
+/// Heavy legs with joint friction: the default rig's figures.
 pub(crate) fn config() -> LegsConfig {
     LegsConfig {
         load_cell_end: LoadCellEnd::Plate,

@@ -50,7 +50,8 @@ fn tilted() -> Pose {
     )
 }
 
-fn command(seq: u64, forces: [f64; 6], enable: bool) -> CommandFrame {
+/// An enabling (or braking) command with the sample's own sequence numbers.
+pub(super) fn command(seq: u64, forces: [f64; 6], enable: bool) -> CommandFrame {
     CommandFrame {
         sequence: seq,
         sensor_sequence: seq,
@@ -59,7 +60,8 @@ fn command(seq: u64, forces: [f64; 6], enable: bool) -> CommandFrame {
     }
 }
 
-fn wave(hold: &[f64; 6], t: f64) -> [f64; 6] {
+/// `hold` plus a 900 N sine on each leg, each at its own frequency and phase.
+pub(super) fn wave(hold: &[f64; 6], t: f64) -> [f64; 6] {
     core::array::from_fn(|i| {
         let k = i as f64;
         hold[i] + 900.0 * (2.0 * core::f64::consts::PI * (1.1 + 0.41 * k) * t + k).sin()

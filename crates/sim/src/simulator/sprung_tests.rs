@@ -1,11 +1,12 @@
 //! The simulator with a suspended payload: rest, the plate's acceleration with the units'
 //! forces, the truth, and the disabled suspension leaving the simulator as it is.
 
+use super::leg_tests::{command, wave};
 use super::tests::{car, geometry};
 use super::*;
 use crate::imperfections::SuspensionConfig;
 use crate::sensors::{NoisePreset, SensorConfig};
-use measure::config::{LegsConfig, LoadCellEnd};
+use measure::config::LegsConfig;
 use nalgebra::Vector6;
 use stewart_types::STANDARD_GRAVITY_M_S2;
 
@@ -31,43 +32,12 @@ fn sim(cfg: &SimConfig) -> Simulator {
     Simulator::new(geometry(), BodyProperties::default(), Some(car()), cfg, 0).unwrap()
 }
 
-fn heavy_legs() -> LegsConfig {
-    LegsConfig {
-        load_cell_end: LoadCellEnd::Plate,
-        cylinder_mass_kg: 28.0,
-        cylinder_com_from_base_m: 0.45,
-        cylinder_inertia_kg_m2: 2.8,
-        rod_mass_kg: 12.0,
-        rod_com_from_plate_m: 0.55,
-        rod_inertia_kg_m2: 1.0,
-        joint_coulomb_torque_nm: 1.0,
-        joint_viscous_nm_s_per_rad: 5.0,
-        ..LegsConfig::default()
-    }
-}
-
-fn command(seq: u64, forces: [f64; 6], enable: bool) -> CommandFrame {
-    CommandFrame {
-        sequence: seq,
-        sensor_sequence: seq,
-        leg_forces_n: forces,
-        enable,
-    }
-}
-
-fn wave(hold: &[f64; 6], t: f64) -> [f64; 6] {
-    core::array::from_fn(|i| {
-        let k = i as f64;
-        hold[i] + 900.0 * (2.0 * core::f64::consts::PI * (1.1 + 0.41 * k) * t + k).sin()
-    })
-}
-
 /// Braked at home, the sprung body stays where it rests (preloads right) to 10⁻⁹ m and
 /// 10⁻⁹ rad, the plate too, the accelerometer reads 1 g up and the legs weigh the whole
 /// payload: the hold includes the sprung body's weight.
 #[test]
 fn at_rest_at_home_the_body_stays_put_and_the_legs_carry_it() {
-    for legs in [LegsConfig::default(), heavy_legs()] {
+    for legs in [LegsConfig::default(), crate::legs::tests::config()] {
         let mut s = sim(&config(suspension(), legs));
         let home = s.geometry().home_pose();
         for k in 0..1000 {
@@ -99,7 +69,7 @@ fn at_rest_at_home_the_body_stays_put_and_the_legs_carry_it() {
 /// the body swings on its units (measured 5·10⁻¹³ relative, 2 cm swing).
 #[test]
 fn rapier_moves_the_plate_with_the_acceleration_the_accelerometer_reports() {
-    for legs in [LegsConfig::default(), heavy_legs()] {
+    for legs in [LegsConfig::default(), crate::legs::tests::config()] {
         let mut s = sim(&SimConfig {
             substeps: 1,
             ..config(suspension(), legs)
@@ -205,7 +175,7 @@ fn a_disabled_suspension_leaves_the_simulator_bit_identical() {
         track_m: 1.0,
         wheelbase_m: 2.0,
     };
-    for legs in [LegsConfig::default(), heavy_legs()] {
+    for legs in [LegsConfig::default(), crate::legs::tests::config()] {
         let rigid = run_bits(&config(SuspensionConfig::default(), legs));
         assert!(rigid == run_bits(&config(odd, legs)));
         assert!(rigid != run_bits(&config(suspension(), legs)));
