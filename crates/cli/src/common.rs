@@ -24,6 +24,10 @@ pub struct SharedArgs {
     /// 10: mass, centre of mass and inertia; 6: the paper's inertia-only model (estimator.params).
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["10", "6"]))]
     pub params: Option<String>,
+    /// Move along this excitation, tare run included (an `[excitation]` table, as `stewart plan --out` writes it)
+    /// instead of the rig description's.
+    #[arg(long, value_name = "FILE.toml")]
+    pub excitation: Option<PathBuf>,
     /// MCAP log file (default: runs/<UTC time>.mcap).
     #[arg(long, value_name = "FILE.mcap")]
     pub log: Option<PathBuf>,
@@ -65,9 +69,14 @@ pub struct MeasureArgs {
 }
 
 impl MeasureArgs {
-    /// The rig description of `--config` with `--duration` and `--params` applied, validated.
+    /// The rig description of `--config` with `--excitation`, `--duration` and `--params`
+    /// applied, validated.
     pub fn load_config(&self) -> Result<LoadedConfig, ConfigError> {
-        measure::load::load(self.shared.config.as_deref())?.with_overrides(&Overrides {
+        let mut loaded = measure::load::load(self.shared.config.as_deref())?;
+        if let Some(path) = &self.shared.excitation {
+            loaded = loaded.with_excitation_file(path)?;
+        }
+        loaded.with_overrides(&Overrides {
             duration_s: self.duration,
             params: self.shared.params.as_deref().map(parse_params),
         })

@@ -11,6 +11,7 @@ pub mod emulate;
 pub mod estimate;
 pub mod key;
 pub mod output;
+pub mod plan;
 pub mod plot;
 pub mod progress;
 pub mod prompt;
@@ -82,6 +83,10 @@ pub enum Command {
     /// Can this computer run the loop? Times the full control-and-estimation tick (median,
     /// p99) and the simulator on the configured scenario, and says whether the rate fits.
     Bench(bench::BenchArgs),
+    /// Design the excitation before anything moves: the motion within the rig's limits that
+    /// measures the payload's prior best, its predicted sigma per quantity and the limit that
+    /// binds; `--out FILE` writes it for `simulate`/`rig --excitation FILE`.
+    Plan(plan::PlanArgs),
 }
 
 /// Entry point of the `stewart` binary: parses the arguments, runs the command. Exit codes: 0
@@ -132,6 +137,7 @@ pub fn main_entry() -> std::process::ExitCode {
         Command::Key(a) => key::main(&a),
         Command::Estimate(a) => estimate::main(&a),
         Command::Bench(a) => bench::main(&a),
+        Command::Plan(a) => plan::main(&a),
         Command::Simulate(a) if a.runs.is_some() => campaign::main(&a, &INTERRUPT),
         Command::Simulate(a) => simulate::main(&a, &INTERRUPT),
     })

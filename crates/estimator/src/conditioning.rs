@@ -142,7 +142,7 @@ struct Carried {
 }
 
 /// Samples in the interpolation stencil.
-const STENCIL: usize = 4;
+pub const STENCIL: usize = 4;
 
 /// Samples before a gap that its fill interpolates through (with the one after it).
 const FILL_POINTS_BEFORE: usize = 1;
@@ -178,8 +178,11 @@ pub struct Conditioner {
     bridged_gaps: u64,
 }
 
-/// Value and derivative weights of the staggered stencil on a grid of step `period_s`.
-fn stencil_weights(period_s: f64) -> ([f64; STENCIL], [f64; STENCIL]) {
+/// Value and derivative weights of the staggered stencil on a grid of step `period_s`, oldest
+/// sample first: x(t_m) ≈ Σ valueₖ xₙ₋₃₊ₖ and ω̇(t_m) ≈ Σ slopeₖ ωₙ₋₃₊ₖ (module docs). With
+/// [`crate::filter::Biquad::butterworth`] at the same cut-off they give the whole conditioning's
+/// impulse response, which a noise prediction needs.
+pub fn stencil_weights(period_s: f64) -> ([f64; STENCIL], [f64; STENCIL]) {
     let value = [-1.0 / 16.0, 9.0 / 16.0, 9.0 / 16.0, -1.0 / 16.0];
     let d = 1.0 / (24.0 * period_s);
     (value, [d, -27.0 * d, 27.0 * d, -d])

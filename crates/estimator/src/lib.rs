@@ -23,7 +23,7 @@
 pub mod conditioning;
 mod error;
 mod estimate;
-mod filter;
+pub mod filter;
 pub mod legs;
 mod online;
 pub mod regressor;

@@ -44,6 +44,85 @@ pub struct Config {
     /// optional (omitted: massless, frictionless legs with the cells at the plate end).
     #[serde(default)]
     pub legs: LegsConfig,
+    /// What `stewart plan` designs the excitation for: the payload and fixture as known before
+    /// measuring, the targets and the margins; optional, every key defaulted.
+    #[serde(default)]
+    pub plan: PlanConfig,
+}
+
+/// A body as known before it is measured (a CAD model, a previous measurement, a weighing):
+/// about its own centre of mass, in P axes.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodyPrior {
+    /// Mass, kg.
+    pub mass_kg: f64,
+    /// Centre of mass in P, m.
+    pub com_m: [f64; 3],
+    /// Inertia tensor about the centre of mass, P axes, kg·m².
+    pub inertia_com_kg_m2: [[f64; 3]; 3],
+}
+
+impl BodyPrior {
+    /// The body's ten parameters about the P origin.
+    pub fn parameters(&self) -> estimator::InertialParameters {
+        estimator::InertialParameters::from_com(
+            self.mass_kg,
+            nalgebra::Vector3::from(self.com_m),
+            nalgebra::Matrix3::from_fn(|r, c| self.inertia_com_kg_m2[r][c]),
+        )
+    }
+}
+
+/// `[plan]`: the excitation design's prior, targets and margins (`crate::plan`). The plan
+/// minimises the largest ratio of a quantity's predicted sigma to its target.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PlanConfig {
+    /// The payload as known beforehand (`[plan.payload]`).
+    pub payload: BodyPrior,
+    /// The plate with the empty fixture as known beforehand (`[plan.fixture]`).
+    pub fixture: BodyPrior,
+    /// Target one sigma of the payload's mass, as a fraction of it.
+    pub target_mass_fraction: f64,
+    /// Target one sigma of each coordinate of the centre of mass, m.
+    pub target_com_m: f64,
+    /// Target one sigma of each entry of J_C, as a fraction of its smallest principal moment.
+    pub target_inertia_fraction: f64,
+    /// Leg forces stay below this share of `control.max_force_n` along the planned path.
+    pub force_share: f64,
+    /// The payload's centre of mass accelerates at most this much, m/s² (what its tie-downs
+    /// allow).
+    pub max_acceleration_m_s2: f64,
+    /// The highest excitation frequency stays below this share of `estimator.cutoff_hz`, so
+    /// that the low-pass passes the motion undistorted.
+    pub max_frequency_share: f64,
+}
+
+impl Default for PlanConfig {
+    /// The default scenario's car and fixture as a CAD model gives them (inertia within about
+    /// 10 %, products of inertia unknown), a vehicle-dynamics lab's targets (0.01 %, 0.1 mm,
+    /// 0.05 %), 80 % of the force limit, half a g, and 0.4 of the cut-off.
+    fn default() -> Self {
+        Self {
+            payload: BodyPrior {
+                mass_kg: 1500.0,
+                com_m: [0.15, -0.08, 0.5],
+                inertia_com_kg_m2: [[550.0, 0.0, 0.0], [0.0, 2300.0, 0.0], [0.0, 0.0, 2500.0]],
+            },
+            fixture: BodyPrior {
+                mass_kg: 400.0,
+                com_m: [0.0, 0.0, 0.05],
+                inertia_com_kg_m2: [[240.0, 0.0, 0.0], [0.0, 240.0, 0.0], [0.0, 0.0, 450.0]],
+            },
+            target_mass_fraction: 1e-4,
+            target_com_m: 1e-4,
+            target_inertia_fraction: 5e-4,
+            force_share: 0.8,
+            max_acceleration_m_s2: 4.9,
+            max_frequency_share: 0.4,
+        }
+    }
 }
 
 /// Which end of each leg its load cell sits at.

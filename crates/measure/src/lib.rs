@@ -33,6 +33,7 @@ pub mod link;
 pub mod load;
 pub mod measurement;
 pub mod observer;
+pub mod plan;
 pub mod quality;
 pub mod replay;
 pub mod report;

@@ -286,6 +286,24 @@ pub fn load_str(text: &str, source: &str) -> Result<LoadedConfig, ConfigError> {
         });
     }
     merge(&mut merged, user);
+    let config = describe(&merged, text, source)?;
+    Ok(LoadedConfig {
+        config,
+        source: source.to_string(),
+        text: text.to_string(),
+        merged,
+    })
+}
+
+/// The rig description of a merged document (the world left out, the tare's excitation
+/// completed), validated; problems are located in `text`, named `source`.
+fn describe(merged: &toml::Table, text: &str, source: &str) -> Result<Config, ConfigError> {
+    let issue = |line: Option<usize>, key: String, problem: String| ConfigIssue {
+        file: source.to_string(),
+        line,
+        key,
+        problem,
+    };
     let mut description = merged.clone();
     description.remove(WORLD_TABLE);
     complete_tare_excitation(&mut description);
@@ -305,12 +323,67 @@ pub fn load_str(text: &str, source: &str) -> Result<LoadedConfig, ConfigError> {
                 .collect(),
         });
     }
-    Ok(LoadedConfig {
-        config,
-        source: source.to_string(),
-        text: text.to_string(),
-        merged,
-    })
+    Ok(config)
+}
+
+impl LoadedConfig {
+    /// Lays an excitation file (`stewart plan --out FILE`: an `[excitation]` table and nothing
+    /// else) over the rig description: both runs follow it, the tare run with the keys of a
+    /// `[tare_excitation]` table laid over it. Problems name the excitation file.
+    pub fn with_excitation_file(self, path: &Path) -> Result<Self, ConfigError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            ConfigError::single(ConfigIssue {
+                file: name.clone(),
+                line: None,
+                key: String::new(),
+                problem: format!("cannot read the excitation file: {e}"),
+            })
+        })?;
+        self.with_excitation_text(&text, &name)
+    }
+
+    /// [`Self::with_excitation_file`] on the file's `text`, named `source` in messages.
+    pub fn with_excitation_text(mut self, text: &str, source: &str) -> Result<Self, ConfigError> {
+        let single = |line: Option<usize>, key: &str, problem: String| {
+            ConfigError::single(ConfigIssue {
+                file: source.to_string(),
+                line,
+                key: key.to_string(),
+                problem,
+            })
+        };
+        let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
+            single(
+                e.span().map(|s| line_of(text, s.start)),
+                "",
+                format!("not valid TOML: {}", e.message()),
+            )
+        })?;
+        if let Some(other) = table.keys().find(|k| k.as_str() != "excitation") {
+            return Err(single(
+                locate_key(text, other),
+                other,
+                "an excitation file holds only an [excitation] table (as `stewart plan --out` \
+                 writes it); put other settings in the rig description"
+                    .into(),
+            ));
+        }
+        let Some(toml::Value::Table(excitation)) = table.remove("excitation") else {
+            return Err(single(
+                None,
+                "excitation",
+                "no [excitation] table: write one with `stewart plan --out FILE`".into(),
+            ));
+        };
+        let mut merged = self.merged.clone();
+        let mut over = toml::Table::new();
+        over.insert("excitation".into(), toml::Value::Table(excitation));
+        merge(&mut merged, over);
+        self.config = describe(&merged, text, source)?;
+        self.merged = merged;
+        Ok(self)
+    }
 }
 
 /// Keys of older scenario files that moved when the rig description was separated from the

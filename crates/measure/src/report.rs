@@ -26,6 +26,22 @@ pub struct Quantities {
     pub inertia_com: [[f64; 3]; 3],
 }
 
+impl Quantities {
+    /// Names of the entries of [`Self::flat`], as the tables print them.
+    pub const NAMES: [&'static str; 10] = [
+        "mass", "com x", "com y", "com z", "J_C xx", "J_C yy", "J_C zz", "J_C xy", "J_C xz",
+        "J_C yz",
+    ];
+
+    /// [m, c_x, c_y, c_z, J_xx, J_yy, J_zz, J_xy, J_xz, J_yz].
+    pub fn flat(&self) -> [f64; 10] {
+        let (c, j) = (self.com, self.inertia_com);
+        [
+            self.mass, c[0], c[1], c[2], j[0][0], j[1][1], j[2][2], j[0][1], j[0][2], j[1][2],
+        ]
+    }
+}
+
 /// Principal moments (ascending) and axes (row k is the unit axis of moment k, in P).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Principal {

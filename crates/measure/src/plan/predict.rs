@@ -1,0 +1,170 @@
+//! The covariance that the sensors' white noise will give the estimate on a planned motion,
+//! before anything moves.
+//!
+//! The estimator solves weighted least squares on conditioned equations, `y = Φθ + e`
+//! ([`estimator::conditioning`]: the same stencil and low-pass on every channel, a derivative
+//! stencil for ω̇). To first order each raw noise sample nₛ of a channel enters the equation
+//! error at output t as `cₜ hₜ₋ₛ nₛ`, with h the channel's conditioning impulse response and
+//! cₜ its sensitivity: a leg force's noise the leg's column of the leg-force → wrench map G,
+//! the accelerometer's `∂(Φθ)/∂f`, the gyro's `∂(Φθ)/∂ω̇` through the derivative stencil and
+//! `∂(Φθ)/∂(ωᵢωⱼ)` through the value stencil. The score is then
+//!
+//! ```text
+//! Σₜ Φₜᵀ W eₜ = Σₛ nₛ vₛ,   vₛ = Σⱼ hⱼ uₛ₊ⱼ,   uₜ = Φₜᵀ W cₜ
+//! ```
+//!
+//! so that `Cov θ̂ = A⁻¹ (Σ_channels σ² Σₛ vₛ vₛᵀ) A⁻¹`, A = Σ Φᵀ W Φ — the sandwich the
+//! estimator's residual blocks measure ([`estimator::uncertainty`]), here predicted from the
+//! datasheet. v is u run backwards through the conditioning (a causal filter on the reversed
+//! sequence correlates with h), so the cost is linear in the samples. The accelerometer's lever
+//! arm enters ω̇'s sensitivity (f_O = f_r − ω̇ × r − ω × (ω × r)); its centripetal part, second
+//! order in ω, is left out, as are the gyro bias and quantisation (constant, or far below the
+//! noise at the default datasheet).
+
+use estimator::conditioning::stencil_weights;
+use estimator::filter::{Biquad, LowPass};
+use estimator::regressor::{from_signals, RegressorSignals};
+use estimator::ParameterVector;
+use kinematics::Geometry;
+use nalgebra::{SMatrix, SVector, Vector3, Vector6};
+
+use super::motion::{leg_map, MotionPoint};
+
+/// One sample's white noise of each channel, one sigma.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ChannelNoise {
+    /// Each load cell, N.
+    pub load_cell_n: f64,
+    /// Each gyro axis, rad/s.
+    pub gyro_rad_s: f64,
+    /// Each accelerometer axis, m/s².
+    pub accel_m_s2: f64,
+}
+
+/// What the estimator does with the samples.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Conditioning {
+    /// Sample period, s.
+    pub period_s: f64,
+    /// Low-pass cut-off, Hz.
+    pub cutoff_hz: f64,
+    /// Each equation's one sigma [F; τ] (the rows' weights are its inverse squares).
+    pub equation_sigma: Vector6<f64>,
+    /// Accelerometer position in P, m.
+    pub lever_m: Vector3<f64>,
+}
+
+type Cov = SMatrix<f64, 10, 10>;
+
+/// The predicted covariance of θ̂ when the estimator sees `points` of a body `theta` with the
+/// channels' `noise` (see the [module docs](self)); `None` when the motion does not determine
+/// all ten parameters or the conditioning is invalid.
+pub fn covariance(
+    points: &[MotionPoint],
+    theta: &ParameterVector,
+    geometry: &Geometry,
+    conditioning: &Conditioning,
+    noise: &ChannelNoise,
+) -> Option<Cov> {
+    let biquad = Biquad::butterworth(conditioning.cutoff_hz, conditioning.period_s).ok()?;
+    let (value, slope) = stencil_weights(conditioning.period_s);
+    let w = SMatrix::<f64, 6, 6>::from_diagonal(&conditioning.equation_sigma.map(|s| {
+        if s > 0.0 {
+            1.0 / (s * s)
+        } else {
+            0.0
+        }
+    }));
+    let phis: Vec<_> = points.iter().map(|p| p.regressor()).collect();
+    let mut a = Cov::zeros();
+    for phi in &phis {
+        a += phi.transpose() * w * phi;
+    }
+    let a_inv = a.try_inverse()?;
+    let sens = |s: RegressorSignals| -> Vector6<f64> { from_signals(&s) * theta };
+    let r = conditioning.lever_m;
+    let mut b = Cov::zeros();
+    let mut channel = |variance: f64,
+                       value_c: &dyn Fn(usize) -> Vector6<f64>,
+                       slope_c: Option<Vector6<f64>>| {
+        if variance > 0.0 {
+            b += correlated_scores(&phis, &w, &value, &slope, biquad, value_c, slope_c) * variance;
+        }
+    };
+    let maps: Vec<_> = points.iter().map(|p| leg_map(geometry, p.pose())).collect();
+    for leg in 0..6 {
+        channel(
+            noise.load_cell_n.powi(2),
+            &|t| maps[t].column(leg).into_owned(),
+            None,
+        );
+    }
+    for k in 0..3 {
+        let e = Vector3::ith(k, 1.0);
+        let ga = sens(RegressorSignals {
+            specific_force_m_s2: e,
+            ..RegressorSignals::default()
+        });
+        channel(noise.accel_m_s2.powi(2), &|_| ga, None);
+        let gw = sens(RegressorSignals {
+            angular_acceleration_rad_s2: e,
+            rate_products_rad2_s2: Vector6::zeros(),
+            specific_force_m_s2: -e.cross(&r),
+        });
+        let products = |t: usize| -> Vector6<f64> {
+            let w = points[t].plate.angular_velocity_rad_s;
+            sens(RegressorSignals {
+                rate_products_rad2_s2: product_gradient(&w, k),
+                ..RegressorSignals::default()
+            })
+        };
+        channel(noise.gyro_rad_s.powi(2), &products, Some(gw));
+    }
+    let cov = a_inv * b * a_inv;
+    cov.iter().all(|v| v.is_finite()).then_some(cov)
+}
+
+/// ∂[ωx², ωy², ωz², ωxωy, ωxωz, ωyωz]/∂ω_k.
+fn product_gradient(w: &Vector3<f64>, k: usize) -> Vector6<f64> {
+    match k {
+        0 => Vector6::new(2.0 * w.x, 0.0, 0.0, w.y, w.z, 0.0),
+        1 => Vector6::new(0.0, 2.0 * w.y, 0.0, w.x, 0.0, w.z),
+        _ => Vector6::new(0.0, 0.0, 2.0 * w.z, 0.0, w.x, w.y),
+    }
+}
+
+/// Σₛ vₛ vₛᵀ for one channel of unit variance whose sensitivity is `value_c(t)` through the
+/// value stencil plus the constant `slope_c` through the derivative stencil, both then
+/// through the low-pass: the channel's u run backwards through the conditioning.
+fn correlated_scores(
+    phis: &[SMatrix<f64, 6, 10>],
+    w: &SMatrix<f64, 6, 6>,
+    value: &[f64; 4],
+    slope: &[f64; 4],
+    biquad: Biquad,
+    value_c: &dyn Fn(usize) -> Vector6<f64>,
+    slope_c: Option<Vector6<f64>>,
+) -> Cov {
+    let mut filter = LowPass::<10>::new(biquad);
+    filter.reset_to(&SVector::zeros());
+    // The stencil's newest tap meets the newest input; backwards, the "newest" is the earliest.
+    let mut held_value = [SVector::<f64, 10>::zeros(); 4];
+    let mut held_slope = [SVector::<f64, 10>::zeros(); 4];
+    let mut sum = Cov::zeros();
+    for t in (0..phis.len()).rev() {
+        let pt = phis[t].transpose() * w;
+        held_value.rotate_left(1);
+        held_value[3] = pt * value_c(t);
+        let mut x: SVector<f64, 10> = (0..4).map(|j| held_value[j] * value[j]).sum();
+        if let Some(c) = slope_c {
+            held_slope.rotate_left(1);
+            held_slope[3] = pt * c;
+            x += (0..4)
+                .map(|j| held_slope[j] * slope[j])
+                .sum::<SVector<f64, 10>>();
+        }
+        let v = filter.step(&x);
+        sum += v * v.transpose();
+    }
+    sum
+}

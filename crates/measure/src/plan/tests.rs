@@ -1,0 +1,207 @@
+use super::*;
+use crate::config::ExcitationKind;
+use control::trajectory::{MultiSineConfig, Spectrum};
+use estimator::{OnlineEstimator, Sample};
+use rand::{rngs::StdRng, SeedableRng};
+use rand_distr::{Distribution, Normal};
+
+fn default_planner() -> (crate::LoadedConfig, Planner) {
+    let loaded = crate::load::load(None).expect("default loads");
+    let planner = Planner::new(&loaded).expect("planner");
+    (loaded, planner)
+}
+
+/// A short, brisk multi-sine on all six axes: enough to determine the ten parameters in a few
+/// seconds.
+fn brisk(planner: &Planner, duration_s: f64) -> Trajectory {
+    Trajectory::multisine(
+        planner.geometry.home_pose(),
+        &MultiSineConfig {
+            base_frequency_hz: 0.25,
+            harmonics_per_axis: 1,
+            peak_amplitudes: [0.01, 0.01, 0.01, 0.03, 0.03, 0.03],
+            duration_s,
+            fade_in_s: 1.0,
+            fade_out_s: 1.0,
+            spectrum: Spectrum::FlatVelocity,
+        },
+    )
+    .expect("trajectory")
+}
+
+/// The predicted covariance against the estimator itself, written apart from the prediction:
+/// the spread of its estimates over noise drawn at random must match the predicted sigma of
+/// every parameter (within the sampling spread of 40 draws, about ±11 % one sigma, and the
+/// warm-up the estimator drops).
+#[test]
+fn the_predicted_covariance_matches_the_estimators_spread_over_random_noise() {
+    let (loaded, planner) = default_planner();
+    let duration = 6.0;
+    let trajectory = brisk(&planner, duration);
+    let theta = planner.payload + planner.fixture;
+    // Ten times the datasheet's noise keeps the estimator's own rounding far below it.
+    let noise = ChannelNoise {
+        load_cell_n: 10.0 * planner.noise.load_cell_n,
+        gyro_rad_s: 10.0 * planner.noise.gyro_rad_s,
+        accel_m_s2: 10.0 * planner.noise.accel_m_s2,
+    };
+    let period = planner.conditioning.period_s;
+    let points = motion::sample(&trajectory, period);
+    let predicted = predict::covariance(
+        &points,
+        &theta,
+        &planner.geometry,
+        &planner.conditioning,
+        &noise,
+    )
+    .expect("determined");
+    // Per sample: the pose, the clean leg forces, ω and the specific force.
+    type Clean = (kinematics::Pose, Vector6<f64>, Vector3<f64>, Vector3<f64>);
+    let clean: Vec<Clean> = points
+        .iter()
+        .map(|p| {
+            let f = motion::leg_forces(&planner.geometry, None, &theta, p).expect("regular");
+            (
+                p.plate.pose,
+                f,
+                p.plate.angular_velocity_rad_s,
+                p.signals.specific_force_m_s2,
+            )
+        })
+        .collect();
+    let mut config = crate::setup::estimator_config(
+        &loaded.config,
+        &planner.geometry,
+        crate::setup::Measurement::Loaded,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+    );
+    config.legs = None;
+    config.gyro_noise_rad_s = noise.gyro_rad_s;
+    config.accel_noise_m_s2 = noise.accel_m_s2;
+    config.leg_force_offsets = false;
+    let mut rng = StdRng::seed_from_u64(7);
+    let unit = Normal::new(0.0, 1.0).expect("normal");
+    let draws = 40;
+    let mut estimates = Vec::with_capacity(draws);
+    for _ in 0..draws {
+        let mut est = OnlineEstimator::new(config).expect("estimator");
+        for (k, (pose, f, w, a)) in clean.iter().enumerate() {
+            let mut draw = |s: f64| s * unit.sample(&mut rng);
+            let sample = Sample {
+                time_s: k as f64 * period,
+                sequence: Some(k as u64),
+                pose: *pose,
+                leg_forces_n: f.map(|x| x + draw(noise.load_cell_n)),
+                gyro_rad_s: w.map(|x| x + draw(noise.gyro_rad_s)),
+                accel_m_s2: a.map(|x| x + draw(noise.accel_m_s2)),
+            };
+            est.update(&sample).expect("accepted");
+        }
+        estimates.push(est.theta());
+    }
+    let n = draws as f64;
+    let mean = estimates.iter().sum::<ParameterVector>() / n;
+    let ratios: Vec<f64> = (0..10)
+        .map(|p| {
+            let spread = (estimates
+                .iter()
+                .map(|e| (e[p] - mean[p]).powi(2))
+                .sum::<f64>()
+                / (n - 1.0))
+                .sqrt();
+            spread / predicted[(p, p)].sqrt()
+        })
+        .collect();
+    assert!(
+        ratios.iter().all(|r| (0.7..1.35).contains(r)),
+        "spread over predicted sigma, per parameter: {ratios:.3?}"
+    );
+}
+
+/// A bigger motion of the same shape measures better: the sigma of every parameter falls
+/// roughly as the motion grows (twice the motion, at least 1.5 times less sigma for J).
+#[test]
+fn twice_the_motion_predicts_a_smaller_sigma() {
+    let (_, planner) = default_planner();
+    let small = brisk(&planner, 8.0);
+    let big = search_scaled(&small, 2.0);
+    let p_small = planner.predict(&small, &small).expect("small determined");
+    let p_big = planner.predict(&big, &big).expect("big determined");
+    for i in 4..10 {
+        assert!(
+            p_small.sigma.flat()[i] > 1.5 * p_big.sigma.flat()[i],
+            "{}: {} against {}",
+            Quantities::NAMES[i],
+            p_small.sigma.flat()[i],
+            p_big.sigma.flat()[i]
+        );
+    }
+}
+
+fn search_scaled(t: &Trajectory, factor: f64) -> Trajectory {
+    let components: Vec<_> = t
+        .components()
+        .iter()
+        .map(|c| control::trajectory::SineComponent {
+            amplitude: c.amplitude * factor,
+            ..*c
+        })
+        .collect();
+    let (fi, fo) = t.fades_s();
+    Trajectory::new(*t.offset(), &components, t.duration_s(), fi, fo).expect("scaled")
+}
+
+/// The limits bind: a force limit below the static load refuses any motion, naming the force;
+/// a tiny acceleration limit names the acceleration.
+#[test]
+fn each_limit_refuses_a_motion_that_breaks_it() {
+    let (_, mut planner) = default_planner();
+    let t = search_scaled(&brisk(&planner, 6.0), 0.5);
+    let theta = planner.payload + planner.fixture;
+    let com = planner.payload_com_m();
+    let usage = planner
+        .check(&t, &theta, &com, 5e-3)
+        .expect("default limits hold");
+    assert!(usage.force > 0.0 && usage.force < 1.0, "{usage:?}");
+    let mut low = planner.clone();
+    low.max_force_n = 1000.0;
+    assert!(matches!(
+        low.check(&t, &theta, &com, 5e-3),
+        Err(Binding::Force { .. })
+    ));
+    planner.max_acceleration_m_s2 = 0.01;
+    assert!(matches!(
+        planner.check(&t, &theta, &com, 5e-3),
+        Err(Binding::Acceleration { .. })
+    ));
+}
+
+/// The excitation file round-trips through the loader: laid over the rig description, it
+/// gives the same trajectory.
+#[test]
+fn an_excitation_file_lays_the_planned_sines_over_the_rig_description() {
+    let (loaded, planner) = default_planner();
+    let t = brisk(&planner, 20.0);
+    let excitation = search::excitation_of(&loaded.config.excitation, &t);
+    let text = search::excitation_file(&excitation, "test plan");
+    assert!(text.starts_with("# test plan"));
+    let laid = loaded
+        .clone()
+        .with_excitation_text(&text, "plan.toml")
+        .expect("the file loads");
+    assert_eq!(laid.config.excitation.kind, ExcitationKind::Sines);
+    let back = crate::setup::trajectory(&laid, &planner.geometry, 20.0).expect("trajectory");
+    for (a, b) in back.components().iter().zip(t.components()) {
+        assert_eq!(a.axis, b.axis);
+        assert!((a.amplitude - b.amplitude).abs() < 1e-12 * b.amplitude.abs().max(1e-9));
+        assert!((a.frequency_hz - b.frequency_hz).abs() < 1e-12);
+        assert!((a.phase_rad - b.phase_rad).abs() < 1e-9);
+    }
+    assert_eq!(back.components().len(), t.components().len());
+    // Anything but an [excitation] table is refused, naming the key.
+    let err = loaded
+        .with_excitation_text("[run]\nduration_s = 5.0\n", "plan.toml")
+        .expect_err("refused");
+    assert!(err.to_string().contains("run"), "{err}");
+}
