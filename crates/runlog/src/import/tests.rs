@@ -234,3 +234,80 @@ fn ragged_rows_and_empty_tables_are_refused() {
     }
     assert_eq!(read(&(header(&[]) + "\n")).unwrap_err(), TableError::NoRows);
 }
+
+/// A table of `rows` rows of `run` every `step_s`, `window` the window column's cells (none:
+/// no column), written to a file in `dir`.
+fn table_file(
+    dir: &std::path::Path,
+    runs: &[(&str, usize)],
+    step_s: f64,
+    window: Option<&str>,
+) -> std::path::PathBuf {
+    let extra: &[&str] = if window.is_some() { &["window"] } else { &[] };
+    let mut text = header(extra) + "\n";
+    let mut k = 0;
+    for (run, rows) in runs {
+        for _ in 0..*rows {
+            k += 1;
+            let cells: Vec<&str> = window.into_iter().collect();
+            text += &row(&format!("{}", k as f64 * step_s), run, &cells);
+            text += "\n";
+        }
+    }
+    let path = dir.join("data.csv");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// The import's refusals of a readable table: no window rows, another sample rate, no tare
+/// or two tares.
+#[test]
+fn the_import_refuses_what_the_estimate_could_not_use() {
+    let dir = tempfile::tempdir().unwrap();
+    let rig = measure::load::load(None).unwrap();
+    let out = dir.path().join("out.mcap");
+    let run = |csv: &std::path::Path, tare: Option<&std::path::Path>| {
+        super::import(&super::ImportPlan {
+            rig: &rig,
+            csv,
+            tare,
+            out: &out,
+        })
+        .map(|_| ())
+        .map_err(|e| format!("{e:#}"))
+    };
+    let period = 1.0 / rig.config.sensors.sample_rate_hz;
+    let ok = table_file(dir.path(), &[("tare", 20), ("loaded", 20)], period, None);
+    run(&ok, None).unwrap();
+    let tare = dir.path().join("tare.json");
+    let e = run(&ok, Some(&tare)).unwrap_err();
+    assert!(
+        e.contains("has a tare section") && e.contains("give one of them"),
+        "{e}"
+    );
+    let slow = table_file(
+        dir.path(),
+        &[("tare", 20), ("loaded", 20)],
+        2.0 * period,
+        None,
+    );
+    let e = run(&slow, None).unwrap_err();
+    assert!(
+        e.contains("tare run (lines 2–21) is not sampled") && e.contains("0 of its 19"),
+        "{e}"
+    );
+    let loaded = table_file(dir.path(), &[("loaded", 20)], period, None);
+    let e = run(&loaded, None).unwrap_err();
+    assert!(e.contains("no tare section"), "{e}");
+    let never = table_file(
+        dir.path(),
+        &[("tare", 20), ("loaded", 20)],
+        period,
+        Some("0"),
+    );
+    let e = run(&never, None).unwrap_err();
+    assert!(
+        e.contains("the tare run (lines 2–21) has no row with window = 1"),
+        "{e}"
+    );
+}
