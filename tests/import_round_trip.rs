@@ -1,7 +1,8 @@
 //! `stewart import` round trip: a `simulate` run's sensor channel exported to CSV (the columns
 //! of docs/import.md), imported with that run's rig description, gives the same estimate under
 //! `stewart estimate` as the original log, to 1e-9 relative. The same through a tare-only
-//! table, `estimate --save-tare` and a loaded-only table with `import --tare`.
+//! table, `estimate --save-tare` and a loaded-only table with `import --tare`; a NaN cell is
+//! one rejected sample.
 
 mod support;
 
@@ -132,6 +133,24 @@ fn an_imported_simulate_run_gives_the_same_estimate() {
     let imported = estimate(&imported_log);
     assert_same(&original, &imported, 1e-9);
     assert!(imported.truth.is_none(), "a CSV has no truth");
+
+    // A NaN force in the loaded run's window passes to the estimator, which rejects the sample.
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines: Vec<String> = text.lines().map(String::from).collect();
+    let last_in_window = lines
+        .iter()
+        .rposition(|l| l.contains(",loaded,") && l.ends_with(",1"))
+        .expect("a loaded window row");
+    let mut cells: Vec<&str> = lines[last_in_window].split(',').collect();
+    cells[8] = "NaN"; // leg_force_n_1
+    lines[last_in_window] = cells.join(",");
+    let nan_csv = dir.join("nan.csv");
+    std::fs::write(&nan_csv, lines.join("\n") + "\n").unwrap();
+    let nan_log = dir.join("nan.mcap");
+    import(&nan_csv, &rig, None, &nan_log);
+    let with_nan = estimate(&nan_log);
+    assert_eq!(with_nan.rejected_samples, original.rejected_samples + 1);
+    assert_eq!(with_nan.samples + 1, original.samples);
 
     // No counter: the estimator places the samples by their timestamps, exact while the
     // jitter stays under a quarter period, so the same samples on the same grid.
