@@ -10,6 +10,9 @@
 //! Options change the settings of every measurement alike: `--cutoff-hz`, `--forgetting-factor`,
 //! `--params` and `--window START:END` (seconds from the start of each measurement's recorded
 //! window, its excitation; either end may be left open).
+//!
+//! `--save-tare FILE` writes the tare of the log's tare run ([`save_tare`]); a log with a tare
+//! run only (as `stewart import` writes from a tare-only table) gives that file and no report.
 
 use std::path::PathBuf;
 
@@ -27,7 +30,8 @@ use crate::common::EXIT_NOT_MEASURED;
 /// `stewart estimate` arguments.
 #[derive(Clone, Debug, Default, Args)]
 pub struct EstimateArgs {
-    /// MCAP log of a `simulate` or `rig` run (a log cut short is read up to its last chunk).
+    /// MCAP log of a `simulate`, `rig` or `import` run (a log cut short is read up to its last
+    /// chunk).
     #[arg(value_name = "LOG.mcap")]
     pub log: PathBuf,
     /// Subtract this saved tare (JSON) instead of the log's tare run or tare.
