@@ -113,3 +113,36 @@ fn each_command_offers_only_its_own_options() {
     );
     assert!(measure.iter().any(|l| l == "tare"));
 }
+
+#[test]
+fn parses_import_and_estimate_save_tare() {
+    let cli = Cli::try_parse_from([
+        "stewart", "import", "--rig", "r.toml", "d.csv", "-o", "l.mcap", "--tare", "t.json",
+    ])
+    .unwrap();
+    let Command::Import(a) = cli.command else {
+        panic!("not import")
+    };
+    assert_eq!(a.csv, PathBuf::from("d.csv"));
+    assert_eq!(a.rig, PathBuf::from("r.toml"));
+    assert_eq!(a.out, Some(PathBuf::from("l.mcap")));
+    assert_eq!(a.tare, Some(PathBuf::from("t.json")));
+    // The rig description is what the estimator may know: there is no default for another rig.
+    assert!(Cli::try_parse_from(["stewart", "import", "d.csv"]).is_err());
+    let cli =
+        Cli::try_parse_from(["stewart", "estimate", "l.mcap", "--save-tare", "t.json"]).unwrap();
+    let Command::Estimate(a) = cli.command else {
+        panic!("not estimate")
+    };
+    assert_eq!(a.save_tare, Some(PathBuf::from("t.json")));
+    assert!(Cli::try_parse_from([
+        "stewart",
+        "estimate",
+        "l.mcap",
+        "--save-tare",
+        "t.json",
+        "--tare",
+        "u.json"
+    ])
+    .is_err());
+}

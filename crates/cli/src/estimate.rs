@@ -10,6 +10,9 @@
 //! Options change the settings of every measurement alike: `--cutoff-hz`, `--forgetting-factor`,
 //! `--params` and `--window START:END` (seconds from the start of each measurement's recorded
 //! window, its excitation; either end may be left open).
+//!
+//! `--save-tare FILE` writes the tare of the log's tare run ([`save_tare`]); a log with a tare
+//! run only (as `stewart import` writes from a tare-only table) gives that file and no report.
 
 use std::path::PathBuf;
 
@@ -18,7 +21,7 @@ use clap::Args;
 use measure::quality::QualityError;
 use measure::{Report, TareFile};
 use runlog::read::Damage;
-use runlog::reestimate::stream::{reestimate_file, Streamed};
+use runlog::reestimate::stream::{reestimate_file, tare_of_file, Streamed, StreamedTare};
 use runlog::reestimate::{RunEstimate, SettingsOverride, TareOrigin, Window};
 use runlog::LogContents;
 
@@ -27,12 +30,17 @@ use crate::common::EXIT_NOT_MEASURED;
 /// `stewart estimate` arguments.
 #[derive(Clone, Debug, Default, Args)]
 pub struct EstimateArgs {
-    /// MCAP log of a `simulate` or `rig` run (a log cut short is read up to its last chunk).
+    /// MCAP log of a `simulate`, `rig` or `import` run (a log cut short is read up to its last
+    /// chunk).
     #[arg(value_name = "LOG.mcap")]
     pub log: PathBuf,
     /// Subtract this saved tare (JSON) instead of the log's tare run or tare.
     #[arg(long, value_name = "FILE")]
     pub tare: Option<PathBuf>,
+    /// Save the tare re-estimated from the log's tare run (JSON) for later `--tare` runs; a
+    /// log with a tare run only gives this file and no report.
+    #[arg(long, value_name = "FILE", conflicts_with = "tare")]
+    pub save_tare: Option<PathBuf>,
     /// 10: mass, centre of mass and inertia; 6: the paper's inertia-only model (known mass and
     /// centre of mass from the logged configuration).
     #[arg(long, value_parser = clap::builder::PossibleValuesParser::new(["10", "6"]))]
@@ -215,9 +223,36 @@ pub fn estimate(args: &EstimateArgs) -> Result<EstimateOutcome> {
     })
 }
 
+/// `--save-tare FILE`: the log's tare run re-estimated (streamed once more, its loaded run not
+/// replayed) and written to FILE. `None` without the flag.
+pub fn save_tare(args: &EstimateArgs) -> Result<Option<StreamedTare>> {
+    let Some(path) = &args.save_tare else {
+        return Ok(None);
+    };
+    let rig = match &args.rig {
+        Some(p) => Some(measure::load::load(Some(p)).map_err(|e| anyhow!("{e}"))?),
+        None => None,
+    };
+    let saved = tare_of_file(&args.log, &settings_override(args), rig.as_ref())?;
+    saved.tare.save(path)?;
+    if !args.quiet {
+        out(&format!("tare: {}\n", path.display()));
+    }
+    Ok(Some(saved))
+}
+
 /// `stewart estimate` as a command: its exit code, with the reason on standard error (0 done,
-/// 2 input refused, [`EXIT_NOT_MEASURED`] nothing measured).
+/// 2 input refused, [`EXIT_NOT_MEASURED`] nothing measured). With `--save-tare` the tare is
+/// saved first; a log without a loaded run ends there.
 pub fn main(args: &EstimateArgs) -> u8 {
+    match save_tare(args) {
+        Ok(Some(saved)) if !saved.has_loaded => return 0,
+        Ok(_) => {}
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            return 2;
+        }
+    }
     match estimate(args) {
         Ok(EstimateOutcome {
             quality: Err(why), ..

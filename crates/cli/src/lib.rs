@@ -9,6 +9,7 @@ pub mod campaign;
 pub mod common;
 pub mod emulate;
 pub mod estimate;
+pub mod import;
 pub mod key;
 pub mod output;
 pub mod plan;
@@ -77,9 +78,12 @@ pub enum Command {
     Emulate(emulate::EmulateArgs),
     /// The shared key that authenticates `rig` and `emulate` to each other: `key new`.
     Key(key::KeyArgs),
-    /// Re-run the estimator on a log of `simulate` or `rig` (its settings, or others) and print
-    /// the same table and report.
+    /// Re-run the estimator on a log of `simulate`, `rig` or `import` (its settings, or
+    /// others) and print the same table and report.
     Estimate(estimate::EstimateArgs),
+    /// Write another rig's sensor samples (CSV with the columns of docs/import.md) as a log
+    /// that `estimate` measures, with that rig's description.
+    Import(import::ImportArgs),
     /// Can this computer run the loop? Times the full control-and-estimation tick (median,
     /// p99) and the simulator on the configured scenario, and says whether the rate fits.
     Bench(bench::BenchArgs),
@@ -136,6 +140,7 @@ pub fn main_entry() -> std::process::ExitCode {
         Command::Emulate(a) => emulate::main(&a, &INTERRUPT),
         Command::Key(a) => key::main(&a),
         Command::Estimate(a) => estimate::main(&a),
+        Command::Import(a) => import::main(&a),
         Command::Bench(a) => bench::main(&a),
         Command::Plan(a) => plan::main(&a),
         Command::Simulate(a) if a.runs.is_some() => campaign::main(&a, &INTERRUPT),

@@ -9,12 +9,14 @@
 //! - [`mcap_log`] (the MCAP writer on its own thread) and [`run_log`] (topics and time);
 //!   [`observer`]: the [`measure::Observer`] that writes a measurement into it.
 //! - [`read`]: a log read back, tolerant of a file cut short; [`reestimate`]: its
-//!   measurements re-estimated (`stewart estimate`).
+//!   measurements re-estimated (`stewart estimate`); [`import`]: another rig's CSV data
+//!   written as a log (`stewart import`).
 //!
 //! docs/log-schema.md documents every channel.
 #![warn(missing_docs)]
 
 pub mod foxglove;
+pub mod import;
 pub mod link;
 pub mod mcap_log;
 pub mod messages;

@@ -321,6 +321,27 @@ fn measured_tare(r: RunEstimate, meta: &RunMetadata) -> (TareFile, TareOrigin) {
     (t, TareOrigin::Measured(Box::new(r)))
 }
 
+/// The tare file of a re-estimated tare run `r`, as a session saves it (`--save-tare`): with
+/// the run's exact bias effects per unit of the rig description's figures and its error-budget
+/// inputs, so that a loaded run that subtracts it counts the tare's share of the error budget.
+pub fn saved_tare(r: &RunEstimate, meta: &RunMetadata, rig: &LoadedConfig) -> TareFile {
+    let replay = &r.replay;
+    TareFile::from_estimate(
+        &replay.estimate,
+        &meta.base_joints_m,
+        &meta.plate_joints_m,
+        &meta.config_source,
+        &meta.backend,
+    )
+    .with_bias_effects(
+        replay.accel_bias_effect.as_ref(),
+        setup::accel_bias_sigma(&rig.config),
+        replay.load_cell_bias_effect.as_ref(),
+        setup::load_cell_bias_sigma(&rig.config),
+    )
+    .with_budget(replay.budget.clone())
+}
+
 /// A tare file given on the command line, checked against the log's design.
 fn tare_file(path: &Path, meta: &RunMetadata) -> Result<(TareFile, TareOrigin)> {
     let t = TareFile::load(path, &meta.base_joints_m, &meta.plate_joints_m)?;

@@ -319,40 +319,15 @@ pub fn reestimate_file(
     tare_path: Option<&Path>,
     rig: Option<&LoadedConfig>,
 ) -> Result<Streamed> {
-    let file = std::fs::File::open(path)
-        .with_context(|| format!("cannot read the log {}", path.display()))?;
-    let mut s = Stream {
-        o,
-        rig_arg: rig,
-        wanted: if tare_path.is_some() {
-            vec!["loaded"]
-        } else {
-            vec!["tare", "loaded"]
-        },
-        meta: None,
-        rig: None,
-        settings: Vec::new(),
-        tare: None,
-        truth: None,
-        runs: Vec::new(),
-        sequence: None,
-        scratch: proto::SensorFrame::default(),
+    let wanted = if tare_path.is_some() {
+        vec!["loaded"]
+    } else {
+        vec!["tare", "loaded"]
     };
-    let (channels, damage) = visit(std::io::BufReader::with_capacity(1 << 16, file), &mut s)
-        .with_context(|| format!("{} is not a readable MCAP log", path.display()))?;
+    let mut s = Stream::new(o, rig, wanted);
+    let (channels, damage) = stream_file(path, &mut s)?;
     let outcome = finish_stream(&mut s, &channels, &damage, path, tare_path);
-    let (report, loaded, tare, origin) = match outcome {
-        Ok(v) => v,
-        // What is missing may be what the damage took: say so.
-        Err(e) if !damage.is_clean() => {
-            let lines = damage.warnings(path);
-            return Err(e.context(format!(
-                "the log is damaged or cut short: {}",
-                lines.join("; ")
-            )));
-        }
-        Err(e) => return Err(e),
-    };
+    let (report, loaded, tare, origin) = said_damaged(outcome, &damage, path)?;
     Ok(Streamed {
         report,
         loaded,
@@ -361,6 +336,96 @@ pub fn reestimate_file(
         damage,
         channels,
     })
+}
+
+/// `outcome`, an error of it with what the damage took when the log is damaged.
+fn said_damaged<T>(outcome: Result<T>, damage: &Damage, path: &Path) -> Result<T> {
+    match outcome {
+        Err(e) if !damage.is_clean() => {
+            let lines = damage.warnings(path);
+            Err(e.context(format!(
+                "the log is damaged or cut short: {}",
+                lines.join("; ")
+            )))
+        }
+        other => other,
+    }
+}
+
+/// Streams the log at `path` through `s`.
+fn stream_file(path: &Path, s: &mut Stream<'_>) -> Result<(Channels, Damage)> {
+    let file = std::fs::File::open(path)
+        .with_context(|| format!("cannot read the log {}", path.display()))?;
+    visit(std::io::BufReader::with_capacity(1 << 16, file), s)
+        .with_context(|| format!("{} is not a readable MCAP log", path.display()))
+}
+
+/// The tare run of a log re-estimated, as a tare file to save ([`super::saved_tare`]).
+#[derive(Clone, Debug)]
+pub struct StreamedTare {
+    /// The tare file.
+    pub tare: TareFile,
+    /// The tare run's replay.
+    pub run: RunEstimate,
+    /// The log plans a loaded run too (`/run/metadata`'s `runs`).
+    pub has_loaded: bool,
+    /// What the log lost.
+    pub damage: Damage,
+}
+
+/// The tare run of the log at `path` re-estimated with `o` and the rig description `rig` (the
+/// log's when `None`), streamed; its loaded run, if any, is not replayed (`stewart estimate
+/// --save-tare`).
+pub fn tare_of_file(
+    path: &Path,
+    o: &SettingsOverride,
+    rig: Option<&LoadedConfig>,
+) -> Result<StreamedTare> {
+    let mut s = Stream::new(o, rig, vec!["tare"]);
+    let (_, damage) = stream_file(path, &mut s)?;
+    let outcome = (|| {
+        let meta = s.meta.as_ref().ok_or_else(no_metadata)?;
+        let rig = s.rig.as_ref().ok_or_else(no_metadata)?;
+        let worker = match s.runs.pop() {
+            Some((_, RunState::Running(w))) if w.frames > 0 => w,
+            _ => bail!(
+                "the log has no tare run ({} frames and {} settings of the tare measurement): \
+                 there is no tare to save",
+                topics::SENSORS,
+                topics::ESTIMATOR_SETTINGS
+            ),
+        };
+        let run = finish_replay(worker.finish()?, "tare").context("re-estimating the tare run")?;
+        Ok(StreamedTare {
+            tare: super::saved_tare(&run, meta, rig),
+            run,
+            has_loaded: meta.runs.iter().any(|r| r == "loaded"),
+            damage: damage.clone(),
+        })
+    })();
+    said_damaged(outcome, &damage, path)
+}
+
+impl<'a> Stream<'a> {
+    fn new(
+        o: &'a SettingsOverride,
+        rig: Option<&'a LoadedConfig>,
+        wanted: Vec<&'static str>,
+    ) -> Self {
+        Self {
+            o,
+            rig_arg: rig,
+            wanted,
+            meta: None,
+            rig: None,
+            settings: Vec::new(),
+            tare: None,
+            truth: None,
+            runs: Vec::new(),
+            sequence: None,
+            scratch: proto::SensorFrame::default(),
+        }
+    }
 }
 
 /// The tare and loaded replays finished and the report built, once the log is read.

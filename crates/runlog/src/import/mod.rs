@@ -1,0 +1,270 @@
+//! Another rig's data into a log `stewart estimate` measures (`stewart import`, docs/import.md):
+//! the sensor frames of a CSV table ([`table`]) with the rig description that says what the
+//! rig is.
+//!
+//! The log is written with the same [`RunLog`] and messages as `simulate` and `rig` write it:
+//! `/run/metadata` (command `import`, backend `rig`, the rig description's effective TOML),
+//! `/run/tare` when a tare file is given, and per measurement its `/run/estimator` settings at
+//! the fit window's first row, then `/sensors` for every row. What a CSV cannot hold is absent:
+//! commands, the controller's channels, the estimate along the way and the truth.
+//!
+//! The estimator's settings are those a measurement on this rig would use, all from the rig
+//! description: [`measure::setup::estimator_config`] with the fit window of the table's
+//! `window` column — from its first row with 1 to its last, the rows before it warming the
+//! conditioning, the rows after it not fed — or, without the column, from the run's first row
+//! to its end; the pose's forward-kinematics options are the controller's
+//! ([`measure::setup::controller_config`]).
+//!
+//! The table is read twice: once to check every row and find each run's window, once to write
+//! the log, so memory does not grow with its length.
+
+pub mod table;
+#[cfg(test)]
+mod tests;
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use measure::{setup, LoadedConfig, Measurement, TareFile};
+
+use crate::messages::{self as topics, SensorMsg};
+use crate::metadata::{EstimatorSettings, RunMetadata};
+use crate::run_log::{unix_now_ns, RunLog};
+use table::{Row, Table};
+
+/// What to import.
+#[derive(Clone, Copy, Debug)]
+pub struct ImportPlan<'a> {
+    /// The rig description of the rig the data comes from.
+    pub rig: &'a LoadedConfig,
+    /// The CSV table.
+    pub csv: &'a Path,
+    /// A saved tare (JSON) subtracted from the loaded run, instead of a tare section.
+    pub tare: Option<&'a Path>,
+    /// The log to write.
+    pub out: &'a Path,
+}
+
+/// One measurement of the table.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RunSummary {
+    /// `tare` or `loaded`.
+    pub run: Measurement,
+    /// Rows.
+    pub rows: u64,
+    /// Lines of its first and last row.
+    pub lines: [u64; 2],
+    /// Time of its first and last row, s.
+    pub time_s: [f64; 2],
+    /// The fit window's first and last row's time, s (the whole run without a `window`
+    /// column).
+    pub window_s: [f64; 2],
+    /// Time steps of about one sample period (within half a period, per counter step when
+    /// the table has a `sequence` column), of `rows − 1`.
+    pub steps_on_period: u64,
+}
+
+/// What [`import`] wrote.
+#[derive(Clone, Debug)]
+pub struct Imported {
+    /// The log.
+    pub log: PathBuf,
+    /// Its measurements, in order.
+    pub runs: Vec<RunSummary>,
+    /// The tare file it carries (`/run/tare`), if given.
+    pub tare: Option<TareFile>,
+}
+
+/// Reads the table at `path`, refusals named with the file.
+fn open(path: &Path) -> Result<Table<impl Read>> {
+    let file = std::fs::File::open(path)
+        .with_context(|| format!("cannot read the table {}", path.display()))?;
+    Table::new(std::io::BufReader::with_capacity(1 << 16, file))
+        .with_context(|| format!("{} is refused", path.display()))
+}
+
+/// The first pass: every row checked, each run's rows, times and window.
+pub fn scan(path: &Path, sample_period_s: f64) -> Result<Vec<RunSummary>> {
+    let mut t = open(path)?;
+    let mut runs: Vec<RunSummary> = Vec::new();
+    let mut window_seen = false;
+    let mut previous: Option<Row> = None;
+    while let Some(row) = t
+        .next_row()
+        .with_context(|| format!("{} is refused", path.display()))?
+    {
+        let (f, time_s) = (&row.frame, row.frame.time_s);
+        match runs.last_mut() {
+            Some(r) if r.run == row.run => {
+                r.rows += 1;
+                r.lines[1] = row.line;
+                r.time_s[1] = time_s;
+                if let Some(p) = previous {
+                    let slots = if t.has_sequence() {
+                        (f.sequence - p.frame.sequence) as f64
+                    } else {
+                        1.0
+                    };
+                    let step = (time_s - p.frame.time_s) / slots / sample_period_s;
+                    if (0.5..1.5).contains(&step) {
+                        r.steps_on_period += 1;
+                    }
+                }
+            }
+            _ => {
+                window_seen = false;
+                runs.push(RunSummary {
+                    run: row.run,
+                    rows: 1,
+                    lines: [row.line; 2],
+                    time_s: [time_s; 2],
+                    window_s: [time_s, f64::INFINITY],
+                    steps_on_period: 0,
+                });
+            }
+        }
+        if let (Some(r), Some(true)) = (runs.last_mut(), row.window) {
+            if !window_seen {
+                r.window_s[0] = time_s;
+                window_seen = true;
+            }
+            r.window_s[1] = time_s;
+        }
+        if row.window == Some(false) && !window_seen {
+            if let Some(r) = runs.last_mut() {
+                // Not yet in the window: it starts on a later row (or nowhere, refused below).
+                r.window_s[0] = f64::INFINITY;
+            }
+        }
+        previous = Some(row);
+    }
+    for r in &runs {
+        check_run(path, r, sample_period_s)?;
+    }
+    Ok(runs)
+}
+
+/// A run's window exists and its rows come at the rig description's sample rate.
+fn check_run(path: &Path, r: &RunSummary, period_s: f64) -> Result<()> {
+    let (name, [a, b]) = (r.run.name(), r.lines);
+    if !r.window_s[0].is_finite() {
+        bail!(
+            "{}: the {name} run (lines {a}–{b}) has no row with window = 1: its fit window is \
+             empty",
+            path.display()
+        );
+    }
+    let steps = r.rows - 1;
+    // Most steps are one period on any rig that loses or delays a few frames; a table at
+    // another rate (or a rig description with the wrong `sensors.sample_rate_hz`) has none.
+    if steps >= 10 && 2 * r.steps_on_period < steps {
+        bail!(
+            "{}: the {name} run (lines {a}–{b}) is not sampled at the rig description's rate: \
+             {} of its {steps} time steps are one sample period ({period_s} s, from \
+             sensors.sample_rate_hz) within half a period",
+            path.display(),
+            r.steps_on_period
+        );
+    }
+    Ok(())
+}
+
+/// The log's metadata for the rig description `rig` of geometry `geometry`.
+fn metadata(
+    plan: &ImportPlan<'_>,
+    geometry: &kinematics::Geometry,
+    runs: &[RunSummary],
+) -> RunMetadata {
+    let config = &plan.rig.config;
+    let (base_joints_m, plate_joints_m) = measure::session::joints(geometry);
+    let stroke = geometry.stroke();
+    RunMetadata {
+        tool_version: env!("CARGO_PKG_VERSION").into(),
+        command: "import".into(),
+        backend: "rig".into(),
+        config_source: plan.rig.source.clone(),
+        config_text: plan.rig.text.clone(),
+        config_toml: plan.rig.effective_toml(),
+        seed: 0,
+        noise: "rig".into(),
+        params: config.estimator.params.into(),
+        sample_period_s: 1.0 / config.sensors.sample_rate_hz,
+        start_unix_ns: 0,
+        runs: runs.iter().map(|r| r.run.name().to_string()).collect(),
+        tare_file: plan.tare.map(|p| p.display().to_string()),
+        base_joints_m,
+        plate_joints_m,
+        stroke_m: [stroke.min_length_m, stroke.max_length_m],
+    }
+}
+
+/// Writes the log of `plan` (see the [module docs](self)). Refused, with the file, line and
+/// column: a table [`table`] refuses, a run without window rows or at another sample rate than
+/// the rig description's, a table with both a tare section and `plan.tare`, or with loaded
+/// rows and neither; a tare file measured on other joints.
+pub fn import(plan: &ImportPlan<'_>) -> Result<Imported> {
+    let config = &plan.rig.config;
+    let geometry = setup::geometry(plan.rig).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let period_s = 1.0 / config.sensors.sample_rate_hz;
+    let runs = scan(plan.csv, period_s)?;
+    let has = |m: Measurement| runs.iter().any(|r| r.run == m);
+    let csv = plan.csv.display();
+    let tare = match plan.tare {
+        Some(_) if has(Measurement::Tare) => bail!(
+            "{csv} has a tare section (rows with run = tare) and --tare gives a tare file: \
+             give one of them"
+        ),
+        Some(path) => {
+            let (base, plate) = measure::session::joints(&geometry);
+            Some(TareFile::load(path, &base, &plate)?)
+        }
+        None if !has(Measurement::Tare) => bail!(
+            "{csv} has no tare section (rows with run = tare): give the tare's rows or a saved \
+             tare with --tare FILE"
+        ),
+        None => None,
+    };
+    let start_ns = unix_now_ns();
+    let mut log = RunLog::create(plan.out, start_ns)?;
+    let mut meta = metadata(plan, &geometry, &runs);
+    meta.start_unix_ns = start_ns;
+    log.write_now(topics::METADATA, &meta)?;
+    if let Some(t) = &tare {
+        log.write_now(topics::TARE, t)?;
+    }
+    let fk = setup::controller_config(config).fk;
+    let mut t = open(plan.csv)?;
+    let mut current: Option<(Measurement, bool)> = None;
+    while let Some(row) = t.next_row().with_context(|| format!("{csv} is refused"))? {
+        let run = row.run;
+        let Some(r) = runs.iter().find(|r| r.run == run) else {
+            bail!("{csv} changed while it was imported");
+        };
+        if current.is_none_or(|(m, _)| m != run) {
+            current = Some((run, false));
+        }
+        let time_s = row.frame.time_s;
+        // The settings are logged when the window opens, as the online run logs them.
+        if let Some((_, started @ false)) = &mut current {
+            if time_s >= r.window_s[0] {
+                let c =
+                    setup::estimator_config(config, &geometry, run, r.window_s[0], r.window_s[1]);
+                let settings = EstimatorSettings::from_config(run.name(), &c, &fk);
+                log.write(topics::ESTIMATOR_SETTINGS, time_s, &settings)?;
+                *started = true;
+            }
+        }
+        log.write_proto(
+            topics::SENSORS,
+            time_s,
+            &SensorMsg::new(run.name(), &row.frame),
+        )?;
+    }
+    log.finish()?;
+    Ok(Imported {
+        log: plan.out.to_path_buf(),
+        runs,
+        tare,
+    })
+}
