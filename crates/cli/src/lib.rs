@@ -9,6 +9,7 @@ pub mod campaign;
 pub mod common;
 pub mod emulate;
 pub mod estimate;
+pub mod export;
 pub mod key;
 pub mod output;
 pub mod plot;
@@ -79,6 +80,9 @@ pub enum Command {
     /// Re-run the estimator on a log of `simulate` or `rig` (its settings, or others) and print
     /// the same table and report.
     Estimate(estimate::EstimateArgs),
+    /// Write a report's payload inertial element (mass, centre of mass, inertia about it) for a
+    /// model: URDF, SDF, MJCF or CSV, sigmas as comments (docs/export.md).
+    Export(export::ExportArgs),
     /// Can this computer run the loop? Times the full control-and-estimation tick (median,
     /// p99) and the simulator on the configured scenario, and says whether the rate fits.
     Bench(bench::BenchArgs),
@@ -131,6 +135,7 @@ pub fn main_entry() -> std::process::ExitCode {
         Command::Emulate(a) => emulate::main(&a, &INTERRUPT),
         Command::Key(a) => key::main(&a),
         Command::Estimate(a) => estimate::main(&a),
+        Command::Export(a) => export::main(&a),
         Command::Bench(a) => bench::main(&a),
         Command::Simulate(a) if a.runs.is_some() => campaign::main(&a, &INTERRUPT),
         Command::Simulate(a) => simulate::main(&a, &INTERRUPT),
