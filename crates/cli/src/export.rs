@@ -64,7 +64,7 @@ pub fn run(args: &ExportArgs) -> Result<(), CommandError> {
     );
     match &args.output {
         Some(path) => inertial_export::file::write_atomically(path, &text)
-            .map_err(|e: ExportError| CommandError::Run(anyhow::anyhow!(e))),
+            .map_err(|e: ExportError| CommandError::Run(anyhow::anyhow!(e.to_string()))),
         None => {
             use std::io::Write;
             let mut out = std::io::stdout().lock();

@@ -27,9 +27,9 @@ pub enum ExportError {
     Json(String),
     /// A campaign report (`simulate --runs N`) holds many measurements, not one.
     #[error(
-        "this is a campaign report (`simulate --runs`, {runs} measurements under `reports`), not \
-         one measurement: export one run's report (`simulate --report` with its seed, or \
-         `estimate LOG --report`)"
+        "this is a campaign report (`simulate --runs`: its `reports` list holds one report per \
+         run, {runs} here), not one measurement: export one run's report (`simulate --report` \
+         with its seed, or `estimate LOG --report`)"
     )]
     Campaign {
         /// How many reports it holds.
@@ -193,7 +193,10 @@ pub fn checked(
     let com = Vector3::from(estimate.com);
     let body = InertialParameters::from_com(estimate.mass, com, j);
     let moments = stewart_types::principal_of(&j)
-        .map(|p| format!("principal moments {} kg m^2", p.moments_kg_m2.transpose()))
+        .map(|p| {
+            let m = p.moments_kg_m2;
+            format!("principal moments {} {} {} kg m^2", m.x, m.y, m.z)
+        })
         .unwrap_or_default();
     match body.consistency().first_failure() {
         None => {}
