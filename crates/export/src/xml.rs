@@ -22,8 +22,9 @@ fn list(values: &[f64]) -> String {
     values.iter().map(|v| num(*v)).collect::<Vec<_>>().join(" ")
 }
 
-/// `<!-- text -->` with `text` made a legal comment: no `--` inside, no `-` at its end, no
-/// control characters but newlines.
+/// `<!-- text -->` with `text` made a legal comment: no `--` inside (a space goes between the
+/// dashes; the spaces around `text` keep a `-` at either end off the delimiters), no control
+/// characters but newlines.
 fn comment(indent: &str, text: &str) -> String {
     let mut t: String = text
         .chars()
