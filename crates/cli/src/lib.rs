@@ -9,6 +9,7 @@ pub mod campaign;
 pub mod common;
 pub mod emulate;
 pub mod estimate;
+pub mod export;
 pub mod import;
 pub mod key;
 pub mod output;
@@ -84,6 +85,9 @@ pub enum Command {
     /// Write another rig's sensor samples (CSV with the columns of docs/import.md) as a log
     /// that `estimate` measures, with that rig's description.
     Import(import::ImportArgs),
+    /// Write a report's payload inertial element (mass, centre of mass, inertia about it) for a
+    /// model: URDF, SDF, MJCF or CSV, sigmas as comments (docs/export.md).
+    Export(export::ExportArgs),
     /// Can this computer run the loop? Times the full control-and-estimation tick (median,
     /// p99) and the simulator on the configured scenario, and says whether the rate fits.
     Bench(bench::BenchArgs),
@@ -141,6 +145,7 @@ pub fn main_entry() -> std::process::ExitCode {
         Command::Key(a) => key::main(&a),
         Command::Estimate(a) => estimate::main(&a),
         Command::Import(a) => import::main(&a),
+        Command::Export(a) => export::main(&a),
         Command::Bench(a) => bench::main(&a),
         Command::Plan(a) => plan::main(&a),
         Command::Simulate(a) if a.runs.is_some() => campaign::main(&a, &INTERRUPT),
