@@ -134,6 +134,7 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
     p.finite3("sensors.imu.orientation_deg", &s.imu.orientation_deg, 180.0);
     datasheet_tolerances(&mut p, config);
     legs(&mut p, &config.legs);
+    plan(&mut p, &config.plan);
     tare_excitation(&mut p, config);
 
     let c = &config.control;
@@ -488,6 +489,38 @@ fn datasheet_tolerances(p: &mut Problems, config: &Config) {
         0.0,
         0.5,
         "(share)",
+    );
+}
+
+/// The plan's prior must be a physical body, its targets and margins positive.
+fn plan(p: &mut Problems, c: &crate::config::PlanConfig) {
+    for (name, body) in [("payload", &c.payload), ("fixture", &c.fixture)] {
+        p.positive(&format!("plan.{name}.mass_kg"), body.mass_kg);
+        p.finite3(&format!("plan.{name}.com_m"), &body.com_m, 10.0);
+        if !body.parameters().consistency().is_consistent() {
+            p.push(
+                format!("plan.{name}.inertia_com_kg_m2"),
+                "must be symmetric, positive definite and meet the triangle inequality (a body's tensor)",
+            );
+        }
+    }
+    p.positive("plan.target_mass_fraction", c.target_mass_fraction);
+    p.positive("plan.target_com_m", c.target_com_m);
+    p.positive("plan.target_inertia_fraction", c.target_inertia_fraction);
+    p.within(
+        "plan.force_share",
+        c.force_share,
+        0.01,
+        1.0,
+        "of control.max_force_n",
+    );
+    p.positive("plan.max_acceleration_m_s2", c.max_acceleration_m_s2);
+    p.within(
+        "plan.max_frequency_share",
+        c.max_frequency_share,
+        0.01,
+        1.0,
+        "of estimator.cutoff_hz",
     );
 }
 

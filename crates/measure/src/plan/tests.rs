@@ -205,3 +205,18 @@ fn an_excitation_file_lays_the_planned_sines_over_the_rig_description() {
         .expect_err("refused");
     assert!(err.to_string().contains("run"), "{err}");
 }
+
+/// A prior that is not a body, or a target that is not positive, is refused before anything is
+/// planned, naming the key.
+#[test]
+fn a_prior_that_is_not_a_body_is_refused_naming_the_key() {
+    let bad = "[plan.payload]\nmass_kg = 1500.0\ncom_m = [0.0, 0.0, 0.5]\n\
+               inertia_com_kg_m2 = [[100.0, 0.0, 0.0], [0.0, 100.0, 0.0], [0.0, 0.0, 900.0]]\n";
+    let err = crate::load::load_str(bad, "prior.toml").expect_err("triangle inequality broken");
+    assert!(
+        err.to_string().contains("plan.payload.inertia_com_kg_m2"),
+        "{err}"
+    );
+    let err = crate::load::load_str("[plan]\ntarget_com_m = 0.0\n", "t.toml").expect_err("zero");
+    assert!(err.to_string().contains("plan.target_com_m"), "{err}");
+}
