@@ -193,13 +193,7 @@ fn a_datasheet_figure_in_the_rig_description_reaches_the_rig_report() {
     assert_eq!(base.systematic.accel_bias_sigma_m_s2, 1e-3);
     assert_eq!(worse.systematic.accel_bias_sigma_m_s2, 1e-2);
     // The bias's own line of the budget: ten times the figure, about ten times it.
-    let bias = |r: &Report| {
-        r.error_budget
-            .iter()
-            .find(|l| l.source == "accel_bias")
-            .map(|l| l.sigma.mass)
-            .unwrap_or_default()
-    };
+    let bias = |r: &Report| r.budget_line("accel_bias").map_or(0.0, |q| q.mass);
     let ratio = bias(worse) / bias(base);
     assert!(
         (5.0..20.0).contains(&ratio),

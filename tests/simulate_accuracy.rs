@@ -134,13 +134,7 @@ fn default_car_without_noise_is_exact() {
     // Ideal sensors: every sensor's systematic line of the error budget is zero (the `noise`
     // line is the estimator's covariance, which sees the integration's model error), and so is
     // the geometry's (`--noise none` scales the joints' tolerance too: an exactly built rig).
-    let line = |id: &str| {
-        r.error_budget
-            .iter()
-            .find(|l| l.source == id)
-            .unwrap()
-            .sigma
-    };
+    let line = |id: &str| *r.budget_line(id).unwrap();
     for id in [
         "accel_bias",
         "load_cell_offset",

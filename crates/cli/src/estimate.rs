@@ -315,13 +315,7 @@ mod tests {
         let rig = measure::load::load(Some(&other)).unwrap();
         let (changed, loaded, ..) = reestimate(&log, &o, None, Some(&rig)).unwrap();
         assert_eq!(changed.systematic.accel_bias_sigma_m_s2, 0.01);
-        let bias = |r: &Report| {
-            r.error_budget
-                .iter()
-                .find(|l| l.source == "accel_bias")
-                .map(|l| l.sigma.mass)
-                .unwrap_or_default()
-        };
+        let bias = |r: &Report| r.budget_line("accel_bias").map_or(0.0, |q| q.mass);
         let ratio = bias(&changed) / bias(&online);
         assert!(
             (5.0..20.0).contains(&ratio),

@@ -70,24 +70,6 @@ pub fn main(args: &PlanArgs) -> u8 {
     }
 }
 
-fn quantities(flat: &[f64; 10]) -> Quantities {
-    let j = |a: usize, b: usize| {
-        flat[match (a.min(b), a.max(b)) {
-            (0, 0) => 4,
-            (1, 1) => 5,
-            (2, 2) => 6,
-            (0, 1) => 7,
-            (0, 2) => 8,
-            _ => 9,
-        }]
-    };
-    Quantities {
-        mass: flat[0],
-        com: [flat[1], flat[2], flat[3]],
-        inertia_com: core::array::from_fn(|r| core::array::from_fn(|c| j(r, c))),
-    }
-}
-
 fn run(args: &PlanArgs) -> Result<(), CommandError> {
     let loaded = measure::load::load(args.config.as_deref())?.with_overrides(&Overrides {
         duration_s: args.duration,
@@ -121,13 +103,14 @@ fn run(args: &PlanArgs) -> Result<(), CommandError> {
     if let Some(path) = &args.out {
         let header = header(&plan, duration_s, &loaded.source);
         let text = plan::search::excitation_file(&plan.excitation, &header);
-        write_atomically(path, &text)
-            .map_err(|e| refuse(format!("cannot write {}: {e}", path.display())))?;
+        // The export's atomic write: a reader never sees a half-written file.
+        inertial_export::file::write_atomically(path, &text)
+            .map_err(|e| CommandError::Run(anyhow::anyhow!("{e}")))?;
     }
     if args.json {
         let json = PlanJson {
             predicted_sigma: plan.prediction.sigma,
-            target_sigma: quantities(&planner.targets),
+            target_sigma: Quantities::from_flat(&planner.targets),
             criterion,
             worst,
             binding: plan.binding.to_string(),
@@ -228,12 +211,4 @@ fn table(
         ));
     }
     out
-}
-
-/// Writes `text` to a temporary file beside `path`, then renames it: a reader never sees a
-/// half-written file.
-fn write_atomically(path: &std::path::Path, text: &str) -> std::io::Result<()> {
-    let tmp = path.with_extension("toml.partial");
-    std::fs::write(&tmp, text)?;
-    std::fs::rename(&tmp, path)
 }

@@ -299,13 +299,7 @@ mod tests {
         assert_eq!(b.systematic.accel_bias_sigma_m_s2, 1e-3);
         assert_eq!(w.systematic.accel_bias_sigma_m_s2, 1e-2);
         // The bias's effect on the mass is about m·b_z/g: ten times the figure, ten times it.
-        let bias = |r: &Report| {
-            r.error_budget
-                .iter()
-                .find(|l| l.source == "accel_bias")
-                .map(|l| l.sigma.mass)
-                .unwrap_or_default()
-        };
+        let bias = |r: &Report| r.budget_line("accel_bias").map_or(0.0, |q| q.mass);
         let ratio = bias(&w) / bias(&b);
         assert!(
             (5.0..20.0).contains(&ratio),

@@ -238,17 +238,24 @@ pub fn load(path: Option<&Path>) -> Result<LoadedConfig, ConfigError> {
     match path {
         None => load_str(DEFAULT_CONFIG_TOML, DEFAULT_CONFIG_NAME),
         Some(path) => {
-            let name = path.display().to_string();
-            let text = std::fs::read_to_string(path).map_err(|e| {
-                ConfigError::single(ConfigIssue {
-                    file: name.clone(),
-                    line: None,
-                    key: String::new(),
-                    problem: format!("cannot read the file: {e}"),
-                })
-            })?;
+            let (text, name) = read_text(path, "the file")?;
             load_str(&text, &name)
         }
+    }
+}
+
+/// The text of `path` and its name for messages; a file that cannot be read is refused as
+/// "cannot read `what`".
+fn read_text(path: &Path, what: &str) -> Result<(String, String), ConfigError> {
+    let name = path.display().to_string();
+    match std::fs::read_to_string(path) {
+        Ok(text) => Ok((text, name)),
+        Err(e) => Err(ConfigError::single(ConfigIssue {
+            file: name,
+            line: None,
+            key: String::new(),
+            problem: format!("cannot read {what}: {e}"),
+        })),
     }
 }
 
@@ -331,15 +338,7 @@ impl LoadedConfig {
     /// else) over the rig description: both runs follow it, the tare run with the keys of a
     /// `[tare_excitation]` table laid over it. Problems name the excitation file.
     pub fn with_excitation_file(self, path: &Path) -> Result<Self, ConfigError> {
-        let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|e| {
-            ConfigError::single(ConfigIssue {
-                file: name.clone(),
-                line: None,
-                key: String::new(),
-                problem: format!("cannot read the excitation file: {e}"),
-            })
-        })?;
+        let (text, name) = read_text(path, "the excitation file")?;
         self.with_excitation_text(&text, &name)
     }
 

@@ -40,6 +40,16 @@ impl Quantities {
             self.mass, c[0], c[1], c[2], j[0][0], j[1][1], j[2][2], j[0][1], j[0][2], j[1][2],
         ]
     }
+
+    /// The inverse of [`Self::flat`] (J_C symmetric).
+    pub fn from_flat(q: &[f64; 10]) -> Self {
+        let (xx, yy, zz, xy, xz, yz) = (q[4], q[5], q[6], q[7], q[8], q[9]);
+        Self {
+            mass: q[0],
+            com: [q[1], q[2], q[3]],
+            inertia_com: [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]],
+        }
+    }
 }
 
 /// Principal moments (ascending) and axes (row k is the unit axis of moment k, in P).
@@ -241,6 +251,15 @@ pub struct Report {
 }
 
 impl Report {
+    /// One sigma of every quantity from the error source `id` alone (its line of
+    /// `error_budget`); `None` when the budget has no such line.
+    pub fn budget_line(&self, id: &str) -> Option<&Quantities> {
+        self.error_budget
+            .iter()
+            .find(|l| l.source == id)
+            .map(|l| &l.sigma)
+    }
+
     /// The rules of [`crate::quality`]: did the loaded run measure anything, and did the
     /// loaded run and the tare give enough residual blocks for an honest sigma?
     pub fn check_quality(&self) -> Result<(), crate::quality::QualityError> {
@@ -604,6 +623,21 @@ impl ThetaHistory {
 mod tests {
     use super::*;
 
+    /// `from_flat` puts each entry back where `flat` took it from, J_C symmetric.
+    #[test]
+    fn flat_and_from_flat_are_inverse() {
+        let q = Quantities {
+            mass: 1.0,
+            com: [2.0, 3.0, 4.0],
+            inertia_com: [[5.0, 8.0, 9.0], [8.0, 6.0, 10.0], [9.0, 10.0, 7.0]],
+        };
+        assert_eq!(
+            q.flat(),
+            [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0]
+        );
+        assert_eq!(Quantities::from_flat(&q.flat()), q);
+    }
+
     /// The documented shape: these keys, these nestings, these array sizes.
     #[test]
     fn json_has_the_design_shape() {
@@ -697,13 +731,7 @@ mod tests {
         // The budget: one line per source, the bias's line the systematic part, the noise's
         // the two runs' covariances (no frames lost), and the lines add up to `sigma`.
         assert_eq!(r.error_budget.len(), ErrorSource::ALL.len());
-        let line = |id: &str| {
-            r.error_budget
-                .iter()
-                .find(|l| l.source == id)
-                .unwrap()
-                .sigma
-        };
+        let line = |id: &str| *r.budget_line(id).unwrap();
         assert!((line("accel_bias").mass - 0.15).abs() < 1e-12);
         assert!((line("noise").mass - 3e-4f64.sqrt()).abs() < 1e-12);
         assert_eq!(line("geometry").mass, 0.0);

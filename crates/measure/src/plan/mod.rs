@@ -26,7 +26,7 @@ pub mod search;
 use control::trajectory::{FeasibilityLimits, Trajectory};
 use estimator::{LegModel, ParameterVector};
 use kinematics::Geometry;
-use nalgebra::{SMatrix, Vector3, Vector6};
+use nalgebra::{SMatrix, Vector3};
 
 use crate::config::{Config, ParamCount};
 use crate::load::{ConfigError, LoadedConfig};
@@ -169,10 +169,9 @@ impl Planner {
         Ok(Self::of(config, geometry))
     }
 
-    /// The planner of `config` on `geometry`.
+    /// The planner of `config` on `geometry`. The conditioning, weights and IMU noise are the
+    /// estimator's own settings ([`crate::setup::estimator_config`]).
     pub fn of(config: &Config, geometry: Geometry) -> Self {
-        let est = &config.estimator;
-        let e = &config.excitation;
         let plan = &config.plan;
         let payload = plan.payload.parameters();
         let fixture = plan.fixture.parameters();
@@ -186,40 +185,33 @@ impl Planner {
         for t in &mut targets[4..] {
             *t = plan.target_inertia_fraction * smallest;
         }
-        let s = &config.sensors;
+        let estimator = crate::setup::estimator_config(
+            config,
+            &geometry,
+            crate::setup::Measurement::Loaded,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+        );
+        let cell = &config.sensors.load_cell;
         Self {
             geometry,
             legs: config.legs.model(),
             conditioning: Conditioning {
-                period_s: 1.0 / s.sample_rate_hz,
-                cutoff_hz: est.cutoff_hz,
-                equation_sigma: Vector6::new(
-                    est.force_sigma_n,
-                    est.force_sigma_n,
-                    est.force_sigma_n,
-                    est.torque_sigma_nm,
-                    est.torque_sigma_nm,
-                    est.torque_sigma_nm,
-                ),
-                lever_m: Vector3::from(s.imu.position_m),
+                period_s: estimator.sample_period_s,
+                cutoff_hz: config.estimator.cutoff_hz,
+                equation_sigma: estimator.equation_sigma,
+                lever_m: estimator.accelerometer_position_m,
             },
             noise: ChannelNoise {
-                load_cell_n: s
-                    .load_cell
-                    .noise_n
-                    .hypot(s.load_cell.resolution_n / 12f64.sqrt()),
-                gyro_rad_s: s.gyro_noise_rad_s(),
-                accel_m_s2: s.accel_noise_m_s2(),
+                load_cell_n: cell.noise_n.hypot(cell.resolution_n / 12f64.sqrt()),
+                gyro_rad_s: estimator.gyro_noise_rad_s,
+                accel_m_s2: estimator.accel_noise_m_s2,
             },
-            feasibility: FeasibilityLimits {
-                stroke_margin_m: e.stroke_margin_m,
-                max_leg_speed_m_s: e.max_leg_speed_m_s,
-                min_inverse_condition: e.min_inverse_condition,
-                step_s: (1.0 / s.sample_rate_hz).min(1e-3),
-            },
+            // The limits the controller checks every trajectory against before it moves.
+            feasibility: crate::setup::controller_config(config).feasibility,
             max_force_n: plan.force_share * config.control.max_force_n,
             max_acceleration_m_s2: plan.max_acceleration_m_s2,
-            max_frequency_hz: plan.max_frequency_share * est.cutoff_hz,
+            max_frequency_hz: plan.max_frequency_share * config.estimator.cutoff_hz,
             payload: payload.to_vector(),
             fixture: fixture.to_vector(),
             targets,

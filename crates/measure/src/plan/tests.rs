@@ -2,6 +2,7 @@ use super::*;
 use crate::config::ExcitationKind;
 use control::trajectory::{MultiSineConfig, Spectrum};
 use estimator::{OnlineEstimator, Sample};
+use nalgebra::Vector6;
 use rand::{rngs::StdRng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 
