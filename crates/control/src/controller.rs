@@ -7,8 +7,8 @@
 //!
 //! The procedure: [`Phase::Idle`] until the first good frame; [`Phase::Settle`]: a quintic ramp
 //! from the measured pose to the trajectory's offset (home) pose, then a hold for `settle_s`;
-//! [`Phase::Excite`]: the trajectory; [`Phase::Park`]: a quintic ramp from wherever the
-//! set-point is back to home at rest, a hold for `park_hold_s`; [`Phase::Done`]: brakes on.
+//! [`Phase::Excite`]: the trajectory; [`Phase::Park`]: a brake to rest from wherever the
+//! set-point is, a quintic ramp back to home, a hold for `park_hold_s`; [`Phase::Done`]: brakes on.
 //! Any fault (sensor watchdog, limits, forward kinematics failing, a desired leg length outside
 //! the stroke) latches [`Phase::Fault`] and the safe stop.
 //!
@@ -177,6 +177,10 @@ impl TickOutput {
     }
 }
 
+/// The brake lengths [`Controller`]'s park chooses from, s: from a tenth of a second (a slow
+/// set-point stops at once) to one second (a fast one stops without a jolt).
+pub const BRAKE_DURATIONS_S: [f64; 5] = [0.1, 0.2, 0.35, 0.6, 1.0];
+
 /// The set-point generator of the current phase.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Motion {
@@ -186,8 +190,13 @@ enum Motion {
     Settle { ramp: Ramp, hold_until_s: f64 },
     /// The trajectory.
     Excite,
-    /// Ramp to home, then hold until `hold_until_s` (phase time).
-    Park { ramp: Ramp, hold_until_s: f64 },
+    /// Brake to rest (none when the set-point is at rest), ramp from there to home (starting at
+    /// the brake's end), then hold until `hold_until_s` (phase time).
+    Park {
+        brake: Option<Ramp>,
+        ramp: Ramp,
+        hold_until_s: f64,
+    },
 }
 
 /// The measurement procedure's controller. See the [module docs](self).
@@ -449,7 +458,7 @@ impl Controller {
                     self.enter(Phase::Done, Motion::Hold, now);
                 }
                 (Phase::Idle, _) => {
-                    let duration = self.settle_duration(measured);
+                    let duration = self.ramp_duration(measured, self.config.settle_ramp_s);
                     let Ok(ramp) = Ramp::from_pose(home, measured, duration) else {
                         return;
                     };
@@ -482,23 +491,17 @@ impl Controller {
         }
     }
 
-    /// Park from the last set-point (position, rate and acceleration), so the set-point stays
-    /// C² even when the excitation is cut short.
+    /// Park from the last set-point (position, rate and acceleration) in two quintic pieces, so
+    /// that the set-point stays C² and within the leg speed limit even when a fast excitation
+    /// is cut short: a brake to rest ([`Ramp::brake`]: the longest, so the gentlest, of
+    /// [`BRAKE_DURATIONS_S`] that stays inside the stroke and under the feasibility speed limit,
+    /// or failing that the one whose peak leg speed is least), then a rest-to-rest ramp home no shorter than `park_s`
+    /// and slow enough for half the feasibility speed limit ([`Self::ramp_duration`]). A
+    /// single quintic straight home from a fast state carries the start's acceleration for the
+    /// whole ramp and can overshoot the speed limit; the brake takes at most a second.
     fn start_park(&mut self, now: f64) {
-        let d = self.last_desired;
-        let home = *self.trajectory.offset();
-        let ramp = Ramp::from_state(
-            home,
-            &d.coordinates,
-            &d.coordinate_rates,
-            &d.coordinate_accelerations,
-            self.config.park_s,
-        );
-        let motion = match ramp {
-            Ok(ramp) => Motion::Park {
-                ramp,
-                hold_until_s: self.config.park_s + self.config.park_hold_s,
-            },
+        let motion = match self.park_motion() {
+            Ok(motion) => motion,
             // Unreachable with a validated config and finite set-points; holding home is the
             // conservative fallback.
             Err(_) => Motion::Hold,
@@ -506,24 +509,115 @@ impl Controller {
         self.enter(Phase::Park, motion, now);
     }
 
-    /// The settle ramp's length: at least `settle_ramp_s`, and long enough that the ramp's
-    /// peak speed (1.875 × the mean for a quintic rest-to-rest move) needs at most half the
-    /// feasibility speed limit on the leg that moves furthest.
-    fn settle_duration(&self, measured: &Pose) -> f64 {
-        let from = self.geometry.leg_lengths(measured);
+    fn park_motion(&self) -> Result<Motion, ControlError> {
+        let d = self.last_desired;
+        let home = *self.trajectory.offset();
+        let (c, dc, ddc) = (
+            &d.coordinates,
+            &d.coordinate_rates,
+            &d.coordinate_accelerations,
+        );
+        let zero = Vector6::zeros();
+        // A set-point that the shortest brake would stop within 10 µm (or 10 µrad) of is at
+        // rest: the end of a faded excitation, whose last sample still carries a little of the
+        // fade's acceleration.
+        let shortest = Ramp::brake(home, c, dc, ddc, BRAKE_DURATIONS_S[0])?;
+        let at_rest = (shortest.target() - c).amax() < 1e-5;
+        let brake = if at_rest {
+            None
+        } else {
+            Some(self.gentlest_brake(c, dc, ddc)?)
+        };
+        let stop = brake.map_or(*c, |b| *b.target());
+        let brake_s = brake.map_or(0.0, |b| b.duration_s());
+        let stop_pose = TrajectorySample::from_coordinates(&home, &stop, &zero, &zero).pose;
+        let ramp_s = self.ramp_duration(&stop_pose, self.config.park_s);
+        let ramp = Ramp::from_state(home, &stop, &zero, &zero, ramp_s)?;
+        Ok(Motion::Park {
+            brake,
+            ramp,
+            hold_until_s: brake_s + ramp_s + self.config.park_hold_s,
+        })
+    }
+
+    /// The longest, so the gentlest, of [`BRAKE_DURATIONS_S`] from the state `(c, ċ, c̈)` that
+    /// stays inside the stroke and under the feasibility speed limit; failing that, the one
+    /// whose peak leg speed is least; failing that (every brake leaves the stroke), the
+    /// shortest.
+    fn gentlest_brake(
+        &self,
+        c: &Vector6<f64>,
+        dc: &Vector6<f64>,
+        ddc: &Vector6<f64>,
+    ) -> Result<Ramp, ControlError> {
+        let home = *self.trajectory.offset();
+        let limit_m_s = self.config.feasibility.max_leg_speed_m_s;
+        let mut gentlest: Option<Ramp> = None;
+        let mut least: Option<(f64, Ramp)> = None;
+        for duration_s in BRAKE_DURATIONS_S {
+            let brake = Ramp::brake(home, c, dc, ddc, duration_s)?;
+            let Some(peak_m_s) = self.peak_leg_speed(&brake) else {
+                continue;
+            };
+            if peak_m_s <= limit_m_s {
+                gentlest = Some(brake);
+            }
+            if least.is_none_or(|(fastest, _)| peak_m_s < fastest) {
+                least = Some((peak_m_s, brake));
+            }
+        }
+        match (gentlest, least) {
+            (Some(brake), _) | (None, Some((_, brake))) => Ok(brake),
+            (None, None) => Ramp::brake(home, c, dc, ddc, BRAKE_DURATIONS_S[0]),
+        }
+    }
+
+    /// The largest desired leg speed along `ramp` (sampled), or `None` when a sample leaves
+    /// the stroke less the feasibility margin.
+    fn peak_leg_speed(&self, ramp: &Ramp) -> Option<f64> {
+        const SAMPLES: usize = 24;
+        let stroke = self.geometry.stroke();
+        let margin_m = self.config.feasibility.stroke_margin_m;
+        let mut peak_m_s: f64 = 0.0;
+        for i in 0..=SAMPLES {
+            let s = ramp.sample(ramp.duration_s() * i as f64 / SAMPLES as f64);
+            let lengths = self.geometry.leg_lengths(&s.pose);
+            let inside = lengths.iter().all(|&l| {
+                l >= stroke.min_length_m + margin_m && l <= stroke.max_length_m - margin_m
+            });
+            if !inside {
+                return None;
+            }
+            let speeds = self.geometry.jacobian(&s.pose) * s.twist();
+            peak_m_s = peak_m_s.max(speeds.amax());
+        }
+        Some(peak_m_s)
+    }
+
+    /// A rest-to-rest ramp's length from `from` to home: at least `shortest_s`, and long
+    /// enough that the ramp's peak speed (1.875 × the mean for a quintic rest-to-rest move)
+    /// needs at most half the feasibility speed limit on the leg that moves furthest.
+    fn ramp_duration(&self, from: &Pose, shortest_s: f64) -> f64 {
+        let from = self.geometry.leg_lengths(from);
         let to = self.geometry.leg_lengths(self.trajectory.offset());
         let furthest = (from - to).amax();
         let needed = 1.875 * furthest / (0.5 * self.config.feasibility.max_leg_speed_m_s);
         if needed.is_finite() {
-            needed.max(self.config.settle_ramp_s)
+            needed.max(shortest_s)
         } else {
-            self.config.settle_ramp_s
+            shortest_s
         }
     }
 
     fn setpoint(&self, phase_time_s: f64) -> TrajectorySample {
         match self.motion {
-            Motion::Settle { ramp, .. } | Motion::Park { ramp, .. } => ramp.sample(phase_time_s),
+            Motion::Settle { ramp, .. } => ramp.sample(phase_time_s),
+            Motion::Park {
+                brake: Some(brake), ..
+            } if phase_time_s < brake.duration_s() => brake.sample(phase_time_s),
+            Motion::Park { brake, ramp, .. } => {
+                ramp.sample(phase_time_s - brake.map_or(0.0, |b| b.duration_s()))
+            }
             Motion::Excite => self.trajectory.sample(phase_time_s),
             Motion::Hold => rest_at(self.trajectory.offset()),
         }

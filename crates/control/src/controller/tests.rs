@@ -23,6 +23,7 @@ fn geometry() -> Geometry {
     Geometry::from_radii(1.5, 1.2, 0.35, 0.35, stroke).unwrap()
 }
 
+#[derive(Clone)]
 struct Legs {
     lengths: [f64; LEG_COUNT],
     rates: [f64; LEG_COUNT],
@@ -413,9 +414,91 @@ fn park_request_mid_excitation_ramps_smoothly_home() {
         }
     }
     assert_eq!(previous.phase, Phase::Done);
+    // A brake of at most the longest brake duration, the 2 s ramp home, the 0.5 s hold.
+    let took_s = ticks as f64 * DT;
+    let longest_s = BRAKE_DURATIONS_S[BRAKE_DURATIONS_S.len() - 1];
     assert!(
-        (ticks as f64 * DT - 2.5).abs() < 2.0 * DT,
+        took_s > 2.5 + BRAKE_DURATIONS_S[0] - 2.0 * DT && took_s < 2.5 + longest_s + 2.0 * DT,
         "park took {ticks} ticks"
+    );
+}
+
+/// A multi-sine that drives some leg at `fraction` of the feasibility speed limit: one
+/// harmonic of 0.3125 Hz per axis (the family `stewart plan` designs), amplitudes scaled from
+/// the feasibility check's own peak speed.
+fn fast_multisine(fraction: f64) -> Trajectory {
+    let g = geometry();
+    let axes = [
+        Axis::X,
+        Axis::Y,
+        Axis::Z,
+        Axis::Roll,
+        Axis::Pitch,
+        Axis::Yaw,
+    ];
+    let build = |scale: f64| {
+        let components = core::array::from_fn::<_, 6, _>(|k| SineComponent {
+            axis: axes[k],
+            amplitude: scale * if k < 3 { 0.01 } else { 0.02 },
+            frequency_hz: 0.3125 * (k + 1) as f64,
+            phase_rad: 0.0,
+        });
+        Trajectory::new(g.home_pose(), &components, 12.8, 2.0, 2.0).unwrap()
+    };
+    let limits = FeasibilityLimits {
+        max_leg_speed_m_s: 100.0,
+        ..FeasibilityLimits::default()
+    };
+    let unit = build(1.0).check_feasibility(&g, &limits).unwrap();
+    let peak = unit.max_speed_m_s.iter().copied().fold(0.0, f64::max);
+    build(fraction * FeasibilityLimits::default().max_leg_speed_m_s / peak)
+}
+
+#[test]
+fn a_park_from_any_moment_of_a_fast_excitation_stays_under_the_leg_speed_limit() {
+    // Regression: a single quintic from the set-point's state straight home carries the
+    // start's acceleration through the whole ramp; cut short at full speed, a fast
+    // excitation's park overshot the leg speed limit and faulted.
+    let g = geometry();
+    let limit_m_s = FeasibilityLimits::default().max_leg_speed_m_s;
+    let mut controller = Controller::new(g, fast_multisine(0.98), config()).unwrap();
+    let mut legs = Legs::at(&g.home_pose());
+    let mut parks = 0;
+    let mut worst_m_s: f64 = 0.0;
+    for tick in 0..16_000 {
+        let out = controller.tick(&legs.frame());
+        assert_eq!(out.fault, None, "excitation fault at t = {}", legs.time_s);
+        legs.step(&out.command);
+        // Every 0.137 s of the excitation, park a copy from there.
+        if out.phase != Phase::Excite || tick % 137 != 0 {
+            continue;
+        }
+        let (mut parked, mut parked_legs) = (controller, legs.clone());
+        parked.request_park();
+        let mut previous = out;
+        let mut done = false;
+        for _ in 0..8_000 {
+            let step = parked.tick(&parked_legs.frame());
+            assert_eq!(step.fault, None, "park from t = {} faulted", legs.time_s);
+            for i in 0..LEG_COUNT {
+                worst_m_s = worst_m_s.max(step.desired_leg_speeds_m_s[i].abs());
+                let jump = step.desired_leg_speeds_m_s[i] - previous.desired_leg_speeds_m_s[i];
+                assert!(jump.abs() < 0.02, "set-point speed jumps by {jump} m/s");
+            }
+            parked_legs.step(&step.command);
+            previous = step;
+            if step.phase == Phase::Done {
+                done = true;
+                break;
+            }
+        }
+        assert!(done, "the park from t = {} did not finish", legs.time_s);
+        parks += 1;
+    }
+    assert!(parks > 50, "{parks} parks");
+    assert!(
+        worst_m_s <= limit_m_s,
+        "a park's set-point reached {worst_m_s} m/s (limit {limit_m_s})"
     );
 }
 

@@ -15,12 +15,16 @@ use crate::error::ControlError;
 /// ```
 ///
 /// which matches position, velocity and acceleration at both ends (for a start at rest it is
-/// `c₀·(1 − h(s))` with the quintic smoothstep `h`). After `T` it holds the offset pose.
+/// `c₀·(1 − h(s))` with the quintic smoothstep `h`). After `T` it holds the offset pose. A
+/// ramp may also end at rest at coordinates `c_T ≠ 0` ([`Ramp::brake`]): the same polynomial in
+/// `c − c_T`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ramp {
     offset: Pose,
     /// Polynomial coefficients in s, lowest order first.
     coefficients: [Vector6<f64>; 6],
+    /// Where the ramp comes to rest, coordinates relative to `offset`.
+    target: Vector6<f64>,
     duration_s: f64,
 }
 
@@ -32,6 +36,43 @@ impl Ramp {
         start: &Vector6<f64>,
         rate: &Vector6<f64>,
         acceleration: &Vector6<f64>,
+        duration_s: f64,
+    ) -> Result<Self, ControlError> {
+        Self::to_rest_at(
+            offset,
+            start,
+            rate,
+            acceleration,
+            Vector6::zeros(),
+            duration_s,
+        )
+    }
+
+    /// From the state `(c₀, ċ₀, c̈₀)` to a stop in `T = duration_s`, ending where the smooth
+    /// cubic speed profile `ċ(s) = ċ₀(1 − 3s² + 2s³) + c̈₀T(s − 2s² + s³)` takes it:
+    /// `c_T = c₀ + ċ₀T/2 + c̈₀T²/12`. The speed never exceeds `|ċ₀| + |c̈₀|T·4/27` on any
+    /// coordinate and the deceleration is about `1.5|ċ₀|/T`: a stop from full speed that does
+    /// not first swing back towards the offset (which a ramp straight to the offset does when
+    /// the motion is heading away from it).
+    pub fn brake(
+        offset: Pose,
+        start: &Vector6<f64>,
+        rate: &Vector6<f64>,
+        acceleration: &Vector6<f64>,
+        duration_s: f64,
+    ) -> Result<Self, ControlError> {
+        let target =
+            start + rate * (0.5 * duration_s) + acceleration * (duration_s * duration_s / 12.0);
+        Self::to_rest_at(offset, start, rate, acceleration, target, duration_s)
+    }
+
+    /// The quintic from `(c₀, ċ₀, c̈₀)` to rest at `c_T = target`.
+    fn to_rest_at(
+        offset: Pose,
+        start: &Vector6<f64>,
+        rate: &Vector6<f64>,
+        acceleration: &Vector6<f64>,
+        target: Vector6<f64>,
         duration_s: f64,
     ) -> Result<Self, ControlError> {
         if !duration_s.is_finite() || duration_s <= 0.0 {
@@ -53,19 +94,20 @@ impl Ramp {
                 index: 0,
             });
         }
-        let c0 = *start;
+        let c0 = start - target;
         let d1 = rate * duration_s;
         let d2 = acceleration * (duration_s * duration_s);
         Ok(Self {
             offset,
             coefficients: [
-                c0,
+                *start,
                 d1,
                 d2 * 0.5,
                 c0 * -10.0 - d1 * 6.0 - d2 * 1.5,
                 c0 * 15.0 + d1 * 8.0 + d2 * 1.5,
                 c0 * -6.0 - d1 * 3.0 - d2 * 0.5,
             ],
+            target,
             duration_s,
         })
     }
@@ -81,6 +123,12 @@ impl Ramp {
             &zero,
             duration_s,
         )
+    }
+
+    /// Where the ramp comes to rest: coordinates relative to the offset (zero for a ramp to the
+    /// offset).
+    pub fn target(&self) -> &Vector6<f64> {
+        &self.target
     }
 
     /// Length of the move, s.
@@ -102,8 +150,8 @@ impl Ramp {
             let t = self.duration_s;
             (ds / t, dds / (t * t))
         };
-        // At s = 1 the polynomial is zero up to rounding; return the offset exactly.
-        let c = if s >= 1.0 { Vector6::zeros() } else { c };
+        // At s = 1 the polynomial is the target up to rounding; return it exactly.
+        let c = if s >= 1.0 { self.target } else { c };
         TrajectorySample::from_coordinates(&self.offset, &c, &dc, &ddc)
     }
 }

@@ -401,6 +401,43 @@ fn ramp_moves_from_a_moving_state_to_rest_at_the_offset() {
 }
 
 #[test]
+fn brake_stops_where_its_cubic_speed_profile_takes_it() {
+    let traj = rich();
+    let start = traj.sample(6.3);
+    let (c, v, a) = (
+        start.coordinates,
+        start.coordinate_rates,
+        start.coordinate_accelerations,
+    );
+    let t = 0.6;
+    let brake = Ramp::brake(*traj.offset(), &c, &v, &a, t).unwrap();
+    let s0 = brake.sample(0.0);
+    assert!((s0.coordinates - c).amax() < 1e-15);
+    assert!((s0.coordinate_rates - v).amax() < 1e-12);
+    assert!((s0.coordinate_accelerations - a).amax() < 1e-12);
+    // ∫₀ᵀ ċ dt of ċ(s) = ċ₀(1 − 3s² + 2s³) + c̈₀T(s − 2s² + s³), by the trapezoid rule.
+    let n = 20_000;
+    let profile = |s: f64| {
+        v * (1.0 - 3.0 * s * s + 2.0 * s * s * s) + a * (t * (s - 2.0 * s * s + s * s * s))
+    };
+    let mut travel = Vector6::zeros();
+    for i in 0..n {
+        let (s0, s1) = (i as f64 / n as f64, (i + 1) as f64 / n as f64);
+        travel += (profile(s0) + profile(s1)) * (0.5 * t / n as f64);
+    }
+    assert!((brake.target() - (c + travel)).amax() < 1e-9);
+    let end = brake.sample(t);
+    assert_eq!(end.coordinates, *brake.target());
+    assert_eq!(end.twist(), Vector6::zeros());
+    // The speed follows the cubic profile all the way (no overshoot of the quintic's own).
+    for k in 0..=10 {
+        let s = k as f64 / 10.0;
+        assert!((brake.sample(s * t).coordinate_rates - profile(s)).amax() < 1e-12);
+    }
+    assert_derivatives_match(|time| brake.sample(time), &[0.1, 0.3, 0.5]);
+}
+
+#[test]
 fn ramp_from_a_pose_starts_there() {
     let offset = tilted_offset();
     let pose = Pose::from_rpy(Vector3::new(0.05, 0.0, 1.6), 0.2, 0.1, -0.1);
