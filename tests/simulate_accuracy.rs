@@ -246,7 +246,9 @@ fn tare_is_subtracted_saved_and_reused() {
     }
 
     // The same tare on a rig with other joints is refused before anything moves.
-    let other = "[platform]\nbase_radius_m = 1.6\n[run]\nduration_s = 6.0\n";
+    // (The 0.1 Hz multi-sine: the planned default runs at the leg-speed limit of this rig's
+    // joints, not of another's.)
+    let other = "[platform]\nbase_radius_m = 1.6\n[run]\nduration_s = 6.0\n[excitation]\nkind = \"multisine\"\n";
     let cfg = dir.path().join("other.toml");
     std::fs::write(&cfg, other).unwrap();
     let mut args = simulate_args(Some(cfg), dir.path().join("never.mcap"));
@@ -305,5 +307,32 @@ fn interrupt_parks_and_finishes_the_log() {
     assert!(
         phases.iter().any(|(p, i)| p == "park" && *i),
         "parked after the interrupt"
+    );
+}
+
+#[test]
+fn an_accelerometer_offset_measured_at_rest_does_not_reach_the_mass() {
+    // A world whose only imperfection is the accelerometer's bias (the datasheet's 1e-3 m/s²,
+    // drawn by the seed): its vertical share moves the payload's mass by about m·b/g when it
+    // stays in the readings, and by the offset's residual (noise-free here) when the offset
+    // is measured at rest before each run's excitation against the site's gravity.
+    let error = |local_gravity: &str| {
+        let scenario = format!(
+            "[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n\
+             [estimator]\nlocal_gravity_m_s2 = {local_gravity}\n"
+        );
+        let (_dir, outcome) = run(&scenario, |a, _| {
+            a.only = Some(measure::sources::ErrorSource::AccelBias)
+        });
+        let r = report(&outcome);
+        let truth = r.truth.as_ref().expect("truth");
+        (r.estimate.mass - truth.mass).abs()
+    };
+    let kept = error("0.0");
+    let measured = error("9.80665");
+    assert!(kept > 0.02, "the bias moved the mass by only {kept} kg");
+    assert!(
+        measured < 0.1 * kept,
+        "with the offset measured at rest the mass is off by {measured} kg, without {kept} kg"
     );
 }

@@ -197,7 +197,7 @@ fn unphysical_inertia() {
 
 #[test]
 fn unreachable_trajectory() {
-    let text = "[excitation.multisine]\npeak_translation_m = [0.3, 0.3, 0.3]\n";
+    let text = "[excitation.multisine]\npeak_translation_m = [0.3, 0.3, 0.3]\n\n[excitation]\nkind = \"multisine\"\n";
     let (code, err, dir) = refuse(text, &[]);
     assert_eq!(code, 2, "{err}");
     assert_names(

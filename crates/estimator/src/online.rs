@@ -4,6 +4,7 @@
 use crate::conditioning::{Conditioned, Conditioner, ConditioningConfig, Step, MAX_ABS_SIGNAL};
 use crate::error::EstimatorError;
 use crate::estimate::{Counts, Estimate, ParameterCovariance};
+use crate::hold::{AccelerometerOffset, HoldAverage};
 use crate::legs::{unseen, LegModel};
 use crate::regressor::{from_signals, inertia_columns, RegressorSignals};
 use crate::rls::Rls;
@@ -86,6 +87,11 @@ pub struct EstimatorConfig {
     /// wrench on the plate (massless, frictionless legs). Samples without a pose
     /// ([`OnlineEstimator::update_with_wrench`]) are not compensated.
     pub legs: Option<LegModel>,
+    /// The site's gravity, m/s² (a gravity survey or map; 9.80665 is standard gravity, not a
+    /// site's). The samples before the window (the brake hold and the settle, which start and
+    /// end at rest) against it give the accelerometer's offset, subtracted from every sample
+    /// in the window ([`crate::hold`]). 0 leaves the offset in.
+    pub local_gravity_m_s2: f64,
 }
 
 impl EstimatorConfig {
@@ -125,6 +131,7 @@ impl EstimatorConfig {
             leg_force_offsets: false,
             covariance_block_samples: block,
             legs: None,
+            local_gravity_m_s2: 0.0,
         }
     }
 }
@@ -399,6 +406,10 @@ pub struct OnlineEstimator {
     residual_sq: Vector6<f64>,
     residual_weight: f64,
     counts: Counts,
+    hold: HoldAverage,
+    /// b̂, fixed at the window's first sample.
+    accel_offset: Option<AccelerometerOffset>,
+    hold_closed: bool,
 }
 
 fn positive_finite(v: f64) -> bool {
@@ -443,6 +454,14 @@ impl OnlineEstimator {
         if config.covariance_block_samples == 0 {
             return Err(EstimatorError::InvalidConfig(
                 "covariance_block_samples must be at least 1",
+            ));
+        }
+        if !(config.local_gravity_m_s2.is_finite()
+            && (config.local_gravity_m_s2 == 0.0
+                || (9.7..=9.9).contains(&config.local_gravity_m_s2)))
+        {
+            return Err(EstimatorError::InvalidConfig(
+                "local_gravity_m_s2 must be 0 (off) or a site's gravity, 9.7 to 9.9 m/s²",
             ));
         }
         let conditioner = Conditioner::new(ConditioningConfig {
@@ -517,6 +536,9 @@ impl OnlineEstimator {
             residual_sq: Vector6::zeros(),
             residual_weight: 0.0,
             counts: Counts::default(),
+            hold: HoldAverage::new(),
+            accel_offset: None,
+            hold_closed: false,
         })
     }
 
@@ -538,6 +560,13 @@ impl OnlineEstimator {
         self.config.window_start_s = start_s;
         self.config.window_end_s = end_s;
         Ok(())
+    }
+
+    /// The accelerometer's offset measured at rest before the window and subtracted from every
+    /// sample in it ([`crate::hold`]); `None` before the window, without a site gravity, or with
+    /// fewer than [`crate::hold::MIN_HOLD_SAMPLES`] samples before it.
+    pub fn accelerometer_offset(&self) -> Option<AccelerometerOffset> {
+        self.accel_offset
     }
 
     /// Sample counters so far.
@@ -615,6 +644,7 @@ impl OnlineEstimator {
         if !to_vector(&w).iter().all(|v| v.is_finite()) {
             return self.reject(EstimatorError::Overflow("wrench"));
         }
+        self.average_at_rest(sample);
         self.update_inner(
             sample.time_s,
             sample.sequence,
@@ -624,6 +654,25 @@ impl OnlineEstimator {
             map.as_ref(),
             self.config.legs.is_some().then_some(&sample.pose),
         )
+    }
+
+    /// Before the window, adds the reading to the average at rest ([`crate::hold`]).
+    fn average_at_rest(&mut self, sample: &Sample) {
+        if self.config.local_gravity_m_s2 > 0.0 && sample.time_s < self.config.window_start_s {
+            let up_in_p = sample.pose.rotation.inverse() * Vector3::z();
+            self.hold.push(&sample.accel_m_s2, &up_in_p);
+        }
+    }
+
+    /// The offset, fixed at the window's first sample.
+    fn offset_in_window(&mut self) -> Option<Vector3<f64>> {
+        if !self.hold_closed {
+            self.hold_closed = true;
+            self.accel_offset = self
+                .hold
+                .offset(self.config.local_gravity_m_s2, self.config.accel_noise_m_s2);
+        }
+        self.accel_offset.map(|o| o.offset_m_s2)
     }
 
     /// Processes one sample whose wrench on the plate (about the P origin, P axes) is already
@@ -668,6 +717,14 @@ impl OnlineEstimator {
                 return Ok(Outcome::Conditioning);
             }
         };
+        // The conditioning is linear with unit gain at zero frequency: a constant taken off
+        // its output is the same constant taken off every input.
+        if let Some(offset) = self.offset_in_window() {
+            c.signals.specific_force_m_s2 -= offset;
+            if let Some(m) = &mut c.motion {
+                m.acceleration_m_s2 -= m.pose.rotation * offset;
+            }
+        }
         if let (Some(legs), Some(motion)) = (&self.config.legs, &c.motion) {
             let u = unseen(&self.config.geometry, legs, motion, &GRAVITY_B_M_S2).total();
             c.wrench.force_n += u.force_n;

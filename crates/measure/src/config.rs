@@ -659,6 +659,10 @@ pub struct EstimatorSection {
     /// the `[legs]` tolerances instead of the legs' whole effect.
     #[serde(default = "default_true")]
     pub compensate_legs: bool,
+    /// The site's gravity, m/s²: the accelerometer's offset is measured on the brake hold
+    /// against it and subtracted ([`estimator::hold`]). Left out or 0: no hold calibration.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub local_gravity_m_s2: Option<f64>,
 }
 
 fn default_true() -> bool {

@@ -295,6 +295,7 @@ where
             let exact = crate::budget::EstimatorEffects {
                 accel: crate::systematic::accel_bias_effect(estimator, bias_sigma),
                 load_cell: crate::systematic::load_cell_bias_effect(estimator, load_cell_sigma),
+                accel_offset_measured: estimator.accelerometer_offset().is_some(),
             };
             let budget = estimate.as_ref().map(|e| {
                 crate::budget::analyse(

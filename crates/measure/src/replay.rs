@@ -215,6 +215,7 @@ impl Replay {
                 &self.estimator,
                 self.sigmas.load_cell_n,
             ),
+            accel_offset_measured: self.estimator.accelerometer_offset().is_some(),
         };
         let budget = self.budget.as_ref().map(|(record, figures)| {
             crate::budget::analyse(record, &config, figures, &estimate, &exact)

@@ -877,6 +877,7 @@ mod tests {
             lost: 40,
             jitter_share: 0.02,
             rigid_body: None,
+            accel_offset_measured: false,
         };
         let (lb, tb) = (budget(1.0), budget(0.3));
         let r = build(&ReportInputs {

@@ -357,6 +357,7 @@ pub fn estimator_config(
     c.window_start_s = window_start_s;
     c.window_end_s = window_end_s;
     c.legs = leg_model(config);
+    c.local_gravity_m_s2 = est.local_gravity_m_s2.unwrap_or(0.0);
     if est.params == ParamCount::Six {
         let fm = est.known_fixture_mass_kg.unwrap_or(0.0);
         let fc = Vector3::from(est.known_fixture_com_m.unwrap_or_default());
@@ -391,7 +392,7 @@ mod tests {
     fn a_tare_excitation_table_moves_the_tare_run_its_own_way() {
         let g = geometry(&load(None).unwrap()).unwrap();
         let same = load(None).unwrap();
-        let text = "[tare_excitation.multisine]\nbase_frequency_hz = 0.13\n";
+        let text = "[tare_excitation]\nkind = \"multisine\"\n\n[tare_excitation.multisine]\nbase_frequency_hz = 0.13\n";
         let own = load_str(text, "tare.toml").unwrap();
         let tare = own.config.tare_excitation.as_ref().unwrap();
         // Laid over [excitation]: only the frequency differs.
@@ -435,7 +436,7 @@ mod tests {
 
     #[test]
     fn unreachable_trajectory_is_refused_naming_the_amplitudes() {
-        let text = "[excitation.multisine]\npeak_translation_m = [0.3, 0.3, 0.3]\n";
+        let text = "[excitation.multisine]\npeak_translation_m = [0.3, 0.3, 0.3]\n\n[excitation]\nkind = \"multisine\"\n";
         let loaded = load_str(text, "far.toml").unwrap();
         let g = geometry(&loaded).unwrap();
         let t = trajectory(&loaded, &g, 20.0).unwrap();

@@ -22,15 +22,19 @@
 
 use estimator::OnlineEstimator;
 
-/// Change of θ from one sigma `bias_m_s2` of accelerometer bias along P's x, y and z (rows);
-/// `None` when no bias figure is known (0).
+/// Change of θ from one sigma of accelerometer bias along P's x, y and z (rows): the
+/// residual sigma of the offset measured on the brake hold
+/// ([`OnlineEstimator::accelerometer_offset`]) where there is one, else the datasheet's
+/// `bias_m_s2`; `None` when neither is known (0).
 pub fn accel_bias_effect(estimator: &OnlineEstimator, bias_m_s2: f64) -> Option<[[f64; 10]; 3]> {
-    if !(bias_m_s2 > 0.0 && bias_m_s2.is_finite()) {
-        return None;
-    }
-    let d = estimator.accel_bias_sensitivity() * bias_m_s2;
+    let sigma_m_s2 = match estimator.accelerometer_offset() {
+        Some(o) => [o.sigma_m_s2.x, o.sigma_m_s2.y, o.sigma_m_s2.z],
+        None if bias_m_s2 > 0.0 && bias_m_s2.is_finite() => [bias_m_s2; 3],
+        None => return None,
+    };
+    let d = estimator.accel_bias_sensitivity();
     Some(core::array::from_fn(|axis| {
-        core::array::from_fn(|i| d[(i, axis)])
+        core::array::from_fn(|i| d[(i, axis)] * sigma_m_s2[axis])
     }))
 }
 

@@ -433,6 +433,7 @@ mod tests {
                 residual_ratio: 0.7,
                 peak_hz: 1.1,
             }),
+            accel_offset_measured: true,
         }));
         TareFile::schema()
             .check(&serde_json::to_value(&t).unwrap())

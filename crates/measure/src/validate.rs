@@ -219,6 +219,9 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
     p.positive("estimator.force_sigma_n", est.force_sigma_n);
     p.positive("estimator.torque_sigma_nm", est.torque_sigma_nm);
     p.within("estimator.prior_sigma", est.prior_sigma, 1e-6, 1e12, "");
+    if let Some(g) = est.local_gravity_m_s2.filter(|g| *g != 0.0) {
+        p.within("estimator.local_gravity_m_s2", g, 9.7, 9.9, "m/s²");
+    }
     if est.params == ParamCount::Six {
         known(
             &mut p,

@@ -148,6 +148,10 @@ pub struct EstimatorSettings {
     /// The legs the estimator compensated (`[legs]` figures; `null`: none).
     #[serde(default)]
     pub legs: Option<measure::config::LegsConfig>,
+    /// The site's gravity that the readings before the window are held against for the
+    /// accelerometer's offset, m/s² (0: no offset measured).
+    #[serde(default)]
+    pub local_gravity_m_s2: f64,
 }
 
 impl EstimatorSettings {
@@ -206,6 +210,10 @@ impl EstimatorSettings {
                     num("largest accepted FK rotation from the warm start, rad"),
                 ),
                 ("legs", nullable(legs_schema())),
+                (
+                    "local_gravity_m_s2",
+                    num("the site's gravity for the accelerometer's offset at rest, m/s^2; 0 = off"),
+                ),
             ],
             "Estimator settings of one measurement: enough to re-run it from /sensors",
         )
@@ -248,6 +256,7 @@ impl EstimatorSettings {
             fk_max_jump_m: fk.max_jump_m,
             fk_max_jump_rad: fk.max_jump_rad,
             legs: c.legs.as_ref().map(measure::config::LegsConfig::from_model),
+            local_gravity_m_s2: c.local_gravity_m_s2,
         }
     }
 
@@ -280,6 +289,7 @@ impl EstimatorSettings {
         c.gyro_noise_rad_s = self.gyro_noise_rad_s;
         c.accel_noise_m_s2 = self.accel_noise_m_s2;
         c.legs = self.legs.as_ref().map(|l| l.model());
+        c.local_gravity_m_s2 = self.local_gravity_m_s2;
         let fk = kinematics::FkOptions {
             tolerance_m: self.fk_tolerance_m,
             max_iterations: self.fk_max_iterations,

@@ -1,6 +1,8 @@
 //! The payload's share of each source: the same physical error acts in the tare run and in the
 //! loaded run, so the payload (loaded − tare) moves by dₖ = δθₖ(loaded) − δθₖ(tare) for each
-//! elementary error k, and the source adds Σₖ dₖ dₖᵀ. The statistical part is the two runs'
+//! elementary error k, and the source adds Σₖ dₖ dₖᵀ. The exception: an accelerometer offset
+//! measured on each run's own brake hold leaves each run an independent residual, and the
+//! source adds Σ lₖ lₖᵀ + Σ tₖ tₖᵀ. The statistical part is the two runs'
 //! covariances, split by each run's shares ([`super::statistical`]).
 
 use estimator::{ParameterCovariance, ParameterVector};
@@ -68,6 +70,13 @@ pub fn payload_covariances(
                 ErrorSource::Noise => loaded_cov * ln + tare_cov * tn,
                 ErrorSource::FrameLoss => loaded_cov * ll + tare_cov * tl,
                 ErrorSource::TimestampJitter => loaded_cov * lj + tare_cov * tj,
+                // Each run's own hold offset: independent errors, whose covariances add.
+                ErrorSource::AccelBias
+                    if loaded.accel_offset_measured && t.accel_offset_measured =>
+                {
+                    difference_covariance(loaded.effects_of(ErrorSource::AccelBias), &[])
+                        + difference_covariance(t.effects_of(ErrorSource::AccelBias), &[])
+                }
                 s => difference_covariance(loaded.effects_of(s), t.effects_of(s)),
             };
             SourceCovariance { source, covariance }
@@ -93,6 +102,7 @@ mod tests {
             lost: 100,
             jitter_share: 0.05,
             rigid_body: None,
+            accel_offset_measured: false,
         }
     }
 

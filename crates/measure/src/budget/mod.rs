@@ -96,6 +96,10 @@ pub struct RunBudget {
     pub jitter_share: f64,
     /// The rigid-body check on the run's record; `None` when the record was too short.
     pub rigid_body: Option<RigidBody>,
+    /// The accelerometer's offset was measured on this run's own brake hold
+    /// ([`estimator::hold`]): its `accel_bias` effects are that measurement's residual, an
+    /// error of this run alone, not a bias shared with the other run.
+    pub accel_offset_measured: bool,
 }
 
 impl RunBudget {
@@ -130,6 +134,10 @@ impl RunBudget {
                 (
                     "jitter_share",
                     num("timestamp jitter's share of the statistical variance"),
+                ),
+                (
+                    "accel_offset_measured",
+                    boolean("the accelerometer's offset was measured on this run's brake hold"),
                 ),
                 (
                     "rigid_body",
@@ -179,6 +187,8 @@ pub struct EstimatorEffects {
     pub accel: Option<[[f64; 10]; 3]>,
     /// One sigma of zero offset on each load cell.
     pub load_cell: Option<[[f64; 10]; 6]>,
+    /// `accel` is the residual of the run's own brake-hold offset, not the datasheet bias.
+    pub accel_offset_measured: bool,
 }
 
 /// The budget of one run at its end: the record, the estimator's settings, the rig
@@ -222,6 +232,7 @@ pub fn analyse(
     let mut budget = RunBudget {
         used: estimate.counts.used,
         lost: estimate.counts.lost,
+        accel_offset_measured: exact.accel_offset_measured,
         ..RunBudget::default()
     };
     let Some(fit) = fitted else {

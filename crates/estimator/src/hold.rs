@@ -1,0 +1,173 @@
+//! The accelerometer's offset from the samples before the excitation.
+//!
+//! Before the fit window the plate rests on its brakes, ramps home and holds there: a stretch
+//! that starts and ends at rest, so the plate's mean acceleration over it is Δv/T ≈ 0 however
+//! it moved in between (and however a car on its suspension settled after loading). An ideal
+//! accelerometer's mean reading over it is then the mean specific force of gravity alone,
+//! `Rᵀ (0, 0, g)` in P axes (R the plate's orientation from forward kinematics, g the site's
+//! gravity), and the mean reading less that is the accelerometer's offset:
+//!
+//! ```text
+//! b̂ = (1/n) Σ fₖ − g · (1/n) Σ Rₖᵀ ẑ,      σ(b̂ᵢ) = σ_f / √n
+//! ```
+//!
+//! with σ_f the accelerometer's white noise per sample (the datasheet's; without one, the
+//! readings' own spread, which the motion inflates: a pessimistic figure). b̂ holds whatever is
+//! constant in the reading: the bias, the scale error's share of gravity (s·g on the vertical
+//! axis), a misalignment's share of gravity on the horizontal ones (g·δ). Subtracting it from
+//! every sample in the window makes the reading at rest the site's gravity exactly, so the
+//! mass, which the fit draws mostly from the load cells against gravity, no longer carries the
+//! accelerometer's offset: only g's own uncertainty (a gravity survey or map: about 1e-6 of g)
+//! and σ(b̂). A scale error still scales the dynamic part of the reading.
+
+use nalgebra::Vector3;
+
+/// Fewest samples at rest for an offset.
+pub const MIN_HOLD_SAMPLES: u32 = 20;
+
+/// The accelerometer offset measured before the window.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AccelerometerOffset {
+    /// b̂, P axes, m/s²: subtracted from every sample in the window.
+    pub offset_m_s2: Vector3<f64>,
+    /// One sigma of each axis of b̂ from the accelerometer's noise, σ_f/√n, m/s².
+    pub sigma_m_s2: Vector3<f64>,
+    /// Samples averaged.
+    pub samples: u32,
+}
+
+/// Running mean and spread of the readings before the window (Welford's update, so that a
+/// long stretch loses no precision to cancellation) and the sum of the expected directions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HoldAverage {
+    count: u32,
+    mean_m_s2: Vector3<f64>,
+    /// Σ (f − mean)², per axis.
+    spread_m2_s4: Vector3<f64>,
+    /// Σ Rₖᵀ ẑ: the vertical in P axes.
+    up_sum: Vector3<f64>,
+}
+
+impl Default for HoldAverage {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl HoldAverage {
+    /// No samples yet.
+    pub const fn new() -> Self {
+        Self {
+            count: 0,
+            mean_m_s2: Vector3::new(0.0, 0.0, 0.0),
+            spread_m2_s4: Vector3::new(0.0, 0.0, 0.0),
+            up_sum: Vector3::new(0.0, 0.0, 0.0),
+        }
+    }
+
+    /// Adds one reading: `accel_m_s2` in P axes and `up_in_p` = Rᵀ ẑ, the base's
+    /// vertical in P axes. Non-finite readings are skipped.
+    pub fn push(&mut self, accel_m_s2: &Vector3<f64>, up_in_p: &Vector3<f64>) {
+        let finite = accel_m_s2
+            .iter()
+            .chain(up_in_p.iter())
+            .all(|v| v.is_finite());
+        if !finite || self.count == u32::MAX {
+            return;
+        }
+        self.count += 1;
+        let delta = accel_m_s2 - self.mean_m_s2;
+        self.mean_m_s2 += delta / f64::from(self.count);
+        let after = accel_m_s2 - self.mean_m_s2;
+        self.spread_m2_s4 += delta.component_mul(&after);
+        self.up_sum += up_in_p;
+    }
+
+    /// Samples so far.
+    pub fn count(&self) -> u32 {
+        self.count
+    }
+
+    /// b̂ and its sigma against gravity `gravity_m_s2` with white noise `noise_m_s2` per
+    /// sample (0: unknown, the readings' spread instead; the module docs' formula); `None`
+    /// with fewer than [`MIN_HOLD_SAMPLES`] samples or a gravity that is not positive.
+    pub fn offset(&self, gravity_m_s2: f64, noise_m_s2: f64) -> Option<AccelerometerOffset> {
+        if self.count < MIN_HOLD_SAMPLES || !(gravity_m_s2.is_finite() && gravity_m_s2 > 0.0) {
+            return None;
+        }
+        let n = f64::from(self.count);
+        let expected = self.up_sum * (gravity_m_s2 / n);
+        let sigma = if noise_m_s2.is_finite() && noise_m_s2 > 0.0 {
+            Vector3::repeat(noise_m_s2 / libm::sqrt(n))
+        } else {
+            self.spread_m2_s4
+                .map(|s| libm::sqrt(s.max(0.0) / (n - 1.0)) / libm::sqrt(n))
+        };
+        Some(AccelerometerOffset {
+            offset_m_s2: self.mean_m_s2 - expected,
+            sigma_m_s2: sigma,
+            samples: self.count,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_level_rest_gives_the_bias_and_the_spread_over_root_n() {
+        let mut hold = HoldAverage::new();
+        let up = Vector3::z();
+        let bias = Vector3::new(1e-3, -2e-3, 3e-3);
+        // Alternating ±s on every axis: sample deviation s·√(n/(n−1)), sigma s/√(n−1).
+        let s = 0.01;
+        for k in 0..100 {
+            let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+            let f = Vector3::new(0.0, 0.0, 9.81) + bias + Vector3::repeat(sign * s);
+            hold.push(&f, &up);
+        }
+        let o = hold.offset(9.81, 0.0).unwrap();
+        assert!((o.offset_m_s2 - bias).amax() < 1e-15, "{:?}", o.offset_m_s2);
+        let expected = s * libm::sqrt(100.0 / 99.0) / 10.0;
+        assert!((o.sigma_m_s2 - Vector3::repeat(expected)).amax() < 1e-15);
+        assert_eq!(o.samples, 100);
+        // A datasheet noise figure takes the spread's place.
+        let o = hold.offset(9.81, 0.02).unwrap();
+        assert!((o.sigma_m_s2 - Vector3::repeat(0.002)).amax() < 1e-15);
+    }
+
+    #[test]
+    fn a_tilted_rest_expects_gravity_along_the_tilted_vertical() {
+        // Pitched by β: the base's vertical in P axes is (−sin β, 0, cos β).
+        let beta: f64 = 0.03;
+        let up = Vector3::new(-libm::sin(beta), 0.0, libm::cos(beta));
+        let g = 9.79;
+        let mut hold = HoldAverage::new();
+        for _ in 0..MIN_HOLD_SAMPLES {
+            hold.push(&(up * g), &up);
+        }
+        let o = hold.offset(g, 0.0).unwrap();
+        assert!(o.offset_m_s2.amax() < 1e-15, "{:?}", o.offset_m_s2);
+        assert_eq!(o.sigma_m_s2, Vector3::zeros());
+    }
+
+    #[test]
+    fn too_few_samples_or_no_gravity_give_no_offset() {
+        let mut hold = HoldAverage::new();
+        for _ in 0..MIN_HOLD_SAMPLES - 1 {
+            hold.push(&Vector3::z(), &Vector3::z());
+        }
+        assert_eq!(hold.offset(9.81, 0.0), None);
+        hold.push(&Vector3::new(f64::NAN, 0.0, 0.0), &Vector3::z());
+        assert_eq!(
+            hold.count(),
+            MIN_HOLD_SAMPLES - 1,
+            "a NaN reading is skipped"
+        );
+        hold.push(&Vector3::z(), &Vector3::z());
+        assert!(hold.offset(9.81, 0.0).is_some());
+        assert_eq!(hold.offset(0.0, 0.0), None);
+        assert_eq!(hold.offset(f64::NAN, 0.0), None);
+    }
+}
