@@ -289,11 +289,18 @@ mod tests {
     #[test]
     fn a_datasheet_figure_reaches_the_estimator_and_the_systematic_sigma() {
         let dir = tempfile::tempdir().unwrap();
-        let base = short_run(dir.path(), "base", "");
+        // The accelerometer's offset left in the readings, so that its datasheet bias is the
+        // budget's line.
+        let base = short_run(
+            dir.path(),
+            "base",
+            "[estimator]\nlocal_gravity_m_s2 = 0.0\n",
+        );
         let worse = short_run(
             dir.path(),
             "worse",
-            "[sensors.accelerometer]\nbias_m_s2 = 0.01\n[sensors.gyro]\nnoise_density_rad_s_sqrt_hz = 2.0e-4\n",
+            "[estimator]\nlocal_gravity_m_s2 = 0.0\n\
+             [sensors.accelerometer]\nbias_m_s2 = 0.01\n[sensors.gyro]\nnoise_density_rad_s_sqrt_hz = 2.0e-4\n",
         );
         let (b, w) = (base.report.clone().unwrap(), worse.report.clone().unwrap());
         assert_eq!(b.systematic.accel_bias_sigma_m_s2, 1e-3);

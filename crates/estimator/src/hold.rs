@@ -11,8 +11,8 @@
 //! b̂ = (1/n) Σ fₖ − g · (1/n) Σ Rₖᵀ ẑ,      σ(b̂ᵢ) = σ_f / √n
 //! ```
 //!
-//! with σ_f the accelerometer's white noise per sample (the datasheet's; without one, the
-//! readings' own spread, which the motion inflates: a pessimistic figure). b̂ holds whatever is
+//! with σ_f the accelerometer's white noise per sample as its datasheet gives it (the readings'
+//! own spread would be mostly the plate's motion, not noise). b̂ holds whatever is
 //! constant in the reading: the bias, the scale error's share of gravity (s·g on the vertical
 //! axis), a misalignment's share of gravity on the horizontal ones (g·δ). Subtracting it from
 //! every sample in the window makes the reading at rest the site's gravity exactly, so the
@@ -36,14 +36,12 @@ pub struct AccelerometerOffset {
     pub samples: u32,
 }
 
-/// Running mean and spread of the readings before the window (Welford's update, so that a
-/// long stretch loses no precision to cancellation) and the sum of the expected directions.
+/// Running mean of the readings before the window (an incremental mean, so that a long
+/// stretch loses no precision to a large sum) and the sum of the expected directions.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HoldAverage {
     count: u32,
     mean_m_s2: Vector3<f64>,
-    /// Σ (f − mean)², per axis.
-    spread_m2_s4: Vector3<f64>,
     /// Σ Rₖᵀ ẑ: the vertical in P axes.
     up_sum: Vector3<f64>,
 }
@@ -60,7 +58,6 @@ impl HoldAverage {
         Self {
             count: 0,
             mean_m_s2: Vector3::new(0.0, 0.0, 0.0),
-            spread_m2_s4: Vector3::new(0.0, 0.0, 0.0),
             up_sum: Vector3::new(0.0, 0.0, 0.0),
         }
     }
@@ -76,10 +73,7 @@ impl HoldAverage {
             return;
         }
         self.count += 1;
-        let delta = accel_m_s2 - self.mean_m_s2;
-        self.mean_m_s2 += delta / f64::from(self.count);
-        let after = accel_m_s2 - self.mean_m_s2;
-        self.spread_m2_s4 += delta.component_mul(&after);
+        self.mean_m_s2 += (accel_m_s2 - self.mean_m_s2) / f64::from(self.count);
         self.up_sum += up_in_p;
     }
 
@@ -89,7 +83,7 @@ impl HoldAverage {
     }
 
     /// b̂ and its sigma against gravity `gravity_m_s2` with white noise `noise_m_s2` per
-    /// sample (0: unknown, the readings' spread instead; the module docs' formula); `None`
+    /// sample (the module docs' formula; a noise that is not positive counts as 0); `None`
     /// with fewer than [`MIN_HOLD_SAMPLES`] samples or a gravity that is not positive.
     pub fn offset(&self, gravity_m_s2: f64, noise_m_s2: f64) -> Option<AccelerometerOffset> {
         if self.count < MIN_HOLD_SAMPLES || !(gravity_m_s2.is_finite() && gravity_m_s2 > 0.0) {
@@ -100,8 +94,7 @@ impl HoldAverage {
         let sigma = if noise_m_s2.is_finite() && noise_m_s2 > 0.0 {
             Vector3::repeat(noise_m_s2 / libm::sqrt(n))
         } else {
-            self.spread_m2_s4
-                .map(|s| libm::sqrt(s.max(0.0) / (n - 1.0)) / libm::sqrt(n))
+            Vector3::zeros()
         };
         Some(AccelerometerOffset {
             offset_m_s2: self.mean_m_s2 - expected,
@@ -116,25 +109,22 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_level_rest_gives_the_bias_and_the_spread_over_root_n() {
+    fn a_level_rest_gives_the_bias_and_the_noise_over_root_n() {
         let mut hold = HoldAverage::new();
         let up = Vector3::z();
         let bias = Vector3::new(1e-3, -2e-3, 3e-3);
-        // Alternating ±s on every axis: sample deviation s·√(n/(n−1)), sigma s/√(n−1).
+        // Alternating ±s on every axis: the mean is the bias exactly.
         let s = 0.01;
         for k in 0..100 {
             let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
             let f = Vector3::new(0.0, 0.0, 9.81) + bias + Vector3::repeat(sign * s);
             hold.push(&f, &up);
         }
-        let o = hold.offset(9.81, 0.0).unwrap();
-        assert!((o.offset_m_s2 - bias).amax() < 1e-15, "{:?}", o.offset_m_s2);
-        let expected = s * libm::sqrt(100.0 / 99.0) / 10.0;
-        assert!((o.sigma_m_s2 - Vector3::repeat(expected)).amax() < 1e-15);
-        assert_eq!(o.samples, 100);
-        // A datasheet noise figure takes the spread's place.
         let o = hold.offset(9.81, 0.02).unwrap();
+        assert!((o.offset_m_s2 - bias).amax() < 1e-15, "{:?}", o.offset_m_s2);
         assert!((o.sigma_m_s2 - Vector3::repeat(0.002)).amax() < 1e-15);
+        assert_eq!(o.samples, 100);
+        assert_eq!(hold.offset(9.81, 0.0).unwrap().sigma_m_s2, Vector3::zeros());
     }
 
     #[test]

@@ -148,6 +148,7 @@ pub fn settings_of(
     c.accel_noise_m_s2 = sensors.accel_noise_m_s2();
     c.accelerometer_position_m = Vector3::from(sensors.imu.position_m);
     c.leg_force_offsets = setup::load_cell_bias_sigma(&rig.config) > 0.0;
+    c.local_gravity_m_s2 = rig.config.estimator.local_gravity_m_s2.unwrap_or(0.0);
     c.legs = setup::leg_model(&rig.config);
     if let Some(p) = o.params {
         c.parameters = parameter_set(&geometry, rig, run, p)?;
