@@ -334,7 +334,8 @@ pub fn residuals(report: &Report) -> String {
             .copied()
             .filter(|v| v.is_finite())
             .fold(0.0, f64::max);
-        let scale = if top > 0.0 { H / top } else { 0.0 };
+        // The tallest bar stops short of the top, leaving room for its value.
+        let scale = if top > 0.0 { (H - 16.0) / top } else { 0.0 };
         let _ = write!(
             s,
             "<path d=\"M{x0} {:.1}h250\" class=\"baseline\"/>",

@@ -1,7 +1,8 @@
 //! The page: head (style, no-fetch policy), then one section per part of the certificate.
 //!
 //! The number cells' `data-quantity` names (docs/report.md): `estimate.KEY`, `sigma.KEY`,
-//! `U.KEY` (= 2·sigma), `truth.KEY`, `systematic.KEY`, `budget.SOURCE.KEY`, `tare.KEY` with KEY
+//! `U.KEY` (= 2·sigma), `truth.KEY`, `systematic.KEY`, `budget.SOURCE.KEY` (`budget.total.KEY`:
+//! the combined u, = sigma), `tare.KEY` with KEY
 //! one of [`KEYS`]; `principal.moment_K_kg_m2` and `principal.axis_K_x|y|z` (K = 1, 2, 3);
 //! `residual.force_x_n` … `residual.torque_z_nm`; `samples`, `excitation_s`,
 //! `samples_to_1pct`, `rejected_samples`.
@@ -280,7 +281,7 @@ fn budget(s: &mut String, r: &Report) {
         &r.systematic.sigma,
         "sum",
     );
-    row(s, "combined u", "sigma", &r.sigma, "sum");
+    row(s, "combined u", "budget.total", &r.sigma, "sum");
     let _ = write!(
         s,
         "</tbody></table><figure>{}<figcaption>Share of each source in each quantity's variance \
