@@ -74,8 +74,12 @@ fn refuse(args: &SimulateArgs) -> Option<&'static str> {
         Some("--runs must be at least 1")
     } else if args.jobs == Some(0) {
         Some("--jobs must be at least 1")
-    } else if m.shared.log.is_some() || m.shared.plot.is_some() || m.save_tare.is_some() {
-        Some("--log, --plot and --save-tare apply to a single run, not to --runs")
+    } else if m.shared.log.is_some()
+        || m.shared.plot.is_some()
+        || m.save_tare.is_some()
+        || m.html.is_some()
+    {
+        Some("--log, --plot, --save-tare and --html apply to a single run, not to --runs")
     } else {
         None
     }

@@ -58,6 +58,10 @@ pub struct MeasureArgs {
     /// Write the JSON report here.
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,
+    /// Write the report as one self-contained HTML page here (results with expanded
+    /// uncertainty k = 2, principal axes, budget, convergence, rig; prints on A4).
+    #[arg(long, value_name = "FILE.html")]
+    pub html: Option<PathBuf>,
     /// Also print the error budget: one row per error source (noise, accelerometer bias,
     /// load-cell offset, scale and crosstalk, IMU misalignment and lever arm, time skew,
     /// timestamp jitter, frame loss, leg dynamics, joint friction, geometry) with its one

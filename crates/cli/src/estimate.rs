@@ -48,6 +48,10 @@ pub struct EstimateArgs {
     /// Write the JSON report here.
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,
+    /// Write the report as one self-contained HTML page here (results with expanded
+    /// uncertainty k = 2, principal axes, budget, convergence, rig; prints on A4).
+    #[arg(long, value_name = "FILE.html")]
+    pub html: Option<PathBuf>,
     /// Low-pass cut-off of the signal conditioning, Hz (0 or `none`: no filter).
     #[arg(long, value_name = "HZ", value_parser = parse_cutoff, allow_negative_numbers = true)]
     pub cutoff_hz: Option<f64>,
@@ -196,6 +200,14 @@ pub fn estimate(args: &EstimateArgs) -> Result<EstimateOutcome> {
                 .with_context(|| format!("cannot write the report {}", path.display()))?;
             if !args.quiet {
                 out(&format!("report: {}\n", path.display()));
+            }
+        }
+        if let Some(path) = &args.html {
+            let source = format!("stewart estimate {}", args.log.display());
+            crate::report::write_page(&report.to_json(), path, &source, rig.as_ref())
+                .map_err(|e| anyhow!("cannot write the page {}: {e}", path.display()))?;
+            if !args.quiet {
+                out(&format!("page: {}\n", path.display()));
             }
         }
         if let Some(dir) = &args.plot {

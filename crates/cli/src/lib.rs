@@ -17,6 +17,7 @@ pub mod plan;
 pub mod plot;
 pub mod progress;
 pub mod prompt;
+pub mod report;
 pub mod rig;
 pub mod simulate;
 pub mod table;
@@ -88,6 +89,9 @@ pub enum Command {
     /// Write a report's payload inertial element (mass, centre of mass, inertia about it) for a
     /// model: URDF, SDF, MJCF or CSV, sigmas as comments (docs/export.md).
     Export(export::ExportArgs),
+    /// Hand a report over as one self-contained HTML page (`--html FILE`): results with
+    /// expanded uncertainty (k = 2), principal axes, budget, convergence, rig; prints on A4.
+    Report(report::ReportArgs),
     /// Can this computer run the loop? Times the full control-and-estimation tick (median,
     /// p99) and the simulator on the configured scenario, and says whether the rate fits.
     Bench(bench::BenchArgs),
@@ -146,6 +150,7 @@ pub fn main_entry() -> std::process::ExitCode {
         Command::Estimate(a) => estimate::main(&a),
         Command::Import(a) => import::main(&a),
         Command::Export(a) => export::main(&a),
+        Command::Report(a) => report::main(&a),
         Command::Bench(a) => bench::main(&a),
         Command::Plan(a) => plan::main(&a),
         Command::Simulate(a) if a.runs.is_some() => campaign::main(&a, &INTERRUPT),

@@ -34,11 +34,27 @@ pub fn finish_measurement(
         }
         crate::table::warn_rigid_body(report);
         if let Some(path) = &args.report {
-            if let Err(e) = std::fs::write(path, json) {
+            if let Err(e) = std::fs::write(path, &json) {
                 eprintln!("error: cannot write the report {}: {e}", path.display());
                 code = code.max(1);
             } else if !args.shared.quiet {
                 println!("report: {}", path.display());
+            }
+        }
+        if let Some(path) = &args.html {
+            // The page lists the rig description the run was measured with (the same flags).
+            let rig = args.load_config().ok();
+            let source = match &args.report {
+                Some(p) => p.display().to_string(),
+                None => "written with the page (no --report)".into(),
+            };
+            match crate::report::write_page(&json, path, &source, rig.as_ref()) {
+                Ok(()) if !args.shared.quiet => println!("page: {}", path.display()),
+                Ok(()) => {}
+                Err(e) => {
+                    eprintln!("error: cannot write the page {}: {e}", path.display());
+                    code = code.max(1);
+                }
             }
         }
     }

@@ -128,6 +128,9 @@ pub struct RigMeasureArgs {
     /// Write the JSON report here.
     #[arg(long, value_name = "FILE.json")]
     pub report: Option<PathBuf>,
+    /// Write the report as one self-contained HTML page here (see `stewart rig --help`).
+    #[arg(long, value_name = "FILE.html")]
+    pub html: Option<PathBuf>,
     /// Also print the error budget (one row per error source; see `stewart rig --help`).
     #[arg(long)]
     pub budget: bool,
@@ -186,6 +189,7 @@ pub fn resolve(args: &RigArgs) -> Result<(Plan, RigRunArgs), CommandError> {
                     tare: Some(m.tare.clone()),
                     duration: m.duration,
                     report: m.report.clone(),
+                    html: m.html.clone(),
                     shared: m.shared.clone(),
                     save_tare: None,
                     budget: m.budget,

@@ -1,0 +1,125 @@
+//! The page from a report: k = 2, no network references, every number cell the report's.
+
+use measure::report::{BudgetLine, Quantities, Report};
+
+use crate::{expanded, parse, render, render_json, Context, COVERAGE_FACTOR};
+
+fn report() -> Report {
+    let estimate = Quantities {
+        mass: 1498.8638046284339,
+        com: [0.1494954533567817, -0.07983121975299322, 0.5013469094216518],
+        inertia_com: [
+            [598.6369145736345, -25.211814301020688, 59.190462538062704],
+            [-25.211814301020688, 2496.018112223024, -15.828552824156787],
+            [59.190462538062704, -15.828552824156787, 2700.379686936644],
+        ],
+    };
+    let sigma = Quantities {
+        mass: 0.8279402501215622,
+        com: [
+            0.0004724624152647656,
+            0.0004845230212843297,
+            0.0009907764132050523,
+        ],
+        inertia_com: [[1.84, 0.78, 1.14], [0.78, 2.31, 1.24], [1.14, 1.24, 1.61]],
+    };
+    let mut r = Report {
+        estimate,
+        sigma,
+        ..Report::default()
+    };
+    r.principal.moments = [596.6485772107721, 2495.020932318224, 2703.3652042043072];
+    r.principal.axes = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    r.error_budget = vec![BudgetLine {
+        source: "noise".into(),
+        sigma,
+    }];
+    r.run.backend = "sim".into();
+    r.run.log = Some("runs/<x>.mcap".into());
+    r
+}
+
+fn context() -> Context<'static> {
+    Context {
+        tool: "stewart 0.1.0",
+        report_source: "test",
+        ..Context::default()
+    }
+}
+
+/// The `data-value` of the cell named `quantity`.
+fn value_of(html: &str, quantity: &str) -> f64 {
+    let key = format!("data-quantity=\"{quantity}\" data-value=\"");
+    let start = html
+        .find(&key)
+        .unwrap_or_else(|| panic!("{quantity} not on the page"))
+        + key.len();
+    let end = start + html[start..].find('"').unwrap();
+    html[start..end].parse().unwrap()
+}
+
+#[test]
+fn the_expanded_uncertainty_is_twice_the_standard_one() {
+    assert_eq!(COVERAGE_FACTOR, 2.0);
+    assert_eq!(expanded(0.8279402501215622), 1.6558805002431244);
+    let r = report();
+    let html = render(&parse(&r.to_json()).unwrap(), &context());
+    for (k, key) in crate::page::KEYS.iter().enumerate() {
+        let u = r.sigma.flat()[k];
+        assert_eq!(value_of(&html, &format!("sigma.{key}")), u);
+        assert_eq!(value_of(&html, &format!("U.{key}")), 2.0 * u);
+        assert_eq!(
+            value_of(&html, &format!("estimate.{key}")),
+            r.estimate.flat()[k]
+        );
+    }
+    // The printed U of the mass: 2 × 0.82794 = 1.65588 → 1.7, the value to the same place.
+    assert!(html.contains(">1498.9</td>"), "value rounded to U's place");
+    assert!(html.contains(">± 1.7</td>"), "U to two significant digits");
+    assert!(html.contains("k = 2"));
+}
+
+#[test]
+fn the_page_references_nothing_on_the_network() {
+    let mut r = report();
+    // A note from a report that names a URL is escaped text, still not a reference; the page's
+    // own markup must hold none.
+    r.budget_notes = vec!["see the manual".into()];
+    let html = render_json(&r.to_json(), &context()).unwrap();
+    let lower = html.to_ascii_lowercase();
+    for bad in ["http://", "https://", "src=", "href=", "@import", "url("] {
+        assert!(!lower.contains(bad), "the page contains {bad}");
+    }
+    assert!(lower.contains("content-security-policy"));
+    assert!(lower.contains("default-src 'none'"));
+    for figure in ["ellipsoid", "budget", "convergence", "residuals"] {
+        assert!(
+            html.contains(&format!("data-figure=\"{figure}\"")),
+            "{figure}"
+        );
+    }
+    assert!(html.contains("@page { size: A4"));
+}
+
+#[test]
+fn text_from_the_report_is_escaped() {
+    let html = render(&parse(&report().to_json()).unwrap(), &context());
+    assert!(html.contains("runs/&lt;x&gt;.mcap"));
+    assert!(!html.contains("runs/<x>"));
+}
+
+#[test]
+fn a_campaign_report_is_refused() {
+    let e = parse("{\"reports\": [{}, {}], \"parameters\": []}").unwrap_err();
+    assert!(e.to_string().contains("campaign"), "{e}");
+    assert!(parse("not json").is_err());
+}
+
+#[test]
+fn a_report_without_budget_says_so() {
+    let mut r = report();
+    r.error_budget.clear();
+    let html = render_json(&r.to_json(), &context()).unwrap();
+    assert!(html.contains("The report carries no error budget."));
+    assert!(!html.contains("data-figure=\"budget\""));
+}
