@@ -271,8 +271,7 @@ fn a_taken_live_address_refuses_the_run_before_the_log() {
     let mut args = simulate_args(Some(scratch.config.clone()), log.clone());
     args.measure.shared.live = Some(addr);
     let err = stewart_cli::simulate::simulate(&args, &AtomicBool::new(false))
-        .err()
-        .expect("a taken port refuses the run");
+        .expect_err("a taken port refuses the run");
     assert_eq!(err.exit_code(), 2, "refused before anything ran: {err}");
     let text = err.to_string();
     assert!(text.contains(&addr.to_string()), "{text}");
