@@ -277,3 +277,60 @@ fn a_taken_live_address_refuses_the_run_before_the_log() {
     assert!(text.contains(&addr.to_string()), "{text}");
     assert!(!log.exists(), "no log is started for a refused run");
 }
+
+/// A client that subscribes to every channel, the 1 kHz ones included, and then never reads:
+/// the run neither waits for it nor fails. Its queue fills and the SDK drops the oldest
+/// messages; the run keeps the wall clock's pace and the log is complete.
+#[test]
+fn a_client_that_stops_reading_does_not_hold_the_run() {
+    let scratch = Scratch::new(LIVE);
+    let log = scratch.path("run.mcap");
+    let addr = free_port();
+    let mut args = simulate_args(Some(scratch.config.clone()), log.clone());
+    args.measure.shared.live = Some(addr);
+    let run = std::thread::spawn(move || {
+        let started = Instant::now();
+        let outcome = stewart_cli::simulate::simulate(&args, &AtomicBool::new(false))
+            .unwrap_or_else(|e| panic!("simulate --live failed: {e}"));
+        (outcome, started.elapsed())
+    });
+    let mut socket = connect(addr, Instant::now() + Duration::from_secs(60), &run);
+    // Subscribe to everything advertised, then stop reading.
+    let mut subscriptions = Vec::new();
+    while subscriptions.is_empty() {
+        if let Message::Text(text) = socket.read().unwrap() {
+            if let ServerMessage::Advertise(a) = ServerMessage::parse_json(text.as_str()).unwrap() {
+                for (i, c) in a.channels.iter().enumerate() {
+                    subscriptions.push(serde_json::json!({"id": i, "channelId": c.id}));
+                }
+            }
+        }
+    }
+    let subscribe = serde_json::json!({"op": "subscribe", "subscriptions": subscriptions});
+    socket.send(Message::text(subscribe.to_string())).unwrap();
+    let (outcome, took) = run.join().unwrap();
+    drop(socket);
+    assert_eq!(outcome.end, End::Completed);
+    let messages = support::read_messages(&log);
+    let first = messages.iter().map(|m| m.log_time).min().unwrap();
+    let last = messages.iter().map(|m| m.log_time).max().unwrap();
+    let span = Duration::from_nanos(last - first);
+    // Held to the wall clock, the run takes its log's span; a run waiting on the client would
+    // take longer, a run that was not held far less.
+    assert!(
+        took + Duration::from_millis(10) >= span && took < span + Duration::from_secs(5),
+        "the run took {took:?} for {span:?} of log"
+    );
+    // Every message is in the log: the writer numbers the messages it is given 1, 2, 3, …
+    // and a message dropped on the way would leave a gap.
+    let bytes = std::fs::read(&log).unwrap();
+    let sequences: Vec<u32> = mcap::MessageStream::new(&bytes)
+        .unwrap()
+        .map(|m| m.unwrap().sequence)
+        .collect();
+    assert!(
+        sequences.iter().zip(1..).all(|(s, i)| *s == i),
+        "a gap in the log's sequence numbers"
+    );
+    assert!(sequences.len() > 10_000, "{} messages", sequences.len());
+}
