@@ -152,7 +152,7 @@ impl LiveServer {
             .map_err(|e| match e {
                 foxglove::FoxgloveError::Bind(io) => anyhow::anyhow!(
                     "cannot serve the live view on {addr}: {io} (another program, or another \
-                     run's --live, may hold the port: give another with --live HOST:PORT)"
+                     run's --live, may hold the port: give another with --live IP:PORT)"
                 ),
                 other => anyhow::anyhow!("cannot serve the live view on {addr}: {other}"),
             })?;
