@@ -146,3 +146,40 @@ fn parses_import_and_estimate_save_tare() {
     ])
     .is_err());
 }
+
+#[test]
+fn live_takes_an_address_or_the_default_and_not_a_campaign() {
+    let parse = |args: &[&str]| {
+        let cli = Cli::try_parse_from(args).unwrap();
+        let Command::Simulate(a) = cli.command else {
+            panic!("not simulate")
+        };
+        a.measure.shared.live
+    };
+    assert_eq!(parse(&["stewart", "simulate"]), None);
+    assert_eq!(
+        parse(&["stewart", "simulate", "--live"]),
+        Some("127.0.0.1:8765".parse().unwrap())
+    );
+    assert_eq!(
+        parse(&["stewart", "simulate", "--live", "0.0.0.0:9000", "--quiet"]),
+        Some("0.0.0.0:9000".parse().unwrap())
+    );
+    assert!(Cli::try_parse_from(["stewart", "simulate", "--live", "localhost"]).is_err());
+    assert!(Cli::try_parse_from(["stewart", "simulate", "--runs", "3", "--live"]).is_err());
+    for rig in [
+        &["stewart", "rig", "--live"][..],
+        &["stewart", "rig", "tare", "--out", "t.json", "--live"],
+        &[
+            "stewart",
+            "rig",
+            "measure",
+            "--tare",
+            "t.json",
+            "--live",
+            "[::1]:8765",
+        ],
+    ] {
+        assert!(Cli::try_parse_from(rig).is_ok(), "{rig:?}");
+    }
+}

@@ -1,5 +1,6 @@
 //! The layers keep one direction of use: the library that carries the measurement procedure
-//! (`measure`) reaches none of clap, indicatif, mcap, plotters or rapier through any path of
+//! (`measure`) reaches none of clap, indicatif, mcap, plotters, rapier or the live view's
+//! server (foxglove, tokio, tungstenite) through any path of
 //! its dependency tree, so rig software and GUIs can embed it; the cores stay free of std-side
 //! crates. Read from `cargo tree -e normal` (what a user's build of the crate pulls in; dev-
 //! and build-only dependencies left out), on the locked, already fetched graph.
@@ -51,6 +52,10 @@ fn the_measurement_library_needs_no_terminal_log_format_plotter_or_physics_engin
             "plotters",
             "rapier3d-f64",
             "rapier3d",
+            // The live view's server (runlog's `live` feature) and its async runtime.
+            "foxglove",
+            "tokio",
+            "tungstenite",
         ],
     );
     assert!(found.is_empty(), "measure reaches {found:?}");

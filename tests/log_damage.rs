@@ -70,10 +70,11 @@ fn a_flipped_chunk_size_byte_that_aborted_estimate_costs_one_chunk() {
     assert_eq!(data.damaged.len(), 1, "{:?}", data.damaged);
     let lost = &data.damaged[0];
     assert!(lost.reason.contains("damaged chunk"), "{}", lost.reason);
+    // One chunk (512 KiB of messages) holds about a second of a 1 kHz run.
     let frames = lost.sensor_frames.unwrap();
-    assert!((1..1000).contains(&frames), "{frames} frames lost");
+    assert!((1..1500).contains(&frames), "{frames} frames lost");
     let (from, to) = (lost.from_s.unwrap(), lost.to_s.unwrap());
-    assert!(from < to && to - from < 1.0, "{from}..{to}");
+    assert!(from < to && to - from < 1.5, "{from}..{to}");
     // The loaded run lost those frames' samples and, as after any gap longer than
     // `max_gap_s`, the conditioning's restart (about 330 samples with the default filter).
     let lost_samples = run.report.samples - outcome.report.samples;

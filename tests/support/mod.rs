@@ -324,6 +324,10 @@ fn proto_json(v: &prost_reflect::Value) -> serde_json::Value {
         Value::F64(_) => serde_json::Value::Null,
         Value::U64(x) => json!(x),
         Value::U32(x) => json!(x),
+        // The Foxglove SDK's descriptors: google.protobuf.Timestamp's seconds and nanos, and
+        // enums (a line's type) by number.
+        Value::I64(x) => json!(x),
+        Value::I32(x) | Value::EnumNumber(x) => json!(x),
         Value::Bool(x) => json!(x),
         Value::String(x) => json!(x),
         Value::List(l) => serde_json::Value::Array(l.iter().map(proto_json).collect()),

@@ -37,6 +37,11 @@ pub struct SharedArgs {
     /// Write SVG and PNG figures (estimates with ±σ, tracking error, excitation) here.
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
+    /// Serve the log's channels live to Foxglove (WebSocket) at IP:PORT while the run goes
+    /// [default: 127.0.0.1:8765]; the log is written as well (docs/live.md).
+    #[arg(long, value_name = "IP:PORT", num_args = 0..=1,
+          default_missing_value = runlog::live::DEFAULT_ADDR)]
+    pub live: Option<std::net::SocketAddr>,
 }
 
 /// Flags of every measurement (`simulate`, `rig`, `rig measure`): the shared ones and those of
@@ -179,5 +184,13 @@ pub fn end_code(end: &End, fault_detail: &str) -> u8 {
             eprintln!("fault: {cause}{fault_detail}; a safe stop was commanded; no report");
             EXIT_FAULT
         }
+    }
+}
+
+/// Says where `--live` serves the run (standard error, unless `quiet`): the address a Foxglove
+/// client opens (docs/live.md).
+pub fn announce_live(log: &runlog::RunLog, quiet: bool) {
+    if let (Some(addr), false) = (log.live_addr(), quiet) {
+        eprintln!("live view: ws://{addr} (Foxglove: Open connection → Foxglove WebSocket)");
     }
 }

@@ -354,8 +354,12 @@ pub fn rig_with_abort(
     let log_path = common::log_path(&common.run, start_ns);
     // The log's writer thread must never stall the control loop: when it falls behind (a disk
     // that blocks), messages are dropped and counted instead.
+    let live = runlog::live::serve(common.run.shared.live, runlog::live::Pace::AsRun)
+        .map_err(CommandError::Input)?;
     let mut log = RunLog::create_with(&log_path, start_ns, Delivery::DropWhenFull)
-        .map_err(CommandError::Run)?;
+        .map_err(CommandError::Run)?
+        .with_live(live);
+    common::announce_live(&log, common.run.shared.quiet);
     let mut runs = Vec::new();
     if matches!(tare, TarePlan::Measure(_)) {
         runs.push("tare".to_string());

@@ -42,7 +42,7 @@ pub struct SimulateArgs {
     pub noise: Option<NoisePreset>,
     /// Accuracy campaign: this many runs with seeds seed, seed+1, …, then per-parameter error
     /// statistics (`--report` writes them as JSON).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", conflicts_with = "live")]
     pub runs: Option<u32>,
     /// Runs in parallel with `--runs` (default: one per CPU).
     #[arg(long, value_name = "J", requires = "runs")]
@@ -150,7 +150,14 @@ pub fn simulate(
 
     let start_ns = runlog::run_log::unix_now_ns();
     let log_path = common::log_path(&args.measure, start_ns);
-    let mut log = RunLog::create(&log_path, start_ns).map_err(CommandError::Run)?;
+    // The live view's address is bound before the log exists: a refused one leaves no log.
+    // Watched live, the simulation keeps to the wall clock.
+    let live = runlog::live::serve(args.measure.shared.live, runlog::live::Pace::WallClock)
+        .map_err(CommandError::Input)?;
+    let mut log = RunLog::create(&log_path, start_ns)
+        .map_err(CommandError::Run)?
+        .with_live(live);
+    common::announce_live(&log, args.measure.shared.quiet);
     let stroke = geometry.stroke();
     let mut runs = Vec::new();
     if tare_run {

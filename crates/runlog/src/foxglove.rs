@@ -1,13 +1,22 @@
-//! Foxglove's well-known 3D schemas (`foxglove.FrameTransform`, `foxglove.SceneUpdate`) as JSON
-//! messages, and the scene of the platform: base disc, plate disc, six legs coloured by force,
-//! and the payload's equivalent inertia ellipsoid at its estimated centre of mass.
+//! Foxglove's well-known 3D messages (`foxglove.FrameTransform`, `foxglove.SceneUpdate`), as
+//! the Foxglove SDK's own protobuf types with the SDK's descriptors, and the scene of the
+//! platform: base disc, plate disc, six legs coloured by force, and the payload's equivalent
+//! inertia ellipsoid at its estimated centre of mass.
 //!
 //! Frames: `base` is B, `platform` is P. The transform `base → platform` carries the pose (p, R):
 //! a point x_P on the plate is at p + R x_P in B, which is Foxglove's convention (translation of
 //! the child origin in the parent, rotation of the child in the parent).
+//!
+//! The JSON schemas here ([`frame_transform_schema`], [`scene_update_schema`]) describe these
+//! messages decoded to JSON with their descriptor (the proto field names, every field, a
+//! timestamp as `{seconds, nanos}`, an enum as its number): docs/log-schema.md documents them
+//! and the tests validate every logged message against them.
 
+use foxglove::messages::{
+    line_primitive, Color, CylinderPrimitive, Duration, FrameTransform, LinePrimitive, Point3,
+    Pose, Quaternion, SceneEntity, SceneUpdate, SpherePrimitive, Timestamp, Vector3 as FoxVector3,
+};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
-use serde::Serialize;
 
 use measure::schema::{array, boolean, int, num, object, string, Schema};
 
@@ -18,215 +27,60 @@ pub const PLATFORM_FRAME: &str = "platform";
 /// Name of the payload's frame: origin at its estimated centre of mass, axes its principal axes.
 pub const PAYLOAD_FRAME: &str = "payload_com";
 
-/// Foxglove `time`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct Time {
-    /// Whole seconds.
-    pub sec: u64,
-    /// Nanoseconds, 0..1e9.
-    pub nsec: u32,
+/// The Foxglove timestamp of `ns` nanoseconds since the Unix epoch: sec = ⌊ns / 10⁹⌋,
+/// nsec = ns mod 10⁹ (the latest representable time past 2106, where sec leaves u32).
+pub fn timestamp(ns: u64) -> Timestamp {
+    u32::try_from(ns / 1_000_000_000)
+        .ok()
+        .and_then(|sec| Timestamp::new_checked(sec, (ns % 1_000_000_000) as u32))
+        .unwrap_or(Timestamp::MAX)
 }
 
-impl Time {
-    /// From nanoseconds.
-    pub fn from_ns(ns: u64) -> Self {
-        Self {
-            sec: ns / 1_000_000_000,
-            nsec: (ns % 1_000_000_000) as u32,
-        }
+fn vector(v: Vector3<f64>) -> FoxVector3 {
+    FoxVector3 {
+        x: v.x,
+        y: v.y,
+        z: v.z,
     }
 }
 
-/// Foxglove `Vector3` / `Point3`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct Xyz {
-    /// x.
-    pub x: f64,
-    /// y.
-    pub y: f64,
-    /// z.
-    pub z: f64,
-}
-
-impl From<Vector3<f64>> for Xyz {
-    fn from(v: Vector3<f64>) -> Self {
-        Self {
-            x: v.x,
-            y: v.y,
-            z: v.z,
-        }
+fn point(v: Vector3<f64>) -> Point3 {
+    Point3 {
+        x: v.x,
+        y: v.y,
+        z: v.z,
     }
 }
 
-/// Foxglove `Quaternion`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct Quat {
-    /// x.
-    pub x: f64,
-    /// y.
-    pub y: f64,
-    /// z.
-    pub z: f64,
-    /// w.
-    pub w: f64,
-}
-
-impl Default for Quat {
-    fn default() -> Self {
-        Self {
-            x: 0.0,
-            y: 0.0,
-            z: 0.0,
-            w: 1.0,
-        }
+fn quaternion(q: UnitQuaternion<f64>) -> Quaternion {
+    Quaternion {
+        x: q.i,
+        y: q.j,
+        z: q.k,
+        w: q.w,
     }
 }
 
-impl From<UnitQuaternion<f64>> for Quat {
-    fn from(q: UnitQuaternion<f64>) -> Self {
-        Self {
-            x: q.i,
-            y: q.j,
-            z: q.k,
-            w: q.w,
-        }
-    }
-}
+const IDENTITY: Quaternion = Quaternion {
+    x: 0.0,
+    y: 0.0,
+    z: 0.0,
+    w: 1.0,
+};
 
-/// Foxglove `Color`, components 0..1.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct Color {
-    /// Red.
-    pub r: f64,
-    /// Green.
-    pub g: f64,
-    /// Blue.
-    pub b: f64,
-    /// Alpha.
-    pub a: f64,
-}
-
-/// Foxglove `Pose`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
-pub struct FoxPose {
-    /// Position.
-    pub position: Xyz,
-    /// Orientation.
-    pub orientation: Quat,
-}
-
-/// `foxglove.FrameTransform`.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct FrameTransform {
-    /// Time of the transform.
-    pub timestamp: Time,
-    /// Parent frame.
-    pub parent_frame_id: String,
-    /// Child frame.
-    pub child_frame_id: String,
-    /// Child origin in the parent, m.
-    pub translation: Xyz,
-    /// Child orientation in the parent.
-    pub rotation: Quat,
-}
-
-/// `foxglove.CylinderPrimitive`.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Cylinder {
-    /// Centre and orientation (axis along local z).
-    pub pose: FoxPose,
-    /// Diameters along x, y at the bottom and the height along z, m.
-    pub size: Xyz,
-    /// Bottom diameter scale.
-    pub bottom_scale: f64,
-    /// Top diameter scale.
-    pub top_scale: f64,
-    /// Colour.
-    pub color: Color,
-}
-
-/// `foxglove.SpherePrimitive` (an ellipsoid when the sizes differ).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Sphere {
-    /// Centre and orientation.
-    pub pose: FoxPose,
-    /// Diameters along the local axes, m.
-    pub size: Xyz,
-    /// Colour.
-    pub color: Color,
-}
-
-/// `foxglove.LinePrimitive`.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Line {
-    /// 0 line strip, 1 line loop, 2 line list.
-    #[serde(rename = "type")]
-    pub kind: u8,
-    /// Origin of the points.
-    pub pose: FoxPose,
-    /// Thickness, m (or pixels when scale invariant).
-    pub thickness: f64,
-    /// Thickness in pixels instead of metres.
-    pub scale_invariant: bool,
-    /// Points.
-    pub points: Vec<Xyz>,
-    /// Colour of the whole line (when `colors` is empty).
-    pub color: Color,
-    /// Per-point colours.
-    pub colors: Vec<Color>,
-    /// Indices into `points` (empty: all in order).
-    pub indices: Vec<u32>,
-}
-
-/// `foxglove.SceneEntity` with the primitive kinds this log uses (the others stay empty).
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct SceneEntity {
-    /// Time of the entity.
-    pub timestamp: Time,
-    /// Frame the primitives are given in.
-    pub frame_id: String,
-    /// Identifier: replaces an earlier entity with the same id.
-    pub id: String,
-    /// Zero: until replaced.
-    pub lifetime: Time,
-    /// Follow `frame_id` as it moves.
-    pub frame_locked: bool,
-    /// Unused (empty).
-    pub metadata: Vec<Empty>,
-    /// Unused (empty).
-    pub arrows: Vec<Empty>,
-    /// Unused (empty).
-    pub cubes: Vec<Empty>,
-    /// Spheres and ellipsoids.
-    pub spheres: Vec<Sphere>,
-    /// Cylinders.
-    pub cylinders: Vec<Cylinder>,
-    /// Lines.
-    pub lines: Vec<Line>,
-    /// Unused (empty).
-    pub triangles: Vec<Empty>,
-    /// Unused (empty).
-    pub texts: Vec<Empty>,
-    /// Unused (empty).
-    pub models: Vec<Empty>,
-}
-
-/// Placeholder for primitive kinds the log never fills.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
-pub struct Empty {}
-
-/// `foxglove.SceneUpdate`.
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct SceneUpdate {
-    /// Always empty: entities are replaced by id.
-    pub deletions: Vec<Empty>,
-    /// Entities to add or replace.
-    pub entities: Vec<SceneEntity>,
+fn pose(position: Vector3<f64>, orientation: Quaternion) -> Option<Pose> {
+    Some(Pose {
+        position: Some(vector(position)),
+        orientation: Some(orientation),
+    })
 }
 
 fn time_schema(d: &'static str) -> Schema {
     object(
-        vec![("sec", int("whole seconds")), ("nsec", int("nanoseconds"))],
+        vec![
+            ("seconds", int("whole seconds since the Unix epoch")),
+            ("nanos", int("nanoseconds, 0..1e9")),
+        ],
         d,
     )
 }
@@ -269,7 +123,7 @@ fn pose_schema() -> Schema {
     )
 }
 
-/// JSON schema of `foxglove.FrameTransform`.
+/// JSON schema of `foxglove.FrameTransform` decoded to JSON (see the module docs).
 pub fn frame_transform_schema() -> Schema {
     object(
         vec![
@@ -283,7 +137,8 @@ pub fn frame_transform_schema() -> Schema {
     )
 }
 
-/// JSON schema of `foxglove.SceneUpdate` (the fields this log uses).
+/// JSON schema of `foxglove.SceneUpdate` decoded to JSON (the primitive kinds this log fills;
+/// the others are always empty).
 pub fn scene_update_schema() -> Schema {
     let unused = || array(object(vec![], ""), None, "unused, always empty");
     let entity = object(
@@ -420,43 +275,29 @@ fn force_color(force_n: f64, scale_n: f64) -> Color {
     }
 }
 
-fn disc(radius_m: f64, thickness_m: f64, z_m: f64, color: Color) -> Cylinder {
-    Cylinder {
-        pose: FoxPose {
-            position: Xyz {
-                x: 0.0,
-                y: 0.0,
-                z: z_m,
-            },
-            orientation: Quat::default(),
-        },
-        size: Xyz {
-            x: 2.0 * radius_m,
-            y: 2.0 * radius_m,
-            z: thickness_m,
-        },
+fn disc(radius_m: f64, thickness_m: f64, z_m: f64, color: Color) -> CylinderPrimitive {
+    CylinderPrimitive {
+        pose: pose(Vector3::new(0.0, 0.0, z_m), IDENTITY),
+        size: Some(vector(Vector3::new(
+            2.0 * radius_m,
+            2.0 * radius_m,
+            thickness_m,
+        ))),
         bottom_scale: 1.0,
         top_scale: 1.0,
-        color,
+        color: Some(color),
     }
 }
 
-fn entity(time: Time, frame: &str, id: &str) -> SceneEntity {
+fn entity(time: Timestamp, frame: &str, id: &str) -> SceneEntity {
     SceneEntity {
-        timestamp: time,
+        timestamp: Some(time),
         frame_id: frame.into(),
         id: id.into(),
-        lifetime: Time::default(),
+        // Zero: until replaced.
+        lifetime: Some(Duration::new(0, 0)),
         frame_locked: true,
-        metadata: vec![],
-        arrows: vec![],
-        cubes: vec![],
-        spheres: vec![],
-        cylinders: vec![],
-        lines: vec![],
-        triangles: vec![],
-        texts: vec![],
-        models: vec![],
+        ..SceneEntity::default()
     }
 }
 
@@ -478,7 +319,7 @@ pub fn ellipsoid_semi_axes(mass_kg: f64, moments: [f64; 3]) -> Option<[f64; 3]> 
 /// The scene at one instant: base, plate, legs (leg line from bᵢ to p + R pᵢ in B, coloured by
 /// the measured force) and, when given, the payload's inertia ellipsoid.
 pub fn scene(
-    time: Time,
+    time: Timestamp,
     geometry: &SceneGeometry,
     position_m: Vector3<f64>,
     rotation: &nalgebra::Rotation3<f64>,
@@ -515,23 +356,23 @@ pub fn scene(
     for (i, force_n) in leg_forces_n.iter().enumerate() {
         let top = position_m + rotation * geometry.plate_joints_m[i];
         let c = force_color(*force_n, geometry.force_scale_n);
-        points.push(Xyz::from(geometry.base_joints_m[i]));
-        points.push(Xyz::from(top));
+        points.push(point(geometry.base_joints_m[i]));
+        points.push(point(top));
         colors.push(c);
         colors.push(c);
     }
-    legs.lines.push(Line {
-        kind: 2,
-        pose: FoxPose::default(),
+    legs.lines.push(LinePrimitive {
+        r#type: line_primitive::Type::LineList as i32,
+        pose: pose(Vector3::zeros(), IDENTITY),
         thickness: 0.06,
         scale_invariant: false,
         points,
-        color: Color {
+        color: Some(Color {
             r: 0.6,
             g: 0.6,
             b: 0.6,
             a: 1.0,
-        },
+        }),
         colors,
         indices: vec![],
     });
@@ -546,22 +387,18 @@ pub fn scene(
             }
             let rot = nalgebra::Rotation3::from_matrix_unchecked(axes);
             let mut e = entity(time, PLATFORM_FRAME, "payload_inertia");
-            e.spheres.push(Sphere {
-                pose: FoxPose {
-                    position: Xyz::from(p.com_m),
-                    orientation: Quat::from(UnitQuaternion::from_rotation_matrix(&rot)),
-                },
-                size: Xyz {
-                    x: 2.0 * semi[0],
-                    y: 2.0 * semi[1],
-                    z: 2.0 * semi[2],
-                },
-                color: Color {
+            e.spheres.push(SpherePrimitive {
+                pose: pose(
+                    p.com_m,
+                    quaternion(UnitQuaternion::from_rotation_matrix(&rot)),
+                ),
+                size: Some(vector(Vector3::from(semi) * 2.0)),
+                color: Some(Color {
                     r: 0.95,
                     g: 0.7,
                     b: 0.2,
                     a: 0.6,
-                },
+                }),
             });
             entities.push(e);
         }
@@ -574,23 +411,23 @@ pub fn scene(
 
 /// The `base → platform` transform of pose (p, R).
 pub fn platform_transform(
-    time: Time,
+    time: Timestamp,
     position_m: Vector3<f64>,
     rotation: &nalgebra::Rotation3<f64>,
 ) -> FrameTransform {
     FrameTransform {
-        timestamp: time,
+        timestamp: Some(time),
         parent_frame_id: BASE_FRAME.into(),
         child_frame_id: PLATFORM_FRAME.into(),
-        translation: Xyz::from(position_m),
-        rotation: Quat::from(UnitQuaternion::from_rotation_matrix(rotation)),
+        translation: Some(vector(position_m)),
+        rotation: Some(quaternion(UnitQuaternion::from_rotation_matrix(rotation))),
     }
 }
 
 /// The `platform → payload_com` transform: the payload's estimated centre of mass, with its
 /// principal axes (right-handed, ascending moments along x, y, z). `None` while the estimate
 /// has no centre of mass (mass not positive) or J_C is not finite.
-pub fn payload_transform(time: Time, payload: &InertiaEllipsoid) -> Option<FrameTransform> {
+pub fn payload_transform(time: Timestamp, payload: &InertiaEllipsoid) -> Option<FrameTransform> {
     if payload.mass_kg.is_nan()
         || payload.mass_kg <= 0.0
         || !payload.com_m.iter().all(|v| v.is_finite())
@@ -607,11 +444,11 @@ pub fn payload_transform(time: Time, payload: &InertiaEllipsoid) -> Option<Frame
     }
     let rot = nalgebra::Rotation3::from_matrix_unchecked(axes);
     Some(FrameTransform {
-        timestamp: time,
+        timestamp: Some(time),
         parent_frame_id: PLATFORM_FRAME.into(),
         child_frame_id: PAYLOAD_FRAME.into(),
-        translation: Xyz::from(payload.com_m),
-        rotation: Quat::from(UnitQuaternion::from_rotation_matrix(&rot)),
+        translation: Some(vector(payload.com_m)),
+        rotation: Some(quaternion(UnitQuaternion::from_rotation_matrix(&rot))),
     })
 }
 
@@ -635,15 +472,50 @@ mod tests {
         }
     }
 
+    /// `message` encoded, then decoded by `prost-reflect` with the SDK's descriptor, as the
+    /// JSON form the schemas describe (every field, a timestamp as `{seconds, nanos}`).
+    fn decoded<T: foxglove::Encode>(message: &T) -> serde_json::Value {
+        use prost_reflect::{DescriptorPool, DynamicMessage, ReflectMessage, Value};
+        fn json(v: &Value) -> serde_json::Value {
+            match v {
+                Value::F64(x) => serde_json::json!(x),
+                Value::I64(x) => serde_json::json!(x),
+                Value::I32(x) | Value::EnumNumber(x) => serde_json::json!(x),
+                Value::U32(x) => serde_json::json!(x),
+                Value::Bool(x) => serde_json::json!(x),
+                Value::String(x) => serde_json::json!(x),
+                Value::List(l) => serde_json::Value::Array(l.iter().map(json).collect()),
+                Value::Message(m) => serde_json::Value::Object(
+                    m.descriptor()
+                        .fields()
+                        .map(|f| (f.name().to_string(), json(&m.get_field(&f))))
+                        .collect(),
+                ),
+                other => panic!("a type the scene does not use: {other:?}"),
+            }
+        }
+        let schema = T::get_schema().unwrap();
+        let descriptor = DescriptorPool::decode(&schema.data[..])
+            .unwrap()
+            .get_message_by_name(&schema.name)
+            .unwrap();
+        let mut bytes = Vec::new();
+        message.encode(&mut bytes).unwrap();
+        let m = DynamicMessage::decode(descriptor, &bytes[..]).unwrap();
+        assert_eq!(m.unknown_fields().count(), 0);
+        json(&Value::Message(m))
+    }
+
     #[test]
     fn messages_match_their_schemas() {
         let rot = nalgebra::Rotation3::from_euler_angles(0.1, -0.05, 0.2);
         let p = Vector3::new(0.01, 0.0, 1.8);
-        let tf = platform_transform(Time::from_ns(1_500_000_123), p, &rot);
-        let v = serde_json::to_value(&tf).unwrap();
+        let tf = platform_transform(timestamp(1_500_000_123), p, &rot);
+        let v = decoded(&tf);
         frame_transform_schema().check(&v).unwrap();
-        assert_eq!(v["timestamp"]["sec"], 1);
-        assert_eq!(v["timestamp"]["nsec"], 500_000_123);
+        assert_eq!(v["timestamp"]["seconds"], 1);
+        assert_eq!(v["timestamp"]["nanos"], 500_000_123);
+        assert_eq!(v["translation"]["z"], 1.8);
 
         let payload = InertiaEllipsoid {
             mass_kg: 1500.0,
@@ -651,16 +523,31 @@ mod tests {
             inertia_com_kg_m2: Matrix3::from_diagonal(&Vector3::new(600.0, 2500.0, 2700.0)),
         };
         let s = scene(
-            Time::default(),
+            timestamp(0),
             &geometry(),
             p,
             &rot,
             &[1e3; 6],
             Some(&payload),
         );
-        let v = serde_json::to_value(&s).unwrap();
+        let v = decoded(&s);
         scene_update_schema().check(&v).unwrap();
         assert_eq!(s.entities.len(), 4);
+        assert_eq!(v["entities"][2]["lines"][0]["type"], 2, "a line list");
+        assert_eq!(
+            v["entities"][2]["lines"][0]["points"]
+                .as_array()
+                .unwrap()
+                .len(),
+            12
+        );
+    }
+
+    #[test]
+    fn timestamps_split_nanoseconds() {
+        let t = timestamp(1_735_689_599_999_999_999);
+        assert_eq!((t.sec(), t.nsec()), (1_735_689_599, 999_999_999));
+        assert_eq!(timestamp(u64::MAX), Timestamp::MAX);
     }
 
     /// The legs' top points are p + R pᵢ: each line's length is the leg length.
@@ -669,7 +556,7 @@ mod tests {
         let g = geometry();
         let rot = nalgebra::Rotation3::from_euler_angles(0.05, 0.02, -0.1);
         let p = Vector3::new(0.0, 0.02, 1.7);
-        let s = scene(Time::default(), &g, p, &rot, &[0.0; 6], None);
+        let s = scene(timestamp(0), &g, p, &rot, &[0.0; 6], None);
         let line = &s.entities[2].lines[0];
         for i in 0..6 {
             let a = &line.points[2 * i];
@@ -715,22 +602,17 @@ mod tests {
             com_m: Vector3::new(0.1, -0.05, 0.5),
             inertia_com_kg_m2: r.matrix() * d * r.matrix().transpose(),
         };
-        let tf = payload_transform(Time::default(), &p).unwrap();
+        let tf = payload_transform(timestamp(0), &p).unwrap();
         assert_eq!(tf.child_frame_id, PAYLOAD_FRAME);
-        assert_eq!(tf.translation, Xyz::from(p.com_m));
-        let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
-            tf.rotation.w,
-            tf.rotation.x,
-            tf.rotation.y,
-            tf.rotation.z,
-        ));
+        assert_eq!(tf.translation, Some(vector(p.com_m)));
+        let r = tf.rotation.unwrap();
+        let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(r.w, r.x, r.y, r.z));
         let m = q.to_rotation_matrix();
         let local = m.matrix().transpose() * p.inertia_com_kg_m2 * m.matrix();
         let expect = Matrix3::from_diagonal(&Vector3::new(400.0, 900.0, 1200.0));
         assert!((local - expect).norm() < 1e-9, "{local}");
-        let v = serde_json::to_value(&tf).unwrap();
-        frame_transform_schema().check(&v).unwrap();
+        frame_transform_schema().check(&decoded(&tf)).unwrap();
         let none = InertiaEllipsoid { mass_kg: -1.0, ..p };
-        assert!(payload_transform(Time::default(), &none).is_none());
+        assert!(payload_transform(timestamp(0), &none).is_none());
     }
 }

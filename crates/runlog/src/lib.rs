@@ -8,6 +8,8 @@
 //! - [`foxglove`]: the 3D scene and transforms in Foxglove's well-known schemas.
 //! - [`mcap_log`] (the MCAP writer on its own thread) and [`run_log`] (topics and time);
 //!   [`observer`]: the [`measure::Observer`] that writes a measurement into it.
+//! - [`live`] (feature `live`, on by default): the same channels served over the Foxglove
+//!   WebSocket protocol while the log is written (`--live`).
 //! - [`read`]: a log read back, tolerant of a file cut short; [`reestimate`]: its
 //!   measurements re-estimated (`stewart estimate`); [`import`]: another rig's CSV data
 //!   written as a log (`stewart import`).
@@ -18,6 +20,8 @@
 pub mod foxglove;
 pub mod import;
 pub mod link;
+#[cfg(feature = "live")]
+pub mod live;
 pub mod mcap_log;
 pub mod messages;
 pub mod metadata;

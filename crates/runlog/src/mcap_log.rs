@@ -53,6 +53,38 @@ pub struct ChannelSpec {
     pub encoding: Encoding,
 }
 
+impl ChannelSpec {
+    /// The schema record's data: the JSON schema document of a JSON channel, the
+    /// `FileDescriptorSet` of a protobuf one. The log and the live view ([`crate::live`])
+    /// advertise the same bytes.
+    pub fn schema_data(&self) -> Result<Vec<u8>> {
+        Ok(match self.encoding {
+            Encoding::Json => serde_json::to_vec(&self.schema.document(self.schema_name))?,
+            Encoding::Protobuf => crate::proto::descriptor::file_descriptor_set_bytes(),
+            Encoding::Foxglove => well_known_schema(self.schema_name)
+                .with_context(|| {
+                    format!(
+                        "{}: {} is not a well-known Foxglove schema of this log",
+                        self.topic, self.schema_name
+                    )
+                })?
+                .data
+                .into_owned(),
+        })
+    }
+}
+
+/// The Foxglove SDK's schema (name, `protobuf`, `FileDescriptorSet`) of a well-known message
+/// the log writes, by its schema name.
+pub fn well_known_schema(name: &str) -> Option<foxglove::Schema> {
+    use foxglove::messages::{FrameTransform, SceneUpdate};
+    use foxglove::Encode as _;
+    [FrameTransform::get_schema(), SceneUpdate::get_schema()]
+        .into_iter()
+        .flatten()
+        .find(|s| s.name == name)
+}
+
 /// A channel's message encoding.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Encoding {
@@ -61,6 +93,10 @@ pub enum Encoding {
     /// Message encoding `protobuf`, schema encoding `protobuf` (the `FileDescriptorSet` of
     /// [`crate::proto::descriptor`]): the 1 kHz channels, compact and cheap to decode.
     Protobuf,
+    /// Message and schema encoding `protobuf`, the schema being the Foxglove SDK's own
+    /// descriptor of a well-known message ([`well_known_schema`]): the 3D channels, as the
+    /// SDK's types ([`crate::foxglove`]).
+    Foxglove,
 }
 
 impl Encoding {
@@ -68,7 +104,7 @@ impl Encoding {
     pub fn message_encoding(self) -> &'static str {
         match self {
             Self::Json => "json",
-            Self::Protobuf => "protobuf",
+            Self::Protobuf | Self::Foxglove => "protobuf",
         }
     }
 
@@ -76,7 +112,7 @@ impl Encoding {
     pub fn schema_encoding(self) -> &'static str {
         match self {
             Self::Json => "jsonschema",
-            Self::Protobuf => "protobuf",
+            Self::Protobuf | Self::Foxglove => "protobuf",
         }
     }
 }
@@ -169,6 +205,9 @@ pub struct McapLog {
     dropped: u64,
     delivery: Delivery,
     path: PathBuf,
+    /// The live view, handed every message as it is queued.
+    #[cfg(feature = "live")]
+    live: Option<crate::live::LiveServer>,
 }
 
 impl McapLog {
@@ -209,12 +248,8 @@ impl McapLog {
             .create(BufWriter::with_capacity(1 << 20, file))
             .context("cannot start the MCAP log")?;
         let mut channels = HashMap::new();
-        let descriptor = crate::proto::descriptor::file_descriptor_set_bytes();
         for spec in specs {
-            let schema_data = match spec.encoding {
-                Encoding::Json => serde_json::to_vec(&spec.schema.document(spec.schema_name))?,
-                Encoding::Protobuf => descriptor.clone(),
-            };
+            let schema_data = spec.schema_data()?;
             let schema_id = writer.add_schema(
                 spec.schema_name,
                 spec.encoding.schema_encoding(),
@@ -274,7 +309,22 @@ impl McapLog {
             dropped: 0,
             delivery,
             path: path.to_path_buf(),
+            #[cfg(feature = "live")]
+            live: None,
         })
+    }
+
+    /// Hands every message written from here on to `live` as well, the same bytes at the same
+    /// log time (a message dropped for a full queue still reaches the live view).
+    #[cfg(feature = "live")]
+    pub fn serve_live(&mut self, live: crate::live::LiveServer) {
+        self.live = Some(live);
+    }
+
+    /// The live view, when one is served.
+    #[cfg(feature = "live")]
+    pub fn live(&self) -> Option<&crate::live::LiveServer> {
+        self.live.as_ref()
     }
 
     /// The file being written.
@@ -330,7 +380,7 @@ impl McapLog {
             self.batch.data.truncate(start);
             return Err(e.into());
         }
-        self.queued(channel.id, log_time_ns)
+        self.queued(topic, channel.id, start, log_time_ns)
     }
 
     /// Queues `message` in protobuf on `topic` at `log_time_ns`. Errors: an unregistered or
@@ -350,12 +400,56 @@ impl McapLog {
             ));
         }
         self.check_writer()?;
+        let start = self.batch.data.len();
         message.encode(&mut Encoder::new(&mut self.batch.data));
-        self.queued(channel.id, log_time_ns)
+        self.queued(topic, channel.id, start, log_time_ns)
     }
 
-    /// Records the message just appended to the batch; hands a full batch to the writer.
-    fn queued(&mut self, channel_id: u16, log_time_ns: u64) -> Result<()> {
+    /// Queues `message`, one of the Foxglove SDK's well-known types, in protobuf on `topic` at
+    /// `log_time_ns`. Errors: an unregistered topic or one not of [`Encoding::Foxglove`], a
+    /// channel whose schema is another message, a finished or failed log.
+    pub fn write_foxglove<T: foxglove::Encode>(
+        &mut self,
+        topic: &str,
+        log_time_ns: u64,
+        message: &T,
+    ) -> Result<()>
+    where
+        T::Error: Send + Sync + 'static,
+    {
+        let channel = self.channel(topic, Encoding::Foxglove)?;
+        let name = T::get_schema().map(|s| s.name);
+        if name.as_deref() != Some(channel.schema_name) {
+            return Err(anyhow!(
+                "log channel {topic} carries {}, not {}",
+                channel.schema_name,
+                name.as_deref().unwrap_or("a message without a schema")
+            ));
+        }
+        self.check_writer()?;
+        let start = self.batch.data.len();
+        if let Err(e) = message.encode(&mut self.batch.data) {
+            self.batch.data.truncate(start);
+            return Err(e.into());
+        }
+        self.queued(topic, channel.id, start, log_time_ns)
+    }
+
+    /// Records the message just appended to the batch (its bytes from `start`), hands it to
+    /// the live view, and hands a full batch to the writer.
+    fn queued(
+        &mut self,
+        topic: &str,
+        channel_id: u16,
+        start: usize,
+        log_time_ns: u64,
+    ) -> Result<()> {
+        #[cfg(feature = "live")]
+        if let (Some(live), Some(bytes)) = (&self.live, self.batch.data.get(start..)) {
+            live.log(topic, bytes, log_time_ns);
+        }
+        #[cfg(not(feature = "live"))]
+        let _ = (topic, start);
         self.sequence = self.sequence.wrapping_add(1);
         self.batch.entries.push(Entry {
             channel_id,

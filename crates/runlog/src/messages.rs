@@ -625,19 +625,19 @@ pub fn channels() -> Vec<ChannelSpec> {
         },
         ChannelSpec {
             topic: TF,
-            encoding: Encoding::Json,
+            encoding: Encoding::Foxglove,
             schema_name: "foxglove.FrameTransform",
             schema: foxglove::frame_transform_schema(),
         },
         ChannelSpec {
             topic: TF_PAYLOAD,
-            encoding: Encoding::Json,
+            encoding: Encoding::Foxglove,
             schema_name: "foxglove.FrameTransform",
             schema: foxglove::frame_transform_schema(),
         },
         ChannelSpec {
             topic: SCENE,
-            encoding: Encoding::Json,
+            encoding: Encoding::Foxglove,
             schema_name: "foxglove.SceneUpdate",
             schema: foxglove::scene_update_schema(),
         },

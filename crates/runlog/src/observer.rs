@@ -12,7 +12,7 @@ use measure::observer::{EstimatorStarted, MeasurementEnded, Observer, TickEvent}
 use measure::tare::TareFile;
 use measure::{Config, Measurement, TareEstimate};
 
-use crate::foxglove::{self, InertiaEllipsoid, SceneGeometry, Time};
+use crate::foxglove::{self, InertiaEllipsoid, SceneGeometry};
 use crate::messages::{
     self as topics, BodyEstimate, CommandMsg, EstimateMsg, LegsMsg, PidMsg, PoseMsg, PoseValue,
     SensorMsg, SupervisorMsg,
@@ -101,9 +101,9 @@ impl<'a> LogObserver<'a> {
                 .write_proto(topics::PID, t, &PidMsg::new(run, t, &out.pid))?;
         }
         if e.index.is_multiple_of(self.estimate_every) {
-            let time = Time::from_ns(self.log.time_ns(t));
+            let time = foxglove::timestamp(self.log.time_ns(t));
             let tf = foxglove::platform_transform(time, pose.position_m, &pose.rotation);
-            self.log.write(topics::TF, t, &tf)?;
+            self.log.write_foxglove(topics::TF, t, &tf)?;
         }
         Ok(())
     }
@@ -115,14 +115,14 @@ impl<'a> LogObserver<'a> {
         // platform → payload_com: the payload's estimated centre of mass and axes.
         if let Some(tare) = e.tare {
             let p = payload_estimate(estimate, Some(tare));
-            let time = Time::from_ns(self.log.time_ns(t));
+            let time = foxglove::timestamp(self.log.time_ns(t));
             let body = InertiaEllipsoid {
                 mass_kg: p.parameters.mass_kg,
                 com_m: p.com_m,
                 inertia_com_kg_m2: p.inertia_com_kg_m2,
             };
             if let Some(tf) = foxglove::payload_transform(time, &body) {
-                self.log.write(topics::TF_PAYLOAD, t, &tf)?;
+                self.log.write_foxglove(topics::TF_PAYLOAD, t, &tf)?;
             }
         }
         Ok(())
@@ -145,7 +145,7 @@ impl<'a> LogObserver<'a> {
             )
         });
         let pose = pose.copied().unwrap_or(self.home);
-        let time = Time::from_ns(self.log.time_ns(e.frame.time_s));
+        let time = foxglove::timestamp(self.log.time_ns(e.frame.time_s));
         let scene = foxglove::scene(
             time,
             &self.scene,
@@ -154,7 +154,8 @@ impl<'a> LogObserver<'a> {
             &e.frame.leg_forces_n,
             ellipsoid.as_ref(),
         );
-        self.log.write(topics::SCENE, e.frame.time_s, &scene)
+        self.log
+            .write_foxglove(topics::SCENE, e.frame.time_s, &scene)
     }
 
     fn supervisor(&mut self, e: &TickEvent<'_>) -> anyhow::Result<()> {

@@ -48,6 +48,22 @@ impl RunLog {
         })
     }
 
+    /// Serves every message written from here on live as well ([`crate::live`]); `None`
+    /// leaves the log as it is.
+    #[cfg(feature = "live")]
+    pub fn with_live(mut self, live: Option<crate::live::LiveServer>) -> Self {
+        if let Some(live) = live {
+            self.log.serve_live(live);
+        }
+        self
+    }
+
+    /// The address of the live view, when one is served.
+    #[cfg(feature = "live")]
+    pub fn live_addr(&self) -> Option<std::net::SocketAddr> {
+        self.log.live().map(crate::live::LiveServer::addr)
+    }
+
     /// Messages dropped because the writer fell behind ([`Delivery::DropWhenFull`]).
     pub fn dropped(&self) -> u64 {
         self.log.dropped()
@@ -97,6 +113,20 @@ impl RunLog {
     ) -> Result<()> {
         let ns = self.time_ns(time_s);
         self.log.write_proto(topic, ns, message)
+    }
+
+    /// Writes `message`, a well-known Foxglove message, on `topic` at backend time `time_s`.
+    pub fn write_foxglove<T: foxglove::Encode>(
+        &mut self,
+        topic: &str,
+        time_s: f64,
+        message: &T,
+    ) -> Result<()>
+    where
+        T::Error: Send + Sync + 'static,
+    {
+        let ns = self.time_ns(time_s);
+        self.log.write_foxglove(topic, ns, message)
     }
 
     /// Writes `message` on `topic` at the latest log time (for run-level records).
