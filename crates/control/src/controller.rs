@@ -182,6 +182,9 @@ impl TickOutput {
 pub const BRAKE_DURATIONS_S: [f64; 5] = [0.1, 0.2, 0.35, 0.6, 1.0];
 
 /// The set-point generator of the current phase.
+// The park's two ramps make it the largest variant; the core has no heap to box it in, and the
+// controller holds a single Motion.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Motion {
     /// Hold home at rest (Idle, Done, Fault).
