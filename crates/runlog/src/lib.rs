@@ -17,6 +17,8 @@
 //! docs/log-schema.md documents every channel.
 #![warn(missing_docs)]
 
+pub mod channel;
+pub mod clock;
 pub mod foxglove;
 pub mod import;
 pub mod link;

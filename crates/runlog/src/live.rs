@@ -25,7 +25,7 @@ use anyhow::{Context as _, Result};
 use foxglove::websocket::{ChannelView, Client, ServerListener};
 use foxglove::{PartialMetadata, RawChannel, Schema, WebSocketServer, WebSocketServerHandle};
 
-use crate::mcap_log::ChannelSpec;
+use crate::channel::ChannelSpec;
 use crate::messages as topics;
 
 /// `--live`'s address when none is given: loopback only, Foxglove's default port.
@@ -185,7 +185,7 @@ impl LiveServer {
             return;
         };
         if self.pace == Pace::WallClock {
-            let ahead_ns = log_time_ns.saturating_sub(crate::run_log::unix_now_ns());
+            let ahead_ns = log_time_ns.saturating_sub(crate::clock::unix_now_ns());
             if ahead_ns > PACE_SLACK_NS {
                 std::thread::sleep(std::time::Duration::from_nanos(ahead_ns));
             }
@@ -230,9 +230,9 @@ mod tests {
         let specs = crate::messages::channels();
         let mut server = LiveServer::start("127.0.0.1:0".parse().unwrap(), &specs).unwrap();
         server.pace = Pace::WallClock;
-        let due = crate::run_log::unix_now_ns() + 30_000_000;
+        let due = crate::clock::unix_now_ns() + 30_000_000;
         server.log(topics::ESTIMATE, b"{}", due);
-        assert!(crate::run_log::unix_now_ns() >= due, "sent before its time");
+        assert!(crate::clock::unix_now_ns() >= due, "sent before its time");
         // A message whose time has passed goes at once.
         let start = std::time::Instant::now();
         server.log(topics::ESTIMATE, b"{}", due);

@@ -10,8 +10,8 @@
 
 use serde::Serialize;
 
+use crate::channel::{ChannelSpec, Encoding};
 use crate::foxglove;
-use crate::mcap_log::{ChannelSpec, Encoding};
 use crate::proto::{Encode, Encoder};
 use measure::schema::{array, boolean, int, nullable, num, numbers, object, string, Schema};
 
