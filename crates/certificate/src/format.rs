@@ -81,24 +81,12 @@ pub fn cell(quantity: &str, value: f64, text: &str) -> String {
     )
 }
 
-/// The UTC date and time of `unix_s` seconds after the epoch, `YYYY-MM-DD hh:mm UTC` (the
-/// proleptic Gregorian calendar from the day count, by the civil-from-days rule).
+/// The UTC date and time of `unix_s` seconds after the epoch, `YYYY-MM-DD hh:mm UTC`.
 pub fn utc(unix_s: u64) -> String {
-    let days = (unix_s / 86_400) as i64;
-    let secs = unix_s % 86_400;
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1_460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = doy - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = yoe + era * 400 + i64::from(month <= 2);
+    let t = measure::calendar::UtcTime::from_unix_s(unix_s);
     format!(
-        "{year:04}-{month:02}-{day:02} {:02}:{:02} UTC",
-        secs / 3_600,
-        secs % 3_600 / 60
+        "{:04}-{:02}-{:02} {:02}:{:02} UTC",
+        t.year, t.month, t.day, t.hour, t.minute
     )
 }
 

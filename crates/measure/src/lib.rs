@@ -27,6 +27,7 @@
 
 pub mod accuracy;
 pub mod budget;
+pub mod calendar;
 pub mod config;
 pub mod feed;
 pub mod link;
