@@ -23,13 +23,18 @@
 use estimator::OnlineEstimator;
 
 /// Change of θ from one sigma of accelerometer bias along P's x, y and z (rows): the
-/// residual sigma of the offset measured on the brake hold
-/// ([`OnlineEstimator::accelerometer_offset`]) where there is one, else the datasheet's
-/// `bias_m_s2`; `None` when neither is known (0).
+/// datasheet's `bias_m_s2`, except along z where the offset was measured at rest
+/// ([`OnlineEstimator::accelerometer_offset`], along gravity: P's z at rest) and that
+/// measurement's sigma takes its place; `None` when nothing is known.
 pub fn accel_bias_effect(estimator: &OnlineEstimator, bias_m_s2: f64) -> Option<[[f64; 10]; 3]> {
+    let datasheet = if bias_m_s2.is_finite() && bias_m_s2 > 0.0 {
+        bias_m_s2
+    } else {
+        0.0
+    };
     let sigma_m_s2 = match estimator.accelerometer_offset() {
-        Some(o) => [o.sigma_m_s2.x, o.sigma_m_s2.y, o.sigma_m_s2.z],
-        None if bias_m_s2 > 0.0 && bias_m_s2.is_finite() => [bias_m_s2; 3],
+        Some(o) => [datasheet, datasheet, o.sigma_m_s2],
+        None if datasheet > 0.0 => [datasheet; 3],
         None => return None,
     };
     let d = estimator.accel_bias_sensitivity();
