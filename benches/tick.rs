@@ -84,14 +84,14 @@ impl Clock {
 
 /// Times `f` over the ring `items`, `iters` times in all, restoring `start` at every wrap
 /// outside the timed window.
-fn ring<S: Copy, T>(
+fn ring<S: Clone, T>(
     clock: Clock,
     iters: u64,
     start: &S,
     items: &[T],
     mut f: impl FnMut(&mut S, &T),
 ) -> Duration {
-    let mut state = *start;
+    let mut state = start.clone();
     let mut total = Duration::ZERO;
     let mut done = 0u64;
     while done < iters {
@@ -102,7 +102,7 @@ fn ring<S: Copy, T>(
             }
         });
         done += n as u64;
-        state = *start;
+        state.clone_from(start);
     }
     total
 }
@@ -142,7 +142,7 @@ fn bench(c: &mut Criterion) {
 
     // The estimator's inputs exactly as the full tick builds them (it builds them: the same
     // tick, replayed).
-    let mut tick = rec.start;
+    let mut tick = rec.start.clone();
     let samples: Vec<Sample> = rec
         .frames
         .iter()

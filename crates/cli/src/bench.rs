@@ -140,7 +140,7 @@ pub fn record(world: &World, frames: usize, into_excitation_s: f64) -> Result<Re
     for _ in 0..(into_excitation_s / period_s).round() as u64 {
         scenario.step()?;
     }
-    let start = scenario.tick;
+    let start = scenario.tick.clone();
     let mut out = Vec::with_capacity(frames);
     let mut commands = Vec::with_capacity(frames);
     for _ in 0..frames {

@@ -43,7 +43,9 @@ pub use error::{ErrorKind, EstimatorError};
 pub use estimate::{ConvergenceTolerances, Counts, Estimate, ParameterCovariance};
 pub use hold::AccelerometerOffset;
 pub use legs::{CellEnd, LegModel};
-pub use online::{EstimatorConfig, OnlineEstimator, Outcome, ParameterSet, Sample};
+pub use online::{
+    EstimatorConfig, OnlineEstimator, Outcome, ParameterSet, Sample, ONLINE_ESTIMATOR_MAX_BYTES,
+};
 pub use rls::Rls;
 /// The inertial parameters and their θ layout, defined once in `stewart-types`.
 pub use stewart_types::{

@@ -574,7 +574,7 @@ fn twin_wrench_run(
     let body = PointBody::vehicle_like();
     let motion = Motion::rich();
     let mut plain = OnlineEstimator::new(config).unwrap();
-    let mut shifted = plain;
+    let mut shifted = plain.clone();
     let mut rng = StdRng::seed_from_u64(seed);
     let normal = Normal::new(0.0, noise_n).unwrap();
     let wrench = |w: &Vector6<f64>| kinematics::Wrench {
@@ -642,7 +642,7 @@ fn offset_and_bias_sensitivities_match_a_second_fit() {
     // Accelerometer bias of 1e-3 m/s² along each axis in turn.
     for axis in 0..3 {
         let mut plain = OnlineEstimator::new(c).unwrap();
-        let mut biased = plain;
+        let mut biased = plain.clone();
         let mut rng = StdRng::seed_from_u64(3);
         for k in 0..6000 {
             let t = k as f64 * 1e-3;
@@ -672,7 +672,7 @@ fn offset_and_bias_sensitivities_match_a_second_fit() {
         cc.parameters = parameters;
         cc.leg_force_offsets = true;
         let mut plain = OnlineEstimator::new(cc).unwrap();
-        let mut shifted = plain;
+        let mut shifted = plain.clone();
         let mut rng = StdRng::seed_from_u64(4);
         for k in 0..6000 {
             let t = k as f64 * 1e-3;

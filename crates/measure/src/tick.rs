@@ -18,7 +18,7 @@ use estimator::{EstimatorConfig, EstimatorError, OnlineEstimator, Outcome, Sampl
 use crate::feed::Feed;
 
 /// The state of one measurement's tick: controller, frame-to-sample rule and estimator.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Tick {
     /// FK, set-point, IK, PIDs, supervisor.
     pub controller: Controller,
