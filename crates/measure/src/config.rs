@@ -91,6 +91,9 @@ pub struct PlanConfig {
     pub target_inertia_fraction: f64,
     /// Leg forces stay below this share of `control.max_force_n` along the planned path.
     pub force_share: f64,
+    /// Leg speeds stay below this share of `excitation.max_leg_speed_m_s`: room for the legs'
+    /// tracking lag and the measured speed's noise below the supervisor's limit.
+    pub speed_share: f64,
     /// The payload's centre of mass accelerates at most this much, m/s² (what its tie-downs
     /// allow).
     pub max_acceleration_m_s2: f64,
@@ -102,7 +105,8 @@ pub struct PlanConfig {
 impl Default for PlanConfig {
     /// The default scenario's car and fixture as a CAD model gives them (inertia within about
     /// 10 %, products of inertia unknown), a vehicle-dynamics lab's targets (0.01 %, 0.1 mm,
-    /// 0.05 %), 80 % of the force limit, half a g, and 0.4 of the cut-off.
+    /// 0.05 %), 80 % of the force limit, 90 % of the speed limit, half a g, and 0.4 of the
+    /// cut-off.
     fn default() -> Self {
         Self {
             payload: BodyPrior {
@@ -119,6 +123,7 @@ impl Default for PlanConfig {
             target_com_m: 1e-4,
             target_inertia_fraction: 5e-4,
             force_share: 0.8,
+            speed_share: 0.9,
             max_acceleration_m_s2: 4.9,
             max_frequency_share: 0.4,
         }

@@ -517,6 +517,13 @@ fn plan(p: &mut Problems, c: &crate::config::PlanConfig) {
         1.0,
         "of control.max_force_n",
     );
+    p.within(
+        "plan.speed_share",
+        c.speed_share,
+        0.01,
+        1.0,
+        "of excitation.max_leg_speed_m_s",
+    );
     p.positive("plan.max_acceleration_m_s2", c.max_acceleration_m_s2);
     p.within(
         "plan.max_frequency_share",

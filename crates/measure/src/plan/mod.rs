@@ -207,8 +207,13 @@ impl Planner {
                 gyro_rad_s: estimator.gyro_noise_rad_s,
                 accel_m_s2: estimator.accel_noise_m_s2,
             },
-            // The limits the controller checks every trajectory against before it moves.
-            feasibility: crate::setup::controller_config(config).feasibility,
+            // The limits the controller checks every trajectory against before it moves, the
+            // leg speed's at the plan's share of it.
+            feasibility: {
+                let mut f = crate::setup::controller_config(config).feasibility;
+                f.max_leg_speed_m_s *= plan.speed_share;
+                f
+            },
             max_force_n: plan.force_share * config.control.max_force_n,
             max_acceleration_m_s2: plan.max_acceleration_m_s2,
             max_frequency_hz: plan.max_frequency_share * config.estimator.cutoff_hz,
