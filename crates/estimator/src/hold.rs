@@ -13,8 +13,8 @@
 //!
 //! Only the component along gravity is taken: the mass needs only that one, and the
 //! horizontal ones would take a tilt error of the forward kinematics and what is left of the
-//! motion for a bias (measured: with them, the noise-only campaign's centre of mass x moved by
-//! 24 µm, 6.9 standard errors of its mean; without, 1.4 µm, 0.8).
+//! motion for a bias (measured: with them, the noise-only campaign's centre of mass x is off by
+//! 24 µm, 6.9 standard errors of its mean; without, by 1.4 µm, 0.8).
 //!
 //! with σ_f the accelerometer's white noise per sample as its datasheet gives it (the readings'
 //! own spread would be mostly the plate's motion, not noise). b̂ holds whatever is

@@ -456,9 +456,9 @@ fn fast_multisine(fraction: f64) -> Trajectory {
 
 #[test]
 fn a_park_from_any_moment_of_a_fast_excitation_stays_under_the_leg_speed_limit() {
-    // Regression: a single quintic from the set-point's state straight home carries the
-    // start's acceleration through the whole ramp; cut short at full speed, a fast
-    // excitation's park overshot the leg speed limit and faulted.
+    // A single quintic from the set-point's state straight home carries the start's
+    // acceleration through the whole ramp: cut short at full speed, a fast excitation's park
+    // along it overshoots the leg speed limit and faults.
     let g = geometry();
     let limit_m_s = FeasibilityLimits::default().max_leg_speed_m_s;
     let mut controller = Controller::new(g, fast_multisine(0.98), config()).unwrap();
