@@ -63,6 +63,16 @@ pub enum CertificateError {
     },
 }
 
+impl From<measure::report::ReportTextError> for CertificateError {
+    fn from(e: measure::report::ReportTextError) -> Self {
+        match e {
+            measure::report::ReportTextError::Campaign { runs } => Self::Campaign { runs },
+            measure::report::ReportTextError::Json(message) => Self::Json(message),
+            other => Self::Json(other.to_string()),
+        }
+    }
+}
+
 /// What a station adds to the JSON report (`stewart rig`: the `rig` object); absent for a
 /// simulation.
 #[derive(Clone, Debug, Default, PartialEq, Deserialize)]
@@ -99,15 +109,7 @@ pub fn load(path: &std::path::Path) -> Result<Input, CertificateError> {
 /// Reads a report's JSON text: the fields of [`Report`] (unknown ones ignored) and the
 /// station's `rig` object. A campaign report is refused.
 pub fn parse(text: &str) -> Result<Input, CertificateError> {
-    let value: serde_json::Value =
-        serde_json::from_str(text).map_err(|e| CertificateError::Json(e.to_string()))?;
-    if value.get("estimate").is_none() {
-        if let Some(reports) = value.get("reports").and_then(|r| r.as_array()) {
-            return Err(CertificateError::Campaign {
-                runs: reports.len(),
-            });
-        }
-    }
+    let value = measure::report::one_measurement(text).map_err(CertificateError::from)?;
     let station = match value.get("rig") {
         Some(v) if v.is_object() => serde_json::from_value(v.clone()).ok(),
         _ => None,

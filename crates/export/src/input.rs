@@ -53,6 +53,16 @@ pub enum ExportError {
     },
 }
 
+impl From<measure::report::ReportTextError> for ExportError {
+    fn from(e: measure::report::ReportTextError) -> Self {
+        match e {
+            measure::report::ReportTextError::Campaign { runs } => Self::Campaign { runs },
+            measure::report::ReportTextError::Json(message) => Self::Json(message),
+            other => Self::Json(other.to_string()),
+        }
+    }
+}
+
 /// What the export reads of a report.
 #[derive(Debug, Deserialize)]
 struct ReportView {
@@ -102,15 +112,7 @@ pub fn load(path: &std::path::Path) -> Result<Payload, ExportError> {
 
 /// Reads a report's JSON text; `source` names it in the provenance comment.
 pub fn parse(text: &str, source: &str) -> Result<Payload, ExportError> {
-    let value: serde_json::Value =
-        serde_json::from_str(text).map_err(|e| ExportError::Json(e.to_string()))?;
-    if value.get("estimate").is_none() {
-        if let Some(reports) = value.get("reports").and_then(|r| r.as_array()) {
-            return Err(ExportError::Campaign {
-                runs: reports.len(),
-            });
-        }
-    }
+    let value = measure::report::one_measurement(text).map_err(ExportError::from)?;
     let view: ReportView = serde_path_to_error::deserialize(value).map_err(|e| {
         let path = e.path().to_string();
         ExportError::Json(format!("`{path}`: {}", e.into_inner()))

@@ -278,6 +278,37 @@ impl Report {
     }
 }
 
+/// Why a report file's text is not one measurement's report.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum ReportTextError {
+    /// The text is not JSON.
+    #[error("the report is not a measurement report: {0}")]
+    Json(String),
+    /// A campaign report (`simulate --runs N`): one report per run in its `reports` list.
+    #[error("a campaign report of {runs} runs, not one measurement")]
+    Campaign {
+        /// How many reports it holds.
+        runs: usize,
+    },
+}
+
+/// A report file's `text` as JSON, refused when it is not JSON or is a campaign report (a
+/// `reports` list and no `estimate`): what every reader of a single measurement's report
+/// (the HTML page, the model export) starts from.
+pub fn one_measurement(text: &str) -> Result<serde_json::Value, ReportTextError> {
+    let value: serde_json::Value =
+        serde_json::from_str(text).map_err(|e| ReportTextError::Json(e.to_string()))?;
+    if value.get("estimate").is_none() {
+        if let Some(reports) = value.get("reports").and_then(|r| r.as_array()) {
+            return Err(ReportTextError::Campaign {
+                runs: reports.len(),
+            });
+        }
+    }
+    Ok(value)
+}
+
 fn rows(m: &nalgebra::Matrix3<f64>) -> [[f64; 3]; 3] {
     core::array::from_fn(|r| core::array::from_fn(|c| m[(r, c)]))
 }
