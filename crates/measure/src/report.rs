@@ -400,12 +400,14 @@ fn tare_budget_of(i: &ReportInputs<'_>, notes: &mut Vec<String>) -> Option<RunBu
     let mut effects = Vec::new();
     if let Some(a) = accel {
         effects.push(SourceEffects {
+            per_run: false,
             source: ErrorSource::AccelBias.id().into(),
             effects: a.to_vec(),
         });
     }
     if let Some(c) = cells {
         effects.push(SourceEffects {
+            per_run: false,
             source: ErrorSource::LoadCellOffset.id().into(),
             effects: c.to_vec(),
         });
@@ -722,6 +724,7 @@ mod tests {
         tare_effect[2][0] = 0.05;
         let budget = |e: [[f64; 10]; 3]| RunBudget {
             effects: vec![SourceEffects {
+                per_run: false,
                 source: "accel_bias".into(),
                 effects: e.to_vec(),
             }],
@@ -809,6 +812,7 @@ mod tests {
         loaded_effect[4][0] = 0.1; // the loaded run at 4 N: the tare's share is 0.04 kg.
         let cells = |e: [[f64; 10]; 6]| RunBudget {
             effects: vec![SourceEffects {
+                per_run: false,
                 source: "load_cell_offset".into(),
                 effects: e.to_vec(),
             }],
@@ -898,6 +902,7 @@ mod tests {
             effects: ErrorSource::ALL
                 .iter()
                 .map(|s| SourceEffects {
+                    per_run: false,
                     source: s.id().into(),
                     effects: (0..3)
                         .map(|j| core::array::from_fn(|i| k * ((i + j) as f64 * 0.37).sin() * 0.01))
@@ -908,7 +913,6 @@ mod tests {
             lost: 40,
             jitter_share: 0.02,
             rigid_body: None,
-            accel_offset_measured: false,
         };
         let (lb, tb) = (budget(1.0), budget(0.3));
         let r = build(&ReportInputs {

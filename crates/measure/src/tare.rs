@@ -422,6 +422,7 @@ mod tests {
         e[4] = 0.125;
         let t = tare().with_budget(Some(RunBudget {
             effects: vec![SourceEffects {
+                per_run: true,
                 source: "geometry".into(),
                 effects: vec![e; 36],
             }],
@@ -433,7 +434,6 @@ mod tests {
                 residual_ratio: 0.7,
                 peak_hz: 1.1,
             }),
-            accel_offset_measured: true,
         }));
         TareFile::schema()
             .check(&serde_json::to_value(&t).unwrap())

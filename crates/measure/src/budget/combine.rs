@@ -1,8 +1,8 @@
 //! The payload's share of each source: the same physical error acts in the tare run and in the
 //! loaded run, so the payload (loaded − tare) moves by dₖ = δθₖ(loaded) − δθₖ(tare) for each
-//! elementary error k, and the source adds Σₖ dₖ dₖᵀ. The exception: an accelerometer offset
-//! measured on each run's own brake hold leaves each run an independent residual, and the
-//! source adds Σ lₖ lₖᵀ + Σ tₖ tₖᵀ. The statistical part is the two runs'
+//! elementary error k, and the source adds Σₖ dₖ dₖᵀ. A source whose errors are each run's own
+//! in both runs ([`super::SourceEffects::per_run`]: an offset measured on each run) adds
+//! Σ lₖ lₖᵀ + Σ tₖ tₖᵀ instead. The statistical part is the two runs'
 //! covariances, split by each run's shares ([`super::statistical`]).
 
 use estimator::{ParameterCovariance, ParameterVector};
@@ -70,12 +70,10 @@ pub fn payload_covariances(
                 ErrorSource::Noise => loaded_cov * ln + tare_cov * tn,
                 ErrorSource::FrameLoss => loaded_cov * ll + tare_cov * tl,
                 ErrorSource::TimestampJitter => loaded_cov * lj + tare_cov * tj,
-                // Each run's own hold offset: independent errors, whose covariances add.
-                ErrorSource::AccelBias
-                    if loaded.accel_offset_measured && t.accel_offset_measured =>
-                {
-                    difference_covariance(loaded.effects_of(ErrorSource::AccelBias), &[])
-                        + difference_covariance(t.effects_of(ErrorSource::AccelBias), &[])
+                // Each run's own errors: independent, their covariances add.
+                s if loaded.per_run(s) && t.per_run(s) => {
+                    difference_covariance(loaded.effects_of(s), &[])
+                        + difference_covariance(t.effects_of(s), &[])
                 }
                 s => difference_covariance(loaded.effects_of(s), t.effects_of(s)),
             };
@@ -95,6 +93,7 @@ mod tests {
         e[0] = mass_shift;
         RunBudget {
             effects: vec![SourceEffects {
+                per_run: false,
                 source: "accel_bias".into(),
                 effects: vec![e, [0.0; 10], [0.0; 10]],
             }],
@@ -102,7 +101,6 @@ mod tests {
             lost: 100,
             jitter_share: 0.05,
             rigid_body: None,
-            accel_offset_measured: false,
         }
     }
 

@@ -79,6 +79,10 @@ pub struct SourceEffects {
     pub source: String,
     /// δθ per elementary error, θ's units.
     pub effects: Vec<[f64; 10]>,
+    /// The errors are this run's own, independent of the other run's (an offset measured on
+    /// each run, [`estimator::hold`]), not one error shared by the tare run and the loaded run.
+    #[serde(default)]
+    pub per_run: bool,
 }
 
 /// The budget's inputs of one run: its systematic effects, its sample counts and its
@@ -96,10 +100,6 @@ pub struct RunBudget {
     pub jitter_share: f64,
     /// The rigid-body check on the run's record; `None` when the record was too short.
     pub rigid_body: Option<RigidBody>,
-    /// The accelerometer's offset was measured on this run's own brake hold
-    /// ([`estimator::hold`]): its `accel_bias` effects are that measurement's residual, an
-    /// error of this run alone, not a bias shared with the other run.
-    pub accel_offset_measured: bool,
 }
 
 impl RunBudget {
@@ -114,6 +114,10 @@ impl RunBudget {
                         object(
                             vec![
                                 ("source", string("error source id")),
+                                (
+                                    "per_run",
+                                    boolean("the errors are this run's own, not shared with the other run"),
+                                ),
                                 (
                                     "effects",
                                     array(
@@ -136,10 +140,6 @@ impl RunBudget {
                     num("timestamp jitter's share of the statistical variance"),
                 ),
                 (
-                    "accel_offset_measured",
-                    boolean("the accelerometer's offset was measured on this run's brake hold"),
-                ),
-                (
                     "rigid_body",
                     nullable(object(
                         vec![
@@ -159,6 +159,13 @@ impl RunBudget {
             ],
             "the run's error-budget inputs",
         )
+    }
+
+    /// True when `source`'s effects are this run's own errors ([`SourceEffects::per_run`]).
+    pub fn per_run(&self, source: ErrorSource) -> bool {
+        self.effects
+            .iter()
+            .any(|e| e.source == source.id() && e.per_run)
     }
 
     /// The effects of `source` (empty when not known).
@@ -187,7 +194,8 @@ pub struct EstimatorEffects {
     pub accel: Option<[[f64; 10]; 3]>,
     /// One sigma of zero offset on each load cell.
     pub load_cell: Option<[[f64; 10]; 6]>,
-    /// `accel` is the residual of the run's own brake-hold offset, not the datasheet bias.
+    /// `accel` is the residual of the offset measured on this run, not the datasheet bias
+    /// shared by both runs.
     pub accel_offset_measured: bool,
 }
 
@@ -232,7 +240,6 @@ pub fn analyse(
     let mut budget = RunBudget {
         used: estimate.counts.used,
         lost: estimate.counts.lost,
-        accel_offset_measured: exact.accel_offset_measured,
         ..RunBudget::default()
     };
     let Some(fit) = fitted else {
@@ -241,12 +248,9 @@ pub fn analyse(
             if n == 0 {
                 continue;
             }
-            let mut effects = vec![[0.0; 10]; n];
-            override_exact(source, &mut effects, exact);
-            budget.effects.push(SourceEffects {
-                source: source.id().into(),
-                effects,
-            });
+            budget
+                .effects
+                .push(with_exact(source, vec![[0.0; 10]; n], exact));
         }
         return budget;
     };
@@ -277,11 +281,7 @@ pub fn analyse(
                 modes.push(rows.iter().map(|&k| dr[k]).collect::<Vec<Vector6<f64>>>());
             }
         }
-        override_exact(source, &mut effects, exact);
-        budget.effects.push(SourceEffects {
-            source: source.id().into(),
-            effects,
-        });
+        budget.effects.push(with_exact(source, effects, exact));
     }
     let prediction = statistical::predict(&data, &fit, figures);
     budget.jitter_share = prediction.jitter_share;
@@ -296,8 +296,22 @@ pub fn analyse(
     budget
 }
 
-/// The estimator's exact effects in place of the fit's (accelerometer bias; the cells' zero
-/// offsets, the first six of their source).
+/// `source`'s effects with the estimator's exact ones in place of the fit's (accelerometer
+/// bias; the cells' zero offsets, the first six of their source), and whether they are the
+/// run's own errors.
+fn with_exact(
+    source: ErrorSource,
+    mut effects: Vec<[f64; 10]>,
+    exact: &EstimatorEffects,
+) -> SourceEffects {
+    override_exact(source, &mut effects, exact);
+    SourceEffects {
+        source: source.id().into(),
+        effects,
+        per_run: source == ErrorSource::AccelBias && exact.accel_offset_measured,
+    }
+}
+
 fn override_exact(source: ErrorSource, effects: &mut [[f64; 10]], exact: &EstimatorEffects) {
     match source {
         ErrorSource::AccelBias => {
