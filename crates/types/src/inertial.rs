@@ -135,34 +135,42 @@ pub fn principal_of(tensor: &Matrix3<f64>) -> Option<Principal> {
         return None;
     }
     let eig = SymmetricEigen::try_new(symmetric_part(tensor), f64::EPSILON, 200)?;
-    let mut order = [0usize, 1, 2];
-    // Three elements: a fixed sorting network keeps this free of panicking index paths.
-    let ev = eig.eigenvalues;
-    if ev[order[1]] < ev[order[0]] {
-        order.swap(0, 1);
-    }
-    if ev[order[2]] < ev[order[1]] {
-        order.swap(1, 2);
-    }
-    if ev[order[1]] < ev[order[0]] {
-        order.swap(0, 1);
-    }
-    let pick = |k: usize| -> Vector3<f64> {
-        let v: Vector3<f64> = eig.eigenvectors.column(k).into_owned();
-        let imax = v.iamax();
-        if v[imax] < 0.0 {
-            -v
-        } else {
-            v
-        }
-    };
-    let a0 = pick(order[0]);
-    let a1 = pick(order[1]);
+    let [e0, e1, e2]: [f64; 3] = eig.eigenvalues.into();
+    let [v0, v1, v2]: [[f64; 3]; 3] = eig.eigenvectors.into();
+    // Three (moment, axis) pairs put in ascending order by a fixed sorting network; a pair moves
+    // only past a strictly smaller moment, so equal moments keep the solver's order.
+    let (p0, p1) = ascending((e0, v0), (e1, v1));
+    let (p1, p2) = ascending(p1, (e2, v2));
+    let (p0, p1) = ascending(p0, p1);
+    let a0 = largest_component_positive(Vector3::from(p0.1));
+    let a1 = largest_component_positive(Vector3::from(p1.1));
     let a2 = a0.cross(&a1);
     Some(Principal {
-        moments_kg_m2: Vector3::new(ev[order[0]], ev[order[1]], ev[order[2]]),
+        moments_kg_m2: Vector3::new(p0.0, p1.0, p2.0),
         axes: Matrix3::from_columns(&[a0, a1, a2]),
     })
+}
+
+/// The pair (a, b) with the smaller key first; `a` stays first unless b's key is strictly smaller.
+fn ascending<T>(a: (f64, T), b: (f64, T)) -> ((f64, T), (f64, T)) {
+    if b.0 < a.0 {
+        (b, a)
+    } else {
+        (a, b)
+    }
+}
+
+/// v or −v, whichever has its largest-magnitude component (the first one, on a tie) positive.
+fn largest_component_positive(v: Vector3<f64>) -> Vector3<f64> {
+    let largest = v.iter().fold(
+        0.0_f64,
+        |best, &x| if x.abs() > best.abs() { x } else { best },
+    );
+    if largest < 0.0 {
+        -v
+    } else {
+        v
+    }
 }
 
 impl InertialParameters {
@@ -177,15 +185,12 @@ impl InertialParameters {
 
     /// From θ = [m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz].
     pub fn from_vector(theta: &ParameterVector) -> Self {
-        let mut j = Matrix3::zeros();
-        for (k, r, c) in TENSOR_ENTRIES {
-            j[(r, c)] = theta[k];
-            j[(c, r)] = theta[k];
-        }
+        let [m, hx, hy, hz, jxx, jyy, jzz, jxy, jxz, jyz]: [f64; PARAMETER_COUNT] = (*theta).into();
         Self {
-            mass_kg: theta[0],
-            first_moment_kg_m: Vector3::new(theta[1], theta[2], theta[3]),
-            inertia_origin_kg_m2: j,
+            mass_kg: m,
+            first_moment_kg_m: Vector3::new(hx, hy, hz),
+            // Matrix3::new takes the entries row by row; the layout is TENSOR_ENTRIES'.
+            inertia_origin_kg_m2: Matrix3::new(jxx, jxy, jxz, jxy, jyy, jyz, jxz, jyz, jzz),
         }
     }
 
@@ -193,15 +198,20 @@ impl InertialParameters {
     /// tensor's symmetric part).
     pub fn to_vector(&self) -> ParameterVector {
         let j = symmetric_part(&self.inertia_origin_kg_m2);
-        let mut theta = ParameterVector::zeros();
-        theta[0] = self.mass_kg;
-        theta[1] = self.first_moment_kg_m.x;
-        theta[2] = self.first_moment_kg_m.y;
-        theta[3] = self.first_moment_kg_m.z;
-        for (k, r, c) in TENSOR_ENTRIES {
-            theta[k] = j[(r, c)];
-        }
-        theta
+        let h = &self.first_moment_kg_m;
+        // mRC is row R, column C of J_O, in the order of TENSOR_ENTRIES.
+        ParameterVector::from([
+            self.mass_kg,
+            h.x,
+            h.y,
+            h.z,
+            j.m11,
+            j.m22,
+            j.m33,
+            j.m12,
+            j.m13,
+            j.m23,
+        ])
     }
 
     /// From mass, centre of mass c (m, in P) and the tensor about the centre of mass J_C:
@@ -324,6 +334,32 @@ mod tests {
             + InertialParameters::point_mass(1.0, Vector3::new(-1.0, -1.0, 0.0));
         assert_eq!(q.inertia_origin_kg_m2[(0, 1)], -2.0);
         assert_eq!(q.inertia_origin_kg_m2[(2, 2)], 4.0);
+    }
+
+    #[test]
+    fn tensor_entries_name_the_positions_from_vector_and_to_vector_use() {
+        for (k, r, c) in TENSOR_ENTRIES {
+            let mut theta = ParameterVector::zeros();
+            theta[k] = 1.0;
+            let j = InertialParameters::from_vector(&theta).inertia_origin_kg_m2;
+            let mut expect = Matrix3::zeros();
+            expect[(r, c)] = 1.0;
+            expect[(c, r)] = 1.0;
+            assert_eq!(j, expect, "θ{k}");
+            let mut p = InertialParameters::zero();
+            p.inertia_origin_kg_m2 = expect;
+            assert_eq!(p.to_vector(), theta, "θ{k}");
+        }
+    }
+
+    #[test]
+    fn principal_axes_have_their_largest_component_positive_and_form_a_right_handed_frame() {
+        // diag(3, 1, 2): ascending moments 1, 2, 3 along y, z, x; the first two axes are +y and
+        // +z whatever sign the solver returns, and the third is y × z = +x.
+        let p = principal_of(&Matrix3::from_diagonal(&Vector3::new(3.0, 1.0, 2.0))).unwrap();
+        assert_eq!(p.moments_kg_m2, Vector3::new(1.0, 2.0, 3.0));
+        let expect = Matrix3::new(0.0, 0.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0);
+        assert!((p.axes - expect).norm() < 1e-15, "{}", p.axes);
     }
 
     #[test]
