@@ -1,6 +1,6 @@
 //! Forward kinematics: the pose from six measured leg lengths.
 
-use crate::{Geometry, KinematicsError, Pose, LEG_COUNT};
+use crate::{Geometry, KinematicsError, Pose};
 use nalgebra::{Rotation3, Vector3, Vector6};
 
 /// Settings of the Newton–Raphson forward kinematics.
@@ -92,8 +92,9 @@ impl Geometry {
                     inverse_condition: 0.0,
                 });
             };
-            let mut dp = Vector3::new(step[0], step[1], step[2]);
-            let mut dphi = Vector3::new(step[3], step[4], step[5]);
+            let [dx, dy, dz, dphi_x, dphi_y, dphi_z]: [f64; 6] = step.into();
+            let mut dp = Vector3::new(dx, dy, dz);
+            let mut dphi = Vector3::new(dphi_x, dphi_y, dphi_z);
             let largest = dp.norm().max(dphi.norm());
             if !largest.is_finite() {
                 break;
@@ -163,10 +164,9 @@ impl Geometry {
         options: &FkOptions,
     ) -> Result<FkSolution, KinematicsError> {
         let (jump_m, jump_rad) = pose.distance_to(guess);
-        let legs_point_up = (0..LEG_COUNT).all(|i| {
-            let v = pose.transform_point(&self.plate_joints_m()[i]) - self.base_joints_m()[i];
-            v.z > 0.0
-        });
+        let legs_point_up = self.plate_joints_m().iter().zip(self.base_joints_m()).all(
+            |(plate_joint, base_joint)| (pose.transform_point(plate_joint) - base_joint).z > 0.0,
+        );
         if !legs_point_up || jump_m > options.max_jump_m || jump_rad > options.max_jump_rad {
             return Err(KinematicsError::FkWrongAssembly { jump_m, jump_rad });
         }

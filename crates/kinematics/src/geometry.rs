@@ -68,21 +68,22 @@ impl Geometry {
             Vector3::new(radius * libm::cos(angle), radius * libm::sin(angle), 0.0)
         };
         let third = 2.0 * PI / 3.0;
-        let mut base = [Vector3::zeros(); LEG_COUNT];
-        let mut plate = [Vector3::zeros(); LEG_COUNT];
-        for k in 0..3 {
-            let centre = third * k as f64;
-            base[2 * k] = on_circle(base_radius_m, centre - 0.5 * base_pair_separation_rad);
-            base[2 * k + 1] = on_circle(base_radius_m, centre + 0.5 * base_pair_separation_rad);
-            plate[2 * k] = on_circle(
-                plate_radius_m,
-                centre - PI / 3.0 + 0.5 * plate_pair_separation_rad,
-            );
-            plate[2 * k + 1] = on_circle(
-                plate_radius_m,
-                centre + PI / 3.0 - 0.5 * plate_pair_separation_rad,
-            );
-        }
+        // Leg i belongs to pair k = i/2; even legs take the pair's first joints, odd legs its
+        // second.
+        let centre = |i: usize| third * (i / 2) as f64;
+        let base = core::array::from_fn(|i| {
+            let half = 0.5 * base_pair_separation_rad;
+            let offset = if i % 2 == 0 { -half } else { half };
+            on_circle(base_radius_m, centre(i) + offset)
+        });
+        let plate = core::array::from_fn(|i| {
+            let angle = if i % 2 == 0 {
+                centre(i) - PI / 3.0 + 0.5 * plate_pair_separation_rad
+            } else {
+                centre(i) + PI / 3.0 - 0.5 * plate_pair_separation_rad
+            };
+            on_circle(plate_radius_m, angle)
+        });
         Self::from_points(base, plate, stroke)
     }
 
@@ -231,9 +232,9 @@ fn all_finite(points: &[Vector3<f64>; LEG_COUNT]) -> bool {
 }
 
 fn distinct(points: &[Vector3<f64>; LEG_COUNT], on_base: bool) -> Result<(), KinematicsError> {
-    for first in 0..LEG_COUNT {
-        for second in first + 1..LEG_COUNT {
-            if (points[first] - points[second]).norm() < MIN_JOINT_SPACING_M {
+    for (first, a) in points.iter().enumerate() {
+        for (second, b) in points.iter().enumerate().skip(first + 1) {
+            if (a - b).norm() < MIN_JOINT_SPACING_M {
                 return Err(KinematicsError::CoincidentJoints {
                     on_base,
                     first,

@@ -20,26 +20,23 @@ impl Geometry {
     /// By virtual work the same matrix maps leg forces to the plate wrench: w = Jᵀ f.
     pub fn jacobian(&self, pose: &Pose) -> Matrix6<f64> {
         let legs = self.legs(pose);
-        let mut j = Matrix6::zeros();
-        for i in 0..LEG_COUNT {
-            let arm = pose.rotation * self.plate_joints_m()[i];
-            let u = legs.units[i];
-            let m = arm.cross(&u);
-            for k in 0..3 {
-                j[(i, k)] = u[k];
-                j[(i, k + 3)] = m[k];
-            }
+        let mut rows = [[0.0; 6]; LEG_COUNT];
+        for ((row, plate_joint), u) in rows.iter_mut().zip(self.plate_joints_m()).zip(&legs.units) {
+            let m = (pose.rotation * plate_joint).cross(u);
+            *row = [u.x, u.y, u.z, m.x, m.y, m.z];
         }
-        j
+        // From<[[T; 6]; 6]> reads each inner array as a column, so it builds Jᵀ.
+        Matrix6::from(rows).transpose()
     }
 
     /// Wrench of six axial leg forces on the plate: force in B and torque about the P origin
     /// in B axes, F = Σ fᵢ uᵢ, τ = Σ (R pᵢ) × fᵢ uᵢ (= Jᵀ f).
     pub fn wrench_in_base(&self, pose: &Pose, leg_forces_n: &Vector6<f64>) -> Wrench {
         let w = self.jacobian(pose).transpose() * leg_forces_n;
+        let [fx, fy, fz, tx, ty, tz]: [f64; 6] = w.into();
         Wrench {
-            force_n: Vector3::new(w[0], w[1], w[2]),
-            torque_nm: Vector3::new(w[3], w[4], w[5]),
+            force_n: Vector3::new(fx, fy, fz),
+            torque_nm: Vector3::new(tx, ty, tz),
         }
     }
 
@@ -59,10 +56,8 @@ impl Geometry {
     pub fn inverse_condition_number(&self, pose: &Pose) -> f64 {
         let mut j = self.jacobian(pose);
         let scale = 1.0 / self.characteristic_length_m();
-        for i in 0..LEG_COUNT {
-            for k in 3..6 {
-                j[(i, k)] *= scale;
-            }
+        for mut angular_column in j.column_iter_mut().skip(3) {
+            angular_column *= scale;
         }
         if !j.iter().all(|v| v.is_finite()) {
             return f64::NAN;

@@ -20,23 +20,26 @@ impl Geometry {
     /// A zero-length leg (joints coincide) gets a zero unit vector rather than NaN; the stroke
     /// check refuses such a pose because the minimum length is positive.
     pub fn legs(&self, pose: &Pose) -> Legs {
-        let mut legs = Legs {
-            vectors_m: [Vector3::zeros(); LEG_COUNT],
-            lengths_m: Vector6::zeros(),
-            units: [Vector3::zeros(); LEG_COUNT],
-        };
-        for i in 0..LEG_COUNT {
-            let v = pose.transform_point(&self.plate_joints_m()[i]) - self.base_joints_m()[i];
-            let length = v.norm();
-            legs.vectors_m[i] = v;
-            legs.lengths_m[i] = length;
-            legs.units[i] = if length > 0.0 {
-                v / length
-            } else {
-                Vector3::zeros()
-            };
+        let mut vectors_m = [Vector3::zeros(); LEG_COUNT];
+        for ((v, plate_joint), base_joint) in vectors_m
+            .iter_mut()
+            .zip(self.plate_joints_m())
+            .zip(self.base_joints_m())
+        {
+            *v = pose.transform_point(plate_joint) - base_joint;
         }
-        legs
+        let lengths_m = vectors_m.map(|v| v.norm());
+        let mut units = [Vector3::zeros(); LEG_COUNT];
+        for ((u, v), &length) in units.iter_mut().zip(&vectors_m).zip(&lengths_m) {
+            if length > 0.0 {
+                *u = v / length;
+            }
+        }
+        Legs {
+            vectors_m,
+            lengths_m: Vector6::from(lengths_m),
+            units,
+        }
     }
 
     /// Leg lengths for `pose`, m.
