@@ -405,10 +405,8 @@ impl Controller {
             out.desired = desired;
             let legs = self.geometry.legs(&desired.pose);
             let speeds = self.geometry.jacobian(&desired.pose) * desired.twist();
-            for leg in 0..LEG_COUNT {
-                out.desired_leg_lengths_m[leg] = legs.lengths_m[leg];
-                out.desired_leg_speeds_m_s[leg] = speeds[leg];
-            }
+            out.desired_leg_lengths_m = legs.lengths_m.into();
+            out.desired_leg_speeds_m_s = speeds.into();
             if let Err(fault) = self.check_desired(&out.desired_leg_lengths_m) {
                 self.supervisor.trip(fault);
             } else {

@@ -79,6 +79,20 @@ impl Axis {
             Axis::Yaw => 5,
         }
     }
+
+    /// This axis's entry of a coordinate array ordered as [`Axis::index`] (x, y, z, roll,
+    /// pitch, yaw); the match names every axis, so no index can fall outside the array.
+    fn entry_mut<T>(self, coordinates: &mut [T; 6]) -> &mut T {
+        let [x, y, z, roll, pitch, yaw] = coordinates;
+        match self {
+            Axis::X => x,
+            Axis::Y => y,
+            Axis::Z => z,
+            Axis::Roll => roll,
+            Axis::Pitch => pitch,
+            Axis::Yaw => yaw,
+        }
+    }
 }
 
 /// One term `amplitude · sin(2π·frequency_hz·t + phase_rad)` on one axis.
@@ -316,13 +330,19 @@ impl Trajectory {
         duration_s: f64,
         fade_s: f64,
     ) -> Result<Self, ControlError> {
-        let axes = [Axis::Roll, Axis::Pitch, Axis::Yaw];
-        let components: [SineComponent; 3] = core::array::from_fn(|i| SineComponent {
-            axis: axes[i],
-            amplitude: amplitudes_rad[i],
-            frequency_hz: frequencies_hz[i],
+        let [a_roll, a_pitch, a_yaw] = amplitudes_rad;
+        let [f_roll, f_pitch, f_yaw] = frequencies_hz;
+        let sine = |axis, amplitude, frequency_hz| SineComponent {
+            axis,
+            amplitude,
+            frequency_hz,
             phase_rad: 0.0,
-        });
+        };
+        let components = [
+            sine(Axis::Roll, a_roll, f_roll),
+            sine(Axis::Pitch, a_pitch, f_pitch),
+            sine(Axis::Yaw, a_yaw, f_yaw),
+        ];
         Self::new(offset, &components, duration_s, fade_s, fade_s)
     }
 
@@ -462,22 +482,22 @@ impl Trajectory {
     /// Coordinates relative to the offset and their first two derivatives at `t_s` (0 outside
     /// `[0, duration]`).
     pub fn coordinates(&self, t_s: f64) -> (Vector6<f64>, Vector6<f64>, Vector6<f64>) {
-        let mut g = Vector6::zeros();
-        let mut dg = Vector6::zeros();
-        let mut ddg = Vector6::zeros();
+        let mut g = [0.0; 6];
+        let mut dg = [0.0; 6];
+        let mut ddg = [0.0; 6];
         let (w, dw, ddw) = self.window(t_s);
         if w == 0.0 && dw == 0.0 && ddw == 0.0 {
-            return (g, dg, ddg);
+            return (Vector6::zeros(), Vector6::zeros(), Vector6::zeros());
         }
         for c in self.components() {
             let omega = 2.0 * PI * c.frequency_hz;
             let angle = omega * t_s + c.phase_rad;
             let (s, co) = (libm::sin(angle), libm::cos(angle));
-            let i = c.axis.index();
-            g[i] += c.amplitude * s;
-            dg[i] += c.amplitude * omega * co;
-            ddg[i] -= c.amplitude * omega * omega * s;
+            *c.axis.entry_mut(&mut g) += c.amplitude * s;
+            *c.axis.entry_mut(&mut dg) += c.amplitude * omega * co;
+            *c.axis.entry_mut(&mut ddg) -= c.amplitude * omega * omega * s;
         }
+        let (g, dg, ddg) = (Vector6::from(g), Vector6::from(dg), Vector6::from(ddg));
         (w * g, dw * g + w * dg, ddw * g + 2.0 * dw * dg + w * ddg)
     }
 

@@ -152,8 +152,7 @@ fn check_motion(
         }
         let lengths = geometry.leg_lengths(&s.pose);
         let speeds = geometry.jacobian(&s.pose) * s.twist();
-        for leg in 0..LEG_COUNT {
-            let (length_m, speed_m_s) = (lengths[leg], speeds[leg]);
+        for (leg, (&length_m, &speed_m_s)) in lengths.iter().zip(speeds.iter()).enumerate() {
             if length_m < low || length_m > high {
                 let limit_m = if length_m < low { low } else { high };
                 return Err(ControlError::StrokeViolation {
@@ -171,9 +170,18 @@ fn check_motion(
                     limit_m_s: limits.max_leg_speed_m_s,
                 });
             }
-            report.min_length_m[leg] = report.min_length_m[leg].min(length_m);
-            report.max_length_m[leg] = report.max_length_m[leg].max(length_m);
-            report.max_speed_m_s[leg] = report.max_speed_m_s[leg].max(speed_m_s.abs());
+        }
+        for ((min_m, max_m), &length_m) in report
+            .min_length_m
+            .iter_mut()
+            .zip(&mut report.max_length_m)
+            .zip(lengths.iter())
+        {
+            *min_m = min_m.min(length_m);
+            *max_m = max_m.max(length_m);
+        }
+        for (max_m_s, speed_m_s) in report.max_speed_m_s.iter_mut().zip(speeds.iter()) {
+            *max_m_s = max_m_s.max(speed_m_s.abs());
         }
         let inverse_condition = geometry.inverse_condition_number(&s.pose);
         if inverse_condition.is_nan() || inverse_condition < limits.min_inverse_condition {

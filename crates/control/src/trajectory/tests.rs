@@ -17,6 +17,14 @@ fn tilted_offset() -> Pose {
     Pose::from_rpy(Vector3::new(0.01, -0.02, 1.7), 0.1, -0.05, 0.2)
 }
 
+#[test]
+fn each_axis_entry_is_the_one_its_index_names() {
+    for axis in Axis::ALL {
+        let mut coordinates = [0usize, 1, 2, 3, 4, 5];
+        assert_eq!(*axis.entry_mut(&mut coordinates), axis.index(), "{axis:?}");
+    }
+}
+
 fn rich() -> Trajectory {
     let components = [
         (Axis::X, 0.02, 0.7, 0.3),
