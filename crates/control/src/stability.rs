@@ -17,7 +17,7 @@
 //! moves sideways (λ_min(J_tᵀJ_t) of 0.09 for 5–6 m legs against 0.77 for the default rig).
 
 use kinematics::{Geometry, Pose, Vector6};
-use nalgebra::Matrix3;
+use nalgebra::{Matrix3, Matrix6x3};
 use stewart_types::STANDARD_GRAVITY_M_S2;
 
 use crate::pid::PidConfig;
@@ -54,11 +54,12 @@ pub fn translational_stability(
     pid: &PidConfig,
     static_forces_n: &[f64; 6],
 ) -> LoopStability {
-    let forces = Vector6::from_column_slice(static_forces_n);
+    let forces = Vector6::from(*static_forces_n);
     let supported_mass_kg =
         geometry.wrench_in_base(pose, &forces).force_n.z / STANDARD_GRAVITY_M_S2;
-    let j = geometry.jacobian(pose);
-    let jt = j.fixed_view::<6, 3>(0, 0);
+    // J's first three columns (the legs' unit vectors), the part that acts on translation.
+    let [u_x, u_y, u_z, ..]: [[f64; 6]; 6] = geometry.jacobian(pose).into();
+    let jt = Matrix6x3::from([u_x, u_y, u_z]);
     let a: Matrix3<f64> = jt.transpose() * jt;
     let weakest_translation = if a.iter().all(|v| v.is_finite()) {
         a.symmetric_eigenvalues().min()
