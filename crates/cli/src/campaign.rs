@@ -373,6 +373,7 @@ mod tests {
             runs: Some(2),
             jobs: Some(2),
             only: None,
+            calibrate_imu: None,
         };
         let c = run(&args, &AtomicBool::new(false)).unwrap();
         assert_eq!((c.completed, c.runs, c.jobs, c.first_seed), (2, 2, 2, 40));

@@ -194,3 +194,100 @@ pub fn announce_live(log: &runlog::RunLog, quiet: bool) {
         eprintln!("live view: ws://{addr} (Foxglove: Open connection → Foxglove WebSocket)");
     }
 }
+
+/// The IMU alignment fitted on the tare run of `outcome` (a tare-only session), as the
+/// calibration file of `backend` with the rig description `loaded`, dated by `start_ns`.
+pub fn imu_calibration(
+    outcome: &measure::session::SessionOutcome,
+    loaded: &LoadedConfig,
+    backend: &str,
+    start_ns: u64,
+    log_path: &Path,
+) -> anyhow::Result<measure::calibration::CalibrationFile> {
+    let record = match &outcome.tare {
+        Some(measure::session::TareSource::Measured(_, effects)) => effects.record.as_ref(),
+        _ => None,
+    }
+    .ok_or_else(|| anyhow::anyhow!("the calibration run recorded no excitation to fit"))?;
+    let g = loaded
+        .config
+        .estimator
+        .local_gravity_m_s2
+        .filter(|g| *g > 0.0)
+        .unwrap_or(stewart_types::STANDARD_GRAVITY_M_S2);
+    let alignment =
+        measure::calibration::imu::fit(&record.entries(), &nalgebra::Vector3::new(0.0, 0.0, -g))
+            .map_err(|e| anyhow::anyhow!("IMU calibration: {e}"))?;
+    let mut file = measure::calibration::CalibrationFile::new(
+        alignment,
+        start_ns / 1_000_000_000,
+        &loaded.source,
+        backend,
+    );
+    file.log = Some(log_path.display().to_string());
+    Ok(file)
+}
+
+/// Prints what an IMU calibration found, with one sigma, and where it was written.
+pub fn print_imu_calibration(
+    file: &measure::calibration::CalibrationFile,
+    path: &Path,
+    quiet: bool,
+) {
+    let a = &file.imu;
+    if !quiet {
+        let (g, acc) = (a.gyro(), a.accel());
+        // Small rotation and scales of each matrix: M ≈ I + S + [θ×], S symmetric.
+        let describe = |m: &nalgebra::Matrix3<f64>, sigma: &dyn Fn(usize) -> f64, name: &str| {
+            let rot = nalgebra::Vector3::new(
+                0.5 * (m[(2, 1)] - m[(1, 2)]),
+                0.5 * (m[(0, 2)] - m[(2, 0)]),
+                0.5 * (m[(1, 0)] - m[(0, 1)]),
+            );
+            println!(
+                "{name}: axes turned by [{:+.4}, {:+.4}, {:+.4}]° (reading against P), scale \
+                 errors [{:+.2e}, {:+.2e}, {:+.2e}] ± [{:.1e}, {:.1e}, {:.1e}]",
+                -rot.x.to_degrees(),
+                -rot.y.to_degrees(),
+                -rot.z.to_degrees(),
+                m[(0, 0)] - 1.0,
+                m[(1, 1)] - 1.0,
+                m[(2, 2)] - 1.0,
+                sigma(0),
+                sigma(4),
+                sigma(8),
+            );
+        };
+        describe(&g, &|k| a.gyro_sigma(k), "gyro");
+        describe(&acc, &|k| a.accel_sigma(k), "accelerometer");
+        let r = a.accelerometer_position_m;
+        println!(
+            "accelerometer position: [{:.5}, {:.5}, {:.5}] m ± [{:.1e}, {:.1e}, {:.1e}]",
+            r[0],
+            r[1],
+            r[2],
+            a.accel_sigma(9),
+            a.accel_sigma(10),
+            a.accel_sigma(11)
+        );
+        println!(
+            "IMU delay: {:.1} µs ± {:.1} µs   residual rms: gyro {:.2e} rad/s, accelerometer \
+             {:.2e} m/s² ({} entries)",
+            a.imu_delay_s * 1e6,
+            a.gyro_sigma(9) * 1e6,
+            a.residual_rms[0],
+            a.residual_rms[1],
+            a.entries
+        );
+    }
+    println!("IMU calibration: {}", path.display());
+}
+
+/// Warns on standard error about each applied calibration older than the rig description's
+/// `calibration.max_age_days`.
+pub fn warn_old_calibrations(config: &measure::Config) {
+    let now_s = runlog::run_log::unix_now_ns() / 1_000_000_000;
+    for w in config.calibration.age_warnings(now_s) {
+        eprintln!("warning: {w}");
+    }
+}

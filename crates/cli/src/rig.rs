@@ -331,6 +331,7 @@ pub fn rig_with_abort(
     let common = &common;
     let loaded = common.run.load_config()?;
     let config = &loaded.config;
+    crate::common::warn_old_calibrations(config);
     let link = link_settings(&loaded, &common.link)?;
     let geometry = setup::geometry(&loaded)?;
     // The controllers are built (and their trajectories checked) here, before the rig is even

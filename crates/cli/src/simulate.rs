@@ -56,6 +56,14 @@ pub struct SimulateArgs {
     /// frame_loss, leg_dynamics, joint_friction, geometry (the built joints).
     #[arg(long, value_name = "SOURCE", value_parser = error_source())]
     pub only: Option<ErrorSource>,
+    /// Calibrate the simulated rig's IMU instead of measuring a payload: the empty fixture
+    /// moves through the tare run's excitation, and the IMU's alignment against the platform's
+    /// forward kinematics (axes, scales, the accelerometer's position, the delay) is fitted and
+    /// written with its uncertainty to FILE, which `[calibration] imu = "FILE"` in a rig
+    /// description applies (docs/calibration.md). Any calibration the rig description already
+    /// applies is left out of this run.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["runs", "tare"])]
+    pub calibrate_imu: Option<PathBuf>,
 }
 
 /// The parser of `--only`: the error sources' ids (listed in `--help`, and by clap when a
@@ -89,6 +97,8 @@ pub struct SimulateOutcome {
     pub end: End,
     /// The measured tare, when a tare run was made.
     pub tare: Option<TareFile>,
+    /// The IMU calibration written (`--calibrate-imu`).
+    pub calibration: Option<measure::calibration::CalibrationFile>,
 }
 
 /// The simulator as a session's station: the payload change puts the world's payload on.
@@ -130,9 +140,16 @@ pub fn simulate(
     interrupt: &AtomicBool,
 ) -> Result<SimulateOutcome, CommandError> {
     // Everything that can refuse the run, before the first sample.
-    let scenario = args.scenario()?;
+    let mut scenario = args.scenario()?;
+    if args.calibrate_imu.is_some() {
+        // The calibration fits the raw readings: nothing of an older calibration applied.
+        scenario.loaded.config.calibration.imu = None;
+        scenario.loaded.config.calibration.imu_file = None;
+    }
+    let scenario = scenario;
     let loaded = &scenario.loaded;
     let config = &loaded.config;
+    common::warn_old_calibrations(config);
     let geometry = setup::geometry(loaded)?;
     // The controllers checked here are the ones that run.
     let trajectory = setup::trajectory(loaded, &geometry, config.run.duration_s)?;
@@ -163,13 +180,20 @@ pub fn simulate(
     if tare_run {
         runs.push("tare".to_string());
     }
-    runs.push("loaded".to_string());
+    let calibrating = args.calibrate_imu.is_some();
+    if !calibrating {
+        runs.push("loaded".to_string());
+    }
     let header = log
         .write_now(
             topics::METADATA,
             &RunMetadata {
                 tool_version: env!("CARGO_PKG_VERSION").into(),
-                command: "simulate".into(),
+                command: if calibrating {
+                    "simulate --calibrate-imu".into()
+                } else {
+                    "simulate".into()
+                },
                 backend: "sim".into(),
                 config_source: loaded.source.clone(),
                 config_text: loaded.text.clone(),
@@ -199,7 +223,11 @@ pub fn simulate(
     let total = match &tare {
         TarePlan::Measure(c) => measure::measurement::expected_samples(config, c.trajectory()),
         TarePlan::File(..) => 0,
-    } + measure::measurement::expected_samples(config, loaded_controller.trajectory());
+    } + if calibrating {
+        0
+    } else {
+        measure::measurement::expected_samples(config, loaded_controller.trajectory())
+    };
     let result = header.and_then(|()| {
         let mut station = SimStation {
             sim,
@@ -212,7 +240,7 @@ pub fn simulate(
                 config: loaded,
                 geometry,
                 tare,
-                loaded: Some(loaded_controller),
+                loaded: (!calibrating).then_some(loaded_controller),
                 save_tare: args.measure.save_tare.as_deref(),
                 backend: "sim",
             },
@@ -224,6 +252,15 @@ pub fn simulate(
     let finished = log.finish();
     let outcome = result.map_err(CommandError::Run)?;
     finished.map_err(CommandError::Run)?;
+    let calibration = match &args.calibrate_imu {
+        Some(path) if outcome.end == End::Completed => {
+            let file = common::imu_calibration(&outcome, loaded, "sim", start_ns, &log_path)
+                .map_err(CommandError::Run)?;
+            file.write(path).map_err(CommandError::Run)?;
+            Some(file)
+        }
+        _ => None,
+    };
     let report = outcome.report(
         config,
         RunInfo {
@@ -241,6 +278,7 @@ pub fn simulate(
         log_path,
         end: outcome.end.clone(),
         tare: outcome.measured_tare().cloned(),
+        calibration,
     })
 }
 
@@ -250,6 +288,10 @@ pub fn main(args: &SimulateArgs, interrupt: &AtomicBool) -> u8 {
     match simulate(args, interrupt) {
         Ok(outcome) => {
             let code = common::end_code(&outcome.end, "");
+            if let (Some(path), Some(file)) = (&args.calibrate_imu, &outcome.calibration) {
+                common::print_imu_calibration(file, path, args.measure.shared.quiet);
+                return code;
+            }
             if let (Some(path), Some(_)) = (&args.measure.save_tare, &outcome.tare) {
                 if !args.measure.shared.quiet {
                     println!("tare: {}", path.display());
@@ -287,6 +329,42 @@ mod tests {
             ..SimulateArgs::default()
         };
         simulate(&args, &AtomicBool::new(false)).unwrap()
+    }
+
+    /// `--calibrate-imu` runs the tare alone and writes a calibration file that a rig
+    /// description then applies: the accelerometer's position it found reaches the estimator.
+    #[test]
+    fn calibrate_imu_writes_a_file_that_a_rig_description_applies() {
+        let dir = tempfile::tempdir().unwrap();
+        let config = dir.path().join("short.toml");
+        std::fs::write(&config, "[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n").unwrap();
+        let file = dir.path().join("imu.toml");
+        let args = SimulateArgs {
+            measure: MeasureArgs {
+                shared: SharedArgs {
+                    config: Some(config),
+                    log: Some(dir.path().join("cal.mcap")),
+                    quiet: true,
+                    ..SharedArgs::default()
+                },
+                ..MeasureArgs::default()
+            },
+            calibrate_imu: Some(file.clone()),
+            ..SimulateArgs::default()
+        };
+        let outcome = simulate(&args, &AtomicBool::new(false)).unwrap();
+        assert!(outcome.report.is_none(), "no payload is measured");
+        let written = outcome.calibration.expect("a calibration");
+        let read = measure::calibration::CalibrationFile::read(&file).unwrap();
+        assert_eq!(read, written);
+        // The default IMU sits at the P origin within its 1 mm tolerance.
+        let r = read.imu.accelerometer_position_m;
+        assert!(r.iter().all(|v| v.abs() < 5e-3), "{r:?}");
+        let rig = dir.path().join("rig.toml");
+        std::fs::write(&rig, "[calibration]\nimu = \"imu.toml\"\n").unwrap();
+        let loaded = measure::load::load(Some(&rig)).unwrap();
+        let p = measure::setup::accelerometer_position(&loaded.config);
+        assert_eq!([p.x, p.y, p.z], r);
     }
 
     /// The estimator's assumptions and the budget come from the rig description's datasheet:

@@ -48,6 +48,64 @@ pub struct Config {
     /// measuring, the targets and the margins; optional, every key defaulted.
     #[serde(default)]
     pub plan: PlanConfig,
+    /// The calibrations the measurement applies; optional (omitted: none, the rig as
+    /// described).
+    #[serde(default)]
+    pub calibration: CalibrationConfig,
+}
+
+/// `[calibration]`: the calibration files the measurement applies (docs/calibration.md).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrationConfig {
+    /// The IMU alignment file (`stewart simulate --calibrate-imu FILE`), relative to the rig
+    /// description's directory; omitted: the IMU as `[sensors.imu]` describes it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub imu: Option<String>,
+    /// A measurement warns when a calibration it applies is older than this, days.
+    #[serde(default = "default_max_age_days")]
+    pub max_age_days: f64,
+    /// The calibration file `imu` names, read when the rig description is loaded.
+    #[serde(skip)]
+    pub imu_file: Option<crate::calibration::CalibrationFile>,
+}
+
+fn default_max_age_days() -> f64 {
+    90.0
+}
+
+impl Default for CalibrationConfig {
+    fn default() -> Self {
+        Self {
+            imu: None,
+            max_age_days: default_max_age_days(),
+            imu_file: None,
+        }
+    }
+}
+
+impl CalibrationConfig {
+    /// The IMU alignment applied, if any.
+    pub fn imu_alignment(&self) -> Option<&crate::calibration::ImuAlignment> {
+        self.imu_file.as_ref().map(|f| &f.imu)
+    }
+
+    /// A warning for each applied calibration older than `max_age_days` at `now_unix_s`.
+    pub fn age_warnings(&self, now_unix_s: u64) -> Vec<String> {
+        let mut out = Vec::new();
+        if let (Some(path), Some(file)) = (&self.imu, &self.imu_file) {
+            let age = file.age_days(now_unix_s);
+            if age > self.max_age_days {
+                out.push(format!(
+                    "the IMU calibration {path} is {age:.0} days old (taken {}; \
+                     calibration.max_age_days = {}): calibrate again with `stewart \
+                     simulate --calibrate-imu FILE` or `stewart rig --calibrate-imu FILE`",
+                    file.calibrated_utc, self.max_age_days
+                ));
+            }
+        }
+        out
+    }
 }
 
 /// A body as known before it is measured (a CAD model, a previous measurement, a weighing):

@@ -11,15 +11,32 @@
 //! - **IMU axes**: the gyro's rate and the accelerometer's specific force are turned from the
 //!   IMU's axes into P by the rig description's mounting rotation (`sensors.imu.orientation_deg`;
 //!   none when it is zero, so an aligned IMU's numbers pass bit for bit).
+//! - **IMU alignment** (when the rig description applies a calibration,
+//!   [`crate::calibration::imu`]): the readings in P are taken back through the fitted
+//!   matrices, ω = G⁻¹ ω_m and f = A⁻¹ f_m, and moved forward by the IMU's delay τ to first
+//!   order from the previous frame, x(t) ≈ x_k + (τ/T)(x_k − x_{k−1}) (the frame after a lost
+//!   one keeps its reading).
 //! - Leg forces and time pass unchanged, and so does the frame's sequence counter, which places
 //!   the sample on the conditioning's grid (a late frame keeps its place, a gap in the counter
 //!   is a lost frame: `estimator::timebase`).
 
 use control::io::SensorFrame;
 use estimator::Sample;
-use kinematics::{FkOptions, Geometry, Pose, Rotation3, Vector3, Vector6};
+use kinematics::{FkOptions, Geometry, Matrix3, Pose, Rotation3, Vector3, Vector6};
 
+use crate::calibration::ImuAlignment;
 use crate::config::ImuMounting;
+
+/// A fitted IMU alignment as the feed applies it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Alignment {
+    gyro_inverse: Matrix3<f64>,
+    accel_inverse: Matrix3<f64>,
+    /// τ / T.
+    delay_periods: f64,
+    /// The previous frame's sequence and its rate and specific force in P, aligned.
+    previous: Option<(u64, Vector3<f64>, Vector3<f64>)>,
+}
 
 /// The frame-to-sample rule's state: the warm start of forward kinematics and the IMU's
 /// mounting. Plain `Copy` data.
@@ -31,6 +48,7 @@ pub struct Feed {
     /// A pose has been found: the warm start is the plate's, not the home pose.
     found: bool,
     imu_to_p: Option<Rotation3<f64>>,
+    alignment: Option<Alignment>,
 }
 
 impl Feed {
@@ -44,7 +62,28 @@ impl Feed {
             guess: geometry.home_pose(),
             found: false,
             imu_to_p: (!aligned).then(|| imu.rotation()),
+            alignment: None,
         }
+    }
+
+    /// Applies a fitted IMU alignment (none: the described mounting alone), at the sample
+    /// period `sample_period_s`. A singular matrix leaves the readings as they are (a
+    /// calibration file's matrices are checked when it is read).
+    pub fn aligned(mut self, alignment: Option<&ImuAlignment>, sample_period_s: f64) -> Self {
+        self.alignment = alignment.and_then(|a| {
+            let delay_periods = a.imu_delay_s / sample_period_s;
+            Some(Alignment {
+                gyro_inverse: a.gyro().try_inverse()?,
+                accel_inverse: a.accel().try_inverse()?,
+                delay_periods: if delay_periods.is_finite() {
+                    delay_periods
+                } else {
+                    0.0
+                },
+                previous: None,
+            })
+        });
+        self
     }
 
     /// The warm start of the next forward kinematics (the last pose found).
@@ -77,13 +116,30 @@ impl Feed {
         self.found = true;
     }
 
-    /// The estimator's input of `frame` at `pose`, the IMU's readings turned into P.
-    pub fn sample(&self, frame: &SensorFrame, pose: Pose) -> Sample {
+    /// The estimator's input of `frame` at `pose`, the IMU's readings turned into P (and
+    /// aligned, when a calibration is applied).
+    pub fn sample(&mut self, frame: &SensorFrame, pose: Pose) -> Sample {
         let gyro = Vector3::from(frame.gyro_rad_s);
         let accel = Vector3::from(frame.accel_m_s2);
         let (gyro_rad_s, accel_m_s2) = match &self.imu_to_p {
             Some(r) => (r * gyro, r * accel),
             None => (gyro, accel),
+        };
+        let (gyro_rad_s, accel_m_s2) = match &mut self.alignment {
+            Some(a) => {
+                let w = a.gyro_inverse * gyro_rad_s;
+                let f = a.accel_inverse * accel_m_s2;
+                let shifted = match a.previous {
+                    Some((seq, w0, f0)) if frame.sequence == seq.wrapping_add(1) => (
+                        w + (w - w0) * a.delay_periods,
+                        f + (f - f0) * a.delay_periods,
+                    ),
+                    _ => (w, f),
+                };
+                a.previous = Some((frame.sequence, w, f));
+                shifted
+            }
+            None => (gyro_rad_s, accel_m_s2),
         };
         Sample {
             time_s: frame.time_s,

@@ -28,6 +28,7 @@
 pub mod accuracy;
 pub mod budget;
 pub mod calendar;
+pub mod calibration;
 pub mod config;
 pub mod feed;
 pub mod link;

@@ -293,13 +293,42 @@ pub fn load_str(text: &str, source: &str) -> Result<LoadedConfig, ConfigError> {
         });
     }
     merge(&mut merged, user);
-    let config = describe(&merged, text, source)?;
+    let mut config = describe(&merged, text, source)?;
+    read_calibrations(&mut config, text, source)?;
     Ok(LoadedConfig {
         config,
         source: source.to_string(),
         text: text.to_string(),
         merged,
     })
+}
+
+/// Reads the calibration files `config` references, relative to `source`'s directory; a file
+/// that cannot be used is refused at its key.
+fn read_calibrations(config: &mut Config, text: &str, source: &str) -> Result<(), ConfigError> {
+    let Some(name) = config.calibration.imu.clone() else {
+        return Ok(());
+    };
+    let directory = if source == DEFAULT_CONFIG_NAME {
+        std::path::PathBuf::new()
+    } else {
+        Path::new(source)
+            .parent()
+            .map(Path::to_path_buf)
+            .unwrap_or_default()
+    };
+    match crate::calibration::CalibrationFile::read(&directory.join(&name)) {
+        Ok(file) => {
+            config.calibration.imu_file = Some(file);
+            Ok(())
+        }
+        Err(e) => Err(ConfigError::single(ConfigIssue {
+            file: source.to_string(),
+            line: locate_key(text, "calibration.imu"),
+            key: "calibration.imu".into(),
+            problem: e.to_string(),
+        })),
+    }
 }
 
 /// The rig description of a merged document (the world left out, the tare's excitation

@@ -84,6 +84,10 @@ pub struct MeasureOutcome {
     /// from the run's own record, its counts and statistical shares, the rigid-body check;
     /// `None` without an excitation.
     pub budget: Option<crate::budget::RunBudget>,
+    /// The run's record of the samples the estimator used (~100 Hz block means,
+    /// [`crate::budget::record`]): what the IMU calibration fits ([`crate::calibration::imu`]);
+    /// `None` without an excitation.
+    pub record: Option<crate::budget::RunRecord>,
     /// How it ended.
     pub end: End,
 }
@@ -100,6 +104,7 @@ impl MeasureOutcome {
             accel_bias_effect: None,
             load_cell_bias_effect: None,
             budget: None,
+            record: None,
             end,
         }
     }
@@ -319,6 +324,7 @@ where
                 accel_bias_effect: exact.accel,
                 load_cell_bias_effect: exact.load_cell,
                 budget,
+                record: Some(record),
                 end,
             });
         }

@@ -130,6 +130,13 @@ impl Replay {
         })
     }
 
+    /// Applies a fitted IMU alignment ([`Feed::aligned`]), as the online measurement does
+    /// when the rig description references a calibration.
+    pub fn with_alignment(mut self, alignment: Option<&crate::calibration::ImuAlignment>) -> Self {
+        self.feed = self.feed.aligned(alignment, self.config.sample_period_s);
+        self
+    }
+
     /// Also records the used samples for the error budget, with the rig description's
     /// `figures` ([`crate::budget`]), as the online measurement does.
     pub fn with_budget(mut self, figures: crate::budget::Figures) -> Self {

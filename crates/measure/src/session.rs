@@ -83,6 +83,8 @@ pub struct TareEffects {
     pub load_cell: Option<[[f64; 10]; 6]>,
     /// The tare run's error-budget inputs ([`crate::budget`]).
     pub budget: Option<crate::budget::RunBudget>,
+    /// The tare run's record, for the IMU calibration ([`crate::calibration::imu`]).
+    pub record: Option<crate::budget::RunRecord>,
 }
 
 /// The tare a session subtracts.
@@ -230,6 +232,7 @@ pub fn run<S: Station, O: Observer>(
                 accel: outcome.accel_bias_effect,
                 load_cell: outcome.load_cell_bias_effect,
                 budget: outcome.budget.clone(),
+                record: outcome.record.clone(),
             };
             let (base, plate) = joints(&plan.geometry);
             // With the run's sensitivities, so a saved tare reused later counts its share of

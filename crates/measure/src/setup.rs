@@ -265,6 +265,19 @@ pub fn controller(
     })
 }
 
+/// The accelerometer's position in P, m: the IMU calibration's when one is applied, else the
+/// described `sensors.imu.position_m`.
+pub fn accelerometer_position(config: &Config) -> Vector3<f64> {
+    Vector3::from(
+        config
+            .calibration
+            .imu_alignment()
+            .map_or(config.sensors.imu.position_m, |a| {
+                a.accelerometer_position_m
+            }),
+    )
+}
+
 /// One sigma of the accelerometer's bias, m/s²: the rig description's datasheet figure
 /// (`sensors.accelerometer.bias_m_s2`). Zero for ideal sensors.
 pub fn accel_bias_sigma(config: &Config) -> f64 {
@@ -286,7 +299,11 @@ pub fn tick(
     measurement: Measurement,
     controller: control::controller::Controller,
 ) -> Result<crate::tick::Tick, estimator::EstimatorError> {
-    let feed = crate::feed::Feed::new(*geometry, controller.config().fk, &config.sensors.imu);
+    let feed = crate::feed::Feed::new(*geometry, controller.config().fk, &config.sensors.imu)
+        .aligned(
+            config.calibration.imu_alignment(),
+            1.0 / config.sensors.sample_rate_hz,
+        );
     let excitation_s = controller.trajectory().duration_s();
     let estimator = estimator_config(
         config,
@@ -351,7 +368,7 @@ pub fn estimator_config(
     // What the IMU's datasheet says, per sample: density × √(sample rate).
     c.gyro_noise_rad_s = config.sensors.gyro_noise_rad_s();
     c.accel_noise_m_s2 = config.sensors.accel_noise_m_s2();
-    c.accelerometer_position_m = Vector3::from(config.sensors.imu.position_m);
+    c.accelerometer_position_m = accelerometer_position(config);
     // The load cells' offset sensitivity is kept when their datasheet gives an offset.
     c.leg_force_offsets = load_cell_bias_sigma(config) > 0.0;
     c.window_start_s = window_start_s;

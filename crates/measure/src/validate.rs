@@ -59,6 +59,7 @@ impl Problems {
 /// Every range problem in `config`, as (dotted key, what is wrong). Empty when all is well.
 pub fn validate(config: &Config) -> Vec<(String, String)> {
     let mut p = Problems::default();
+    p.positive("calibration.max_age_days", config.calibration.max_age_days);
 
     let pl = &config.platform;
     p.positive("platform.base_radius_m", pl.base_radius_m);

@@ -9,7 +9,7 @@ use std::path::Path;
 
 use anyhow::{anyhow, bail, Context, Result};
 use estimator::{EstimatorConfig, ParameterSet};
-use kinematics::{FkOptions, Vector3};
+use kinematics::FkOptions;
 use measure::config::ParamCount;
 use measure::replay::{BiasSigmas, Replay, ReplayOutcome};
 use measure::report::{Quantities, Report, ReportInputs, RunInfo, TareKind};
@@ -146,7 +146,7 @@ pub fn settings_of(
     let sensors = &rig.config.sensors;
     c.gyro_noise_rad_s = sensors.gyro_noise_rad_s();
     c.accel_noise_m_s2 = sensors.accel_noise_m_s2();
-    c.accelerometer_position_m = Vector3::from(sensors.imu.position_m);
+    c.accelerometer_position_m = setup::accelerometer_position(&rig.config);
     c.leg_force_offsets = setup::load_cell_bias_sigma(&rig.config) > 0.0;
     c.local_gravity_m_s2 = rig.config.estimator.local_gravity_m_s2.unwrap_or(0.0);
     c.legs = setup::leg_model(&rig.config);
@@ -181,7 +181,10 @@ fn start_replay(config: EstimatorConfig, fk: FkOptions, rig: &LoadedConfig) -> R
         load_cell_n: setup::load_cell_bias_sigma(&rig.config),
     };
     Replay::new(config, fk, &rig.config.sensors.imu, sigmas, trace_every)
-        .map(|r| r.with_budget(measure::budget::Figures::of(&rig.config)))
+        .map(|r| {
+            r.with_alignment(rig.config.calibration.imu_alignment())
+                .with_budget(measure::budget::Figures::of(&rig.config))
+        })
         .map_err(|e| anyhow!("{e}"))
 }
 

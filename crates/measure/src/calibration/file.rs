@@ -1,0 +1,227 @@
+//! The calibration file: what a calibration command fitted, with its uncertainty, when and from
+//! what, as TOML beside the rig description, which references it (`[calibration] imu`).
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::imu::ImuAlignment;
+
+/// The file's `format`, checked on reading.
+pub const FORMAT: &str = "stewart-calibration-1";
+
+/// A calibration file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrationFile {
+    /// [`FORMAT`].
+    pub format: String,
+    /// When the calibration's data were taken, seconds since 1970-01-01 UTC.
+    pub calibrated_unix_s: u64,
+    /// The same instant, readable (`2026-11-24T17:40:00Z`).
+    pub calibrated_utc: String,
+    /// The tool and its version that fitted it.
+    pub tool: String,
+    /// The rig description it was taken with (its file name).
+    pub rig: String,
+    /// The station: `"sim"` or `"rig"`.
+    pub backend: String,
+    /// The run log of the calibration's motion, when one was written.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub log: Option<String>,
+    /// The IMU's alignment ([`super::imu`]).
+    pub imu: ImuAlignment,
+}
+
+/// Why a calibration file could not be used.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum CalibrationFileError {
+    /// The file could not be read.
+    #[error("cannot read the calibration file {path}: {source}")]
+    Read {
+        /// The file.
+        path: String,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// Not a calibration file of this format, or damaged.
+    #[error("{path} is not a calibration file this tool reads ({problem}); write it again with `stewart simulate --calibrate-imu FILE`")]
+    Format {
+        /// The file.
+        path: String,
+        /// What is wrong.
+        problem: String,
+    },
+}
+
+impl CalibrationFile {
+    /// A file for `imu`, fitted at `unix_s` on `backend` with rig description `rig`.
+    pub fn new(imu: ImuAlignment, unix_s: u64, rig: &str, backend: &str) -> Self {
+        let t = crate::calendar::UtcTime::from_unix_s(unix_s);
+        Self {
+            format: FORMAT.into(),
+            calibrated_unix_s: unix_s,
+            calibrated_utc: format!(
+                "{:04}-{:02}-{:02}T{:02}:{:02}:{:02}Z",
+                t.year, t.month, t.day, t.hour, t.minute, t.second
+            ),
+            tool: format!("stewart {}", env!("CARGO_PKG_VERSION")),
+            rig: rig.into(),
+            backend: backend.into(),
+            log: None,
+            imu,
+        }
+    }
+
+    /// Reads and checks `path`: the format, and every number of the alignment finite.
+    pub fn read(path: &Path) -> Result<Self, CalibrationFileError> {
+        let name = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| CalibrationFileError::Read {
+            path: name.clone(),
+            source,
+        })?;
+        let format = |problem: String| CalibrationFileError::Format {
+            path: name.clone(),
+            problem,
+        };
+        let file: Self = toml::from_str(&text).map_err(|e| format(e.message().to_string()))?;
+        if file.format != FORMAT {
+            return Err(format(format!(
+                "format {:?}, expected {FORMAT:?}",
+                file.format
+            )));
+        }
+        let a = &file.imu;
+        let square = |m: &[Vec<f64>], n: usize| m.len() == n && m.iter().all(|r| r.len() == n);
+        if !square(&a.gyro_covariance, 10) || !square(&a.accel_covariance, 12) {
+            return Err(format("covariances of the wrong size".into()));
+        }
+        let finite = a
+            .gyro_matrix
+            .iter()
+            .chain(&a.accel_matrix)
+            .flatten()
+            .chain(&a.accelerometer_position_m)
+            .chain(a.gyro_covariance.iter().flatten())
+            .chain(a.accel_covariance.iter().flatten())
+            .chain([&a.imu_delay_s])
+            .all(|v| v.is_finite());
+        if !finite {
+            return Err(format("a value is not a finite number".into()));
+        }
+        if a.gyro().try_inverse().is_none() || a.accel().try_inverse().is_none() {
+            return Err(format("a sensor matrix is singular".into()));
+        }
+        Ok(file)
+    }
+
+    /// Writes the file (TOML) to `path`.
+    pub fn write(&self, path: &Path) -> anyhow::Result<()> {
+        let text = format!(
+            "# IMU alignment fitted by `{}` from the platform's forward kinematics; see \
+             docs/calibration.md.\n{}",
+            self.tool,
+            toml::to_string(self)?
+        );
+        std::fs::write(path, text).map_err(|e| {
+            anyhow::anyhow!("cannot write the calibration file {}: {e}", path.display())
+        })
+    }
+
+    /// Its age at `now_unix_s`, days (0 for a file from the future).
+    pub fn age_days(&self, now_unix_s: u64) -> f64 {
+        now_unix_s.saturating_sub(self.calibrated_unix_s) as f64 / 86_400.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calibration::imu::ImuAlignment;
+
+    fn alignment() -> ImuAlignment {
+        let eye = [[1.0, 2e-4, 0.0], [-2e-4, 1.0, 1e-4], [0.0, -1e-4, 1.0005]];
+        let cov = |n: usize| {
+            (0..n)
+                .map(|i| (0..n).map(|j| if i == j { 1e-8 } else { 0.0 }).collect())
+                .collect()
+        };
+        ImuAlignment {
+            gyro_matrix: eye,
+            gyro_bias_rad_s: [1e-5, 0.0, -2e-5],
+            accel_matrix: eye,
+            accel_bias_m_s2: [1e-3, 0.0, 0.0],
+            accelerometer_position_m: [0.1, -0.2, 0.3],
+            imu_delay_s: 1.1e-4,
+            gyro_covariance: cov(10),
+            accel_covariance: cov(12),
+            residual_rms: [1e-4, 1e-3],
+            entries: 2000,
+        }
+    }
+
+    #[test]
+    fn a_written_file_reads_back_exactly_with_its_date() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("imu.toml");
+        let file = CalibrationFile::new(alignment(), 1_795_000_000, "car.toml", "sim");
+        file.write(&path).unwrap();
+        let back = CalibrationFile::read(&path).unwrap();
+        assert_eq!(back, file);
+        assert_eq!(back.calibrated_utc, "2026-11-18T11:06:40Z");
+        assert!((back.age_days(1_795_000_000 + 10 * 86_400) - 10.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_damaged_or_foreign_file_is_refused_with_the_reason() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("imu.toml");
+        let file = CalibrationFile::new(alignment(), 0, "car.toml", "sim");
+        file.write(&path).unwrap();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let cases = [
+            (text.replace(FORMAT, "other-format"), "format"),
+            (
+                text.replace("imu_delay_s = 0.00011", "imu_delay_s = nan"),
+                "finite",
+            ),
+            (text.replace("[imu]", "[imux]"), "unknown field"),
+            ("not toml at all [".to_string(), ""),
+        ];
+        for (bad, why) in cases {
+            std::fs::write(&path, &bad).unwrap();
+            let err = CalibrationFile::read(&path).unwrap_err().to_string();
+            assert!(
+                err.contains("is not a calibration file") && err.contains(why),
+                "{err}"
+            );
+        }
+        let err = CalibrationFile::read(&dir.path().join("none.toml")).unwrap_err();
+        assert!(
+            err.to_string().contains("cannot read the calibration file"),
+            "{err}"
+        );
+    }
+
+    /// A rig description that references a calibration file applies it (the accelerometer's
+    /// position reaches the estimator); one that names a missing file is refused at its key.
+    #[test]
+    fn a_rig_description_applies_its_calibration_file_or_refuses_a_missing_one() {
+        let dir = tempfile::tempdir().unwrap();
+        CalibrationFile::new(alignment(), 0, "car.toml", "sim")
+            .write(&dir.path().join("imu.toml"))
+            .unwrap();
+        let rig = dir.path().join("car.toml");
+        std::fs::write(&rig, "[calibration]\nimu = \"imu.toml\"\n").unwrap();
+        let loaded = crate::load::load(Some(&rig)).unwrap();
+        let p = crate::setup::accelerometer_position(&loaded.config);
+        assert_eq!([p.x, p.y, p.z], [0.1, -0.2, 0.3]);
+        assert_eq!(loaded.config.calibration.age_warnings(0).len(), 0);
+        assert_eq!(loaded.config.calibration.age_warnings(91 * 86_400).len(), 1);
+        std::fs::write(&rig, "[calibration]\nimu = \"gone.toml\"\n").unwrap();
+        let err = crate::load::load(Some(&rig)).unwrap_err();
+        assert_eq!(err.issues[0].key, "calibration.imu");
+        assert_eq!(err.issues[0].line, Some(2));
+    }
+}
