@@ -260,6 +260,8 @@ pub fn analyse(
         legs: &described,
         described: &figures.legs,
         motions: &motions,
+        rest_gravity_m_s2: (exact.accel_offset_measured && config.local_gravity_m_s2 > 0.0)
+            .then_some(config.local_gravity_m_s2),
     };
     let rows = rigid::subset(&fit);
     let mut modes = Vec::new();

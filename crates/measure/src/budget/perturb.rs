@@ -177,6 +177,23 @@ pub struct Context<'a> {
     pub described: &'a crate::config::LegsConfig,
     /// The plate's motion at each entry ([`leg_model::motions`]).
     pub motions: &'a [Option<PlateMotion>],
+    /// Gravity, m/s², when the run measured the accelerometer's vertical offset at rest
+    /// ([`estimator::hold`]): that measurement takes up the static part of an accelerometer
+    /// error along z as well, so the error's effect is what is left of it in motion.
+    pub rest_gravity_m_s2: Option<f64>,
+}
+
+/// The IMU's readings through M and N, less what the offset measured at rest takes out: at the
+/// level rest pose the specific force is (0, 0, g), and the hold's vertical offset moves by
+/// (N (0, 0, g))_z − g, subtracted from every reading's z.
+fn transform_imu_after_rest(data: &mut Data, m: &Matrix3<f64>, n: &Matrix3<f64>, g: Option<f64>) {
+    transform_imu(data, m, n);
+    if let Some(g) = g {
+        let offset = (n[(2, 2)] - 1.0) * g;
+        for e in &mut data.entries {
+            e.accel_m_s2.z -= offset;
+        }
+    }
 }
 
 /// M Q Mᵀ for the products Q (entries of ω ωᵀ) of ω' = M ω.
@@ -262,7 +279,7 @@ impl Scalar {
             Scalar::Misalignment(axis) => {
                 // The IMU turned by a small rotation about P's axis: both sensors alike.
                 let r = *Rotation3::new(Vector3::ith(axis, sigma)).matrix();
-                with_data(&|d| transform_imu(d, &r, &r))
+                with_data(&|d| transform_imu_after_rest(d, &r, &r, ctx.rest_gravity_m_s2))
             }
             Scalar::GyroScale(axis) => {
                 let mut m = Matrix3::identity();
@@ -272,7 +289,9 @@ impl Scalar {
             Scalar::AccelScale(axis) => {
                 let mut n = Matrix3::identity();
                 n[(axis, axis)] += sigma;
-                with_data(&|d| transform_imu(d, &Matrix3::identity(), &n))
+                with_data(&|d| {
+                    transform_imu_after_rest(d, &Matrix3::identity(), &n, ctx.rest_gravity_m_s2)
+                })
             }
             Scalar::LeverArm(axis) => with_data(&|d| d.model.lever_m[axis] += sigma),
             Scalar::TimeSkew => with_data(&|d| skew(d, fit.h, sigma)),

@@ -48,6 +48,7 @@ fn effect(
         legs: &legs,
         described: l,
         motions: &motions,
+        rest_gravity_m_s2: None,
     };
     fit.effect(&scalar.residual_change(&ctx, sigma))
 }
@@ -320,6 +321,7 @@ fn the_fits_bias_effect_matches_the_estimators_sensitivity() {
         legs: &legs,
         described: &described,
         motions: &motions,
+        rest_gravity_m_s2: None,
     };
     for axis in 0..3 {
         let got = fit.effect(&Scalar::AccelBias(axis).residual_change(&ctx, 0.01));
