@@ -215,9 +215,14 @@ pub fn imu_calibration(
         .local_gravity_m_s2
         .filter(|g| *g > 0.0)
         .unwrap_or(stewart_types::STANDARD_GRAVITY_M_S2);
-    let alignment =
-        measure::calibration::imu::fit(&record.entries(), &nalgebra::Vector3::new(0.0, 0.0, -g))
-            .map_err(|e| anyhow::anyhow!("IMU calibration: {e}"))?;
+    let geometry = measure::setup::geometry(loaded).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let alignment = measure::calibration::imu::fit(
+        &record.entries(),
+        &nalgebra::Vector3::new(0.0, 0.0, -g),
+        &geometry,
+        loaded.config.platform.joint_position_tolerance_m,
+    )
+    .map_err(|e| anyhow::anyhow!("IMU calibration: {e}"))?;
     let mut file = measure::calibration::CalibrationFile::new(
         alignment,
         start_ns / 1_000_000_000,
@@ -236,48 +241,48 @@ pub fn print_imu_calibration(
 ) {
     let a = &file.imu;
     if !quiet {
-        let (g, acc) = (a.gyro(), a.accel());
-        // Small rotation and scales of each matrix: M ≈ I + S + [θ×], S symmetric.
-        let describe = |m: &nalgebra::Matrix3<f64>, sigma: &dyn Fn(usize) -> f64, name: &str| {
-            let rot = nalgebra::Vector3::new(
-                0.5 * (m[(2, 1)] - m[(1, 2)]),
-                0.5 * (m[(0, 2)] - m[(2, 0)]),
-                0.5 * (m[(1, 0)] - m[(0, 1)]),
-            );
-            println!(
-                "{name}: axes turned by [{:+.4}, {:+.4}, {:+.4}]° (reading against P), scale \
-                 errors [{:+.2e}, {:+.2e}, {:+.2e}] ± [{:.1e}, {:.1e}, {:.1e}]",
-                -rot.x.to_degrees(),
-                -rot.y.to_degrees(),
-                -rot.z.to_degrees(),
-                m[(0, 0)] - 1.0,
-                m[(1, 1)] - 1.0,
-                m[(2, 2)] - 1.0,
-                sigma(0),
-                sigma(4),
-                sigma(8),
-            );
-        };
-        describe(&g, &|k| a.gyro_sigma(k), "gyro");
-        describe(&acc, &|k| a.accel_sigma(k), "accelerometer");
+        let g = a.gyro();
+        // G ≈ I + S + [θ×], S symmetric: the reading's axes turned by −θ against P's.
+        let turned = nalgebra::Vector3::new(
+            0.5 * (g[(1, 2)] - g[(2, 1)]),
+            0.5 * (g[(2, 0)] - g[(0, 2)]),
+            0.5 * (g[(0, 1)] - g[(1, 0)]),
+        );
+        println!(
+            "IMU axes turned by [{:+.4}, {:+.4}, {:+.4}]° (gyro and accelerometer, one package)",
+            turned.x.to_degrees(),
+            turned.y.to_degrees(),
+            turned.z.to_degrees(),
+        );
+        println!(
+            "gyro scale errors: [{:+.2e}, {:+.2e}, {:+.2e}] ± [{:.1e}, {:.1e}, {:.1e}] \
+             (accelerometer scales not fitted: the datasheet's stay in the budget)",
+            g[(0, 0)] - 1.0,
+            g[(1, 1)] - 1.0,
+            g[(2, 2)] - 1.0,
+            a.gyro_sigma(0),
+            a.gyro_sigma(4),
+            a.gyro_sigma(8),
+        );
         let r = a.accelerometer_position_m;
         println!(
             "accelerometer position: [{:.5}, {:.5}, {:.5}] m ± [{:.1e}, {:.1e}, {:.1e}]",
             r[0],
             r[1],
             r[2],
-            a.accel_sigma(9),
-            a.accel_sigma(10),
-            a.accel_sigma(11)
+            a.position_sigma(0),
+            a.position_sigma(1),
+            a.position_sigma(2)
         );
         println!(
             "IMU delay: {:.1} µs ± {:.1} µs   residual rms: gyro {:.2e} rad/s, accelerometer \
-             {:.2e} m/s² ({} entries)",
+             {:.2e} m/s² ({} entries; sigmas count noise and {} mm joints)",
             a.imu_delay_s * 1e6,
             a.gyro_sigma(9) * 1e6,
             a.residual_rms[0],
             a.residual_rms[1],
-            a.entries
+            a.entries,
+            a.joint_tolerance_m * 1e3
         );
     }
     println!("IMU calibration: {}", path.display());

@@ -94,7 +94,7 @@ impl CalibrationFile {
         }
         let a = &file.imu;
         let square = |m: &[Vec<f64>], n: usize| m.len() == n && m.iter().all(|r| r.len() == n);
-        if !square(&a.gyro_covariance, 10) || !square(&a.accel_covariance, 12) {
+        if !square(&a.gyro_covariance, 10) || !square(&a.position_covariance, 3) {
             return Err(format("covariances of the wrong size".into()));
         }
         let finite = a
@@ -104,7 +104,7 @@ impl CalibrationFile {
             .flatten()
             .chain(&a.accelerometer_position_m)
             .chain(a.gyro_covariance.iter().flatten())
-            .chain(a.accel_covariance.iter().flatten())
+            .chain(a.position_covariance.iter().flatten())
             .chain([&a.imu_delay_s])
             .all(|v| v.is_finite());
         if !finite {
@@ -155,7 +155,8 @@ mod tests {
             accelerometer_position_m: [0.1, -0.2, 0.3],
             imu_delay_s: 1.1e-4,
             gyro_covariance: cov(10),
-            accel_covariance: cov(12),
+            position_covariance: cov(3),
+            joint_tolerance_m: 2e-4,
             residual_rms: [1e-4, 1e-3],
             entries: 2000,
         }

@@ -50,8 +50,8 @@ fn truth() -> Truth {
     Truth {
         g: Rotation3::new(Vector3::new(8e-4, -6e-4, 1e-3)).matrix()
             * Matrix3::from_diagonal(&Vector3::new(1.0 + 4e-4, 1.0 - 7e-4, 1.0 + 2e-4)),
-        a: Rotation3::new(Vector3::new(8e-4, -6e-4, 1e-3)).matrix()
-            * Matrix3::from_diagonal(&Vector3::new(1.0 - 3e-4, 1.0 + 5e-4, 1.0 + 6e-4)),
+        // One package: the accelerometer's axes are the gyro's.
+        a: *Rotation3::new(Vector3::new(8e-4, -6e-4, 1e-3)).matrix(),
         r: Vector3::new(0.12, -0.05, 0.03),
         tau: 1.2e-4,
     }
@@ -92,40 +92,40 @@ fn record(truth: &Truth, seconds: f64, gyro_noise: f64, accel_noise: f64, seed: 
         .collect()
 }
 
-fn errors(fit: &ImuAlignment, truth: &Truth) -> ([f64; 10], [f64; 12]) {
+fn errors(fit: &ImuAlignment, truth: &Truth) -> ([f64; 10], [f64; 3]) {
     let g = fit.gyro() - truth.g;
-    let a = fit.accel() - truth.a;
     let r = Vector3::from(fit.accelerometer_position_m) - truth.r;
-    (
-        core::array::from_fn(|k| {
-            if k < 9 {
-                g[(k / 3, k % 3)]
-            } else {
-                fit.imu_delay_s - truth.tau
-            }
-        }),
-        core::array::from_fn(|k| if k < 9 { a[(k / 3, k % 3)] } else { r[k - 9] }),
-    )
+    let gyro = core::array::from_fn(|k| {
+        if k < 9 {
+            g[(k / 3, k % 3)]
+        } else {
+            fit.imu_delay_s - truth.tau
+        }
+    });
+    (gyro, r.into())
+}
+
+fn fitted(entries: &[Entry]) -> ImuAlignment {
+    let g = crate::budget::testkit::geometry();
+    fit(entries, &Vector3::new(0.0, 0.0, -9.81), &g, 0.0).unwrap()
 }
 
 /// Without noise the fit recovers every parameter to the derivatives' truncation error.
 #[test]
 fn recovers_a_known_alignment_from_clean_readings() {
     let t = truth();
-    let fit = fit(
-        &record(&t, 20.0, 0.0, 0.0, 1),
-        &Vector3::new(0.0, 0.0, -9.81),
-    )
-    .unwrap();
-    let (ge, ae) = errors(&fit, &t);
+    let fit = fitted(&record(&t, 20.0, 0.0, 0.0, 1));
+    let (ge, re) = errors(&fit, &t);
     for (k, e) in ge.iter().enumerate().take(9) {
         assert!(e.abs() < 1e-5, "{}: {e:e}", GYRO_PARAMETERS[k]);
     }
     assert!(ge[9].abs() < 2e-6, "tau: {:e}", ge[9]);
-    for (k, e) in ae.iter().enumerate() {
-        assert!(e.abs() < 1e-5, "{}: {e:e}", ACCEL_PARAMETERS[k]);
+    for (k, e) in re.iter().enumerate() {
+        assert!(e.abs() < 1e-5, "r {k}: {e:e}");
     }
+    assert!((fit.accel() - t.a).norm() < 1e-5);
     assert!((fit.gyro_bias_rad_s[1] + 2e-4).abs() < 1e-6);
+    assert!((fit.accel_bias_m_s2[2] - 3e-3).abs() < 1e-5);
 }
 
 /// With white noise of a default IMU averaged over 10 samples, over 12 seeds the errors have
@@ -135,20 +135,20 @@ fn reported_sigmas_cover_the_errors_of_noisy_readings() {
     let t = truth();
     let seeds = 12;
     let mut z2g = [0.0; 10];
-    let mut z2a = [0.0; 12];
+    let mut z2r = [0.0; 3];
     for seed in 0..seeds {
         let entries = record(&t, 20.0, 5e-4, 4e-3, seed);
-        let fit = fit(&entries, &Vector3::new(0.0, 0.0, -9.81)).unwrap();
-        let (ge, ae) = errors(&fit, &t);
+        let fit = fitted(&entries);
+        let (ge, re) = errors(&fit, &t);
         for k in 0..10 {
             let z = ge[k] / fit.gyro_sigma(k);
             assert!(z.abs() < 4.0, "seed {seed} {}: z {z}", GYRO_PARAMETERS[k]);
             z2g[k] += z * z / seeds as f64;
         }
-        for k in 0..12 {
-            let z = ae[k] / fit.accel_sigma(k);
-            assert!(z.abs() < 4.0, "seed {seed} {}: z {z}", ACCEL_PARAMETERS[k]);
-            z2a[k] += z * z / seeds as f64;
+        for k in 0..3 {
+            let z = re[k] / fit.position_sigma(k);
+            assert!(z.abs() < 4.0, "seed {seed} r {k}: z {z}");
+            z2r[k] += z * z / seeds as f64;
         }
     }
     for (k, z2) in z2g.iter().enumerate() {
@@ -158,12 +158,8 @@ fn reported_sigmas_cover_the_errors_of_noisy_readings() {
             GYRO_PARAMETERS[k]
         );
     }
-    for (k, z2) in z2a.iter().enumerate() {
-        assert!(
-            (0.3..2.5).contains(z2),
-            "{}: mean z² {z2}",
-            ACCEL_PARAMETERS[k]
-        );
+    for (k, z2) in z2r.iter().enumerate() {
+        assert!((0.3..2.5).contains(z2), "r {k}: mean z² {z2}");
     }
 }
 
@@ -179,12 +175,38 @@ fn a_plate_at_rest_is_refused_as_unobservable() {
             ..Entry::default()
         })
         .collect();
+    let g = crate::budget::testkit::geometry();
+    let down = Vector3::new(0.0, 0.0, -9.81);
     assert!(matches!(
-        fit(&entries, &Vector3::new(0.0, 0.0, -9.81)),
+        fit(&entries, &down, &g, 2e-4),
         Err(AlignmentError::Unobservable { .. })
     ));
     assert!(matches!(
-        fit(&entries[..50], &Vector3::new(0.0, 0.0, -9.81)),
+        fit(&entries[..50], &down, &g, 2e-4),
         Err(AlignmentError::TooShort { .. })
     ));
+}
+
+/// The joints' tolerance counts in the covariance: on the platform of the budget's tests,
+/// moving through its workspace, 0.2 mm joints widen every sigma, and a zero tolerance adds
+/// nothing.
+#[test]
+fn the_joints_tolerance_widens_the_sigmas() {
+    let g = crate::budget::testkit::geometry();
+    let home = g.home_pose();
+    let t = truth();
+    let mut entries = record(&t, 20.0, 5e-4, 4e-3, 3);
+    for e in &mut entries {
+        e.position_m += home.position_m - Vector3::new(0.0, 0.0, 1.2);
+    }
+    let down = Vector3::new(0.0, 0.0, -9.81);
+    let none = fit(&entries, &down, &g, 0.0).unwrap();
+    let some = fit(&entries, &down, &g, 2e-4).unwrap();
+    for (k, name) in GYRO_PARAMETERS.iter().enumerate() {
+        assert!(some.gyro_sigma(k) >= none.gyro_sigma(k), "{name}");
+    }
+    for k in 0..3 {
+        assert!(some.position_sigma(k) > none.position_sigma(k), "r {k}");
+    }
+    assert_eq!(some.gyro_matrix, none.gyro_matrix);
 }
