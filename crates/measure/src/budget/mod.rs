@@ -57,6 +57,9 @@ pub struct Figures {
     /// Whether the estimator compensates the legs (`estimator.compensate_legs`): the budget
     /// then counts the `[legs]` tolerances, else the legs' whole effect.
     pub legs_compensated: bool,
+    /// The IMU calibration applied (`[calibration] imu`): the IMU's lines then count its
+    /// uncertainty instead of the datasheet's figures.
+    pub imu: Option<perturb::CalibratedImu>,
 }
 
 impl Figures {
@@ -67,6 +70,10 @@ impl Figures {
             joint_tolerance_m: config.platform.joint_position_tolerance_m,
             legs: config.legs,
             legs_compensated: crate::setup::leg_model(config).is_some(),
+            imu: config
+                .calibration
+                .imu_alignment()
+                .map(perturb::CalibratedImu::of),
         }
     }
 }
@@ -244,7 +251,7 @@ pub fn analyse(
     };
     let Some(fit) = fitted else {
         for source in ErrorSource::ALL {
-            let n = perturb::scalars(source).len();
+            let n = perturb::scalars(source, figures).len();
             if n == 0 {
                 continue;
             }
@@ -260,13 +267,14 @@ pub fn analyse(
         legs: &described,
         described: &figures.legs,
         motions: &motions,
+        imu: figures.imu.as_ref(),
         rest_gravity_m_s2: (exact.accel_offset_measured && config.local_gravity_m_s2 > 0.0)
             .then_some(config.local_gravity_m_s2),
     };
     let rows = rigid::subset(&fit);
     let mut modes = Vec::new();
     for source in ErrorSource::ALL {
-        let scalars = perturb::scalars(source);
+        let scalars = perturb::scalars(source, figures);
         if scalars.is_empty() {
             continue;
         }

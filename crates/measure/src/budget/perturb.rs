@@ -40,8 +40,13 @@ pub enum Scalar {
     AccelScale(usize),
     /// The accelerometer's position off along P's axis, `position_tolerance_m`.
     LeverArm(usize),
-    /// The IMU's channels late by `imu_skew_s`.
+    /// The IMU's channels late by `imu_skew_s` (or by the calibrated delay's sigma).
     TimeSkew,
+    /// One principal direction of a calibrated gyro matrix's covariance
+    /// ([`CalibratedImu::gyro_modes`]), turning the accelerometer by its rotation too.
+    GyroMode(usize),
+    /// One principal direction of a calibrated accelerometer position's covariance.
+    LeverArmMode(usize),
     /// A joint coordinate off the drawing: plate joint (else base), leg, coordinate;
     /// `joint_position_tolerance_m`.
     Joint(bool, usize, usize),
@@ -63,10 +68,11 @@ impl Scalar {
             Scalar::Offset(_) | Scalar::Drift(_) => ErrorSource::LoadCellOffset,
             Scalar::Gain(_) => ErrorSource::LoadCellScale,
             Scalar::Crosstalk(..) => ErrorSource::LoadCellCrosstalk,
-            Scalar::Misalignment(_) | Scalar::GyroScale(_) | Scalar::AccelScale(_) => {
-                ErrorSource::ImuMisalignment
-            }
-            Scalar::LeverArm(_) => ErrorSource::ImuLeverArm,
+            Scalar::Misalignment(_)
+            | Scalar::GyroScale(_)
+            | Scalar::AccelScale(_)
+            | Scalar::GyroMode(_) => ErrorSource::ImuMisalignment,
+            Scalar::LeverArm(_) | Scalar::LeverArmMode(_) => ErrorSource::ImuLeverArm,
             Scalar::TimeSkew => ErrorSource::TimeSkew,
             Scalar::Joint(..) => ErrorSource::Geometry,
             Scalar::LegDynamics => ErrorSource::LegDynamics,
@@ -88,6 +94,8 @@ impl Scalar {
                 | Scalar::AccelScale(_)
                 | Scalar::LeverArm(_)
                 | Scalar::TimeSkew
+                | Scalar::GyroMode(_)
+                | Scalar::LeverArmMode(_)
         )
     }
 
@@ -104,7 +112,17 @@ impl Scalar {
             Scalar::GyroScale(_) => s.gyro.scale_error,
             Scalar::AccelScale(_) => s.accelerometer.scale_error,
             Scalar::LeverArm(_) => s.imu.position_tolerance_m,
-            Scalar::TimeSkew => s.timing.imu_skew_s,
+            Scalar::TimeSkew => f.imu.as_ref().map_or(s.timing.imu_skew_s, |c| c.delay_sigma_s),
+            Scalar::GyroMode(k) => f
+                .imu
+                .as_ref()
+                .and_then(|c| c.gyro_modes.get(*k))
+                .map_or(0.0, |m| m.0),
+            Scalar::LeverArmMode(k) => f
+                .imu
+                .as_ref()
+                .and_then(|c| c.lever_modes.get(*k))
+                .map_or(0.0, |m| m.0),
             Scalar::Joint(..) => f.joint_tolerance_m,
             Scalar::LegDynamics | Scalar::JointFriction => {
                 if f.legs_compensated {
@@ -124,11 +142,19 @@ impl Scalar {
     }
 }
 
-/// Every scalar of `source`, in a fixed order (empty for the statistical sources).
-pub fn scalars(source: ErrorSource) -> Vec<Scalar> {
+/// Every scalar of `source`, in a fixed order for given figures (empty for the statistical
+/// sources): with a calibrated IMU, its gyro's nine principal errors and the accelerometer's
+/// three datasheet scales, and its position's three principal errors.
+pub fn scalars(source: ErrorSource, figures: &super::Figures) -> Vec<Scalar> {
     let axes = 0..3;
     let legs = 0..6;
+    let calibrated = figures.imu.is_some();
     match source {
+        ErrorSource::ImuMisalignment if calibrated => (0..9)
+            .map(Scalar::GyroMode)
+            .chain(axes.map(Scalar::AccelScale))
+            .collect(),
+        ErrorSource::ImuLeverArm if calibrated => (0..3).map(Scalar::LeverArmMode).collect(),
         ErrorSource::AccelBias => axes.map(Scalar::AccelBias).collect(),
         ErrorSource::LoadCellOffset => legs
             .clone()
@@ -165,6 +191,52 @@ pub fn scalars(source: ErrorSource) -> Vec<Scalar> {
     }
 }
 
+/// A calibrated IMU's uncertainty as the budget applies it: the principal directions of its
+/// covariances, each with its sigma (√ of the eigenvalue).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CalibratedImu {
+    /// δG of unit size (Frobenius) along each eigenvector of G's 9 × 9 covariance, and its
+    /// sigma.
+    pub gyro_modes: Vec<(f64, Matrix3<f64>)>,
+    /// Unit δr along each eigenvector of r's covariance, and its sigma (m).
+    pub lever_modes: Vec<(f64, Vector3<f64>)>,
+    /// One sigma of the calibrated delay, s.
+    pub delay_sigma_s: f64,
+}
+
+impl CalibratedImu {
+    /// The modes of `alignment`'s covariances.
+    pub fn of(alignment: &crate::calibration::ImuAlignment) -> Self {
+        let gyro = alignment.gyro_covariance_matrix();
+        let g9 = gyro.view((0, 0), (9, 9)).into_owned();
+        let eig = g9.symmetric_eigen();
+        let gyro_modes = (0..9)
+            .map(|k| {
+                let v = eig.eigenvectors.column(k);
+                (
+                    eig.eigenvalues[k].max(0.0).sqrt(),
+                    Matrix3::from_fn(|i, j| v[3 * i + j]),
+                )
+            })
+            .collect();
+        let eig = alignment.position_covariance_matrix().symmetric_eigen();
+        let lever_modes = (0..3)
+            .map(|k| {
+                let v = eig.eigenvectors.column(k);
+                (
+                    eig.eigenvalues[k].max(0.0).sqrt(),
+                    Vector3::new(v[0], v[1], v[2]),
+                )
+            })
+            .collect();
+        Self {
+            gyro_modes,
+            lever_modes,
+            delay_sigma_s: alignment.gyro_sigma(9),
+        }
+    }
+}
+
 /// What the perturbations read besides the scalar: the base data and fit, the legs' model.
 pub struct Context<'a> {
     /// The record's data.
@@ -177,6 +249,8 @@ pub struct Context<'a> {
     pub described: &'a crate::config::LegsConfig,
     /// The plate's motion at each entry ([`leg_model::motions`]).
     pub motions: &'a [Option<PlateMotion>],
+    /// The calibrated IMU, when one is applied.
+    pub imu: Option<&'a CalibratedImu>,
     /// Gravity, m/s², when the run measured the accelerometer's vertical offset at rest
     /// ([`estimator::hold`]): that measurement takes up the static part of an accelerometer
     /// error along z as well, so the error's effect is what is left of it in motion.
@@ -294,6 +368,21 @@ impl Scalar {
                 })
             }
             Scalar::LeverArm(axis) => with_data(&|d| d.model.lever_m[axis] += sigma),
+            Scalar::GyroMode(k) => {
+                let Some((_, dir)) = ctx.imu.and_then(|c| c.gyro_modes.get(k)) else {
+                    return vec![Vector6::zeros(); fit.idx.len()];
+                };
+                // The gyro's matrix off by σ·dir; the accelerometer turned by its rotation.
+                let m = Matrix3::identity() + dir * sigma;
+                let n = crate::calibration::imu::rotation_of(&m);
+                with_data(&|d| transform_imu_after_rest(d, &m, &n, ctx.rest_gravity_m_s2))
+            }
+            Scalar::LeverArmMode(k) => {
+                let Some((_, dir)) = ctx.imu.and_then(|c| c.lever_modes.get(k)) else {
+                    return vec![Vector6::zeros(); fit.idx.len()];
+                };
+                with_data(&|d| d.model.lever_m += dir * sigma)
+            }
             Scalar::TimeSkew => with_data(&|d| skew(d, fit.h, sigma)),
         }
     }

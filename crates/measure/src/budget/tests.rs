@@ -48,6 +48,7 @@ fn effect(
         legs: &legs,
         described: l,
         motions: &motions,
+        imu: None,
         rest_gravity_m_s2: None,
     };
     fit.effect(&scalar.residual_change(&ctx, sigma))
@@ -321,6 +322,7 @@ fn the_fits_bias_effect_matches_the_estimators_sensitivity() {
         legs: &legs,
         described: &described,
         motions: &motions,
+        imu: None,
         rest_gravity_m_s2: None,
     };
     for axis in 0..3 {
@@ -432,7 +434,7 @@ fn every_systematic_source_has_an_effect() {
     let synth = Synth::default();
     let b = run_budget(&g, &synth, &synth.samples(&g, |_, _, _| {}), &f);
     for source in crate::sources::ErrorSource::ALL {
-        let n = perturb::scalars(source).len();
+        let n = perturb::scalars(source, &f).len();
         let e = b.effects_of(source);
         assert_eq!(e.len(), n, "{source}");
         if n > 0 {
