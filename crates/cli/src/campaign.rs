@@ -198,6 +198,9 @@ fn one_run(
     };
     let outcome = simulate::simulate(&run_args, interrupt);
     let _ = std::fs::remove_file(&log);
+    let (pass_log, pass_file) = simulate::calibration_pass_paths(&log);
+    let _ = std::fs::remove_file(pass_log);
+    let _ = std::fs::remove_file(pass_file);
     let outcome = outcome.map_err(|e| e.to_string())?;
     match (outcome.end, outcome.report) {
         // The rules a single run's table obeys: a run that measured nothing trustworthy is a

@@ -133,6 +133,80 @@ fn body_truth(b: &sim::scenario::BodyConfig) -> BodyTruth {
     }
 }
 
+/// What the calibration pass of `[calibration] measure_imu` gave.
+enum Pass {
+    /// The calibration file written, and its contents.
+    Calibrated(PathBuf, Box<measure::calibration::CalibrationFile>),
+    /// It could not be fitted (said on standard error): the measurement goes on with the IMU
+    /// as described.
+    Skipped,
+    /// It was interrupted or faulted: the command ends with this outcome.
+    Ended(Box<SimulateOutcome>),
+}
+
+/// The log and calibration file of the calibration pass beside the measurement's log `log`:
+/// `NAME.imu.mcap` and `NAME.imu.toml`.
+pub fn calibration_pass_paths(log: &std::path::Path) -> (PathBuf, PathBuf) {
+    (
+        log.with_extension("imu.mcap"),
+        log.with_extension("imu.toml"),
+    )
+}
+
+/// `[calibration] measure_imu`: before the measurement, the empty fixture moves once through
+/// the tare run's excitation and the IMU's alignment is fitted ([`simulate`] with
+/// `--calibrate-imu`), on the same simulated world; its log and file go beside the
+/// measurement's log.
+fn calibration_pass(
+    args: &SimulateArgs,
+    log: &std::path::Path,
+    interrupt: &AtomicBool,
+) -> Result<Pass, CommandError> {
+    let (pass_log, file) = calibration_pass_paths(log);
+    let pass_args = SimulateArgs {
+        calibrate_imu: Some(file.clone()),
+        measure: MeasureArgs {
+            shared: crate::common::SharedArgs {
+                log: Some(pass_log),
+                quiet: true,
+                live: None,
+                plot: None,
+                ..args.measure.shared.clone()
+            },
+            tare: None,
+            save_tare: None,
+            report: None,
+            html: None,
+            budget: false,
+            ..args.measure.clone()
+        },
+        ..args.clone()
+    };
+    if !args.measure.shared.quiet {
+        println!("IMU calibration on the empty fixture (calibration.measure_imu) …");
+    }
+    match simulate(&pass_args, interrupt) {
+        Ok(outcome) => match (outcome.end.clone(), outcome.calibration.clone()) {
+            (End::Completed, Some(c)) => {
+                if !args.measure.shared.quiet {
+                    common::print_imu_calibration(&c, &file, false);
+                }
+                Ok(Pass::Calibrated(file, Box::new(c)))
+            }
+            (End::Completed, None) => Ok(Pass::Skipped),
+            _ => Ok(Pass::Ended(Box::new(outcome))),
+        },
+        Err(CommandError::Run(e)) => {
+            eprintln!(
+                "warning: the IMU calibration pass failed ({e:#}); measuring with the IMU as \
+                 [sensors.imu] describes it"
+            );
+            Ok(Pass::Skipped)
+        }
+        Err(e) => Err(e),
+    }
+}
+
 /// Runs `stewart simulate` with `args`. `interrupt` is the Ctrl-C flag: when it is set the
 /// platform parks, the log is finished and the outcome says [`End::Interrupted`].
 pub fn simulate(
@@ -145,6 +219,22 @@ pub fn simulate(
         // The calibration fits the raw readings: nothing of an older calibration applied.
         scenario.loaded.config.calibration.imu = None;
         scenario.loaded.config.calibration.imu_file = None;
+    }
+    // The calibration pass's log and file are named after the measurement's log.
+    let mut log_path = None;
+    if args.calibrate_imu.is_none() && scenario.loaded.config.calibration.measure_imu {
+        let log = common::log_path(&args.measure, runlog::run_log::unix_now_ns());
+        let pass = calibration_pass(args, &log, interrupt)?;
+        log_path = Some(log);
+        match pass {
+            Pass::Calibrated(path, file) => {
+                let c = &mut scenario.loaded.config.calibration;
+                c.imu = Some(path.display().to_string());
+                c.imu_file = Some(*file);
+            }
+            Pass::Skipped => {}
+            Pass::Ended(outcome) => return Ok(*outcome),
+        }
     }
     let scenario = scenario;
     let loaded = &scenario.loaded;
@@ -166,7 +256,7 @@ pub fn simulate(
     };
 
     let start_ns = runlog::run_log::unix_now_ns();
-    let log_path = common::log_path(&args.measure, start_ns);
+    let log_path = log_path.unwrap_or_else(|| common::log_path(&args.measure, start_ns));
     // The live view's address is bound before the log exists: a refused one leaves no log.
     // Watched live, the simulation keeps to the wall clock.
     let live = runlog::live::serve(args.measure.shared.live, runlog::live::Pace::WallClock)
@@ -208,6 +298,7 @@ pub fn simulate(
                 base_joints_m: base_joints,
                 plate_joints_m: plate_joints,
                 stroke_m: [stroke.min_length_m, stroke.max_length_m],
+                imu_calibration_toml: config.calibration.imu_file.as_ref().map(|f| f.to_toml()),
             },
         )
         .and_then(|()| {

@@ -62,6 +62,11 @@ pub struct CalibrationConfig {
     /// description's directory; omitted: the IMU as `[sensors.imu]` describes it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub imu: Option<String>,
+    /// Calibrate the IMU at the start of every measurement instead: the empty fixture moves
+    /// once through the tare run's excitation first (`stewart simulate`; docs/calibration.md).
+    /// Excludes `imu`.
+    #[serde(default)]
+    pub measure_imu: bool,
     /// A measurement warns when a calibration it applies is older than this, days.
     #[serde(default = "default_max_age_days")]
     pub max_age_days: f64,
@@ -78,6 +83,7 @@ impl Default for CalibrationConfig {
     fn default() -> Self {
         Self {
             imu: None,
+            measure_imu: false,
             max_age_days: default_max_age_days(),
             imu_file: None,
         }

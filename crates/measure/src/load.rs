@@ -303,6 +303,34 @@ pub fn load_str(text: &str, source: &str) -> Result<LoadedConfig, ConfigError> {
     })
 }
 
+/// A rig description as a run log recorded it ([`LoadedConfig::effective_toml`]), named
+/// `source`, with the IMU calibration the run applied given as the file's contents (`imu`)
+/// instead of the path or the calibration pass the description names: a log is re-estimated
+/// with what the run applied, wherever it is read.
+pub fn load_recorded(
+    text: &str,
+    source: &str,
+    imu: Option<crate::calibration::CalibrationFile>,
+) -> Result<LoadedConfig, ConfigError> {
+    // Text that is not TOML goes to `load_str` as it is, which says where it is not.
+    let stripped = match text.parse::<toml::Table>() {
+        Ok(mut table) => {
+            if let Some(toml::Value::Table(c)) = table.get_mut("calibration") {
+                c.remove("imu");
+                c.remove("measure_imu");
+            }
+            toml::to_string(&table).unwrap_or_else(|_| text.to_string())
+        }
+        Err(_) => text.to_string(),
+    };
+    let mut loaded = load_str(&stripped, source)?;
+    if let Some(file) = imu {
+        loaded.config.calibration.imu = Some("<IMU calibration in the log>".into());
+        loaded.config.calibration.imu_file = Some(file);
+    }
+    Ok(loaded)
+}
+
 /// Reads the calibration files `config` references, relative to `source`'s directory; a file
 /// that cannot be used is refused at its key.
 fn read_calibrations(config: &mut Config, text: &str, source: &str) -> Result<(), ConfigError> {

@@ -45,6 +45,10 @@ pub struct RunMetadata {
     pub plate_joints_m: [[f64; 3]; 6],
     /// Shortest and longest leg, m.
     pub stroke_m: [f64; 2],
+    /// The IMU calibration the measurement applied, as its file's TOML (`null`: none), so that
+    /// `stewart estimate` re-runs it without the file.
+    #[serde(default)]
+    pub imu_calibration_toml: Option<String>,
 }
 
 fn joints(d: &'static str) -> Schema {
@@ -90,6 +94,10 @@ impl RunMetadata {
                 ("base_joints_m", joints("base joints in B, m")),
                 ("plate_joints_m", joints("plate joints in P, m")),
                 ("stroke_m", numbers(2, "shortest and longest leg, m")),
+                (
+                    "imu_calibration_toml",
+                    nullable(string("the IMU calibration applied, as its file's TOML")),
+                ),
             ],
             "What was run, with the configuration needed to run it again",
         )

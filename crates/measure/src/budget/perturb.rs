@@ -112,7 +112,10 @@ impl Scalar {
             Scalar::GyroScale(_) => s.gyro.scale_error,
             Scalar::AccelScale(_) => s.accelerometer.scale_error,
             Scalar::LeverArm(_) => s.imu.position_tolerance_m,
-            Scalar::TimeSkew => f.imu.as_ref().map_or(s.timing.imu_skew_s, |c| c.delay_sigma_s),
+            Scalar::TimeSkew => f
+                .imu
+                .as_ref()
+                .map_or(s.timing.imu_skew_s, |c| c.delay_sigma_s),
             Scalar::GyroMode(k) => f
                 .imu
                 .as_ref()

@@ -81,11 +81,27 @@ impl CalibrationFile {
             path: name.clone(),
             source,
         })?;
+        Self::parse(&text, &name)
+    }
+
+    /// The file's text as TOML (what [`Self::write`] writes, and a run log carries).
+    pub fn to_toml(&self) -> String {
+        format!(
+            "# IMU alignment fitted by `{}` from the platform's forward kinematics; see \
+             docs/calibration.md.\n{}",
+            self.tool,
+            toml::to_string(self).unwrap_or_default()
+        )
+    }
+
+    /// Parses and checks a calibration file's `text`, named `name` in messages.
+    pub fn parse(text: &str, name: &str) -> Result<Self, CalibrationFileError> {
+        let name = name.to_string();
         let format = |problem: String| CalibrationFileError::Format {
             path: name.clone(),
             problem,
         };
-        let file: Self = toml::from_str(&text).map_err(|e| format(e.message().to_string()))?;
+        let file: Self = toml::from_str(text).map_err(|e| format(e.message().to_string()))?;
         if file.format != FORMAT {
             return Err(format(format!(
                 "format {:?}, expected {FORMAT:?}",
@@ -118,13 +134,7 @@ impl CalibrationFile {
 
     /// Writes the file (TOML) to `path`.
     pub fn write(&self, path: &Path) -> anyhow::Result<()> {
-        let text = format!(
-            "# IMU alignment fitted by `{}` from the platform's forward kinematics; see \
-             docs/calibration.md.\n{}",
-            self.tool,
-            toml::to_string(self)?
-        );
-        std::fs::write(path, text).map_err(|e| {
+        std::fs::write(path, self.to_toml()).map_err(|e| {
             anyhow::anyhow!("cannot write the calibration file {}: {e}", path.display())
         })
     }

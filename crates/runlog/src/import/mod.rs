@@ -196,6 +196,7 @@ fn metadata(
         base_joints_m,
         plate_joints_m,
         stroke_m: [stroke.min_length_m, stroke.max_length_m],
+        imu_calibration_toml: None,
     }
 }
 

@@ -72,12 +72,21 @@ pub fn rig_description_of(meta: &RunMetadata, rig: Option<&LoadedConfig>) -> Res
     if let Some(r) = rig {
         return Ok(r.clone());
     }
-    measure::load::load_str(&meta.config_toml, "<rig description in the log>").map_err(|e| {
-        anyhow!(
-            "the log's rig description is refused (a log of an older version? give the rig \
-             description with --rig FILE): {e}"
-        )
-    })
+    let imu = meta
+        .imu_calibration_toml
+        .as_deref()
+        .map(|t| measure::calibration::CalibrationFile::parse(t, "the log's IMU calibration"))
+        .transpose()
+        .map_err(|e| anyhow!("{e}"))?;
+    let loaded =
+        measure::load::load_recorded(&meta.config_toml, "<rig description in the log>", imu)
+            .map_err(|e| {
+                anyhow!(
+                "the log's rig description is refused (a log of an older version? give the rig \
+                 description with --rig FILE): {e}"
+            )
+            })?;
+    Ok(loaded)
 }
 
 /// The parameter set of `params` for `run`, from the rig description: with 6, the known mass
