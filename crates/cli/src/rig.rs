@@ -100,6 +100,11 @@ pub enum RigMode {
     Tare(RigTareArgs),
     /// Measure the payload, subtracting a saved tare (`--tare FILE`, required).
     Measure(RigMeasureArgs),
+    /// Calibrate the IMU: the empty fixture moves through the tare run's excitation and the
+    /// IMU's alignment against the forward kinematics (axes, gyro scales, the accelerometer's
+    /// position, the delay) is fitted and written with its uncertainty to `--out FILE`, which
+    /// `[calibration] imu = "FILE"` in the rig description then applies (docs/calibration.md).
+    CalibrateImu(RigTareArgs),
 }
 
 /// `stewart rig tare`: only the flags that act on a tare run.
@@ -162,6 +167,8 @@ pub enum Plan {
     Both,
     /// Tare run only, saved to the path.
     TareOnly(PathBuf),
+    /// The empty fixture's run, fitted as the IMU calibration written to the path.
+    CalibrateImu(PathBuf),
     /// Loaded run with the saved tare of `--tare`.
     MeasureOnly,
 }
@@ -173,6 +180,16 @@ pub fn resolve(args: &RigArgs) -> Result<(Plan, RigRunArgs), CommandError> {
         None => (Plan::Both, args.common.clone()),
         Some(RigMode::Tare(t)) => (
             Plan::TareOnly(t.out.clone()),
+            RigRunArgs {
+                link: t.link.clone(),
+                run: MeasureArgs {
+                    shared: t.shared.clone(),
+                    ..MeasureArgs::default()
+                },
+            },
+        ),
+        Some(RigMode::CalibrateImu(t)) => (
+            Plan::CalibrateImu(t.out.clone()),
             RigRunArgs {
                 link: t.link.clone(),
                 run: MeasureArgs {
@@ -329,7 +346,20 @@ pub fn rig_with_abort(
 ) -> Result<RigOutcome, CommandError> {
     let (plan, common) = resolve(args)?;
     let common = &common;
-    let loaded = common.run.load_config()?;
+    let mut loaded = common.run.load_config()?;
+    let calibrating = matches!(plan, Plan::CalibrateImu(_));
+    if calibrating {
+        // The calibration fits the raw readings: nothing of an older calibration applied.
+        loaded.config.calibration.imu = None;
+        loaded.config.calibration.imu_file = None;
+    } else if loaded.config.calibration.calibrates_imu_each_run() && !common.run.shared.quiet {
+        eprintln!(
+            "note: calibration.measure_imu calibrates the IMU in `stewart simulate` only; on a \
+             rig, run `stewart rig calibrate-imu --out FILE` once and set calibration.imu = \
+             \"FILE\" (the budget counts the IMU's datasheet figures until then)"
+        );
+    }
+    let loaded = loaded;
     let config = &loaded.config;
     crate::common::warn_old_calibrations(config);
     let link = link_settings(&loaded, &common.link)?;
@@ -399,6 +429,7 @@ pub fn rig_with_abort(
     );
     let save_tare = match &plan {
         Plan::TareOnly(out) => Some(out.as_path()),
+        Plan::CalibrateImu(_) => None,
         _ => common.run.save_tare.as_deref(),
     };
     let mut progress = Progress::new(total, common.run.shared.quiet);
@@ -442,6 +473,16 @@ pub fn rig_with_abort(
     }
     let outcome = result.map_err(CommandError::Run)?;
     finished.map_err(CommandError::Run)?;
+    let calibration = match &plan {
+        Plan::CalibrateImu(path) if outcome.end == measure::End::Completed => {
+            let file =
+                crate::common::imu_calibration(&outcome, &loaded, "rig", start_ns, &log_path)
+                    .map_err(CommandError::Run)?;
+            file.write(path).map_err(CommandError::Run)?;
+            Some(file)
+        }
+        _ => None,
+    };
     let (info, link_total) = rig_link.close();
     let report = outcome.report(
         config,
@@ -464,6 +505,7 @@ pub fn rig_with_abort(
         failure,
         rig: info,
         link_total,
+        calibration,
     })
 }
 

@@ -62,9 +62,9 @@ pub struct CalibrationConfig {
     /// description's directory; omitted: the IMU as `[sensors.imu]` describes it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub imu: Option<String>,
-    /// Calibrate the IMU at the start of every measurement instead: the empty fixture moves
-    /// once through the tare run's excitation first (`stewart simulate`; docs/calibration.md).
-    /// Excludes `imu`.
+    /// Without an `imu` file: calibrate the IMU at the start of every measurement, the empty
+    /// fixture moving once through the tare run's excitation first (`stewart simulate`;
+    /// docs/calibration.md). A file named in `imu` is applied instead.
     #[serde(default)]
     pub measure_imu: bool,
     /// A measurement warns when a calibration it applies is older than this, days.
@@ -91,6 +91,12 @@ impl Default for CalibrationConfig {
 }
 
 impl CalibrationConfig {
+    /// Whether the IMU is calibrated at the start of every measurement (`measure_imu` and no
+    /// `imu` file).
+    pub fn calibrates_imu_each_run(&self) -> bool {
+        self.measure_imu && self.imu.is_none()
+    }
+
     /// The IMU alignment applied, if any.
     pub fn imu_alignment(&self) -> Option<&crate::calibration::ImuAlignment> {
         self.imu_file.as_ref().map(|f| &f.imu)

@@ -60,13 +60,6 @@ impl Problems {
 pub fn validate(config: &Config) -> Vec<(String, String)> {
     let mut p = Problems::default();
     p.positive("calibration.max_age_days", config.calibration.max_age_days);
-    if config.calibration.measure_imu && config.calibration.imu.is_some() {
-        p.push(
-            "calibration.measure_imu",
-            "calibrates the IMU at every measurement, so it excludes a calibration file \
-             (calibration.imu): keep one of the two",
-        );
-    }
 
     let pl = &config.platform;
     p.positive("platform.base_radius_m", pl.base_radius_m);

@@ -46,6 +46,8 @@ pub struct RigOutcome {
     /// unlike [`link`](Self::link) (each measurement's window) they include the brake
     /// heartbeats sent between measurements and while the log is finished.
     pub link_total: rig::LinkStats,
+    /// The IMU calibration written (`rig calibrate-imu`).
+    pub calibration: Option<measure::calibration::CalibrationFile>,
 }
 
 impl RigOutcome {
@@ -121,6 +123,10 @@ pub fn finish(args: &RigArgs, outcome: &RigOutcome) -> u8 {
         .map(|s| format!(" (noticed {:.1} ms after the last valid frame)", s * 1e3))
         .unwrap_or_default();
     let code = crate::common::end_code(&outcome.end, &noticed);
+    if let (super::Plan::CalibrateImu(path), Some(file)) = (&plan, &outcome.calibration) {
+        crate::common::print_imu_calibration(file, path, run_args.shared.quiet);
+        return code;
+    }
     if let Some(tare) = &outcome.tare {
         if !run_args.shared.quiet {
             let m = tare.theta[0];
