@@ -708,21 +708,21 @@ mod tests {
 
     #[test]
     fn a_message_in_the_wrong_encoding_is_refused() {
-        use crate::messages::{self as topics, CommandMsg, SensorMsg};
+        use crate::compact::{CommandBlock, SensorBlock};
+        use crate::messages as topics;
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("x.mcap");
         let specs = crate::messages::channels();
         let mut log = McapLog::create(&path, &specs).unwrap();
-        let frame = control::io::SensorFrame::default();
-        let sensor = SensorMsg::new("tare", &frame);
+        let sensor = SensorBlock::new("tare");
         let err = log.write(topics::SENSORS, 0, &sensor).unwrap_err();
         assert!(format!("{err}").contains("is protobuf, not json"), "{err}");
         let err = log.write_proto(topics::METADATA, 0, &sensor).unwrap_err();
         assert!(format!("{err}").contains("is json, not protobuf"), "{err}");
-        let command = CommandMsg::new("tare", 0.0, &control::io::CommandFrame::default());
+        let command = CommandBlock::new("tare");
         let err = log.write_proto(topics::SENSORS, 0, &command).unwrap_err();
         assert!(
-            format!("{err}").contains("carries stewart.SensorFrame"),
+            format!("{err}").contains("carries stewart.SensorBlock"),
             "{err}"
         );
         log.write_proto(topics::SENSORS, 0, &sensor).unwrap();
