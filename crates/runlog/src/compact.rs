@@ -195,6 +195,17 @@ impl SensorBlock {
         }
     }
 
+    /// The block of `frames` of measurement `run`, ready to write.
+    pub fn of_frames(run: &'static str, frames: &[SensorFrame]) -> Self {
+        let mut b = Self::new(run);
+        let mut last = SensorCounts::default();
+        for f in frames {
+            b.push(f, &mut last);
+        }
+        b.finish();
+        b
+    }
+
     /// Frames held.
     pub fn len(&self) -> usize {
         self.status.len()

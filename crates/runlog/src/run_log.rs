@@ -36,11 +36,11 @@ pub struct RunLog {
     commands: Block<CommandBlock, CommandCounts>,
 }
 
-/// A block of the 1 kHz channels being filled, with the log time of its first frame.
+/// A block of the 1 kHz channels being filled, with the log time of its latest frame.
 struct Block<B, C> {
     block: B,
     last: C,
-    first_ns: u64,
+    last_ns: u64,
 }
 
 impl RunLog {
@@ -61,12 +61,12 @@ impl RunLog {
             sensors: Block {
                 block: SensorBlock::new(""),
                 last: SensorCounts::default(),
-                first_ns: 0,
+                last_ns: 0,
             },
             commands: Block {
                 block: CommandBlock::new(""),
                 last: CommandCounts::default(),
-                first_ns: 0,
+                last_ns: 0,
             },
         })
     }
@@ -155,16 +155,14 @@ impl RunLog {
     /// Logs sensor frame `f` of measurement `run` on `/sensors`, in blocks of [`BLOCK_FRAMES`]
     /// frames of one measurement ([`crate::compact`]); a block is written when full, when the
     /// measurement changes, and by [`Self::flush`] and [`Self::finish`]. Its log time is its
-    /// first frame's.
+    /// last frame's, the moment it is complete, so log times never decrease in the file (its
+    /// first frame's time is in the block, `time_ns[0]`).
     pub fn write_sensor(&mut self, run: &'static str, f: &control::io::SensorFrame) -> Result<()> {
         if self.sensors.block.run != run {
             self.flush_sensors()?;
             self.sensors.block.clear(run);
         }
-        let ns = self.time_ns(f.time_s);
-        if self.sensors.block.is_empty() {
-            self.sensors.first_ns = ns;
-        }
+        self.sensors.last_ns = self.time_ns(f.time_s);
         self.sensors.block.push(f, &mut self.sensors.last);
         if self.sensors.block.len() >= BLOCK_FRAMES {
             self.flush_sensors()?;
@@ -184,10 +182,7 @@ impl RunLog {
             self.flush_commands()?;
             self.commands.block.clear(run);
         }
-        let ns = self.time_ns(time_s);
-        if self.commands.block.is_empty() {
-            self.commands.first_ns = ns;
-        }
+        self.commands.last_ns = self.time_ns(time_s);
         self.commands.block.push(time_s, c, &mut self.commands.last);
         if self.commands.block.len() >= BLOCK_FRAMES {
             self.flush_commands()?;
@@ -201,7 +196,7 @@ impl RunLog {
             return Ok(());
         }
         b.block.finish();
-        let written = self.log.write_proto(topics::SENSORS, b.first_ns, &b.block);
+        let written = self.log.write_proto(topics::SENSORS, b.last_ns, &b.block);
         let run = b.block.run;
         b.block.clear(run);
         written
@@ -213,7 +208,7 @@ impl RunLog {
             return Ok(());
         }
         b.block.finish();
-        let written = self.log.write_proto(topics::COMMANDS, b.first_ns, &b.block);
+        let written = self.log.write_proto(topics::COMMANDS, b.last_ns, &b.block);
         let run = b.block.run;
         b.block.clear(run);
         written

@@ -23,6 +23,13 @@ pub trait Encode {
     fn encode(&self, e: &mut Encoder<'_>);
 }
 
+/// The protobuf encoding of `m`.
+pub fn to_bytes<T: Encode>(m: &T) -> Vec<u8> {
+    let mut buf = Vec::new();
+    m.encode(&mut Encoder::new(&mut buf));
+    buf
+}
+
 /// Appends protobuf fields to a buffer (proto3 wire format: a field at its default value is
 /// left out, except a `double` whose sign or payload bits are set).
 pub struct Encoder<'a> {
