@@ -26,6 +26,10 @@ fn a_one_kilohertz_log_stays_under_ten_megabytes_a_minute() {
     );
     let bytes = std::fs::metadata(&run.log).unwrap().len() as f64;
     let mb_per_min = bytes * 1e-6 / span_min;
+    eprintln!(
+        "{bytes} bytes over {:.1} s of data: {mb_per_min:.2} MB a minute",
+        span_min * 60.0
+    );
     assert!(
         mb_per_min <= MAX_MB_PER_MIN,
         "{mb_per_min:.2} MB a minute ({bytes} bytes over {:.1} s)",
