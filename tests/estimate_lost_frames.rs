@@ -2,6 +2,8 @@
 //! frame taken out says how many sample periods had no frame, that each was bridged, and which
 //! time base placed the samples; its figures stay within their sigmas of the whole log's.
 
+mod support;
+
 use std::process::Command;
 
 fn stewart(args: &[&str]) -> std::process::Output {
@@ -11,25 +13,21 @@ fn stewart(args: &[&str]) -> std::process::Output {
         .expect("the stewart binary runs")
 }
 
-/// Copies the log without every `every`-th `/sensors` message (channels and schemas kept, the
-/// bytes of the messages untouched whatever their encoding); returns how many were dropped.
+/// Copies the log without every `every`-th `/sensors` frame (channels and schemas kept, every
+/// other message's bytes untouched); returns how many were dropped.
 fn drop_sensor_frames(from: &std::path::Path, to: &std::path::Path, every: u64) -> u64 {
-    let bytes = std::fs::read(from).unwrap();
-    let file = std::io::BufWriter::new(std::fs::File::create(to).unwrap());
-    let mut out = mcap::Writer::new(file).unwrap();
     let (mut seen, mut dropped) = (0u64, 0u64);
-    for m in mcap::MessageStream::new(&bytes).unwrap() {
-        let m = m.unwrap();
-        if m.channel.topic == "/sensors" {
-            seen += 1;
-            if seen % every == 0 {
-                dropped += 1;
-                continue;
-            }
-        }
-        out.write(&m).unwrap();
-    }
-    out.finish().unwrap();
+    support::rewrite_sensor_frames(from, to, |frames| {
+        frames
+            .into_iter()
+            .filter(|_| {
+                seen += 1;
+                let drop = seen % every == 0;
+                dropped += u64::from(drop);
+                !drop
+            })
+            .collect()
+    });
     dropped
 }
 

@@ -158,7 +158,7 @@ fn a_simulate_log_reads_back_as_documented() {
             ("/pose", rates::DERIVED_HZ, 1.0),
             ("/legs", rates::DERIVED_HZ, 1.0),
             ("/control/pid", rates::DERIVED_HZ, 1.0),
-            ("/tf", rates::ESTIMATE_HZ, 1.0),
+            ("/tf", rates::TF_HZ, 1.0),
             ("/scene", rates::SCENE_HZ, 0.0),
             ("/estimate", rates::ESTIMATE_HZ, span - excite),
         ] {

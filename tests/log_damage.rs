@@ -134,23 +134,14 @@ fn a_report_from_a_cut_log_carries_the_truncation() {
     assert!(why.contains("ends at byte"), "{why}");
 }
 
-/// Rewrites the log with every `/sensors` leg force NaN (`null` in a JSON log).
+/// Rewrites the log with every `/sensors` leg force NaN.
 fn without_forces(from: &Path, to: &Path) {
-    use prost::Message as _;
-    let bytes = std::fs::read(from).unwrap();
-    let mut out =
-        mcap::Writer::new(std::io::BufWriter::new(std::fs::File::create(to).unwrap())).unwrap();
-    for m in mcap::MessageStream::new(&bytes).unwrap() {
-        let mut m = m.unwrap();
-        if m.channel.topic == "/sensors" {
-            assert_eq!(m.channel.message_encoding, "protobuf");
-            let mut f = runlog::proto::SensorFrame::decode(&m.data[..]).unwrap();
-            f.leg_forces_n = vec![f64::NAN; 6];
-            m.data = f.encode_to_vec().into();
+    support::rewrite_sensor_frames(from, to, |mut frames| {
+        for f in &mut frames {
+            f.leg_forces_n = [f64::NAN; 6];
         }
-        out.write(&m).unwrap();
-    }
-    out.finish().unwrap();
+        frames
+    });
 }
 
 /// The issue: a log whose forces are all non-finite gave exit 0 and a table of NaN.

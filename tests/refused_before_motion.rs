@@ -31,13 +31,12 @@ fn long_legs_that_cannot_hold_the_fixture_are_refused_before_motion() {
     assert!(err.contains("refused before motion"), "{err}");
     assert!(err.contains("control.ki_n_per_m_s"), "names the fix: {err}");
     // The log holds the brake hold only: no leg moved.
-    let log = support::read_log(&dir.path().join("run.mcap"));
-    let sensors = support::on(&log, "/sensors");
+    let sensors = support::sensor_frames(&dir.path().join("run.mcap"));
     assert!(!sensors.is_empty(), "the brake hold was logged");
-    let first = sensors[0]["leg_lengths_m"].as_array().unwrap().clone();
+    let first = sensors[0].leg_lengths_m;
     for s in &sensors {
-        for (leg, l) in s["leg_lengths_m"].as_array().unwrap().iter().enumerate() {
-            let moved = (l.as_f64().unwrap() - first[leg].as_f64().unwrap()).abs();
+        for (leg, l) in s.leg_lengths_m.iter().enumerate() {
+            let moved = (l - first[leg]).abs();
             assert!(moved < 1e-4, "leg {leg} moved {moved} m");
         }
     }

@@ -154,7 +154,7 @@ fn a_rig_measurement_agrees_with_truth_as_well_as_simulate() {
         ]
     );
     assert!(records[3]["fault"].is_null());
-    let sensors = on(&messages, "/sensors");
-    let tare_frames = sensors.iter().filter(|s| s["run"] == "tare").count();
+    let sensors = support::sensor_frames(&log);
+    let tare_frames = sensors.iter().filter(|s| s.run == "tare").count();
     assert!(tare_frames > 5000 && sensors.len() > 2 * 5000);
 }

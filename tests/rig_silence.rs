@@ -82,8 +82,8 @@ fn the_emulator_going_silent_is_a_fault_within_100_ms() {
     // The log: finished, every record readable, the last frame is the last one sent, and the
     // fault is named in /supervisor and /rig/link.
     let messages = read_log(&log);
-    let sensors = on(&messages, "/sensors");
-    let last_sequence = sensors.last().unwrap()["sequence"].as_u64().unwrap();
+    let sensors = support::sensor_frames(&log);
+    let last_sequence = sensors.last().unwrap().sequence;
     assert_eq!(last_sequence, stop_after);
     let supervisor = on(&messages, "/supervisor");
     let last = supervisor.last().unwrap();

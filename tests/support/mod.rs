@@ -322,10 +322,13 @@ fn proto_json(v: &prost_reflect::Value) -> serde_json::Value {
     match v {
         Value::F64(x) if x.is_finite() => json!(x),
         Value::F64(_) => serde_json::Value::Null,
+        // The display channels' `float`.
+        Value::F32(x) if x.is_finite() => json!(f64::from(*x)),
+        Value::F32(_) => serde_json::Value::Null,
         Value::U64(x) => json!(x),
         Value::U32(x) => json!(x),
-        // The Foxglove SDK's descriptors: google.protobuf.Timestamp's seconds and nanos, and
-        // enums (a line's type) by number.
+        // The counts of /sensors and /commands; the Foxglove SDK's descriptors:
+        // google.protobuf.Timestamp's seconds and nanos, and enums (a line's type) by number.
         Value::I64(x) => json!(x),
         Value::I32(x) | Value::EnumNumber(x) => json!(x),
         Value::Bool(x) => json!(x),
@@ -388,6 +391,42 @@ pub fn copy_as_json(from: &Path, to: &Path) {
         log.write(&m.topic, m.log_time, &m.value).unwrap();
     }
     log.finish().unwrap();
+}
+
+/// The `/sensors` frames of the log at `path`, decoded from their blocks, in order.
+pub fn sensor_frames(path: &Path) -> Vec<runlog::read::records::SensorRecord> {
+    runlog::LogContents::read(path).unwrap().sensors
+}
+
+/// Copies the log at `from` to `to` with every `/sensors` block's frames passed through
+/// `edit` (which may drop or change them), every other message's bytes untouched.
+pub fn rewrite_sensor_frames(
+    from: &Path,
+    to: &Path,
+    mut edit: impl FnMut(Vec<control::io::SensorFrame>) -> Vec<control::io::SensorFrame>,
+) {
+    use prost::Message as _;
+    let bytes = std::fs::read(from).unwrap();
+    let file = std::io::BufWriter::new(std::fs::File::create(to).unwrap());
+    let mut out = mcap::Writer::new(file).unwrap();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let mut m = m.unwrap();
+        if m.channel.topic == "/sensors" {
+            let p = runlog::proto::SensorBlock::decode(&m.data[..]).unwrap();
+            let run = match p.run.as_str() {
+                "tare" => "tare",
+                _ => "loaded",
+            };
+            let frames = edit(runlog::compact::sensor_frames(&p).unwrap());
+            if frames.is_empty() {
+                continue;
+            }
+            let block = runlog::compact::SensorBlock::of_frames(run, &frames);
+            m.data = runlog::proto::to_bytes(&block).into();
+        }
+        out.write(&m).unwrap();
+    }
+    out.finish().unwrap();
 }
 
 /// The messages on `topic`.

@@ -6,6 +6,7 @@
 //! goes only into the report's `truth`, the table and `/run/truth`; the estimator sees sensor
 //! frames only, and assumes what the rig description's datasheet says.
 
+use runlog::compact::AtLogResolution;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
@@ -113,7 +114,8 @@ impl Station for SimStation {
         job: Job<'_>,
         observer: &mut O,
     ) -> anyhow::Result<MeasureOutcome> {
-        job.run(&mut self.sim, observer)
+        // Read at the log's resolution: the estimator uses the numbers the log holds.
+        job.run(&mut AtLogResolution(&mut self.sim), observer)
     }
 
     fn load_payload<O: Observer>(&mut self, _: &mut O, _: &AtomicBool) -> anyhow::Result<bool> {

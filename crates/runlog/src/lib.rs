@@ -19,6 +19,7 @@
 
 pub mod channel;
 pub mod clock;
+pub mod compact;
 pub mod foxglove;
 pub mod import;
 pub mod link;

@@ -17,10 +17,11 @@
 //! **Integrity.** Every chunk carries the CRC-32 of its records (`uncompressed_crc`, the mcap
 //! crate's default, checked by [`crate::read`]), so a damaged chunk is recognised and skipped.
 //!
-//! **Compression.** zstd at level 1, single-threaded on the writer thread: on a 60 s default
-//! run's log (88 MB of JSON) it took 0.32 s of CPU for 31.5 MB, against 0.76 s for 33.5 MB with
-//! the mcap crate's default (level 3 on a pool of zstd worker threads), 0.28 s for 55 MB with
-//! lz4 and 0.13 s for 99.5 MB uncompressed (docs/performance.md).
+//! **Compression.** zstd at level 3, single-threaded on the writer thread (a pool of zstd
+//! worker threads cost more CPU than it saved). On the default run's log, whose 1 kHz channels
+//! are compact blocks of counts ([`crate::compact`]), level 3 gives 12.45 MB against 12.77 MB
+//! at level 1 and 12.35 MB at level 6, for no measurable CPU against level 1 and 0.1 s more at
+//! level 6 (docs/performance.md, "The log's size").
 
 use std::collections::HashMap;
 use std::fs::File;
@@ -46,18 +47,20 @@ struct Registered {
     schema_name: &'static str,
 }
 
-/// Target uncompressed chunk size: small enough that a crash loses little (about a sixth of a
-/// second of a 1 kHz run), large enough for zstd to compress JSON well.
-pub const CHUNK_SIZE_BYTES: u64 = 512 * 1024;
+/// Target uncompressed chunk size: about a second of a 1 kHz run's compact log, so that a crash
+/// or a damaged chunk loses about a second; 512 KiB would hold three seconds and save 1 % of
+/// the file.
+pub const CHUNK_SIZE_BYTES: u64 = 160 * 1024;
 
 /// zstd level of the chunks (see the module docs for the measurements behind it).
-pub const ZSTD_LEVEL: u32 = 1;
+pub const ZSTD_LEVEL: u32 = 3;
 
-/// Messages per batch handed to the writer thread: about 25 ms of a 1 kHz run's log (2 700
-/// messages a second).
+/// Messages per batch handed to the writer thread: about 0.1 s of a 1 kHz run's log (about 580
+/// messages a second: `/sensors` and `/commands` ten frames a message). Batches of 16 cost
+/// `simulate` 0.05 s more CPU (1.46 against 1.40 s, median of 5).
 pub const BATCH_MESSAGES: usize = 64;
 
-/// Batches the queue to the writer thread holds: about 6 s of a 1 kHz run's log, a few MB.
+/// Batches the queue to the writer thread holds: about 28 s of a 1 kHz run's log, a few MB.
 pub const QUEUE_BATCHES: usize = 256;
 
 /// What [`McapLog::write`] does when the writer thread falls behind and its queue is full.
@@ -708,21 +711,21 @@ mod tests {
 
     #[test]
     fn a_message_in_the_wrong_encoding_is_refused() {
-        use crate::messages::{self as topics, CommandMsg, SensorMsg};
+        use crate::compact::{CommandBlock, SensorBlock};
+        use crate::messages as topics;
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("x.mcap");
         let specs = crate::messages::channels();
         let mut log = McapLog::create(&path, &specs).unwrap();
-        let frame = control::io::SensorFrame::default();
-        let sensor = SensorMsg::new("tare", &frame);
+        let sensor = SensorBlock::new("tare");
         let err = log.write(topics::SENSORS, 0, &sensor).unwrap_err();
         assert!(format!("{err}").contains("is protobuf, not json"), "{err}");
         let err = log.write_proto(topics::METADATA, 0, &sensor).unwrap_err();
         assert!(format!("{err}").contains("is json, not protobuf"), "{err}");
-        let command = CommandMsg::new("tare", 0.0, &control::io::CommandFrame::default());
+        let command = CommandBlock::new("tare");
         let err = log.write_proto(topics::SENSORS, 0, &command).unwrap_err();
         assert!(
-            format!("{err}").contains("carries stewart.SensorFrame"),
+            format!("{err}").contains("carries stewart.SensorBlock"),
             "{err}"
         );
         log.write_proto(topics::SENSORS, 0, &sensor).unwrap();

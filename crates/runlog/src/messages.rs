@@ -1,5 +1,6 @@
 //! The log's channels: topic, schema name, JSON schema, encoding and message type of each (the
-//! 1 kHz and 100 Hz channels in protobuf, [`crate::proto`]). The catalogue
+//! 1 kHz channels in compact protobuf blocks, [`crate::compact`], and the 100 Hz ones in
+//! protobuf, [`crate::proto`]). The catalogue
 //! [`channels`] is the single list that the writer registers, the tests check and
 //! `docs/log-schema.md` documents.
 //!
@@ -64,127 +65,90 @@ fn time_field() -> (&'static str, Schema) {
     ("time_s", num("backend sample time, s"))
 }
 
-/// `stewart.SensorFrame` on [`SENSORS`]: one `control::io::SensorFrame`, unaltered.
-#[derive(Clone, Debug, Serialize)]
-pub struct SensorMsg {
-    /// Measurement.
-    pub run: &'static str,
-    /// Backend sample counter.
-    pub sequence: u64,
-    /// Sample instant, s.
-    pub time_s: f64,
-    /// Leg lengths, m.
-    pub leg_lengths_m: [f64; 6],
-    /// Axial leg forces at the plate joints, N (positive pushes the plate away).
-    pub leg_forces_n: [f64; 6],
-    /// Angular rate in the IMU's axes, rad/s.
-    pub gyro_rad_s: [f64; 3],
-    /// Specific force at the accelerometer, in the IMU's axes, m/s².
-    pub accel_m_s2: [f64; 3],
-    /// Backend status bits.
-    pub status: u32,
+/// The JSON form's schema of `stewart.SensorBlock` on [`SENSORS`] ([`crate::compact`]).
+fn sensor_block_schema() -> Schema {
+    let counts = |d| array(int(""), None, d);
+    object(
+        vec![
+            run_field(),
+            ("sequence", counts("backend sample counters, delta-coded")),
+            ("time_ns", counts("sample instants, ns, delta-coded")),
+            (
+                "leg_lengths_nm",
+                counts("6 leg lengths a frame, joint centre to joint centre, nm, delta-coded"),
+            ),
+            (
+                "leg_forces_mn",
+                counts("6 axial leg forces a frame at the plate joints, mN, delta-coded"),
+            ),
+            (
+                "gyro_urad_s",
+                counts("3 angular rates a frame in the IMU's axes, urad/s, delta-coded"),
+            ),
+            (
+                "accel_um_s2",
+                counts("3 specific force components a frame, IMU axes, um/s^2, delta-coded"),
+            ),
+            ("status", counts("backend status bits, one a frame")),
+            (
+                "raw_index",
+                counts("positions of the values without a count"),
+            ),
+            (
+                "raw_value",
+                array(
+                    nullable(num("")),
+                    None,
+                    "those values (NaN and infinities: null)",
+                ),
+            ),
+        ],
+        "Consecutive sensor frames of one measurement, as counts",
+    )
 }
 
-impl SensorMsg {
-    /// The message of `frame`.
-    pub fn new(run: &'static str, f: &control::io::SensorFrame) -> Self {
-        Self {
-            run,
-            sequence: f.sequence,
-            time_s: f.time_s,
-            leg_lengths_m: f.leg_lengths_m,
-            leg_forces_n: f.leg_forces_n,
-            gyro_rad_s: f.gyro_rad_s,
-            accel_m_s2: f.accel_m_s2,
-            status: f.status.0,
-        }
-    }
-
-    /// The JSON form's schema (docs/log-schema.md).
-    fn schema() -> Schema {
-        object(
-            vec![
-                run_field(),
-                ("sequence", int("backend sample counter")),
-                ("time_s", num("sample instant, s")),
-                (
-                    "leg_lengths_m",
-                    six("leg lengths, joint centre to joint centre, m"),
+/// The JSON form's schema of `stewart.CommandBlock` on [`COMMANDS`] ([`crate::compact`]).
+fn command_block_schema() -> Schema {
+    let counts = |d| array(int(""), None, d);
+    object(
+        vec![
+            run_field(),
+            (
+                "time_ns",
+                counts("time of the sensor frame each command answers, ns, delta-coded"),
+            ),
+            ("sequence", counts("host command counters, delta-coded")),
+            (
+                "sensor_sequence",
+                counts("sensor sequence each command was computed from, delta-coded"),
+            ),
+            (
+                "leg_forces_mn",
+                counts("6 axial force commands a frame, mN, delta-coded"),
+            ),
+            (
+                "enable",
+                array(
+                    boolean(""),
+                    None,
+                    "actuators follow the forces, one a frame",
                 ),
-                (
-                    "leg_forces_n",
-                    six("axial leg forces at the plate joints, N; positive pushes the plate away"),
+            ),
+            (
+                "raw_index",
+                counts("positions of the values without a count"),
+            ),
+            (
+                "raw_value",
+                array(
+                    nullable(num("")),
+                    None,
+                    "those values (NaN and infinities: null)",
                 ),
-                (
-                    "gyro_rad_s",
-                    three("angular rate of the plate in the IMU's axes (P's when aligned), rad/s"),
-                ),
-                (
-                    "accel_m_s2",
-                    three("specific force (a - g) at the accelerometer, IMU axes, m/s^2"),
-                ),
-                ("status", int("backend status bits (control::io::Status)")),
-            ],
-            "One synchronous sample of every sensor",
-        )
-    }
-}
-
-/// `stewart.CommandFrame` on [`COMMANDS`].
-#[derive(Clone, Debug, Serialize)]
-pub struct CommandMsg {
-    /// Measurement.
-    pub run: &'static str,
-    /// Time of the sensor frame this command answers, s.
-    pub time_s: f64,
-    /// Host command counter.
-    pub sequence: u64,
-    /// Sensor sequence the command was computed from.
-    pub sensor_sequence: u64,
-    /// Force commands, N.
-    pub leg_forces_n: [f64; 6],
-    /// Actuators enabled (false: brake).
-    pub enable: bool,
-}
-
-impl CommandMsg {
-    /// The message of `command`.
-    pub fn new(run: &'static str, time_s: f64, c: &control::io::CommandFrame) -> Self {
-        Self {
-            run,
-            time_s,
-            sequence: c.sequence,
-            sensor_sequence: c.sensor_sequence,
-            leg_forces_n: c.leg_forces_n,
-            enable: c.enable,
-        }
-    }
-
-    fn schema() -> Schema {
-        object(
-            vec![
-                run_field(),
-                (
-                    "time_s",
-                    num("time of the sensor frame this command answers, s"),
-                ),
-                ("sequence", int("host command counter")),
-                (
-                    "sensor_sequence",
-                    int("sensor sequence the command was computed from"),
-                ),
-                (
-                    "leg_forces_n",
-                    six("axial force commands, N; positive extends"),
-                ),
-                (
-                    "enable",
-                    boolean("actuators follow the forces; false = brake"),
-                ),
-            ],
-            "A force command to the six actuators",
-        )
-    }
+            ),
+        ],
+        "Consecutive force commands of one measurement, as counts",
+    )
 }
 
 /// A pose in B: position, roll-pitch-yaw (R = Rx·Ry·Rz) and quaternion.
@@ -484,36 +448,10 @@ impl EstimateMsg {
     }
 }
 
-impl Encode for SensorMsg {
-    const NAME: &'static str = "stewart.SensorFrame";
-    fn encode(&self, e: &mut Encoder<'_>) {
-        e.string(1, self.run);
-        e.uint(2, self.sequence);
-        e.double(3, self.time_s);
-        e.doubles(4, &self.leg_lengths_m);
-        e.doubles(5, &self.leg_forces_n);
-        e.doubles(6, &self.gyro_rad_s);
-        e.doubles(7, &self.accel_m_s2);
-        e.uint(8, u64::from(self.status));
-    }
-}
-
-impl Encode for CommandMsg {
-    const NAME: &'static str = "stewart.CommandFrame";
-    fn encode(&self, e: &mut Encoder<'_>) {
-        e.string(1, self.run);
-        e.double(2, self.time_s);
-        e.uint(3, self.sequence);
-        e.uint(4, self.sensor_sequence);
-        e.doubles(5, &self.leg_forces_n);
-        e.bool(6, self.enable);
-    }
-}
-
 impl PoseValue {
     fn encode(&self, e: &mut Encoder<'_>) {
-        e.doubles(1, &self.position_m);
-        e.doubles(2, &self.rpy_rad);
+        e.floats(1, &self.position_m);
+        e.floats(2, &self.rpy_rad);
     }
 }
 
@@ -532,11 +470,11 @@ impl Encode for LegsMsg {
     fn encode(&self, e: &mut Encoder<'_>) {
         e.string(1, self.run);
         e.double(2, self.time_s);
-        e.doubles(3, &self.desired_length_m);
-        e.doubles(4, &self.measured_length_m);
-        e.doubles(5, &self.error_m);
-        e.doubles(6, &self.command_force_n);
-        e.doubles(7, &self.measured_force_n);
+        e.floats(3, &self.desired_length_m);
+        e.floats(4, &self.measured_length_m);
+        e.floats(5, &self.error_m);
+        e.floats(6, &self.command_force_n);
+        e.floats(7, &self.measured_force_n);
     }
 }
 
@@ -545,11 +483,11 @@ impl Encode for PidMsg {
     fn encode(&self, e: &mut Encoder<'_>) {
         e.string(1, self.run);
         e.double(2, self.time_s);
-        e.doubles(3, &self.p_n);
-        e.doubles(4, &self.i_n);
-        e.doubles(5, &self.d_n);
-        e.doubles(6, &self.feedforward_n);
-        e.doubles(7, &self.output_n);
+        e.floats(3, &self.p_n);
+        e.floats(4, &self.i_n);
+        e.floats(5, &self.d_n);
+        e.floats(6, &self.feedforward_n);
+        e.floats(7, &self.output_n);
         e.bools(8, &self.saturated);
     }
 }
@@ -584,14 +522,14 @@ pub fn channels() -> Vec<ChannelSpec> {
         ChannelSpec {
             topic: SENSORS,
             encoding: Encoding::Protobuf,
-            schema_name: "stewart.SensorFrame",
-            schema: SensorMsg::schema(),
+            schema_name: "stewart.SensorBlock",
+            schema: sensor_block_schema(),
         },
         ChannelSpec {
             topic: COMMANDS,
             encoding: Encoding::Protobuf,
-            schema_name: "stewart.CommandFrame",
-            schema: CommandMsg::schema(),
+            schema_name: "stewart.CommandBlock",
+            schema: command_block_schema(),
         },
         ChannelSpec {
             topic: POSE,

@@ -1,6 +1,7 @@
 //! The [`Observer`] that writes a measurement into the run's MCAP log: every sensor frame and
-//! command; pose, legs and PID terms at [`rates::DERIVED_HZ`]; the estimate and the platform's
-//! transform at [`rates::ESTIMATE_HZ`]; the scene at [`rates::SCENE_HZ`]; the supervisor on
+//! command (in blocks, [`crate::compact`]); pose, legs and PID terms at [`rates::DERIVED_HZ`];
+//! the platform's transform at [`rates::TF_HZ`]; the estimate and the payload's transform at
+//! [`rates::ESTIMATE_HZ`]; the scene at [`rates::SCENE_HZ`]; the supervisor on
 //! every change and at [`rates::SUPERVISOR_HZ`]; the estimator's settings, the tare and the
 //! station's own records once.
 
@@ -14,8 +15,7 @@ use measure::{Config, Measurement, TareEstimate};
 
 use crate::foxglove::{self, InertiaEllipsoid, SceneGeometry};
 use crate::messages::{
-    self as topics, BodyEstimate, CommandMsg, EstimateMsg, LegsMsg, PidMsg, PoseMsg, PoseValue,
-    SensorMsg, SupervisorMsg,
+    self as topics, BodyEstimate, EstimateMsg, LegsMsg, PidMsg, PoseMsg, PoseValue, SupervisorMsg,
 };
 use crate::metadata::EstimatorSettings;
 use crate::run_log::{rates, RunLog};
@@ -27,6 +27,7 @@ pub struct LogObserver<'a> {
     home: Pose,
     derived_every: u64,
     estimate_every: u64,
+    tf_every: u64,
     scene_every: u64,
     supervisor_every: u64,
     last_phase: Option<Phase>,
@@ -54,6 +55,7 @@ impl<'a> LogObserver<'a> {
             home: geometry.home_pose(),
             derived_every: every(rates::DERIVED_HZ, sample_rate_hz),
             estimate_every: every(rates::ESTIMATE_HZ, sample_rate_hz),
+            tf_every: every(rates::TF_HZ, sample_rate_hz),
             scene_every: every(rates::SCENE_HZ, sample_rate_hz),
             supervisor_every: every(rates::SUPERVISOR_HZ, sample_rate_hz),
             last_phase: None,
@@ -100,7 +102,7 @@ impl<'a> LogObserver<'a> {
             self.log
                 .write_proto(topics::PID, t, &PidMsg::new(run, t, &out.pid))?;
         }
-        if e.index.is_multiple_of(self.estimate_every) {
+        if e.index.is_multiple_of(self.tf_every) {
             let time = foxglove::timestamp(self.log.time_ns(t));
             let tf = foxglove::platform_transform(time, pose.position_m, &pose.rotation);
             self.log.write_foxglove(topics::TF, t, &tf)?;
@@ -192,10 +194,8 @@ impl Observer for LogObserver<'_> {
 
     fn tick(&mut self, e: &TickEvent<'_>) -> anyhow::Result<()> {
         let (run, t) = (e.measurement.name(), e.frame.time_s);
-        self.log
-            .write_proto(topics::SENSORS, t, &SensorMsg::new(run, e.frame))?;
-        self.log
-            .write_proto(topics::COMMANDS, t, &CommandMsg::new(run, t, e.command))?;
+        self.log.write_sensor(run, e.frame)?;
+        self.log.write_command(run, t, e.command)?;
         if let Some(pose) = e.pose {
             self.derived(e, pose)?;
         }

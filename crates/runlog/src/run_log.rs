@@ -7,15 +7,19 @@ use std::path::Path;
 use anyhow::Result;
 use serde::Serialize;
 
+use crate::compact::{CommandBlock, CommandCounts, SensorBlock, SensorCounts, BLOCK_FRAMES};
 use crate::mcap_log::{Delivery, McapLog};
-use crate::messages::channels;
+use crate::messages::{self as topics, channels};
 
 /// Rates of the decimated channels, Hz (sensors and commands are logged at every sample).
 pub mod rates {
     /// `/pose`, `/legs`, `/control/pid`.
     pub const DERIVED_HZ: f64 = 100.0;
-    /// `/estimate` and `/tf`.
-    pub const ESTIMATE_HZ: f64 = 50.0;
+    /// `/estimate` (JSON, about 1.7 kB a message: at 50 Hz it would be a sixth of the log) and
+    /// `/tf/payload`; `stewart estimate`'s trace of the replay.
+    pub const ESTIMATE_HZ: f64 = 10.0;
+    /// `/tf`: the plate moves smoothly in the 3D view.
+    pub const TF_HZ: f64 = 50.0;
     /// `/scene`.
     pub const SCENE_HZ: f64 = 10.0;
     /// `/supervisor` (besides every change).
@@ -27,6 +31,15 @@ pub struct RunLog {
     log: McapLog,
     start_unix_ns: u64,
     first_time_s: Option<f64>,
+    last_ns: u64,
+    sensors: Block<SensorBlock, SensorCounts>,
+    commands: Block<CommandBlock, CommandCounts>,
+}
+
+/// A block of the 1 kHz channels being filled, with the log time of its latest frame.
+struct Block<B, C> {
+    block: B,
+    last: C,
     last_ns: u64,
 }
 
@@ -45,6 +58,16 @@ impl RunLog {
             start_unix_ns,
             first_time_s: None,
             last_ns: start_unix_ns,
+            sensors: Block {
+                block: SensorBlock::new(""),
+                last: SensorCounts::default(),
+                last_ns: 0,
+            },
+            commands: Block {
+                block: CommandBlock::new(""),
+                last: CommandCounts::default(),
+                last_ns: 0,
+            },
         })
     }
 
@@ -129,20 +152,86 @@ impl RunLog {
         self.log.write_foxglove(topic, ns, message)
     }
 
+    /// Logs sensor frame `f` of measurement `run` on `/sensors`, in blocks of [`BLOCK_FRAMES`]
+    /// frames of one measurement ([`crate::compact`]); a block is written when full, when the
+    /// measurement changes, and by [`Self::flush`] and [`Self::finish`]. Its log time is its
+    /// last frame's, the moment it is complete, so log times never decrease in the file (its
+    /// first frame's time is in the block, `time_ns[0]`).
+    pub fn write_sensor(&mut self, run: &'static str, f: &control::io::SensorFrame) -> Result<()> {
+        if self.sensors.block.run != run {
+            self.flush_sensors()?;
+            self.sensors.block.clear(run);
+        }
+        self.sensors.last_ns = self.time_ns(f.time_s);
+        self.sensors.block.push(f, &mut self.sensors.last);
+        if self.sensors.block.len() >= BLOCK_FRAMES {
+            self.flush_sensors()?;
+        }
+        Ok(())
+    }
+
+    /// Logs command `c` of measurement `run`, answering the sensor frame of time `time_s`, on
+    /// `/commands`, in blocks as [`Self::write_sensor`].
+    pub fn write_command(
+        &mut self,
+        run: &'static str,
+        time_s: f64,
+        c: &control::io::CommandFrame,
+    ) -> Result<()> {
+        if self.commands.block.run != run {
+            self.flush_commands()?;
+            self.commands.block.clear(run);
+        }
+        self.commands.last_ns = self.time_ns(time_s);
+        self.commands.block.push(time_s, c, &mut self.commands.last);
+        if self.commands.block.len() >= BLOCK_FRAMES {
+            self.flush_commands()?;
+        }
+        Ok(())
+    }
+
+    fn flush_sensors(&mut self) -> Result<()> {
+        let b = &mut self.sensors;
+        if b.block.is_empty() {
+            return Ok(());
+        }
+        b.block.finish();
+        let written = self.log.write_proto(topics::SENSORS, b.last_ns, &b.block);
+        let run = b.block.run;
+        b.block.clear(run);
+        written
+    }
+
+    fn flush_commands(&mut self) -> Result<()> {
+        let b = &mut self.commands;
+        if b.block.is_empty() {
+            return Ok(());
+        }
+        b.block.finish();
+        let written = self.log.write_proto(topics::COMMANDS, b.last_ns, &b.block);
+        let run = b.block.run;
+        b.block.clear(run);
+        written
+    }
+
     /// Writes `message` on `topic` at the latest log time (for run-level records).
     pub fn write_now<T: Serialize>(&mut self, topic: &str, message: &T) -> Result<()> {
         let ns = self.last_ns;
         self.log.write(topic, ns, message)
     }
 
-    /// Flushes the current chunk to the file.
+    /// Writes the blocks being filled and flushes the current chunk to the file.
     pub fn flush(&mut self) -> Result<()> {
+        self.flush_sensors()?;
+        self.flush_commands()?;
         self.log.flush()
     }
 
-    /// Writes the summary and footer.
+    /// Writes the blocks being filled, then the summary and footer.
     pub fn finish(&mut self) -> Result<()> {
-        self.log.finish()
+        let blocks = self.flush_sensors().and(self.flush_commands());
+        let finished = self.log.finish();
+        blocks.and(finished)
     }
 }
 

@@ -2,6 +2,7 @@
 //! and loop timing kept) between two `/rig/link` records, and the payload change brakes the rig,
 //! asks the operator and opens the loaded run's session.
 
+use runlog::compact::AtLogResolution;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::anyhow;
@@ -86,7 +87,8 @@ impl Station for RigStation<'_> {
         let mut timing = LoopTiming::default();
         let (result, failure, last_time_s, lateness) = {
             let mut monitored = Monitored::new(self.link, &mut timing).abort(self.abort);
-            let result = job.run(&mut monitored, observer);
+            // Read at the log's resolution: the estimator uses the numbers the log holds.
+            let result = job.run(&mut AtLogResolution(&mut monitored), observer);
             (
                 result,
                 monitored.failure().cloned(),

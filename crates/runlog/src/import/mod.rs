@@ -28,7 +28,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use measure::{setup, LoadedConfig, Measurement, TareFile};
 
-use crate::messages::{self as topics, SensorMsg};
+use crate::messages::{self as topics};
 use crate::metadata::{EstimatorSettings, RunMetadata};
 use crate::run_log::{unix_now_ns, RunLog};
 use table::{Row, Table};
@@ -256,11 +256,7 @@ pub fn import(plan: &ImportPlan<'_>) -> Result<Imported> {
                 *started = true;
             }
         }
-        log.write_proto(
-            topics::SENSORS,
-            time_s,
-            &SensorMsg::new(run.name(), &row.frame),
-        )?;
+        log.write_sensor(run.name(), &row.frame)?;
     }
     log.finish()?;
     Ok(Imported {

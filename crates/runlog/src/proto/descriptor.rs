@@ -21,6 +21,10 @@ pub const FILE_NAME: &str = "stewart.proto";
 pub enum Kind {
     /// `double`: every f64 exactly, NaN and infinities included.
     Double,
+    /// `float`: an f64 rounded to the nearest f32 (display channels).
+    Float,
+    /// `sint64`: a signed count, zigzag varint.
+    Sint64,
     /// `uint64`.
     Uint64,
     /// `uint32`.
@@ -79,7 +83,7 @@ const fn r(name: &'static str, number: u32, kind: Kind, doc: &'static str) -> Fi
     }
 }
 
-use Kind::{Bool, Double, String as Str, Uint32, Uint64};
+use Kind::{Bool, Double, Float, Sint64, String as Str, Uint32};
 
 const RUN: &str = "measurement this belongs to: \"tare\" or \"loaded\"";
 const TIME: &str = "backend sample time, s";
@@ -87,73 +91,108 @@ const TIME: &str = "backend sample time, s";
 /// Every message of the package, in the order of the `.proto` file.
 pub const MESSAGES: &[MessageSpec] = &[
     MessageSpec {
-        name: "SensorFrame",
-        doc: "One synchronous sample of every sensor (/sensors).",
+        name: "SensorBlock",
+        doc: "Consecutive sensor frames of one measurement (/sensors), as counts: element i of \
+              a field with w values a frame is the count minus the one w elements before \
+              (i >= w), the count itself in the first frame (docs/log-schema.md).",
         fields: &[
             f("run", 1, Str, RUN),
-            f("sequence", 2, Uint64, "backend sample counter"),
-            f("time_s", 3, Double, "sample instant, s"),
             r(
-                "leg_lengths_m",
+                "sequence",
+                2,
+                Sint64,
+                "backend sample counters, delta-coded",
+            ),
+            r("time_ns", 3, Sint64, "sample instants, ns, delta-coded"),
+            r(
+                "leg_lengths_nm",
                 4,
-                Double,
-                "6 leg lengths, joint centre to joint centre, m",
+                Sint64,
+                "6 leg lengths a frame, joint centre to joint centre, nm, delta-coded",
             ),
             r(
-                "leg_forces_n",
+                "leg_forces_mn",
                 5,
-                Double,
-                "6 axial leg forces at the plate joints, N; positive pushes the plate away",
+                Sint64,
+                "6 axial leg forces a frame at the plate joints, mN; positive pushes the plate \
+                 away; delta-coded",
             ),
             r(
-                "gyro_rad_s",
+                "gyro_urad_s",
                 6,
-                Double,
-                "3 angular rates of the plate in the IMU's axes, rad/s",
+                Sint64,
+                "3 angular rates a frame of the plate in the IMU's axes, urad/s, delta-coded",
             ),
             r(
-                "accel_m_s2",
+                "accel_um_s2",
                 7,
-                Double,
-                "3 components of the specific force (a - g) at the accelerometer, IMU axes, m/s^2",
+                Sint64,
+                "3 components a frame of the specific force (a - g) at the accelerometer, IMU \
+                 axes, um/s^2, delta-coded",
             ),
-            f(
+            r(
                 "status",
                 8,
                 Uint32,
-                "backend status bits (control::io::Status)",
+                "backend status bits (control::io::Status), one a frame",
+            ),
+            r(
+                "raw_index",
+                9,
+                Uint32,
+                "positions of the values without a count (time 0..n, lengths n..7n, forces \
+                 7n..13n, gyro 13n..16n, accel 16n..19n for n frames)",
+            ),
+            r(
+                "raw_value",
+                10,
+                Double,
+                "those values, exactly (NaN, infinities)",
             ),
         ],
     },
     MessageSpec {
-        name: "CommandFrame",
-        doc: "A force command to the six actuators (/commands).",
+        name: "CommandBlock",
+        doc: "Consecutive force commands of one measurement (/commands), as counts, \
+              delta-coded as in SensorBlock.",
         fields: &[
             f("run", 1, Str, RUN),
-            f(
-                "time_s",
+            r(
+                "time_ns",
                 2,
-                Double,
-                "time of the sensor frame this command answers, s",
+                Sint64,
+                "time of the sensor frame each command answers, ns, delta-coded",
             ),
-            f("sequence", 3, Uint64, "host command counter"),
-            f(
+            r("sequence", 3, Sint64, "host command counters, delta-coded"),
+            r(
                 "sensor_sequence",
                 4,
-                Uint64,
-                "sensor sequence the command was computed from",
+                Sint64,
+                "sensor sequence each command was computed from, delta-coded",
             ),
             r(
-                "leg_forces_n",
+                "leg_forces_mn",
                 5,
-                Double,
-                "6 axial force commands, N; positive extends",
+                Sint64,
+                "6 axial force commands a frame, mN; positive extends; delta-coded",
             ),
-            f(
+            r(
                 "enable",
                 6,
                 Bool,
-                "actuators follow the forces; false = brake",
+                "actuators follow the forces; false = brake; one a frame",
+            ),
+            r(
+                "raw_index",
+                7,
+                Uint32,
+                "positions of the values without a count (time 0..n, forces n..7n)",
+            ),
+            r(
+                "raw_value",
+                8,
+                Double,
+                "those values, exactly (NaN, infinities)",
             ),
         ],
     },
@@ -164,13 +203,13 @@ pub const MESSAGES: &[MessageSpec] = &[
             r(
                 "position_m",
                 1,
-                Double,
+                Float,
                 "3 coordinates of the P origin in B, m",
             ),
             r(
                 "rpy_rad",
                 2,
-                Double,
+                Float,
                 "roll, pitch, yaw with R = Rx·Ry·Rz, rad",
             ),
         ],
@@ -199,18 +238,18 @@ pub const MESSAGES: &[MessageSpec] = &[
             r(
                 "desired_length_m",
                 3,
-                Double,
+                Float,
                 "6 inverse kinematics of the desired pose, m",
             ),
-            r("measured_length_m", 4, Double, "6 measured leg lengths, m"),
+            r("measured_length_m", 4, Float, "6 measured leg lengths, m"),
             r(
                 "error_m",
                 5,
-                Double,
+                Float,
                 "6 tracking errors, desired - measured, m",
             ),
-            r("command_force_n", 6, Double, "6 force commands, N"),
-            r("measured_force_n", 7, Double, "6 load cells, N"),
+            r("command_force_n", 6, Float, "6 force commands, N"),
+            r("measured_force_n", 7, Float, "6 load cells, N"),
         ],
     },
     MessageSpec {
@@ -219,11 +258,11 @@ pub const MESSAGES: &[MessageSpec] = &[
         fields: &[
             f("run", 1, Str, RUN),
             f("time_s", 2, Double, TIME),
-            r("p_n", 3, Double, "6 proportional terms, N"),
-            r("i_n", 4, Double, "6 integral terms, N"),
-            r("d_n", 5, Double, "6 derivative-on-measurement terms, N"),
-            r("feedforward_n", 6, Double, "6 feed-forward forces, N"),
-            r("output_n", 7, Double, "6 saturated PID outputs, N"),
+            r("p_n", 3, Float, "6 proportional terms, N"),
+            r("i_n", 4, Float, "6 integral terms, N"),
+            r("d_n", 5, Float, "6 derivative-on-measurement terms, N"),
+            r("feedforward_n", 6, Float, "6 feed-forward forces, N"),
+            r("output_n", 7, Float, "6 saturated PID outputs, N"),
             r("saturated", 8, Bool, "6 flags: output clamped"),
         ],
     },
@@ -237,7 +276,9 @@ pub fn message(name: &str) -> Option<&'static MessageSpec> {
 fn field_proto(fd: &Field) -> FieldDescriptorProto {
     let (ty, type_name) = match fd.kind {
         Double => (Type::Double, None),
-        Uint64 => (Type::Uint64, None),
+        Float => (Type::Float, None),
+        Sint64 => (Type::Sint64, None),
+        Kind::Uint64 => (Type::Uint64, None),
         Uint32 => (Type::Uint32, None),
         Bool => (Type::Bool, None),
         Str => (Type::String, None),
@@ -292,7 +333,9 @@ pub fn file_descriptor_set_bytes() -> Vec<u8> {
 fn type_text(k: Kind) -> &'static str {
     match k {
         Double => "double",
-        Uint64 => "uint64",
+        Float => "float",
+        Sint64 => "sint64",
+        Kind::Uint64 => "uint64",
         Uint32 => "uint32",
         Bool => "bool",
         Str => "string",

@@ -1,14 +1,14 @@
-//! The log's 1 kHz channels in protobuf: `/sensors`, `/commands`, `/pose`, `/legs` and
-//! `/control/pid` (schema encoding `protobuf`, a `FileDescriptorSet`; message encoding
-//! `protobuf`), about a fifth of the bytes of their JSON and much cheaper to decode. The other
-//! channels stay JSON, where people read them.
+//! The log's 1 kHz and 100 Hz channels in protobuf: `/sensors` and `/commands` in blocks of
+//! integer counts ([`crate::compact`]), `/pose`, `/legs` and `/control/pid` in `float`
+//! (display only) (schema encoding `protobuf`, a `FileDescriptorSet`; message encoding
+//! `protobuf`). The other channels stay JSON, where people read them.
 //!
 //! - [`descriptor`]: the schema, one table from which the log's descriptor and the `.proto`
 //!   text are made.
 //! - [`Encode`] and [`Encoder`]: the writer's side, straight from the message types of
 //!   [`crate::messages`] into the batch buffer (no allocation per message). Every `double` is
 //!   written unless its bits are all zero, so `-0.0`, NaN and the infinities read back exactly.
-//! - [`SensorFrame`], [`CommandFrame`], [`Legs`], [`PoseState`], [`PidTerms`]: the reader's
+//! - [`SensorBlock`], [`CommandBlock`], [`Legs`], [`PoseState`], [`PidTerms`]: the reader's
 //!   side, derived by prost; [`crate::read`] decodes them into its records.
 
 pub mod descriptor;
@@ -21,6 +21,13 @@ pub trait Encode {
     const NAME: &'static str;
     /// Appends the message's protobuf encoding.
     fn encode(&self, e: &mut Encoder<'_>);
+}
+
+/// The protobuf encoding of `m`.
+pub fn to_bytes<T: Encode>(m: &T) -> Vec<u8> {
+    let mut buf = Vec::new();
+    m.encode(&mut Encoder::new(&mut buf));
+    buf
 }
 
 /// Appends protobuf fields to a buffer (proto3 wire format: a field at its default value is
@@ -76,6 +83,38 @@ impl<'a> Encoder<'a> {
         }
     }
 
+    /// A packed `repeated sint64` field (zigzag varints).
+    pub fn sints(&mut self, tag: u32, v: &[i64]) {
+        self.packed(tag, v.iter().map(|&x| ((x << 1) ^ (x >> 63)) as u64));
+    }
+
+    /// A packed `repeated uint32` field.
+    pub fn uints(&mut self, tag: u32, v: &[u32]) {
+        self.packed(tag, v.iter().map(|&x| u64::from(x)));
+    }
+
+    fn packed(&mut self, tag: u32, v: impl Iterator<Item = u64> + Clone) {
+        let len: usize = v.clone().map(encoded_len_varint).sum();
+        if len > 0 {
+            encode_key(tag, WireType::LengthDelimited, self.buf);
+            encode_varint(len as u64, self.buf);
+            for x in v {
+                encode_varint(x, self.buf);
+            }
+        }
+    }
+
+    /// A packed `repeated float` field: each value rounded to the nearest `f32`.
+    pub fn floats(&mut self, tag: u32, v: &[f64]) {
+        if !v.is_empty() {
+            encode_key(tag, WireType::LengthDelimited, self.buf);
+            encode_varint(4 * v.len() as u64, self.buf);
+            for x in v {
+                self.buf.extend_from_slice(&(*x as f32).to_le_bytes());
+            }
+        }
+    }
+
     /// A packed `repeated bool` field.
     pub fn bools(&mut self, tag: u32, v: &[bool]) {
         if !v.is_empty() {
@@ -99,67 +138,79 @@ impl<'a> Encoder<'a> {
     }
 }
 
-/// `stewart.SensorFrame`, as read.
+/// `stewart.SensorBlock`, as read ([`crate::compact`]).
 #[derive(Clone, PartialEq, prost::Message)]
-pub struct SensorFrame {
+pub struct SensorBlock {
     /// Measurement.
     #[prost(string, tag = "1")]
     pub run: String,
-    /// Backend sample counter.
-    #[prost(uint64, tag = "2")]
-    pub sequence: u64,
-    /// s.
-    #[prost(double, tag = "3")]
-    pub time_s: f64,
-    /// m.
-    #[prost(double, repeated, tag = "4")]
-    pub leg_lengths_m: Vec<f64>,
-    /// N.
-    #[prost(double, repeated, tag = "5")]
-    pub leg_forces_n: Vec<f64>,
-    /// rad/s.
-    #[prost(double, repeated, tag = "6")]
-    pub gyro_rad_s: Vec<f64>,
-    /// m/s².
-    #[prost(double, repeated, tag = "7")]
-    pub accel_m_s2: Vec<f64>,
-    /// Status bits.
-    #[prost(uint32, tag = "8")]
-    pub status: u32,
+    /// Backend sample counters, delta-coded.
+    #[prost(sint64, repeated, tag = "2")]
+    pub sequence: Vec<i64>,
+    /// ns, delta-coded.
+    #[prost(sint64, repeated, tag = "3")]
+    pub time_ns: Vec<i64>,
+    /// nm, delta-coded.
+    #[prost(sint64, repeated, tag = "4")]
+    pub leg_lengths_nm: Vec<i64>,
+    /// mN, delta-coded.
+    #[prost(sint64, repeated, tag = "5")]
+    pub leg_forces_mn: Vec<i64>,
+    /// µrad/s, delta-coded.
+    #[prost(sint64, repeated, tag = "6")]
+    pub gyro_urad_s: Vec<i64>,
+    /// µm/s², delta-coded.
+    #[prost(sint64, repeated, tag = "7")]
+    pub accel_um_s2: Vec<i64>,
+    /// Status bits, one a frame.
+    #[prost(uint32, repeated, tag = "8")]
+    pub status: Vec<u32>,
+    /// Positions of the values without a count.
+    #[prost(uint32, repeated, tag = "9")]
+    pub raw_index: Vec<u32>,
+    /// Those values.
+    #[prost(double, repeated, tag = "10")]
+    pub raw_value: Vec<f64>,
 }
 
-/// `stewart.CommandFrame`, as read.
+/// `stewart.CommandBlock`, as read ([`crate::compact`]).
 #[derive(Clone, PartialEq, prost::Message)]
-pub struct CommandFrame {
+pub struct CommandBlock {
     /// Measurement.
     #[prost(string, tag = "1")]
     pub run: String,
-    /// s.
-    #[prost(double, tag = "2")]
-    pub time_s: f64,
-    /// Host command counter.
-    #[prost(uint64, tag = "3")]
-    pub sequence: u64,
-    /// Sensor sequence answered.
-    #[prost(uint64, tag = "4")]
-    pub sensor_sequence: u64,
-    /// N.
-    #[prost(double, repeated, tag = "5")]
-    pub leg_forces_n: Vec<f64>,
-    /// Actuators enabled.
-    #[prost(bool, tag = "6")]
-    pub enable: bool,
+    /// ns, delta-coded.
+    #[prost(sint64, repeated, tag = "2")]
+    pub time_ns: Vec<i64>,
+    /// Host command counters, delta-coded.
+    #[prost(sint64, repeated, tag = "3")]
+    pub sequence: Vec<i64>,
+    /// Sensor sequences answered, delta-coded.
+    #[prost(sint64, repeated, tag = "4")]
+    pub sensor_sequence: Vec<i64>,
+    /// mN, delta-coded.
+    #[prost(sint64, repeated, tag = "5")]
+    pub leg_forces_mn: Vec<i64>,
+    /// Actuators enabled, one a frame.
+    #[prost(bool, repeated, tag = "6")]
+    pub enable: Vec<bool>,
+    /// Positions of the values without a count.
+    #[prost(uint32, repeated, tag = "7")]
+    pub raw_index: Vec<u32>,
+    /// Those values.
+    #[prost(double, repeated, tag = "8")]
+    pub raw_value: Vec<f64>,
 }
 
 /// `stewart.Pose`, as read.
 #[derive(Clone, PartialEq, prost::Message)]
 pub struct Pose {
     /// m.
-    #[prost(double, repeated, tag = "1")]
-    pub position_m: Vec<f64>,
+    #[prost(float, repeated, tag = "1")]
+    pub position_m: Vec<f32>,
     /// rad.
-    #[prost(double, repeated, tag = "2")]
-    pub rpy_rad: Vec<f64>,
+    #[prost(float, repeated, tag = "2")]
+    pub rpy_rad: Vec<f32>,
 }
 
 /// `stewart.PoseState`, as read.
@@ -189,20 +240,20 @@ pub struct Legs {
     #[prost(double, tag = "2")]
     pub time_s: f64,
     /// m.
-    #[prost(double, repeated, tag = "3")]
-    pub desired_length_m: Vec<f64>,
+    #[prost(float, repeated, tag = "3")]
+    pub desired_length_m: Vec<f32>,
     /// m.
-    #[prost(double, repeated, tag = "4")]
-    pub measured_length_m: Vec<f64>,
+    #[prost(float, repeated, tag = "4")]
+    pub measured_length_m: Vec<f32>,
     /// m.
-    #[prost(double, repeated, tag = "5")]
-    pub error_m: Vec<f64>,
+    #[prost(float, repeated, tag = "5")]
+    pub error_m: Vec<f32>,
     /// N.
-    #[prost(double, repeated, tag = "6")]
-    pub command_force_n: Vec<f64>,
+    #[prost(float, repeated, tag = "6")]
+    pub command_force_n: Vec<f32>,
     /// N.
-    #[prost(double, repeated, tag = "7")]
-    pub measured_force_n: Vec<f64>,
+    #[prost(float, repeated, tag = "7")]
+    pub measured_force_n: Vec<f32>,
 }
 
 /// `stewart.PidTerms`, as read.
@@ -215,33 +266,35 @@ pub struct PidTerms {
     #[prost(double, tag = "2")]
     pub time_s: f64,
     /// N.
-    #[prost(double, repeated, tag = "3")]
-    pub p_n: Vec<f64>,
+    #[prost(float, repeated, tag = "3")]
+    pub p_n: Vec<f32>,
     /// N.
-    #[prost(double, repeated, tag = "4")]
-    pub i_n: Vec<f64>,
+    #[prost(float, repeated, tag = "4")]
+    pub i_n: Vec<f32>,
     /// N.
-    #[prost(double, repeated, tag = "5")]
-    pub d_n: Vec<f64>,
+    #[prost(float, repeated, tag = "5")]
+    pub d_n: Vec<f32>,
     /// N.
-    #[prost(double, repeated, tag = "6")]
-    pub feedforward_n: Vec<f64>,
+    #[prost(float, repeated, tag = "6")]
+    pub feedforward_n: Vec<f32>,
     /// N.
-    #[prost(double, repeated, tag = "7")]
-    pub output_n: Vec<f64>,
+    #[prost(float, repeated, tag = "7")]
+    pub output_n: Vec<f32>,
     /// Output clamped.
     #[prost(bool, repeated, tag = "8")]
     pub saturated: Vec<bool>,
 }
 
-/// `v` as an array of `N`, or an error naming `field` when its length differs.
-pub fn array<const N: usize>(field: &str, v: &[f64]) -> Result<[f64; N], String> {
-    v.try_into().map_err(|_| {
-        format!(
+/// `v` (a `repeated float`) as an array of `N` f64, or an error naming `field` when its length
+/// differs.
+pub fn array<const N: usize>(field: &str, v: &[f32]) -> Result<[f64; N], String> {
+    if v.len() != N {
+        return Err(format!(
             "does not match its schema ({field} holds {} numbers, not {N})",
             v.len()
-        )
-    })
+        ));
+    }
+    Ok(core::array::from_fn(|i| f64::from(v[i])))
 }
 
 #[cfg(test)]

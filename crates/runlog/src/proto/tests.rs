@@ -5,8 +5,9 @@ use serde_json::{json, Value as Json};
 
 use super::descriptor::{file_descriptor_set_bytes, proto_text, MESSAGES, PACKAGE};
 use super::*;
-use crate::messages::{CommandMsg, LegsMsg, PidMsg, PoseMsg, PoseValue, SensorMsg};
-use crate::read::records::{FromProto, LegsRecord, PoseRecord, SensorRecord};
+use crate::compact::{CommandBlock, CommandCounts, SensorBlock, SensorCounts};
+use crate::messages::{LegsMsg, PidMsg, PoseMsg, PoseValue};
+use crate::read::records::{FromProto, LegsRecord, PoseRecord};
 
 const PROTO_FILE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/proto/stewart.proto");
 
@@ -34,6 +35,9 @@ fn to_json(v: &Value) -> Json {
     match v {
         Value::F64(x) if x.is_finite() => json!(x),
         Value::F64(_) => Json::Null,
+        Value::F32(x) if x.is_finite() => json!(f64::from(*x)),
+        Value::F32(_) => Json::Null,
+        Value::I64(x) => json!(x),
         Value::U64(x) => json!(x),
         Value::U32(x) => json!(x),
         Value::Bool(x) => json!(x),
@@ -97,84 +101,68 @@ fn bits<const N: usize>(v: &[f64; N]) -> [u64; N] {
     v.map(f64::to_bits)
 }
 
-fn sensor() -> SensorMsg {
-    SensorMsg {
-        run: "loaded",
-        sequence: u64::MAX,
-        time_s: -0.0,
-        leg_lengths_m: core::array::from_fn(awkward),
-        leg_forces_n: core::array::from_fn(|i| awkward(i + 6)),
-        gyro_rad_s: [0.1, -0.2, f64::NAN],
-        accel_m_s2: [0.0, 0.0, 9.80665],
-        status: u32::MAX,
+/// Values exactly representable in `f32` (the display channels' `float`), and the
+/// non-finite ones.
+fn float_ok(i: usize) -> f64 {
+    [f64::NAN, -0.0, f64::INFINITY, 0.0, f64::NEG_INFINITY, 1.5][i % 6]
+}
+
+fn sensor_block() -> SensorBlock {
+    let mut b = SensorBlock::new("loaded");
+    let mut last = SensorCounts::default();
+    for k in 0..3u64 {
+        let f = control::io::SensorFrame {
+            sequence: u64::MAX - 2 + k,
+            time_s: 0.001 * k as f64,
+            leg_lengths_m: core::array::from_fn(|i| awkward(i + k as usize)),
+            leg_forces_n: core::array::from_fn(|i| awkward(i + 6)),
+            gyro_rad_s: [0.1, -0.2, f64::NAN],
+            accel_m_s2: [0.0, 0.0, 9.80665],
+            status: control::io::Status(u32::MAX),
+        };
+        b.push(&f, &mut last);
     }
+    b.finish();
+    b
 }
 
 #[test]
-fn a_sensor_frame_round_trips_bit_for_bit() {
-    let m = sensor();
-    let bytes = check_against_descriptor(&m);
-    let r = SensorRecord::from_proto(SensorFrame::decode(bytes.as_slice()).unwrap()).unwrap();
-    assert_eq!(r.run, "loaded");
-    assert_eq!(r.sequence, u64::MAX);
-    assert_eq!(r.time_s.to_bits(), (-0.0f64).to_bits());
-    assert_eq!(bits(&r.leg_lengths_m), bits(&m.leg_lengths_m));
-    assert_eq!(bits(&r.leg_forces_n), bits(&m.leg_forces_n));
-    assert_eq!(bits(&r.gyro_rad_s), bits(&m.gyro_rad_s));
-    assert_eq!(bits(&r.accel_m_s2), bits(&m.accel_m_s2));
-    assert_eq!(r.status, u32::MAX);
-}
-
-#[test]
-fn a_frame_of_defaults_reads_back_whole() {
-    let frame = control::io::SensorFrame::default();
-    let m = SensorMsg::new("", &frame);
-    let bytes = check_against_descriptor(&m);
-    assert!(bytes.len() > 4 * 2, "the arrays are written even when zero");
-    let r = SensorRecord::from_proto(SensorFrame::decode(bytes.as_slice()).unwrap()).unwrap();
-    assert_eq!(r.to_frame(), frame);
-}
-
-#[test]
-fn an_array_of_the_wrong_length_is_refused() {
-    let mut bytes = encode(&sensor());
-    let mut e = Encoder::new(&mut bytes);
-    // A seventh leg length appended: a packed field's entries concatenate.
-    e.doubles(4, &[1.0]);
-    let err = SensorRecord::from_proto(SensorFrame::decode(bytes.as_slice()).unwrap()).unwrap_err();
-    assert!(
-        err.contains("leg_lengths_m holds 7 numbers, not 6"),
-        "{err}"
-    );
+fn a_sensor_block_matches_the_descriptor_and_reads_back() {
+    let b = sensor_block();
+    let bytes = check_against_descriptor(&b);
+    let p = super::SensorBlock::decode(bytes.as_slice()).unwrap();
+    let frames = crate::compact::sensor_frames(&p).unwrap();
+    assert_eq!(frames.len(), 3);
+    assert_eq!(frames[2].sequence, u64::MAX);
+    assert_eq!(frames[0].status.0, u32::MAX);
+    assert!(frames[0].leg_lengths_m[0].is_nan() && frames[2].gyro_rad_s[2].is_nan());
+    assert_eq!(frames[1].accel_m_s2[2], 9.80665);
 }
 
 #[test]
 fn the_other_channels_match_the_descriptor_and_read_back() {
-    let c = CommandMsg {
-        run: "tare",
-        time_s: 1.5,
+    let mut c = CommandBlock::new("tare");
+    let command = control::io::CommandFrame {
         sequence: 7,
         sensor_sequence: 6,
         leg_forces_n: core::array::from_fn(awkward),
         enable: true,
     };
+    c.push(1.5, &command, &mut CommandCounts::default());
+    c.finish();
     let bytes = check_against_descriptor(&c);
-    let p = CommandFrame::decode(bytes.as_slice()).unwrap();
-    assert_eq!(
-        p.leg_forces_n
-            .iter()
-            .map(|x| x.to_bits())
-            .collect::<Vec<_>>(),
-        bits(&c.leg_forces_n).to_vec()
-    );
-    assert!(p.enable);
+    let p = crate::proto::CommandBlock::decode(bytes.as_slice()).unwrap();
+    let r = crate::compact::command_frames(&p).unwrap();
+    assert_eq!(r[0].time_s, 1.5);
+    assert!(r[0].command.enable);
+    assert!(r[0].command.leg_forces_n[0].is_nan());
 
     let pose = PoseMsg {
         run: "loaded",
         time_s: 2.0,
         desired: PoseValue {
-            position_m: [0.0, 0.0, 1.2],
-            rpy_rad: [f64::NAN, -0.0, 0.1],
+            position_m: [0.0, 0.0, 1.25],
+            rpy_rad: [f64::NAN, -0.0, 0.125],
         },
         measured: PoseValue::default(),
     };
@@ -186,8 +174,8 @@ fn the_other_channels_match_the_descriptor_and_read_back() {
     let legs = LegsMsg {
         run: "loaded",
         time_s: 3.0,
-        desired_length_m: core::array::from_fn(awkward),
-        measured_length_m: [1.9; 6],
+        desired_length_m: core::array::from_fn(float_ok),
+        measured_length_m: [1.875; 6],
         error_m: [-0.0; 6],
         command_force_n: [f64::INFINITY; 6],
         measured_force_n: [2.0; 6],
@@ -222,8 +210,8 @@ fn every_message_of_the_table_is_in_the_pool_and_every_writer_names_one() {
         assert_eq!(d.fields().count(), m.fields.len(), "{}", m.name);
     }
     for name in [
-        SensorMsg::NAME,
-        CommandMsg::NAME,
+        SensorBlock::NAME,
+        CommandBlock::NAME,
         PoseMsg::NAME,
         LegsMsg::NAME,
         PidMsg::NAME,

@@ -224,8 +224,9 @@ pub trait Visitor {
     /// A message; `Err` stops the reading. A message the visitor cannot decode is returned as
     /// `Ok(Some(error))`: it is skipped and counted.
     fn message(&mut self, m: &Message<'_>) -> Result<Option<String>>;
-    /// A `/sensors` frame's sequence number, when the visitor decoded one (counts losses).
-    fn last_sensor_sequence(&mut self) -> Option<u64> {
+    /// The first and last sequence numbers of the `/sensors` frames of the message just
+    /// decoded, when it held any (counts losses).
+    fn sensor_sequences(&mut self) -> Option<(u64, u64)> {
         None
     }
 }
@@ -269,8 +270,9 @@ pub fn visit<R: Read + Seek>(src: R, v: &mut dyn Visitor) -> Result<(Channels, D
                     damage.first_skipped.get_or_insert_with(|| {
                         format!("message {index} on {}: {err}", m.channel.topic)
                     });
-                } else if let Some(seq) = v.last_sensor_sequence() {
-                    counter.sensor(seq);
+                } else if let Some((first, last)) = v.sensor_sequences() {
+                    counter.sensor(first);
+                    counter.sensor(last);
                 }
             }
         }
@@ -336,8 +338,41 @@ pub struct LogContents {
 /// Keeps every record of the channels [`LogContents`] holds.
 struct Collect<'a> {
     log: &'a mut LogContents,
-    sensor: Option<u64>,
+    scratch: crate::proto::SensorBlock,
+    sensor: Option<(u64, u64)>,
 }
+
+/// The sensor frames of a `/sensors` message and its measurement; a message that does not fit
+/// its schema is `Ok(Err(why))` (skipped and counted), a channel in an encoding this version
+/// does not read is an error.
+pub fn sensor_block(
+    m: &Message<'_>,
+    scratch: &mut crate::proto::SensorBlock,
+) -> Result<std::result::Result<Vec<control::io::SensorFrame>, String>> {
+    let c = &m.channel;
+    if c.message_encoding != "protobuf" || c.schema_name != SENSOR_SCHEMA {
+        bail!(
+            "the log's {} channel is {} in {} encoding, which this version does not read (it \
+             reads {SENSOR_SCHEMA} in protobuf; a log written by an older or newer version of \
+             stewart needs that version)",
+            c.topic,
+            if c.schema_name.is_empty() {
+                "unnamed"
+            } else {
+                c.schema_name.as_str()
+            },
+            c.message_encoding
+        );
+    }
+    prost::Message::clear(scratch);
+    if let Err(e) = prost::Message::merge(&mut *scratch, m.data) {
+        return Ok(Err(format!("does not match its schema ({e})")));
+    }
+    Ok(crate::compact::sensor_frames(scratch))
+}
+
+/// The schema of `/sensors` this version reads.
+pub const SENSOR_SCHEMA: &str = "stewart.SensorBlock";
 
 fn keep<T: for<'de> Deserialize<'de>>(into: &mut Vec<T>, data: &[u8]) -> Option<String> {
     decode(data).map(|r| into.push(r)).err()
@@ -360,13 +395,18 @@ impl Visitor for Collect<'_> {
         let data = m.data;
         self.sensor = None;
         Ok(match m.channel.topic.as_str() {
-            topics::SENSORS => {
-                let e = keep_record(&mut log.sensors, m);
-                if e.is_none() {
-                    self.sensor = log.sensors.last().map(|s| s.sequence);
+            topics::SENSORS => match sensor_block(m, &mut self.scratch)? {
+                Ok(frames) => {
+                    if let (Some(a), Some(b)) = (frames.first(), frames.last()) {
+                        self.sensor = Some((a.sequence, b.sequence));
+                    }
+                    let run = &self.scratch.run;
+                    log.sensors
+                        .extend(frames.iter().map(|f| SensorRecord::of_frame(run, f)));
+                    None
                 }
-                e
-            }
+                Err(e) => Some(e),
+            },
             topics::ESTIMATE => keep(&mut log.estimates, data),
             topics::LEGS => keep_record(&mut log.legs, m),
             topics::POSE => keep_record(&mut log.poses, m),
@@ -378,7 +418,7 @@ impl Visitor for Collect<'_> {
         })
     }
 
-    fn last_sensor_sequence(&mut self) -> Option<u64> {
+    fn sensor_sequences(&mut self) -> Option<(u64, u64)> {
         self.sensor.take()
     }
 }
@@ -406,6 +446,7 @@ impl LogContents {
             &mut Collect {
                 log: &mut log,
                 sensor: None,
+                scratch: crate::proto::SensorBlock::default(),
             },
         )?;
         log.channels = channels;

@@ -93,19 +93,19 @@ impl SensorRecord {
     }
 }
 
-impl FromProto for SensorRecord {
-    type Proto = proto::SensorFrame;
-    fn from_proto(p: proto::SensorFrame) -> Result<Self, String> {
-        Ok(Self {
-            sequence: p.sequence,
-            time_s: p.time_s,
-            leg_lengths_m: array("leg_lengths_m", &p.leg_lengths_m)?,
-            leg_forces_n: array("leg_forces_n", &p.leg_forces_n)?,
-            gyro_rad_s: array("gyro_rad_s", &p.gyro_rad_s)?,
-            accel_m_s2: array("accel_m_s2", &p.accel_m_s2)?,
-            status: p.status,
-            run: p.run,
-        })
+impl SensorRecord {
+    /// The record of frame `f` of measurement `run`.
+    pub fn of_frame(run: &str, f: &control::io::SensorFrame) -> Self {
+        Self {
+            run: run.to_string(),
+            sequence: f.sequence,
+            time_s: f.time_s,
+            leg_lengths_m: f.leg_lengths_m,
+            leg_forces_n: f.leg_forces_n,
+            gyro_rad_s: f.gyro_rad_s,
+            accel_m_s2: f.accel_m_s2,
+            status: f.status.0,
+        }
     }
 }
 

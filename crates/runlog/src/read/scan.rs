@@ -456,9 +456,10 @@ impl<R: Read + Seek> Scanner<R> {
             let read = match h.compression {
                 "zstd" => zstd::stream::read::Decoder::with_buffer(compressed).and_then(|mut d| {
                     // The frame's declared window is allocated before anything is checked:
-                    // bound it by the chunk's declared size (at least 1 MiB, at most zstd's
-                    // own default limit of 128 MiB).
-                    let log2 = (64 - want.saturating_sub(1).leading_zeros()).clamp(20, 27);
+                    // bound it by the chunk's declared size (at least 4 MiB, the window of
+                    // zstd's levels up to 12 on a stream of unknown size, as the writer's are;
+                    // at most zstd's own default limit of 128 MiB).
+                    let log2 = (64 - want.saturating_sub(1).leading_zeros()).clamp(22, 27);
                     d.window_log_max(log2)?;
                     d.take(limit).read_to_end(&mut self.chunk)
                 }),

@@ -1,11 +1,13 @@
 //! The reader on logs written by the run logger: intact, cut, damaged, and mutated.
 
 use super::*;
+use crate::compact::{quantise_frame, SensorBlock, SensorCounts};
 use crate::mcap_log::McapLog;
-use crate::messages::{channels, SensorMsg};
+use crate::messages::channels;
 
+/// Frame `i`, at the log's resolution (as the backends read it).
 fn frame(i: u64) -> control::io::SensorFrame {
-    control::io::SensorFrame {
+    quantise_frame(&control::io::SensorFrame {
         sequence: i,
         time_s: i as f64 * 1e-3,
         leg_lengths_m: [1.9 + i as f64 * 1e-7; 6],
@@ -13,7 +15,15 @@ fn frame(i: u64) -> control::io::SensorFrame {
         gyro_rad_s: [0.1, -0.2, 1.0 / 3.0],
         accel_m_s2: [0.0, 0.0, 9.80665],
         status: control::io::Status(0),
-    }
+    })
+}
+
+/// A `/sensors` message of the one frame `f`.
+fn block(f: &control::io::SensorFrame) -> SensorBlock {
+    let mut b = SensorBlock::new("loaded");
+    b.push(f, &mut SensorCounts::default());
+    b.finish();
+    b
 }
 
 /// A log of `n` sensor frames in chunks of 100, as bytes.
@@ -27,12 +37,8 @@ fn log_bytes_chunked(n: u64, every: u64) -> Vec<u8> {
     let path = dir.path().join("t.mcap");
     let mut log = McapLog::create(&path, &channels()).unwrap();
     for i in 0..n {
-        log.write_proto(
-            SENSORS_TOPIC,
-            1_000 + i,
-            &SensorMsg::new("loaded", &frame(i)),
-        )
-        .unwrap();
+        log.write_proto(SENSORS_TOPIC, 1_000 + i, &block(&frame(i)))
+            .unwrap();
         if i % every == every - 1 {
             log.flush().unwrap();
         }
@@ -43,42 +49,39 @@ fn log_bytes_chunked(n: u64, every: u64) -> Vec<u8> {
 
 const SENSORS_TOPIC: &str = topics::SENSORS;
 
-/// A log as the JSON-only writer made them: `/sensors` in JSON, a non-finite number as `null`.
+/// A log as older versions wrote them (`/sensors` in JSON, one frame a message) is refused,
+/// saying what it is and what this version reads.
 #[test]
-fn a_json_log_still_reads() {
+fn a_log_in_an_unknown_encoding_is_refused_clearly() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("json.mcap");
-    let specs: Vec<_> = channels()
-        .into_iter()
-        .map(|mut c| {
+    let mut specs = channels();
+    for c in &mut specs {
+        if c.topic == SENSORS_TOPIC {
             c.encoding = crate::mcap_log::Encoding::Json;
-            c
-        })
-        .collect();
+            c.schema_name = "stewart.SensorFrame";
+        }
+    }
     let mut log = McapLog::create(&path, &specs).unwrap();
     for i in 0..50 {
         log.write(
             SENSORS_TOPIC,
             1_000 + i,
-            &SensorMsg::new("loaded", &frame(i)),
+            &serde_json::json!({"sequence": i}),
         )
         .unwrap();
     }
     log.finish().unwrap();
-    let log = LogContents::read(&path).unwrap();
-    assert!(log.damaged.is_clean(), "{:?}", log.damaged);
-    assert_eq!(log.channels[SENSORS_TOPIC].message_encoding, "json");
-    assert_eq!(log.sensors.len(), 50);
-    for (i, s) in log.sensors.iter().enumerate() {
-        let f = frame(i as u64);
-        assert_eq!(s.time_s.to_bits(), f.time_s.to_bits());
-        assert_eq!(s.leg_lengths_m, f.leg_lengths_m);
-        assert!(s.leg_forces_n[0].is_nan());
-    }
+    let err = format!("{:#}", LogContents::read(&path).unwrap_err());
+    assert!(
+        err.contains("/sensors channel is stewart.SensorFrame in json encoding")
+            && err.contains("reads stewart.SensorBlock in protobuf"),
+        "{err}"
+    );
 }
 
 #[test]
-fn reads_frames_back_exactly_nan_included() {
+fn reads_frames_back_exactly_at_the_logs_resolution_nan_included() {
     let log = LogContents::from_bytes(&log_bytes(250)).unwrap();
     assert!(log.truncated.is_none());
     assert_eq!(log.sensors.len(), 250);
@@ -87,14 +90,15 @@ fn reads_frames_back_exactly_nan_included() {
         (info.count, info.first_ns, info.last_ns, info.monotonic),
         (250, 1_000, 1_249, true)
     );
-    assert_eq!(info.schema_name, "stewart.SensorFrame");
+    assert_eq!(info.schema_name, "stewart.SensorBlock");
     assert_eq!(info.message_encoding, "protobuf");
     assert_eq!(info.schema_encoding, "protobuf");
     for (i, s) in log.sensors.iter().enumerate() {
         let f = frame(i as u64);
         assert_eq!(s.time_s.to_bits(), f.time_s.to_bits());
         assert_eq!(s.leg_lengths_m, f.leg_lengths_m);
-        assert_eq!(s.gyro_rad_s[2].to_bits(), (1.0f64 / 3.0).to_bits());
+        assert_eq!(s.gyro_rad_s[2].to_bits(), f.gyro_rad_s[2].to_bits());
+        assert_eq!(s.gyro_rad_s[2], 0.333_333, "1/3 rad/s at the µrad/s");
         assert!(s.leg_forces_n[0].is_nan());
     }
     assert_eq!(log.runs(), vec!["loaded".to_string()]);
@@ -232,7 +236,7 @@ fn a_damaged_definitions_chunk_is_recovered_from_the_summary() {
     assert_eq!(log.damaged.damaged[0].sensor_frames, Some(0));
     assert_eq!(
         log.channels[topics::SENSORS].schema_name,
-        "stewart.SensorFrame"
+        "stewart.SensorBlock"
     );
 }
 

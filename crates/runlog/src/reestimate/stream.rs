@@ -7,15 +7,13 @@
 //! starts) wait in a bounded queue, [`WAITING_FRAMES`]; the replay starts on that message with
 //! them. The result is the one [`super::reestimate`] gives on the same log read whole.
 
-use std::borrow::Cow;
 use std::collections::VecDeque;
 use std::path::Path;
 
 use anyhow::{anyhow, bail, Context, Result};
-use control::io::{SensorFrame, Status};
+use control::io::SensorFrame;
 use measure::replay::Replay;
 use measure::{LoadedConfig, Report, TareFile};
-use serde::Deserialize;
 
 use super::{
     build_report, finish_replay, logged_tare, measured_tare, no_settings, rig_description_of,
@@ -23,32 +21,12 @@ use super::{
 };
 use crate::messages as topics;
 use crate::metadata::{EstimatorSettings, RunMetadata, TruthMsg};
-use crate::proto::{self, array};
-use crate::read::records::{nan_or, nan_or_one};
+use crate::proto;
 use crate::read::{decode, no_metadata, visit, Channels, Damage, Message, Visitor};
 
 /// Frames of a measurement held while its estimator settings have not been read: two minutes
 /// at 1 kHz (about 20 MB). Beyond, the oldest are dropped (they only warm the conditioning).
 pub const WAITING_FRAMES: usize = 120_000;
-
-/// A `/sensors` message decoded in place.
-#[derive(Deserialize)]
-struct SensorRef<'a> {
-    #[serde(borrow)]
-    run: Cow<'a, str>,
-    sequence: u64,
-    #[serde(deserialize_with = "nan_or_one")]
-    time_s: f64,
-    #[serde(deserialize_with = "nan_or")]
-    leg_lengths_m: [f64; 6],
-    #[serde(deserialize_with = "nan_or")]
-    leg_forces_n: [f64; 6],
-    #[serde(deserialize_with = "nan_or")]
-    gyro_rad_s: [f64; 3],
-    #[serde(deserialize_with = "nan_or")]
-    accel_m_s2: [f64; 3],
-    status: u32,
-}
 
 enum RunState {
     /// Frames waiting for the settings.
@@ -128,9 +106,10 @@ struct Stream<'a> {
     tare: Option<TareFile>,
     truth: Option<TruthMsg>,
     runs: Vec<(&'static str, RunState)>,
-    sequence: Option<u64>,
+    /// First and last sequence of the `/sensors` block just decoded.
+    sequences: Option<(u64, u64)>,
     /// The protobuf `/sensors` message decoded into, its buffers reused.
-    scratch: proto::SensorFrame,
+    scratch: proto::SensorBlock,
 }
 
 impl Stream<'_> {
@@ -167,65 +146,25 @@ impl Stream<'_> {
         Ok(())
     }
 
+    /// A `/sensors` block, decoded into a reused message.
     fn sensor(&mut self, m: &Message<'_>) -> Result<Option<String>> {
-        match m.channel.message_encoding.as_str() {
-            "protobuf" => self.sensor_proto(m.data),
-            "json" => self.sensor_json(m.data),
-            other => Ok(Some(format!(
-                "has message encoding {other:?}, not json or protobuf"
-            ))),
-        }
-    }
-
-    /// A protobuf `/sensors` frame, decoded into a reused message (no allocation once warm).
-    fn sensor_proto(&mut self, data: &[u8]) -> Result<Option<String>> {
-        let p = &mut self.scratch;
-        prost::Message::clear(p);
-        if let Err(e) = prost::Message::merge(&mut *p, data) {
-            return Ok(Some(format!("does not match its schema ({e})")));
-        }
-        let frame = (|| {
-            Ok::<_, String>(SensorFrame {
-                sequence: p.sequence,
-                time_s: p.time_s,
-                leg_lengths_m: array("leg_lengths_m", &p.leg_lengths_m)?,
-                leg_forces_n: array("leg_forces_n", &p.leg_forces_n)?,
-                gyro_rad_s: array("gyro_rad_s", &p.gyro_rad_s)?,
-                accel_m_s2: array("accel_m_s2", &p.accel_m_s2)?,
-                status: Status(p.status),
-            })
-        })();
-        let frame = match frame {
-            Ok(f) => f,
+        let frames = match crate::read::sensor_block(m, &mut self.scratch)? {
+            Ok(frames) => frames,
             Err(e) => return Ok(Some(e)),
         };
+        if let (Some(a), Some(b)) = (frames.first(), frames.last()) {
+            self.sequences = Some((a.sequence, b.sequence));
+        }
         let run = std::mem::take(&mut self.scratch.run);
-        self.frame(&run, frame);
+        for f in frames {
+            self.frame(&run, f);
+        }
         self.scratch.run = run;
-        Ok(None)
-    }
-
-    fn sensor_json(&mut self, data: &[u8]) -> Result<Option<String>> {
-        let s: SensorRef<'_> = match serde_json::from_slice(data) {
-            Ok(s) => s,
-            Err(e) => return Ok(Some(format!("does not match its schema ({e})"))),
-        };
-        let frame = SensorFrame {
-            sequence: s.sequence,
-            time_s: s.time_s,
-            leg_lengths_m: s.leg_lengths_m,
-            leg_forces_n: s.leg_forces_n,
-            gyro_rad_s: s.gyro_rad_s,
-            accel_m_s2: s.accel_m_s2,
-            status: Status(s.status),
-        };
-        self.frame(&s.run, frame);
         Ok(None)
     }
 
     /// Hands `frame` of measurement `run` to its replay, or holds it until the replay starts.
     fn frame(&mut self, run: &str, frame: SensorFrame) {
-        self.sequence = Some(frame.sequence);
         match self.state(run) {
             Some(RunState::Running(w)) => w.push(frame),
             Some(RunState::Waiting(q)) => {
@@ -241,7 +180,7 @@ impl Stream<'_> {
 
 impl Visitor for Stream<'_> {
     fn message(&mut self, m: &Message<'_>) -> Result<Option<String>> {
-        self.sequence = None;
+        self.sequences = None;
         let data = m.data;
         match m.channel.topic.as_str() {
             topics::SENSORS => return self.sensor(m),
@@ -281,8 +220,8 @@ impl Visitor for Stream<'_> {
         Ok(None)
     }
 
-    fn last_sensor_sequence(&mut self) -> Option<u64> {
-        self.sequence.take()
+    fn sensor_sequences(&mut self) -> Option<(u64, u64)> {
+        self.sequences.take()
     }
 }
 
@@ -422,8 +361,8 @@ impl<'a> Stream<'a> {
             tare: None,
             truth: None,
             runs: Vec::new(),
-            sequence: None,
-            scratch: proto::SensorFrame::default(),
+            sequences: None,
+            scratch: proto::SensorBlock::default(),
         }
     }
 }
