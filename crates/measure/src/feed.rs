@@ -15,7 +15,7 @@
 //!   [`crate::calibration::imu`]): the readings in P are taken back through the fitted
 //!   matrices, ω = G⁻¹ ω_m and f = A⁻¹ f_m, and moved forward by the IMU's delay τ to first
 //!   order from the previous frame, x(t) ≈ x_k + (τ/T)(x_k − x_{k−1}) (the frame after a lost
-//!   one keeps its reading).
+//!   one, more than 1.5 T after its predecessor, keeps its reading).
 //! - Leg forces and time pass unchanged, and so does the frame's sequence counter, which places
 //!   the sample on the conditioning's grid (a late frame keeps its place, a gap in the counter
 //!   is a lost frame: `estimator::timebase`).
@@ -34,8 +34,10 @@ struct Alignment {
     accel_inverse: Matrix3<f64>,
     /// τ / T.
     delay_periods: f64,
-    /// The previous frame's sequence and its rate and specific force in P, aligned.
-    previous: Option<(u64, Vector3<f64>, Vector3<f64>)>,
+    /// T, s.
+    period_s: f64,
+    /// The previous frame's time and its rate and specific force in P, aligned.
+    previous: Option<(f64, Vector3<f64>, Vector3<f64>)>,
 }
 
 /// The frame-to-sample rule's state: the warm start of forward kinematics and the IMU's
@@ -80,6 +82,7 @@ impl Feed {
                 } else {
                     0.0
                 },
+                period_s: sample_period_s,
                 previous: None,
             })
         });
@@ -129,14 +132,17 @@ impl Feed {
             Some(a) => {
                 let w = a.gyro_inverse * gyro_rad_s;
                 let f = a.accel_inverse * accel_m_s2;
+                // The previous frame is the one a period before (by time, so that frames without
+                // a counter are corrected alike); after a lost frame the reading stays.
+                let step = frame.time_s - a.previous.map_or(f64::NAN, |p| p.0);
                 let shifted = match a.previous {
-                    Some((seq, w0, f0)) if frame.sequence == seq.wrapping_add(1) => (
+                    Some((_, w0, f0)) if (step - a.period_s).abs() < 0.5 * a.period_s => (
                         w + (w - w0) * a.delay_periods,
                         f + (f - f0) * a.delay_periods,
                     ),
                     _ => (w, f),
                 };
-                a.previous = Some((frame.sequence, w, f));
+                a.previous = Some((frame.time_s, w, f));
                 shifted
             }
             None => (gyro_rad_s, accel_m_s2),

@@ -196,7 +196,7 @@ fn metadata(
         base_joints_m,
         plate_joints_m,
         stroke_m: [stroke.min_length_m, stroke.max_length_m],
-        imu_calibration_toml: None,
+        imu_calibration_toml: config.calibration.imu_file.as_ref().map(|f| f.to_toml()),
     }
 }
 
