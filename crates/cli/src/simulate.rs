@@ -224,7 +224,8 @@ pub fn simulate(
     }
     // The calibration pass's log and file are named after the measurement's log.
     let mut log_path = None;
-    if args.calibrate_imu.is_none() && scenario.loaded.config.calibration.calibrates_imu_each_run() {
+    if args.calibrate_imu.is_none() && scenario.loaded.config.calibration.calibrates_imu_each_run()
+    {
         let log = common::log_path(&args.measure, runlog::run_log::unix_now_ns());
         let pass = calibration_pass(args, &log, interrupt)?;
         log_path = Some(log);
