@@ -167,7 +167,7 @@ impl Feed {
 mod tests {
     use super::*;
 
-    use crate::budget::testkit::geometry;
+    use crate::testkit::geometry;
 
     fn frame_at(g: &Geometry, pose: &Pose) -> SensorFrame {
         let lengths = g.leg_lengths(pose);

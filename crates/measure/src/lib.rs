@@ -37,6 +37,7 @@ pub mod measurement;
 pub mod observer;
 pub mod plan;
 pub mod quality;
+pub mod record;
 pub mod replay;
 pub mod report;
 pub mod schema;
@@ -45,6 +46,8 @@ pub mod setup;
 pub mod sources;
 pub mod systematic;
 pub mod tare;
+#[cfg(test)]
+pub(crate) mod testkit;
 pub mod tick;
 pub mod validate;
 

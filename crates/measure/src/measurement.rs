@@ -85,9 +85,9 @@ pub struct MeasureOutcome {
     /// `None` without an excitation.
     pub budget: Option<crate::budget::RunBudget>,
     /// The run's record of the samples the estimator used (~100 Hz block means,
-    /// [`crate::budget::record`]): what the IMU calibration fits ([`crate::calibration::imu`]);
+    /// [`crate::record`]): what the IMU calibration fits ([`crate::calibration::imu`]);
     /// `None` without an excitation.
-    pub record: Option<crate::budget::RunRecord>,
+    pub record: Option<crate::record::RunRecord>,
     /// How it ended.
     pub end: End,
 }
@@ -186,7 +186,7 @@ where
     let window_samples = (trajectory.duration_s() * rate_hz).ceil() as usize + 16;
     let mut history = ThetaHistory::with_room_for(window_samples);
     // The error budget's record of the samples the estimator uses, reserved alike.
-    let mut record = crate::budget::RunRecord::new(setup.geometry, period_s, window_samples);
+    let mut record = crate::record::RunRecord::new(setup.geometry, period_s, window_samples);
     let mut fk_failures = 0u64;
 
     observer.measurement_started(measurement)?;

@@ -99,7 +99,7 @@ pub struct Replay {
     last_used_s: f64,
     last_time_s: f64,
     /// The budget's record and figures, when asked for.
-    budget: Option<(crate::budget::RunRecord, crate::budget::Figures)>,
+    budget: Option<(crate::record::RunRecord, crate::budget::Figures)>,
 }
 
 impl Replay {
@@ -141,7 +141,7 @@ impl Replay {
     /// `figures` ([`crate::budget`]), as the online measurement does.
     pub fn with_budget(mut self, figures: crate::budget::Figures) -> Self {
         let record =
-            crate::budget::RunRecord::new(self.config.geometry, self.config.sample_period_s, 0);
+            crate::record::RunRecord::new(self.config.geometry, self.config.sample_period_s, 0);
         self.budget = Some((record, figures));
         self
     }

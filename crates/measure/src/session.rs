@@ -84,7 +84,7 @@ pub struct TareEffects {
     /// The tare run's error-budget inputs ([`crate::budget`]).
     pub budget: Option<crate::budget::RunBudget>,
     /// The tare run's record, for the IMU calibration ([`crate::calibration::imu`]).
-    pub record: Option<crate::budget::RunRecord>,
+    pub record: Option<crate::record::RunRecord>,
 }
 
 /// The tare a session subtracts.

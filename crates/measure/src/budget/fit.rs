@@ -1,6 +1,6 @@
 //! The budget's own least-squares fit of the rigid-body equations on a run's record: the same
 //! model as the estimator ([`estimator::regressor`]: Newton–Euler about the P origin, linear
-//! in θ), with its own zero-phase derivative of the recorded rate ([`super::util::d1`]) and no
+//! in θ), with its own zero-phase derivative of the recorded rate ([`crate::record::derivative::d1`]) and no
 //! filter, rows weighted by the estimator's equation sigmas W = diag(1/σ²).
 //!
 //! With A = Σ Φᵢᵀ W Φᵢ over the record and θ̂ the run's reported estimate, an error that
@@ -14,8 +14,8 @@ use estimator::{ParameterSet, ParameterVector};
 use kinematics::{Geometry, Pose};
 use nalgebra::{Matrix3, SMatrix, Vector3, Vector6};
 
-use super::record::Entry;
-use super::util::{d1, interior};
+use crate::record::derivative::{d1, interior};
+use crate::record::Entry;
 
 /// Which parameters the fit estimates.
 #[derive(Clone, Copy, Debug, PartialEq)]

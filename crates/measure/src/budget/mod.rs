@@ -2,8 +2,8 @@
 //! its one-sigma contribution to every reported quantity, from the rig description's figures
 //! and the measurement's own data, never from a simulator's truth.
 //!
-//! - [`record`]: a bounded record of each run (the estimator's samples, averaged to ~100 Hz),
-//!   fed on the estimator's path, online ([`crate::measurement`]) and offline
+//! - [`crate::record`]: a bounded record of each run (the estimator's samples, averaged to
+//!   ~100 Hz), fed on the estimator's path, online ([`crate::measurement`]) and offline
 //!   ([`crate::replay`]).
 //! - [`fit`]: at the end of a run, an independent least-squares fit of the rigid-body
 //!   equations on the record; A = Σ Φᵀ W Φ.
@@ -24,10 +24,8 @@ pub mod combine;
 pub mod fit;
 pub mod legs;
 pub mod perturb;
-pub mod record;
 pub mod rigid;
 pub mod statistical;
-pub mod util;
 
 #[cfg(test)]
 pub(crate) mod testkit;
@@ -39,9 +37,9 @@ use nalgebra::Vector6;
 use serde::{Deserialize, Serialize};
 
 use crate::config::{Config, LegsConfig, SensorsConfig};
+pub use crate::record::RunRecord;
 use crate::sources::ErrorSource;
 pub use combine::{payload_covariances, SourceCovariance};
-pub use record::RunRecord;
 pub use rigid::RigidBody;
 
 /// The rig description's figures the budget reads: the sensors' datasheets, the joints'
@@ -231,7 +229,7 @@ pub fn analyse(
         ..figures.clone()
     };
     let times: Vec<f64> = data.entries.iter().map(|e| e.time_s).collect();
-    let (interior, h) = util::interior(&times);
+    let (interior, h) = crate::record::derivative::interior(&times);
     let motions = legs::motions(&data, &interior, h);
     let described = legs::effects(&data, &motions, &figures.legs);
     if figures.legs_compensated {

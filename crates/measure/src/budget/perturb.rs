@@ -14,8 +14,8 @@ use estimator::legs::PlateMotion;
 
 use super::fit::{Data, Fit};
 use super::legs::{self as leg_model, LegEffects};
-use super::util::d1;
 use super::Figures;
+use crate::record::derivative::d1;
 use crate::sources::ErrorSource;
 
 /// One elementary error.

@@ -19,8 +19,8 @@
 use nalgebra::{SMatrix, Vector3, Vector6};
 
 use super::fit::{Data, Fit};
-use super::util::{d1, D1_NOISE_GAIN};
 use super::Figures;
+use crate::record::derivative::{d1, D1_NOISE_GAIN};
 use estimator::regressor::RegressorSignals;
 
 /// What [`predict`] gives.

@@ -4,26 +4,13 @@
 //! an error can be added to the samples themselves, for checks against a second fit.
 
 use estimator::{InertialParameters, Sample};
-use kinematics::{FkOptions, Geometry, Pose, StrokeLimits};
+use kinematics::{FkOptions, Geometry, Pose};
 use nalgebra::{Matrix3, Rotation3, Vector3, Vector6};
 use stewart_types::GRAVITY_B_M_S2;
 
-use super::record::{Entry, RunRecord};
+use crate::record::{Entry, RunRecord};
 
-/// The default rig's design.
-pub fn geometry() -> Geometry {
-    Geometry::from_radii(
-        1.5,
-        1.2,
-        20f64.to_radians(),
-        20f64.to_radians(),
-        StrokeLimits {
-            min_length_m: 1.5,
-            max_length_m: 2.3,
-        },
-    )
-    .expect("reference design")
-}
+pub use crate::testkit::geometry;
 
 /// The default rig description's legs (the embedded `configs/default.toml`).
 pub fn default_legs() -> crate::config::LegsConfig {

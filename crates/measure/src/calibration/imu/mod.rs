@@ -13,7 +13,7 @@
 //!   share their axes.
 //!
 //! The truth comes from forward kinematics of the leg lengths: R, ω = 2 Im(q̄ ⊗ q̇), ω̇ and a_O
-//! from the record's mean poses by zero-phase derivatives ([`crate::budget::util`]). Both fits
+//! from the record's mean poses by zero-phase derivatives ([`crate::record::derivative`]). Both fits
 //! are linear least squares ([`normal`]): (G, b_g, τ), then (r, b_a) with A and τ fixed. The
 //! encoders and the load cells are taken to sample at the same instant (one controller tick),
 //! so τ is also the IMU's delay against the cells.
@@ -39,8 +39,8 @@ use kinematics::{Geometry, Pose, Rotation3};
 use nalgebra::{DMatrix, Matrix3, Quaternion, SVector, UnitQuaternion, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
-use crate::budget::record::Entry;
-use crate::budget::util::{d1, d2, interior};
+use crate::record::derivative::{d1, d2, interior};
+use crate::record::Entry;
 use normal::Normal;
 
 /// Entries per block of the sandwich covariance: 0.4 s at the record's 100 Hz, long against

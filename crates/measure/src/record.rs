@@ -1,5 +1,6 @@
 //! A bounded record of one run: the estimator's samples, averaged over blocks of about 10 ms
-//! (100 Hz), for the error budget's offline fit ([`super::fit`]).
+//! (100 Hz), for the error budget's offline fit ([`crate::budget::fit`]) and the IMU
+//! calibration ([`crate::calibration::imu`]).
 //!
 //! **Why averaging, not striding.** The rigid-body equations are linear in ω̇, the products
 //! ωᵢωⱼ, the specific force and the wrench ([`estimator::regressor`]); a block mean of each of
@@ -19,7 +20,9 @@ use estimator::Sample;
 use kinematics::{Geometry, Pose};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3, Vector6};
 
-use crate::budget::util::products;
+pub mod derivative;
+
+use derivative::products;
 
 /// One entry: the mean of a block of consecutive samples.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -208,7 +211,7 @@ impl RunRecord {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::budget::testkit;
+    use crate::testkit;
 
     /// Averages are exact for what is linear (time, forces), the products are averaged per
     /// sample (not the product of means), and the memory stays bounded with the stride doubling.

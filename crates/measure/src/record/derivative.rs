@@ -1,5 +1,5 @@
-//! Small helpers of the budget: the rate products, zero-phase derivatives on the record's
-//! grid, and the record's regular stretches.
+//! The record's signals: the rate products, zero-phase derivatives on the record's grid, and
+//! the record's regular stretches.
 
 use nalgebra::{SVector, Vector3, Vector6};
 
