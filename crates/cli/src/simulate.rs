@@ -59,10 +59,10 @@ pub struct SimulateArgs {
     pub only: Option<ErrorSource>,
     /// Calibrate the simulated rig's IMU instead of measuring a payload: the empty fixture
     /// moves through the tare run's excitation, and the IMU's alignment against the platform's
-    /// forward kinematics (axes, gyro scales, the accelerometer's position, the delay) is fitted and
-    /// written with its uncertainty to FILE, which `[calibration] imu = "FILE"` in a rig
-    /// description applies (docs/calibration.md). Any calibration the rig description already
-    /// applies is left out of this run.
+    /// forward kinematics (axes, gyro scales, the accelerometer's position, the delay) is
+    /// fitted and written with its uncertainty to FILE, which `[calibration] imu = "FILE"` in a
+    /// rig description applies (docs/calibration.md). Any calibration the rig description
+    /// already applies is left out of this run.
     #[arg(
         long,
         value_name = "FILE",
