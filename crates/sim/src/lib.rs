@@ -60,6 +60,7 @@ pub use error::{SimError, SimErrorKind};
 pub use imperfections::{Imperfections, SuspensionConfig};
 pub mod scenario;
 
+pub use sensor_model::ImuAsBuilt;
 pub use sensors::{
     AccelerometerConfig, GyroConfig, ImuAxesConfig, LegLengthSensorConfig, LoadCellConfig,
     NoisePreset, SensorConfig, TimingConfig, UnknownPreset,

@@ -60,7 +60,7 @@
 
 use control::io::SensorFrame;
 use measure::sources::ErrorSource;
-use nalgebra::{Rotation3, Vector3};
+use nalgebra::{Matrix3, Rotation3, Vector3};
 use rand::rngs::StdRng;
 use rand::Rng;
 
@@ -98,6 +98,22 @@ pub(crate) struct SensorModel {
     /// The previous clean frame, while the motion is continuous.
     previous: Option<SensorFrame>,
     lost: bool,
+}
+
+/// The simulated IMU as built ([`SensorModel::imu_as_built`]): the gyro's and the
+/// accelerometer's readings in P are `gyro_matrix · ω` and `accel_matrix · f` (plus bias and
+/// noise), the accelerometer sits at `accelerometer_position_m` in P, and both read `delay_s`
+/// late.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImuAsBuilt {
+    /// G.
+    pub gyro_matrix: Matrix3<f64>,
+    /// A.
+    pub accel_matrix: Matrix3<f64>,
+    /// r, m.
+    pub accelerometer_position_m: Vector3<f64>,
+    /// τ, s.
+    pub delay_s: f64,
 }
 
 fn quantize(value: f64, step: f64) -> f64 {
@@ -182,6 +198,29 @@ impl SensorModel {
     /// The accelerometer's true position in P, m: the described one plus its draw.
     pub fn mount_m(&self) -> Vector3<f64> {
         self.mount_m
+    }
+
+    /// The IMU as built, in the IMU calibration's terms (`measure::calibration::imu`): ground
+    /// truth for tests, never read by the estimator.
+    pub fn imu_as_built(&self) -> ImuAsBuilt {
+        let described = measure::config::ImuMounting {
+            orientation_deg: self.config.imu.orientation_deg,
+            ..Default::default()
+        }
+        .rotation();
+        let to_imu = self.to_imu.map_or(Matrix3::identity(), |r| *r.matrix());
+        // Readings in P after the described mounting: R_d · diag(1 + s) · (P → IMU axes).
+        let reading = |scale: &[f64; 3]| {
+            described.matrix()
+                * Matrix3::from_diagonal(&Vector3::from(scale.map(|s| 1.0 + s)))
+                * to_imu
+        };
+        ImuAsBuilt {
+            gyro_matrix: reading(&self.gyro_scale),
+            accel_matrix: reading(&self.accel_scale),
+            accelerometer_position_m: self.mount_m,
+            delay_s: self.skew_s,
+        }
     }
 
     /// Whether the frame of the last [`Self::measure`] was lost on its way to the host.

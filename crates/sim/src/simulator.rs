@@ -721,6 +721,12 @@ impl Simulator {
         self.world.sprung_state().map(|(pose, _, _)| pose)
     }
 
+    /// Ground truth: the IMU as built (its axes, scales, position and delay), for tests of the
+    /// IMU calibration.
+    pub fn imu_as_built(&self) -> crate::sensor_model::ImuAsBuilt {
+        self.sensors.imu_as_built()
+    }
+
     /// Ground truth: the fixture plate's properties.
     pub fn true_fixture(&self) -> BodyProperties {
         self.fixture
