@@ -518,17 +518,50 @@ fn rig(s: &mut String, input: &Input, cx: &Context<'_>) {
             "not given to the writer of this page (stewart report --rig FILE adds them)",
         ),
     }
-    s.push_str(
-        "</table><h3>Calibrations</h3><p class=\"calibrations\">None are recorded: neither the \
-         report nor the rig description holds a calibration or its date. The uncertainty above \
-         counts the residual errors the rig description's datasheet figures state (load-cell \
-         zero offset and gain after calibration, IMU misalignment, …).</p></section>\n",
-    );
+    s.push_str("</table><h3>Calibrations</h3>");
+    let calibrations = &input.report.run.calibrations;
+    if calibrations.is_empty() {
+        s.push_str(
+            "<p class=\"calibrations\">None applied: the uncertainty above counts the residual \
+             errors the rig description's datasheet figures state (load-cell zero offset and \
+             gain after calibration, IMU misalignment, …).</p>",
+        );
+    } else {
+        s.push_str(
+            "<table class=\"calibrations\"><tr><th>calibration</th><th>taken</th><th>from</th>\
+             <th>fitted by</th></tr>",
+        );
+        for c in calibrations {
+            let kind = match c.kind.as_str() {
+                "imu" => "IMU alignment (axes, gyro scales, accelerometer position, delay)",
+                other => other,
+            };
+            s.push_str(&format!(
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                esc(kind),
+                esc(&c.calibrated_utc),
+                esc(&c.source),
+                esc(&c.tool)
+            ));
+        }
+        s.push_str(
+            "</table><p class=\"calibrations\">Each applied calibration's own uncertainty, not \
+             the datasheet's figure, counts in the error budget's lines of what it calibrates \
+             (docs/calibration.md).</p>",
+        );
+    }
+    s.push_str("</section>\n");
 }
 
 fn provenance(s: &mut String, r: &Report, cx: &Context<'_>) {
     s.push_str("<section id=\"provenance\"><h2>9. Provenance</h2><table class=\"kv\">");
-    kv(s, "tool", cx.tool);
+    let measured_by = if r.run.tool.is_empty() {
+        "not recorded in the report"
+    } else {
+        r.run.tool.as_str()
+    };
+    kv(s, "report made by", measured_by);
+    kv(s, "page written by", cx.tool);
     kv(s, "report", cx.report_source);
     kv(s, "log", r.run.log.as_deref().unwrap_or("none recorded"));
     kv(s, "rig description", &r.run.config);
@@ -541,8 +574,5 @@ fn provenance(s: &mut String, r: &Report, cx: &Context<'_>) {
         );
     }
     kv(s, "parameters estimated", &r.run.params.to_string());
-    s.push_str(
-        "</table><p class=\"note\">The report does not record the version of the tool that \
-         measured; the tool named is the one that wrote this page.</p></section>\n",
-    );
+    s.push_str("</table></section>\n");
 }

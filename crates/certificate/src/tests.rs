@@ -123,3 +123,31 @@ fn a_report_without_budget_says_so() {
     assert!(html.contains("The report carries no error budget."));
     assert!(!html.contains("data-figure=\"budget\""));
 }
+
+/// The calibrations the report records are listed with their dates and the tool that fitted
+/// them; a report without any says none was applied. The tool that made the report is named.
+#[test]
+fn the_page_lists_the_applied_calibrations_with_their_dates() {
+    let mut r = report();
+    let html = render(&parse(&r.to_json()).unwrap(), &context());
+    assert!(html.contains("None applied"), "no calibration");
+    assert!(html.contains("not recorded in the report"), "no tool");
+    r.run.tool = "stewart 9.9.9".into();
+    r.run.calibrations = vec![measure::calibration::AppliedCalibration {
+        kind: "imu".into(),
+        source: "cal/<imu>.toml".into(),
+        calibrated_utc: "2026-11-18T11:06:40Z".into(),
+        tool: "stewart 9.9.8".into(),
+    }];
+    let html = render(&parse(&r.to_json()).unwrap(), &context());
+    assert!(!html.contains("None applied"));
+    for text in [
+        "IMU alignment",
+        "2026-11-18T11:06:40Z",
+        "cal/&lt;imu&gt;.toml",
+        "stewart 9.9.8",
+        "stewart 9.9.9",
+    ] {
+        assert!(html.contains(text), "{text} not on the page");
+    }
+}

@@ -493,6 +493,8 @@ pub fn rig_with_abort(
             params: config.estimator.params.into(),
             log: Some(log_path.display().to_string()),
             backend: "rig".into(),
+            tool: measure::calibration::tool(),
+            calibrations: measure::calibration::applied(&config.calibration),
         },
         None,
     );

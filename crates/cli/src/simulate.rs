@@ -368,6 +368,8 @@ pub fn simulate(
             params: config.estimator.params.into(),
             log: Some(log_path.display().to_string()),
             backend: "sim".into(),
+            tool: measure::calibration::tool(),
+            calibrations: measure::calibration::applied(&config.calibration),
         },
         Some(scenario.world.payload.quantities()),
     );

@@ -142,6 +142,13 @@ pub struct RunInfo {
     pub log: Option<String>,
     /// Backend that produced the data (`"sim"`, `"rig"`).
     pub backend: String,
+    /// The tool and its version that produced this report (`stewart 0.1.0`; empty when not
+    /// recorded).
+    #[serde(default)]
+    pub tool: String,
+    /// The calibrations the measurement applied, with their dates.
+    #[serde(default)]
+    pub calibrations: Vec<crate::calibration::AppliedCalibration>,
 }
 
 /// A span of the log lost to damage.

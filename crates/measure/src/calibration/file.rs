@@ -66,7 +66,7 @@ impl CalibrationFile {
                 "{:04}-{:02}-{:02}T{:02}:{:02}:{:02}Z",
                 t.year, t.month, t.day, t.hour, t.minute, t.second
             ),
-            tool: format!("stewart {}", env!("CARGO_PKG_VERSION")),
+            tool: super::tool(),
             rig: rig.into(),
             backend: backend.into(),
             log: None,

@@ -11,3 +11,34 @@ pub mod imu;
 
 pub use file::CalibrationFile;
 pub use imu::ImuAlignment;
+
+/// A calibration a measurement applied, as its report records it.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct AppliedCalibration {
+    /// What it calibrates (`"imu"`).
+    pub kind: String,
+    /// Where it came from: the file the rig description names, or the calibration pass.
+    pub source: String,
+    /// When its data were taken (`2026-11-24T17:40:00Z`).
+    pub calibrated_utc: String,
+    /// The tool that fitted it.
+    pub tool: String,
+}
+
+/// The calibrations `config` applies, for the report.
+pub fn applied(config: &crate::config::CalibrationConfig) -> Vec<AppliedCalibration> {
+    match (&config.imu, &config.imu_file) {
+        (Some(source), Some(file)) => vec![AppliedCalibration {
+            kind: "imu".into(),
+            source: source.clone(),
+            calibrated_utc: file.calibrated_utc.clone(),
+            tool: file.tool.clone(),
+        }],
+        _ => Vec::new(),
+    }
+}
+
+/// This tool and its version, as reports and calibration files name it.
+pub fn tool() -> String {
+    format!("stewart {}", env!("CARGO_PKG_VERSION"))
+}

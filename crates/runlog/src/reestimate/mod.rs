@@ -303,6 +303,8 @@ pub fn build_report(
             params: params.into(),
             log: Some(log.path.display().to_string()),
             backend: meta.backend.clone(),
+            tool: measure::calibration::tool(),
+            calibrations: measure::calibration::applied(&rig.config.calibration),
         },
     });
     report.data.truncated = log.damage.truncated.clone();
