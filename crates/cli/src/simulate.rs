@@ -301,6 +301,11 @@ pub fn simulate(
                 plate_joints_m: plate_joints,
                 stroke_m: [stroke.min_length_m, stroke.max_length_m],
                 imu_calibration_toml: config.calibration.imu_file.as_ref().map(|f| f.to_toml()),
+                load_cell_calibration_toml: config
+                    .calibration
+                    .load_cells_file
+                    .as_ref()
+                    .map(|f| f.to_toml()),
             },
         )
         .and_then(|()| {

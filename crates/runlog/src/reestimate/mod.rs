@@ -78,8 +78,20 @@ pub fn rig_description_of(meta: &RunMetadata, rig: Option<&LoadedConfig>) -> Res
         .map(|t| measure::calibration::CalibrationFile::parse(t, "the log's IMU calibration"))
         .transpose()
         .map_err(|e| anyhow!("{e}"))?;
-    let loaded =
-        measure::load::load_recorded(&meta.config_toml, "<rig description in the log>", imu)
+    let load_cells = meta
+        .load_cell_calibration_toml
+        .as_deref()
+        .map(|t| {
+            measure::calibration::LoadCellFile::parse(t, "the log's load-cell calibration")
+        })
+        .transpose()
+        .map_err(|e| anyhow!("{e}"))?;
+    let loaded = measure::load::load_recorded(
+        &meta.config_toml,
+        "<rig description in the log>",
+        imu,
+        load_cells,
+    )
             .map_err(|e| {
                 anyhow!(
                 "the log's rig description is refused (a log of an older version? give the rig \
@@ -192,6 +204,7 @@ fn start_replay(config: EstimatorConfig, fk: FkOptions, rig: &LoadedConfig) -> R
     Replay::new(config, fk, &rig.config.sensors.imu, sigmas, trace_every)
         .map(|r| {
             r.with_alignment(rig.config.calibration.imu_alignment())
+                .with_load_cell_gains(rig.config.calibration.load_cell_gains())
                 .with_budget(measure::budget::Figures::of(&rig.config))
         })
         .map_err(|e| anyhow!("{e}"))
