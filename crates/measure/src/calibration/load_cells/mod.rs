@@ -9,15 +9,16 @@
 //! own wrench when the estimator compensates them, [`crate::budget::legs`]), so to first order
 //! in g
 //!
-//! - tare run: W = Φ(motion) θ_F + Σ_i g_i f_i L_i + c,
-//! - loaded run: W = Φ(motion) (θ_F + θ_R) + Σ_i g_i f_i L_i + c,
+//! - tare run: W = Φ(motion) θ_F + Σ_i (g_i f_i + o_i) L_i,
+//! - loaded run: W = Φ(motion) (θ_F + θ_R) + Σ_i (g_i f_i + o_i) L_i,
 //!
 //! with Φ the rigid-body regressor ([`estimator::regressor::from_signals`]: the recorded
 //! rate, its derivative and the specific force moved to the P origin), θ_F the fixture's ten
 //! parameters, θ_R the reference's with its mass m_R known (its centre of mass and inertia
-//! are fitted, not needed), and c the cells' zero offsets' wrench Σ o_i L_i, nearly constant in
-//! P over the plate's small motion and shared by both runs. Linear least squares in
-//! [g (6), θ_F (10), θ_R without m (9), c (6)], each equation weighted by the estimator's
+//! are fitted, not needed), and the cells' zero offsets o_i shared by both runs (a datasheet's
+//! 4 N is twice what a 5e-4 gain does to a 4 kN leg force, so they cannot be left out). Linear
+//! least squares in [g (6), θ_F (10), θ_R without m (9), o (6)], each equation weighted by the
+//! estimator's
 //! equation sigma and smoothed alike on both sides ([`super::normal`]); the accelerometer's
 //! offset measured at rest before each run ([`estimator::hold`]) is taken out of its
 //! specific force, as the estimator does.
@@ -26,15 +27,16 @@
 //! which θ_F absorbs in the tare run; only the known mass m_R fixes the overall scale: the
 //! gains' mean is m_R's tolerance and the loaded run's weight away from the truth, the gains'
 //! differences come from how the legs share the force as the plate moves and tilts. The zero
-//! offsets' wrench c takes the static share of each cell's gain away from its difference, so
-//! the differences come mostly from the motion's dynamic forces.
+//! offsets take the static share of each cell's gain away from its difference, so the
+//! differences come mostly from the motion's dynamic forces.
 //!
 //! **Uncertainty.** The noise's part is the sandwich covariance over blocks of the record
 //! ([`super::normal`]). To it add, each as one more independent error whose change of the fit
 //! counts: each of the 36 joint coordinates moved by the joints' tolerance (the poses the same
 //! leg lengths would have had, and the wrench map of the moved rig), each `[legs]` figure moved
-//! by its tolerance ([`crate::budget::legs::tolerance`]), and the reference's mass moved by its
-//! tolerance.
+//! by its tolerance ([`crate::budget::legs::tolerance`]), each cell's zero drift at its
+//! datasheet rate (a ramp from the tare run's start, which the shared offsets do not take
+//! up), and the reference's mass moved by its tolerance.
 //!
 //! **What is not fitted.** The cells' transverse sensitivity (crosstalk): the transverse
 //! force through a cell comes only from the legs' own weight and the joints' friction, tens of
@@ -64,7 +66,7 @@ pub use file::LoadCellFile;
 /// Fewest interior entries each run needs (two seconds at 100 Hz).
 pub const MIN_ENTRIES: usize = 200;
 
-/// Parameters of the fit: gains, fixture, reference without its mass, offsets' wrench.
+/// Parameters of the fit: gains, fixture, reference without its mass, zero offsets.
 const P: usize = 6 + 10 + 9 + 6;
 
 /// The fitted gains.
@@ -73,7 +75,7 @@ const P: usize = 6 + 10 + 9 + 6;
 pub struct LoadCellGains {
     /// ĝ_i: cell i reads (1 + g_i) times its true force.
     pub gains: [f64; 6],
-    /// Covariance of ĝ: noise, joints' tolerance, legs' figures, reference mass.
+    /// Covariance of ĝ: noise, joints' tolerance, legs' figures, zero drift, reference mass.
     pub covariance: Vec<Vec<f64>>,
     /// One sigma of each gain from the noise alone.
     pub noise_sigma: [f64; 6],
@@ -81,6 +83,9 @@ pub struct LoadCellGains {
     pub joints_sigma: [f64; 6],
     /// One sigma of each gain from the `[legs]` figures' tolerances alone.
     pub legs_sigma: [f64; 6],
+    /// One sigma of each gain from the cells' zero drift alone.
+    #[serde(default)]
+    pub drift_sigma: [f64; 6],
     /// One sigma of each gain from the reference mass's tolerance alone.
     pub mass_sigma: [f64; 6],
     /// The reference's mass the fit took as known, kg.
@@ -148,6 +153,8 @@ pub struct Setup<'a> {
     pub legs: Option<&'a LegsConfig>,
     /// One sigma of each joint coordinate, m.
     pub joint_tolerance_m: f64,
+    /// One sigma of each cell's zero drift, N per minute.
+    pub zero_drift_n_per_min: f64,
     /// The reference's mass, kg.
     pub reference_mass_kg: f64,
     /// Its tolerance, one sigma, kg.
@@ -231,6 +238,8 @@ enum Change {
     Joint(Geometry, [Vec<Pose>; 2]),
     /// The legs' wrench changed by this at each entry of each run.
     Legs([Vec<Vector6<f64>>; 2]),
+    /// Cell `leg`'s zero drifting by this many N/s from the time given.
+    Drift(usize, f64, f64),
     /// The reference's mass changed by this, kg.
     Mass(f64),
 }
@@ -265,6 +274,10 @@ fn solve(
                 }
                 Change::Legs(dy) => {
                     y += dy[r][i];
+                    base
+                }
+                Change::Drift(leg, rate, t0) => {
+                    y += base.column(*leg) * (rate * (e.time_s - t0));
                     base
                 }
                 _ => base,
@@ -375,6 +388,16 @@ pub fn fit(tare: &Run<'_>, loaded: &Run<'_>, setup: &Setup<'_>) -> Result<LoadCe
             }
         }
     }
+    let mut drift_cov = DMatrix::zeros(6, 6);
+    let rate = setup.zero_drift_n_per_min / 60.0;
+    let start = runs[0].data.entries.first().map_or(0.0, |e| e.time_s);
+    if rate.is_finite() && rate > 0.0 {
+        for leg in 0..6 {
+            if let Some((xm, _, _)) = solve(both, setup, &Change::Drift(leg, rate, start)) {
+                drift_cov += outer(&(gains_of(&xm) - g0));
+            }
+        }
+    }
     let mut mass_cov = DMatrix::zeros(6, 6);
     let tol = setup.reference_mass_tolerance_kg;
     if tol.is_finite() && tol > 0.0 {
@@ -382,7 +405,7 @@ pub fn fit(tare: &Run<'_>, loaded: &Run<'_>, setup: &Setup<'_>) -> Result<LoadCe
             mass_cov += outer(&(gains_of(&xm) - g0));
         }
     }
-    let total = &noise + &joints + &legs_cov + &mass_cov;
+    let total = &noise + &joints + &legs_cov + &drift_cov + &mass_cov;
     let h = Vector3::new(x[16], x[17], x[18]);
     Ok(LoadCellGains {
         gains: g0.into(),
@@ -392,6 +415,7 @@ pub fn fit(tare: &Run<'_>, loaded: &Run<'_>, setup: &Setup<'_>) -> Result<LoadCe
         noise_sigma: sigmas(&noise),
         joints_sigma: sigmas(&joints),
         legs_sigma: sigmas(&legs_cov),
+        drift_sigma: sigmas(&drift_cov),
         mass_sigma: sigmas(&mass_cov),
         reference_mass_kg: m,
         reference_mass_tolerance_kg: tol,

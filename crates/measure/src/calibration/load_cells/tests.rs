@@ -25,6 +25,7 @@ pub(crate) fn gains_with(gains: [f64; 6]) -> LoadCellGains {
         noise_sigma: [1e-4; 6],
         joints_sigma: [0.0; 6],
         legs_sigma: [0.0; 6],
+        drift_sigma: [0.0; 6],
         mass_sigma: [0.0; 6],
         reference_mass_kg: REFERENCE_KG,
         reference_mass_tolerance_kg: 0.05,
@@ -150,6 +151,7 @@ fn setup(joint_tolerance_m: f64) -> Setup<'static> {
         equation_sigma: Vector6::new(5.0, 5.0, 5.0, 2.0, 2.0, 2.0),
         legs: None,
         joint_tolerance_m,
+        zero_drift_n_per_min: 0.0,
         reference_mass_kg: REFERENCE_KG,
         reference_mass_tolerance_kg: 0.0,
     }
