@@ -150,7 +150,10 @@ fn default_car_without_noise_is_exact() {
         let l = line(id);
         assert!(l.mass < 1e-4, "{id}: {l:?}");
         assert!(l.com.iter().all(|c| *c < 1e-5), "{id}: {l:?}");
-        assert!(l.inertia_com.iter().flatten().all(|j| *j < 3e-2), "{id}: {l:?}");
+        assert!(
+            l.inertia_com.iter().flatten().all(|j| *j < 3e-2),
+            "{id}: {l:?}"
+        );
     }
     assert_eq!(line("geometry").inertia_com[0][0], 0.0);
     // Massless, frictionless legs: nothing for the cells to miss.

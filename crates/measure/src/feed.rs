@@ -85,7 +85,10 @@ impl Feed {
     ) -> Self {
         self.force_scale = gains.and_then(|c| {
             let scale = Vector6::from(c.gains).map(|g| 1.0 / (1.0 + g));
-            scale.iter().all(|s| s.is_finite() && *s > 0.0).then_some(scale)
+            scale
+                .iter()
+                .all(|s| s.is_finite() && *s > 0.0)
+                .then_some(scale)
         });
         self
     }

@@ -103,7 +103,9 @@ impl RunMetadata {
                 ),
                 (
                     "load_cell_calibration_toml",
-                    nullable(string("the load cells' gains applied, as their file's TOML")),
+                    nullable(string(
+                        "the load cells' gains applied, as their file's TOML",
+                    )),
                 ),
             ],
             "What was run, with the configuration needed to run it again",

@@ -81,9 +81,7 @@ pub fn rig_description_of(meta: &RunMetadata, rig: Option<&LoadedConfig>) -> Res
     let load_cells = meta
         .load_cell_calibration_toml
         .as_deref()
-        .map(|t| {
-            measure::calibration::LoadCellFile::parse(t, "the log's load-cell calibration")
-        })
+        .map(|t| measure::calibration::LoadCellFile::parse(t, "the log's load-cell calibration"))
         .transpose()
         .map_err(|e| anyhow!("{e}"))?;
     let loaded = measure::load::load_recorded(
@@ -92,12 +90,12 @@ pub fn rig_description_of(meta: &RunMetadata, rig: Option<&LoadedConfig>) -> Res
         imu,
         load_cells,
     )
-            .map_err(|e| {
-                anyhow!(
-                "the log's rig description is refused (a log of an older version? give the rig \
+    .map_err(|e| {
+        anyhow!(
+            "the log's rig description is refused (a log of an older version? give the rig \
                  description with --rig FILE): {e}"
-            )
-            })?;
+        )
+    })?;
     Ok(loaded)
 }
 

@@ -37,10 +37,10 @@ use kinematics::{Geometry, Pose, Rotation3};
 use nalgebra::{DMatrix, Matrix3, Quaternion, SVector, UnitQuaternion, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
-use crate::budget::record::Entry;
-use crate::budget::util::{d1, d2, interior};
 use super::normal::Normal;
 pub use super::normal::BLOCK_ENTRIES;
+use crate::budget::record::Entry;
+use crate::budget::util::{d1, d2, interior};
 
 /// Fewest entries a fit takes (two seconds at 100 Hz).
 pub const MIN_ENTRIES: usize = 200;

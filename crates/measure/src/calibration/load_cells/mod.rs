@@ -323,12 +323,19 @@ fn sigmas(cov: &DMatrix<f64>) -> [f64; 6] {
 
 /// Fits the cells' gains to the tare run's and the loaded run's records. See the
 /// [module docs](self).
-pub fn fit(tare: &Run<'_>, loaded: &Run<'_>, setup: &Setup<'_>) -> Result<LoadCellGains, GainError> {
+pub fn fit(
+    tare: &Run<'_>,
+    loaded: &Run<'_>,
+    setup: &Setup<'_>,
+) -> Result<LoadCellGains, GainError> {
     let m = setup.reference_mass_kg;
     if !(m.is_finite() && m > 0.0) {
         return Err(GainError::ReferenceMass(m));
     }
-    let runs = [prepare(tare, setup, "tare")?, prepare(loaded, setup, "loaded")?];
+    let runs = [
+        prepare(tare, setup, "tare")?,
+        prepare(loaded, setup, "loaded")?,
+    ];
     let both = [&runs[0], &runs[1]];
     let (x, noise_full, rms) = solve(both, setup, &Change::None).ok_or(GainError::Unobservable)?;
     let g0 = gains_of(&x);
@@ -358,8 +365,7 @@ pub fn fit(tare: &Run<'_>, loaded: &Run<'_>, setup: &Setup<'_>) -> Result<LoadCe
                     let Ok(built) = Geometry::from_points(b, p, setup.geometry.stroke()) else {
                         continue;
                     };
-                    if let Some((xm, _, _)) = solve(both, setup, &Change::Joint(built, [p0, p1]))
-                    {
+                    if let Some((xm, _, _)) = solve(both, setup, &Change::Joint(built, [p0, p1])) {
                         joints += outer(&(gains_of(&xm) - g0));
                     }
                 }

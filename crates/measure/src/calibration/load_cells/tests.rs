@@ -177,7 +177,11 @@ fn recovers_known_gains_from_clean_readings() {
     for (i, (g, t)) in f.gains.iter().zip(TRUE_GAINS).enumerate() {
         assert!((g - t).abs() < 2e-6, "gain {i}: {g:e} against {t:e}");
     }
-    assert!((f.fixture_mass_kg - 400.0).abs() < 1e-3, "{}", f.fixture_mass_kg);
+    assert!(
+        (f.fixture_mass_kg - 400.0).abs() < 1e-3,
+        "{}",
+        f.fixture_mass_kg
+    );
     let c = Vector3::from(f.reference_com_m) - reference().c;
     assert!(c.norm() < 1e-5, "{c:?}");
     assert!(f.residual_rms < 1e-3, "{}", f.residual_rms);
@@ -326,7 +330,9 @@ fn a_rig_description_applies_its_load_cell_file_or_refuses_a_missing_one() {
     let loaded = crate::load::load(Some(&rig)).unwrap();
     let c = &loaded.config.calibration;
     assert_eq!(c.load_cell_gains().map(|g| g.gains), Some(TRUE_GAINS));
-    assert!(crate::budget::Figures::of(&loaded.config).load_cells.is_some());
+    assert!(crate::budget::Figures::of(&loaded.config)
+        .load_cells
+        .is_some());
     assert_eq!(c.age_warnings(0).len(), 0);
     assert_eq!(c.age_warnings(91 * 86_400).len(), 1);
     std::fs::write(&rig, "[calibration]\n\nload_cells = \"gone.toml\"\n").unwrap();
