@@ -38,6 +38,16 @@
 //! datasheet rate (a ramp from the tare run's start, which the shared offsets do not take
 //! up), and the reference's mass moved by its tolerance.
 //!
+//! **The datasheet's prior.** The joints' tolerance makes the gains' differences nearly
+//! interchangeable with the joints' positions (a joint 0.2 mm off changes a leg's share of a
+//! load as a gain of a few 1e-4 does): the fit alone gives each gain to about 9e-4 with a
+//! default rig, worse than the cells' datasheet (`gain_error`, 5e-4), and only their mean
+//! well (about 9e-5). The applied gains combine the fit with the datasheet's figure as a prior
+//! g ~ N(0, σ_d² I): with the fit's ĝ and its whole covariance C,
+//! C' = C − C (C + σ_d² I)⁻¹ C and ĝ' = ĝ − C (C + σ_d² I)⁻¹ ĝ (the Gaussian posterior, in a
+//! form that never inverts C). The mean takes the fit's, the differences stay near the
+//! datasheet's, narrowed where the motion does determine them.
+//!
 //! **What is not fitted.** The cells' transverse sensitivity (crosstalk): the transverse
 //! force through a cell comes only from the legs' own weight and the joints' friction, tens of
 //! newtons, so its 2e-3 sensitivity moves a reading by a tenth of a newton, below what the
@@ -73,10 +83,21 @@ const P: usize = 6 + 10 + 9 + 6;
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LoadCellGains {
-    /// ĝ_i: cell i reads (1 + g_i) times its true force.
+    /// ĝ_i: cell i reads (1 + g_i) times its true force (the fit with the datasheet's prior;
+    /// what is applied).
     pub gains: [f64; 6],
-    /// Covariance of ĝ: noise, joints' tolerance, legs' figures, zero drift, reference mass.
+    /// Covariance of ĝ (with the prior).
     pub covariance: Vec<Vec<f64>>,
+    /// The fit's own gains, before the prior.
+    #[serde(default)]
+    pub fitted_gains: [f64; 6],
+    /// The fit's own covariance: noise, joints' tolerance, legs' figures, zero drift,
+    /// reference mass.
+    #[serde(default)]
+    pub fitted_covariance: Vec<Vec<f64>>,
+    /// The datasheet's one sigma of each gain taken as the prior (0: none).
+    #[serde(default)]
+    pub prior_sigma: f64,
     /// One sigma of each gain from the noise alone.
     pub noise_sigma: [f64; 6],
     /// One sigma of each gain from the joints' tolerance alone.
@@ -159,6 +180,9 @@ pub struct Setup<'a> {
     pub reference_mass_kg: f64,
     /// Its tolerance, one sigma, kg.
     pub reference_mass_tolerance_kg: f64,
+    /// The cells' datasheet gain error, one sigma, the prior of each gain (0 or not finite:
+    /// none).
+    pub prior_gain_sigma: f64,
 }
 
 /// One run's equations' ingredients.
@@ -235,7 +259,7 @@ fn wrench_map(g: &Geometry, pose: &Pose) -> Matrix6<f64> {
 enum Change {
     None,
     /// The rig built with one joint moved, and each run's poses on it.
-    Joint(Geometry, [Vec<Pose>; 2]),
+    Joint(Box<Geometry>, [Vec<Pose>; 2]),
     /// The legs' wrench changed by this at each entry of each run.
     Legs([Vec<Vector6<f64>>; 2]),
     /// Cell `leg`'s zero drifting by this many N/s from the time given.
@@ -365,7 +389,9 @@ pub fn fit(
                     let Ok(built) = Geometry::from_points(b, p, setup.geometry.stroke()) else {
                         continue;
                     };
-                    if let Some((xm, _, _)) = solve(both, setup, &Change::Joint(built, [p0, p1])) {
+                    if let Some((xm, _, _)) =
+                        solve(both, setup, &Change::Joint(Box::new(built), [p0, p1]))
+                    {
                         joints += outer(&(gains_of(&xm) - g0));
                     }
                 }
@@ -412,12 +438,23 @@ pub fn fit(
         }
     }
     let total = &noise + &joints + &legs_cov + &drift_cov + &mass_cov;
+    let (gains, covariance) = with_prior(&g0, &total, setup.prior_gain_sigma);
     let h = Vector3::new(x[16], x[17], x[18]);
+    let nested = |m: &DMatrix<f64>| -> Vec<Vec<f64>> {
+        (0..6)
+            .map(|i| (0..6).map(|j| m[(i, j)]).collect())
+            .collect()
+    };
     Ok(LoadCellGains {
-        gains: g0.into(),
-        covariance: (0..6)
-            .map(|i| (0..6).map(|j| total[(i, j)]).collect())
-            .collect(),
+        gains: gains.into(),
+        covariance: nested(&covariance),
+        fitted_gains: g0.into(),
+        fitted_covariance: nested(&total),
+        prior_sigma: if setup.prior_gain_sigma.is_finite() {
+            setup.prior_gain_sigma.max(0.0)
+        } else {
+            0.0
+        },
         noise_sigma: sigmas(&noise),
         joints_sigma: sigmas(&joints),
         legs_sigma: sigmas(&legs_cov),
@@ -431,6 +468,26 @@ pub fn fit(
         residual_rms: rms,
         entries: (runs[0].idx.len() + runs[1].idx.len()) as u64,
     })
+}
+
+/// The fit `g` with covariance `c` combined with the prior N(0, σ² I): ĝ' = g − C (C + σ² I)⁻¹ g,
+/// C' = C − C (C + σ² I)⁻¹ C. Without a prior (σ zero or not finite), or when C + σ² I cannot
+/// be inverted, the fit as it is.
+fn with_prior(g: &Vector6<f64>, c: &DMatrix<f64>, sigma: f64) -> (Vector6<f64>, DMatrix<f64>) {
+    let fit = || (*g, c.clone());
+    if !(sigma.is_finite() && sigma > 0.0) {
+        return fit();
+    }
+    let Some(inv) = (c + DMatrix::identity(6, 6) * (sigma * sigma)).try_inverse() else {
+        return fit();
+    };
+    let gd = nalgebra::DVector::from_iterator(6, g.iter().copied());
+    let k = c * inv;
+    let post = &gd - &k * &gd;
+    let cov = c - &k * c;
+    // Symmetric to rounding.
+    let cov = (&cov + cov.transpose()) * 0.5;
+    (Vector6::from_iterator(post.iter().copied()), cov)
 }
 
 impl LoadCellGains {

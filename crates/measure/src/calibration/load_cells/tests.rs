@@ -22,6 +22,9 @@ pub(crate) fn gains_with(gains: [f64; 6]) -> LoadCellGains {
         covariance: (0..6)
             .map(|i| (0..6).map(|j| if i == j { 1e-8 } else { 0.0 }).collect())
             .collect(),
+        fitted_gains: gains,
+        fitted_covariance: Vec::new(),
+        prior_sigma: 0.0,
         noise_sigma: [1e-4; 6],
         joints_sigma: [0.0; 6],
         legs_sigma: [0.0; 6],
@@ -154,6 +157,7 @@ fn setup(joint_tolerance_m: f64) -> Setup<'static> {
         zero_drift_n_per_min: 0.0,
         reference_mass_kg: REFERENCE_KG,
         reference_mass_tolerance_kg: 0.0,
+        prior_gain_sigma: 0.0,
     }
 }
 
@@ -340,4 +344,29 @@ fn a_rig_description_applies_its_load_cell_file_or_refuses_a_missing_one() {
     assert_eq!(err.issues[0].key, "calibration.load_cells");
     assert_eq!(err.issues[0].line, Some(3));
     assert!(err.issues[0].problem.contains("cannot read"), "{err}");
+}
+
+/// The datasheet's prior narrows every gain to at most its own sigma and leaves the gains'
+/// mean, which the reference mass fixes, nearly where the fit put it; the combination is the
+/// Gaussian posterior (checked against the information form (C⁻¹ + I/σ²)⁻¹).
+#[test]
+fn the_datasheets_prior_bounds_the_gains_differences() {
+    let noise = [4.0 / 10f64.sqrt(), 1.6e-4, 1.3e-3];
+    let s = Setup {
+        prior_gain_sigma: 5e-4,
+        ..setup(2e-4)
+    };
+    let f = fitted(noise, 5, &s);
+    let c = DMatrix::from_fn(6, 6, |i, j| f.fitted_covariance[i][j]);
+    let info = c.clone().try_inverse().unwrap() + DMatrix::identity(6, 6) / (5e-4 * 5e-4);
+    let post = info.clone().try_inverse().unwrap();
+    let g = nalgebra::DVector::from_row_slice(&f.fitted_gains);
+    let expected = &post * c.try_inverse().unwrap() * g;
+    for i in 0..6 {
+        assert!(f.sigma(i) <= 5e-4, "gain {i}: {:e}", f.sigma(i));
+        assert!((f.gains[i] - expected[i]).abs() < 1e-9, "gain {i}");
+        assert!((f.sigma(i) - post[(i, i)].sqrt()).abs() < 1e-9 * 1e3 * post[(i, i)].sqrt());
+    }
+    let mean = |g: &[f64; 6]| g.iter().sum::<f64>() / 6.0;
+    assert!((mean(&f.gains) - mean(&f.fitted_gains)).abs() < 0.5e-4);
 }
