@@ -534,6 +534,7 @@ fn rig(s: &mut String, input: &Input, cx: &Context<'_>) {
         for c in calibrations {
             let kind = match c.kind.as_str() {
                 "imu" => "IMU alignment (axes, gyro scales, accelerometer position, delay)",
+                "load_cells" => "load-cell gains (reference mass)",
                 other => other,
             };
             s.push_str(&format!(

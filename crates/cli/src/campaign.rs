@@ -377,6 +377,7 @@ mod tests {
             jobs: Some(2),
             only: None,
             calibrate_imu: None,
+            calibrate_load_cells: None,
         };
         let c = run(&args, &AtomicBool::new(false)).unwrap();
         assert_eq!((c.completed, c.runs, c.jobs, c.first_seed), (2, 2, 2, 40));

@@ -425,6 +425,11 @@ pub fn rig_with_abort(
             plate_joints_m: plate_joints,
             stroke_m: [stroke.min_length_m, stroke.max_length_m],
             imu_calibration_toml: config.calibration.imu_file.as_ref().map(|f| f.to_toml()),
+            load_cell_calibration_toml: config
+                .calibration
+                .load_cells_file
+                .as_ref()
+                .map(|f| f.to_toml()),
         },
     );
     let save_tare = match &plan {
@@ -494,7 +499,7 @@ pub fn rig_with_abort(
             log: Some(log_path.display().to_string()),
             backend: "rig".into(),
             tool: measure::calibration::tool(),
-            calibrations: measure::calibration::applied(&config.calibration),
+            calibrations: config.calibration.applied(),
         },
         None,
     );

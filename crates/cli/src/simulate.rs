@@ -69,6 +69,14 @@ pub struct SimulateArgs {
         conflicts_with_all = ["runs", "tare", "save_tare", "report", "html", "budget"]
     )]
     pub calibrate_imu: Option<PathBuf>,
+    /// Calibrate the simulated rig's load cells instead of measuring a payload: a tare run,
+    /// then the world's reference body (`[world.reference]`) in the payload's place, and the
+    /// cells' gains fitted against the rig description's `calibration.reference_mass_kg` are
+    /// written with their covariance to FILE, which `[calibration] load_cells = "FILE"`
+    /// applies (docs/calibration.md). A load-cell calibration the rig description already
+    /// applies is left out of these runs; its IMU calibration is applied as in a measurement.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["runs", "tare", "calibrate_imu"])]
+    pub calibrate_load_cells: Option<PathBuf>,
 }
 
 /// The parser of `--only`: the error sources' ids (listed in `--help`, and by clap when a
@@ -104,6 +112,8 @@ pub struct SimulateOutcome {
     pub tare: Option<TareFile>,
     /// The IMU calibration written (`--calibrate-imu`).
     pub calibration: Option<measure::calibration::CalibrationFile>,
+    /// The load-cell calibration written (`--calibrate-load-cells`).
+    pub load_cell_calibration: Option<measure::calibration::LoadCellFile>,
 }
 
 /// The simulator as a session's station: the payload change puts the world's payload on.
@@ -171,6 +181,7 @@ fn calibration_pass(
     let (pass_log, file) = calibration_pass_paths(log);
     let pass_args = SimulateArgs {
         calibrate_imu: Some(file.clone()),
+        calibrate_load_cells: None,
         measure: MeasureArgs {
             shared: crate::common::SharedArgs {
                 log: Some(pass_log),
@@ -226,6 +237,20 @@ pub fn simulate(
         scenario.loaded.config.calibration.imu = None;
         scenario.loaded.config.calibration.imu_file = None;
     }
+    let calibrating_cells = args.calibrate_load_cells.is_some();
+    if calibrating_cells {
+        // The gains are fitted on the raw readings, against a rigid reference body.
+        crate::calibrate::reference_mass_kg(&scenario.loaded)?;
+        scenario.loaded.config.calibration.load_cells = None;
+        scenario.loaded.config.calibration.load_cells_file = None;
+        scenario.world.suspension.enabled = false;
+    }
+    // The body put on for the loaded run: the payload, or the reference.
+    let body = if calibrating_cells {
+        scenario.world.reference
+    } else {
+        scenario.world.payload
+    };
     // The calibration pass's log and file are named after the measurement's log.
     let mut log_path = None;
     if args.calibrate_imu.is_none() && scenario.loaded.config.calibration.calibrates_imu_each_run()
@@ -288,6 +313,8 @@ pub fn simulate(
                 tool_version: env!("CARGO_PKG_VERSION").into(),
                 command: if calibrating {
                     "simulate --calibrate-imu".into()
+                } else if calibrating_cells {
+                    "simulate --calibrate-load-cells".into()
                 } else {
                     "simulate".into()
                 },
@@ -306,6 +333,11 @@ pub fn simulate(
                 plate_joints_m: plate_joints,
                 stroke_m: [stroke.min_length_m, stroke.max_length_m],
                 imu_calibration_toml: config.calibration.imu_file.as_ref().map(|f| f.to_toml()),
+                load_cell_calibration_toml: config
+                    .calibration
+                    .load_cells_file
+                    .as_ref()
+                    .map(|f| f.to_toml()),
             },
         )
         .and_then(|()| {
@@ -313,7 +345,7 @@ pub fn simulate(
                 topics::TRUTH,
                 &TruthMsg {
                     fixture: body_truth(&scenario.world.fixture),
-                    payload: body_truth(&scenario.world.payload),
+                    payload: body_truth(&body),
                     world_toml: scenario.world_toml(),
                 },
             )
@@ -329,7 +361,7 @@ pub fn simulate(
     let result = header.and_then(|()| {
         let mut station = SimStation {
             sim,
-            payload: scenario.world.payload.to_sim(),
+            payload: body.to_sim(),
         };
         let mut progress = Progress::new(total, args.measure.shared.quiet);
         let mut observer = Both(LogObserver::new(&mut log, &geometry, config), &mut progress);
@@ -359,6 +391,17 @@ pub fn simulate(
         }
         _ => None,
     };
+    let load_cell_calibration = match &args.calibrate_load_cells {
+        Some(path) if outcome.end == End::Completed => {
+            let file = crate::calibrate::load_cell_calibration(
+                &outcome, loaded, "sim", start_ns, &log_path,
+            )
+            .map_err(CommandError::Run)?;
+            file.write(path).map_err(CommandError::Run)?;
+            Some(file)
+        }
+        _ => None,
+    };
     let report = outcome.report(
         config,
         RunInfo {
@@ -369,9 +412,9 @@ pub fn simulate(
             log: Some(log_path.display().to_string()),
             backend: "sim".into(),
             tool: measure::calibration::tool(),
-            calibrations: measure::calibration::applied(&config.calibration),
+            calibrations: config.calibration.applied(),
         },
-        Some(scenario.world.payload.quantities()),
+        Some(body.quantities()),
     );
     Ok(SimulateOutcome {
         report,
@@ -379,6 +422,7 @@ pub fn simulate(
         end: outcome.end.clone(),
         tare: outcome.measured_tare().cloned(),
         calibration,
+        load_cell_calibration,
     })
 }
 
@@ -390,6 +434,16 @@ pub fn main(args: &SimulateArgs, interrupt: &AtomicBool) -> u8 {
             let code = common::end_code(&outcome.end, "");
             if let (Some(path), Some(file)) = (&args.calibrate_imu, &outcome.calibration) {
                 common::print_imu_calibration(file, path, args.measure.shared.quiet);
+                return code;
+            }
+            if let (Some(path), Some(file)) =
+                (&args.calibrate_load_cells, &outcome.load_cell_calibration)
+            {
+                crate::calibrate::print_load_cell_calibration(
+                    file,
+                    path,
+                    args.measure.shared.quiet,
+                );
                 return code;
             }
             if let (Some(path), Some(_)) = (&args.measure.save_tare, &outcome.tare) {

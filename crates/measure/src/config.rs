@@ -67,12 +67,27 @@ pub struct CalibrationConfig {
     /// docs/calibration.md). A file named in `imu` is applied instead.
     #[serde(default)]
     pub measure_imu: bool,
+    /// The load cells' gain file (`stewart simulate --calibrate-load-cells FILE`), relative to
+    /// the rig description's directory; omitted: the cells as `[sensors.load_cell]` describes
+    /// them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub load_cells: Option<String>,
+    /// The reference body's mass the load-cell calibration takes as known (a calibrated weight
+    /// of the rig's owner), kg; needed only to calibrate.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_mass_kg: Option<f64>,
+    /// One sigma of the reference's mass (its calibration certificate), kg.
+    #[serde(default)]
+    pub reference_mass_tolerance_kg: f64,
     /// A measurement warns when a calibration it applies is older than this, days.
     #[serde(default = "default_max_age_days")]
     pub max_age_days: f64,
     /// The calibration file `imu` names, read when the rig description is loaded.
     #[serde(skip)]
     pub imu_file: Option<crate::calibration::CalibrationFile>,
+    /// The calibration file `load_cells` names, read when the rig description is loaded.
+    #[serde(skip)]
+    pub load_cells_file: Option<crate::calibration::LoadCellFile>,
 }
 
 fn default_max_age_days() -> f64 {
@@ -84,13 +99,38 @@ impl Default for CalibrationConfig {
         Self {
             imu: None,
             measure_imu: false,
+            load_cells: None,
+            reference_mass_kg: None,
+            reference_mass_tolerance_kg: 0.0,
             max_age_days: default_max_age_days(),
             imu_file: None,
+            load_cells_file: None,
         }
     }
 }
 
 impl CalibrationConfig {
+    /// The calibrations applied, for the report: what each calibrates, its source, when its
+    /// data were taken and what fitted it.
+    pub fn applied(&self) -> Vec<crate::calibration::AppliedCalibration> {
+        let entry = |kind: &str, source: &String, utc: &String, tool: &String| {
+            crate::calibration::AppliedCalibration {
+                kind: kind.into(),
+                source: source.clone(),
+                calibrated_utc: utc.clone(),
+                tool: tool.clone(),
+            }
+        };
+        let mut out = Vec::new();
+        if let (Some(source), Some(f)) = (&self.imu, &self.imu_file) {
+            out.push(entry("imu", source, &f.calibrated_utc, &f.tool));
+        }
+        if let (Some(source), Some(f)) = (&self.load_cells, &self.load_cells_file) {
+            out.push(entry("load_cells", source, &f.calibrated_utc, &f.tool));
+        }
+        out
+    }
+
     /// Whether the IMU is calibrated at the start of every measurement (`measure_imu` and no
     /// `imu` file).
     pub fn calibrates_imu_each_run(&self) -> bool {
@@ -102,9 +142,25 @@ impl CalibrationConfig {
         self.imu_file.as_ref().map(|f| &f.imu)
     }
 
+    /// The load cells' gains applied, if any.
+    pub fn load_cell_gains(&self) -> Option<&crate::calibration::LoadCellGains> {
+        self.load_cells_file.as_ref().map(|f| &f.load_cells)
+    }
+
     /// A warning for each applied calibration older than `max_age_days` at `now_unix_s`.
     pub fn age_warnings(&self, now_unix_s: u64) -> Vec<String> {
         let mut out = Vec::new();
+        if let (Some(path), Some(file)) = (&self.load_cells, &self.load_cells_file) {
+            let age = file.age_days(now_unix_s);
+            if age > self.max_age_days {
+                out.push(format!(
+                    "the load-cell calibration {path} is {age:.0} days old (taken {}; \
+                     calibration.max_age_days = {}): calibrate again with `stewart \
+                     simulate --calibrate-load-cells FILE`",
+                    file.calibrated_utc, self.max_age_days
+                ));
+            }
+        }
         if let (Some(path), Some(file)) = (&self.imu, &self.imu_file) {
             let age = file.age_days(now_unix_s);
             if age > self.max_age_days {

@@ -16,7 +16,12 @@
 //!   matrices, ω = G⁻¹ ω_m and f = A⁻¹ f_m, and moved forward by the IMU's delay τ to first
 //!   order from the previous frame, x(t) ≈ x_k + (τ/T)(x_k − x_{k−1}) (the frame after a lost
 //!   one, more than 1.5 T after its predecessor, keeps its reading).
-//! - Leg forces and time pass unchanged, and so does the frame's sequence counter, which places
+//! - **Load-cell gains** (when the rig description applies a calibration,
+//!   [`crate::calibration::load_cells`]): each cell's reading is divided by its fitted
+//!   1 + ĝ_i, t_i = f_i / (1 + ĝ_i). Only the estimator's sample is corrected: the controller
+//!   reads the frame itself, and its force feed-forward and the supervisor's force limits do
+//!   not need 0.05 % (the position loop takes up the rest).
+//! - Otherwise leg forces and time pass unchanged, and so does the frame's sequence counter, which places
 //!   the sample on the conditioning's grid (a late frame keeps its place, a gap in the counter
 //!   is a lost frame: `estimator::timebase`).
 
@@ -51,6 +56,8 @@ pub struct Feed {
     found: bool,
     imu_to_p: Option<Rotation3<f64>>,
     alignment: Option<Alignment>,
+    /// 1 / (1 + ĝ_i) per cell, when load-cell gains are applied.
+    force_scale: Option<Vector6<f64>>,
 }
 
 impl Feed {
@@ -65,7 +72,25 @@ impl Feed {
             found: false,
             imu_to_p: (!aligned).then(|| imu.rotation()),
             alignment: None,
+            force_scale: None,
         }
+    }
+
+    /// Applies fitted load-cell gains (none: the readings as they are): each reading divided
+    /// by 1 + ĝ_i. Gains that are not finite or not above −1 leave the readings as they are (a
+    /// calibration file's gains are checked when it is read).
+    pub fn with_load_cell_gains(
+        mut self,
+        gains: Option<&crate::calibration::LoadCellGains>,
+    ) -> Self {
+        self.force_scale = gains.and_then(|c| {
+            let scale = Vector6::from(c.gains).map(|g| 1.0 / (1.0 + g));
+            scale
+                .iter()
+                .all(|s| s.is_finite() && *s > 0.0)
+                .then_some(scale)
+        });
+        self
     }
 
     /// Applies a fitted IMU alignment (none: the described mounting alone), at the sample
@@ -151,7 +176,10 @@ impl Feed {
             time_s: frame.time_s,
             sequence: Some(frame.sequence),
             pose,
-            leg_forces_n: Vector6::from(frame.leg_forces_n),
+            leg_forces_n: match &self.force_scale {
+                Some(k) => Vector6::from(frame.leg_forces_n).component_mul(k),
+                None => Vector6::from(frame.leg_forces_n),
+            },
             gyro_rad_s,
             accel_m_s2,
         }
@@ -194,6 +222,22 @@ mod tests {
         assert_eq!(s.accel_m_s2, Vector3::new(0.0, 0.0, 9.80665));
         assert_eq!(s.leg_forces_n, Vector6::from(frame.leg_forces_n));
         assert_eq!(feed.pose_guess().position_m, s.pose.position_m);
+    }
+
+    /// Applied gains divide each cell's reading by 1 + ĝ_i; the pose and the IMU are untouched.
+    #[test]
+    fn calibrated_gains_divide_each_reading() {
+        let g = geometry();
+        let gains = crate::reference_mass::tests::gains_with([1e-3, -2e-3, 0.0, 5e-4, 0.01, -0.01]);
+        let mut feed = Feed::new(g, FkOptions::default(), &ImuMounting::default())
+            .with_load_cell_gains(Some(&gains));
+        let frame = frame_at(&g, &g.home_pose());
+        let s = feed.next(&frame).expect("pose found");
+        for i in 0..6 {
+            let expected = frame.leg_forces_n[i] / (1.0 + gains.gains[i]);
+            assert!((s.leg_forces_n[i] - expected).abs() < 1e-12, "cell {i}");
+        }
+        assert_eq!(s.gyro_rad_s, Vector3::new(0.1, 0.0, 0.0));
     }
 
     #[test]

@@ -38,6 +38,7 @@ pub mod observer;
 pub mod plan;
 pub mod quality;
 pub mod record;
+pub mod reference_mass;
 pub mod replay;
 pub mod report;
 pub mod schema;

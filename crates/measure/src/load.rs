@@ -304,13 +304,14 @@ pub fn load_str(text: &str, source: &str) -> Result<LoadedConfig, ConfigError> {
 }
 
 /// A rig description as a run log recorded it ([`LoadedConfig::effective_toml`]), named
-/// `source`, with the IMU calibration the run applied given as the file's contents (`imu`)
-/// instead of the path or the calibration pass the description names: a log is re-estimated
-/// with what the run applied, wherever it is read.
+/// `source`, with the IMU calibration and the load cells' gains the run applied given as the
+/// files' contents (`imu`, `load_cells`) instead of the paths or the calibration pass the
+/// description names: a log is re-estimated with what the run applied, wherever it is read.
 pub fn load_recorded(
     text: &str,
     source: &str,
     imu: Option<crate::calibration::CalibrationFile>,
+    load_cells: Option<crate::calibration::LoadCellFile>,
 ) -> Result<LoadedConfig, ConfigError> {
     // Text that is not TOML goes to `load_str` as it is, which says where it is not.
     let stripped = match text.parse::<toml::Table>() {
@@ -318,6 +319,7 @@ pub fn load_recorded(
             if let Some(toml::Value::Table(c)) = table.get_mut("calibration") {
                 c.remove("imu");
                 c.remove("measure_imu");
+                c.remove("load_cells");
             }
             toml::to_string(&table).unwrap_or_else(|_| text.to_string())
         }
@@ -328,15 +330,16 @@ pub fn load_recorded(
         loaded.config.calibration.imu = Some("<IMU calibration in the log>".into());
         loaded.config.calibration.imu_file = Some(file);
     }
+    if let Some(file) = load_cells {
+        loaded.config.calibration.load_cells = Some("<load-cell calibration in the log>".into());
+        loaded.config.calibration.load_cells_file = Some(file);
+    }
     Ok(loaded)
 }
 
 /// Reads the calibration files `config` references, relative to `source`'s directory; a file
 /// that cannot be used is refused at its key.
 fn read_calibrations(config: &mut Config, text: &str, source: &str) -> Result<(), ConfigError> {
-    let Some(name) = config.calibration.imu.clone() else {
-        return Ok(());
-    };
     let directory = if source == DEFAULT_CONFIG_NAME {
         std::path::PathBuf::new()
     } else {
@@ -345,18 +348,25 @@ fn read_calibrations(config: &mut Config, text: &str, source: &str) -> Result<()
             .map(Path::to_path_buf)
             .unwrap_or_default()
     };
-    match crate::calibration::CalibrationFile::read(&directory.join(&name)) {
-        Ok(file) => {
-            config.calibration.imu_file = Some(file);
-            Ok(())
-        }
-        Err(e) => Err(ConfigError::single(ConfigIssue {
+    let refused = |key: &str, problem: String| {
+        ConfigError::single(ConfigIssue {
             file: source.to_string(),
-            line: locate_key(text, "calibration.imu"),
-            key: "calibration.imu".into(),
-            problem: e.to_string(),
-        })),
+            line: locate_key(text, key),
+            key: key.into(),
+            problem,
+        })
+    };
+    if let Some(name) = config.calibration.imu.clone() {
+        let file = crate::calibration::CalibrationFile::read(&directory.join(&name))
+            .map_err(|e| refused("calibration.imu", e.to_string()))?;
+        config.calibration.imu_file = Some(file);
     }
+    if let Some(name) = config.calibration.load_cells.clone() {
+        let file = crate::calibration::LoadCellFile::read(&directory.join(&name))
+            .map_err(|e| refused("calibration.load_cells", e.to_string()))?;
+        config.calibration.load_cells_file = Some(file);
+    }
+    Ok(())
 }
 
 /// The rig description of a merged document (the world left out, the tare's excitation

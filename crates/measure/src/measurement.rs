@@ -88,6 +88,10 @@ pub struct MeasureOutcome {
     /// [`crate::record`]): what the IMU calibration fits ([`crate::calibration::imu`]);
     /// `None` without an excitation.
     pub record: Option<crate::record::RunRecord>,
+    /// The accelerometer's offset measured at rest before the excitation and subtracted from
+    /// every sample the estimator fitted ([`estimator::hold`]), P axes, m/s²; `None` when none
+    /// was measured. The record holds the readings before it is subtracted.
+    pub accel_offset_m_s2: Option<[f64; 3]>,
     /// How it ended.
     pub end: End,
 }
@@ -105,6 +109,7 @@ impl MeasureOutcome {
             load_cell_bias_effect: None,
             budget: None,
             record: None,
+            accel_offset_m_s2: None,
             end,
         }
     }
@@ -325,6 +330,9 @@ where
                 load_cell_bias_effect: exact.load_cell,
                 budget,
                 record: Some(record),
+                accel_offset_m_s2: estimator
+                    .accelerometer_offset()
+                    .map(|o| o.offset_m_s2.into()),
                 end,
             });
         }

@@ -137,6 +137,16 @@ impl Replay {
         self
     }
 
+    /// Applies fitted load-cell gains ([`Feed::with_load_cell_gains`]), as the online
+    /// measurement does when the rig description references a calibration.
+    pub fn with_load_cell_gains(
+        mut self,
+        gains: Option<&crate::calibration::LoadCellGains>,
+    ) -> Self {
+        self.feed = self.feed.with_load_cell_gains(gains);
+        self
+    }
+
     /// Also records the used samples for the error budget, with the rig description's
     /// `figures` ([`crate::budget`]), as the online measurement does.
     pub fn with_budget(mut self, figures: crate::budget::Figures) -> Self {

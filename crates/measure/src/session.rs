@@ -85,6 +85,8 @@ pub struct TareEffects {
     pub budget: Option<crate::budget::RunBudget>,
     /// The tare run's record, for the IMU calibration ([`crate::calibration::imu`]).
     pub record: Option<crate::record::RunRecord>,
+    /// The accelerometer's offset the tare run measured at rest ([`MeasureOutcome`]).
+    pub accel_offset_m_s2: Option<[f64; 3]>,
 }
 
 /// The tare a session subtracts.
@@ -233,6 +235,7 @@ pub fn run<S: Station, O: Observer>(
                 load_cell: outcome.load_cell_bias_effect,
                 budget: outcome.budget.clone(),
                 record: outcome.record.clone(),
+                accel_offset_m_s2: outcome.accel_offset_m_s2,
             };
             let (base, plate) = joints(&plan.geometry);
             // With the run's sensitivities, so a saved tare reused later counts its share of

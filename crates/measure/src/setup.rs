@@ -303,7 +303,8 @@ pub fn tick(
         .aligned(
             config.calibration.imu_alignment(),
             1.0 / config.sensors.sample_rate_hz,
-        );
+        )
+        .with_load_cell_gains(config.calibration.load_cell_gains());
     let excitation_s = controller.trajectory().duration_s();
     let estimator = estimator_config(
         config,

@@ -60,6 +60,13 @@ impl Problems {
 pub fn validate(config: &Config) -> Vec<(String, String)> {
     let mut p = Problems::default();
     p.positive("calibration.max_age_days", config.calibration.max_age_days);
+    if let Some(m) = config.calibration.reference_mass_kg {
+        p.positive("calibration.reference_mass_kg", m);
+    }
+    p.non_negative(
+        "calibration.reference_mass_tolerance_kg",
+        config.calibration.reference_mass_tolerance_kg,
+    );
 
     let pl = &config.platform;
     p.positive("platform.base_radius_m", pl.base_radius_m);

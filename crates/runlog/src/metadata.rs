@@ -49,6 +49,9 @@ pub struct RunMetadata {
     /// `stewart estimate` re-runs it without the file.
     #[serde(default)]
     pub imu_calibration_toml: Option<String>,
+    /// The load cells' gains the measurement applied, as their file's TOML (`null`: none).
+    #[serde(default)]
+    pub load_cell_calibration_toml: Option<String>,
 }
 
 fn joints(d: &'static str) -> Schema {
@@ -97,6 +100,12 @@ impl RunMetadata {
                 (
                     "imu_calibration_toml",
                     nullable(string("the IMU calibration applied, as its file's TOML")),
+                ),
+                (
+                    "load_cell_calibration_toml",
+                    nullable(string(
+                        "the load cells' gains applied, as their file's TOML",
+                    )),
                 ),
             ],
             "What was run, with the configuration needed to run it again",

@@ -63,6 +63,12 @@ pub struct World {
     pub fixture: BodyConfig,
     /// The body to be measured.
     pub payload: BodyConfig,
+    /// The reference body of the load cells' calibration (`stewart simulate
+    /// --calibrate-load-cells`), put on in place of the payload; its mass is the rig
+    /// description's `calibration.reference_mass_kg` to within its tolerance, its centre of mass
+    /// and inertia unknown to the estimator. Omitted: [`default_reference`].
+    #[serde(default = "default_reference")]
+    pub reference: BodyConfig,
     /// The actuators between command and leg force.
     pub actuator: crate::ActuatorConfig,
     /// Which of a real rig's error sources the simulated rig has.
@@ -71,6 +77,16 @@ pub struct World {
     /// The payload as a car body on its suspension (off by default).
     #[serde(default)]
     pub suspension: crate::SuspensionConfig,
+}
+
+/// The default reference body: a 1000 kg steel block of 1.2 × 0.8 × 0.13 m, its centre of mass
+/// 0.2 m above the plate and a little off its centre (a real weight is never placed exactly).
+pub fn default_reference() -> BodyConfig {
+    BodyConfig {
+        mass_kg: 1000.0,
+        com_m: [0.04, -0.03, 0.2],
+        inertia_com_kg_m2: [[54.7, 0.0, 0.0], [0.0, 121.4, 0.0], [0.0, 0.0, 173.3]],
+    }
 }
 
 /// A rig description with the simulated world behind it.
@@ -332,6 +348,7 @@ fn validate(world: &World, sample_rate_hz: f64) -> Vec<(String, String)> {
     let mut p = Problems::default();
     body(&mut p, "world.fixture", &world.fixture);
     body(&mut p, "world.payload", &world.payload);
+    body(&mut p, "world.reference", &world.reference);
     if let Err(e) = world.actuator.validate() {
         match e {
             crate::SimError::InvalidConfig {

@@ -138,6 +138,11 @@ fn imu_to_p(orientation_deg: [f64; 3], theta_rad: Vector3<f64>) -> Option<Rotati
 }
 
 impl SensorModel {
+    /// Ground truth: each load cell's gain error g_i (it reads (1 + g_i) times its force).
+    pub fn load_cell_gains(&self) -> [f64; 6] {
+        self.load_cell_gain
+    }
+
     /// The rig's sensors as built from `config` at `sample_rate_hz`, every draw from `seed`.
     pub fn new(config: SensorConfig, sample_rate_hz: f64, seed: u64) -> Self {
         let period_s = 1.0 / sample_rate_hz;

@@ -727,6 +727,12 @@ impl Simulator {
         self.sensors.imu_as_built()
     }
 
+    /// Ground truth: each load cell's gain error g_i, as drawn (tests of the load-cell
+    /// calibration; never read by the estimator).
+    pub fn true_load_cell_gains(&self) -> [f64; 6] {
+        self.sensors.load_cell_gains()
+    }
+
     /// Ground truth: the fixture plate's properties.
     pub fn true_fixture(&self) -> BodyProperties {
         self.fixture

@@ -58,6 +58,9 @@ pub struct Figures {
     /// The IMU calibration applied (`[calibration] imu`): the IMU's lines then count its
     /// uncertainty instead of the datasheet's figures.
     pub imu: Option<perturb::CalibratedImu>,
+    /// The load-cell gains applied (`[calibration] load_cells`): `load_cell_scale` then counts
+    /// their uncertainty instead of the datasheet's `gain_error`.
+    pub load_cells: Option<perturb::CalibratedGains>,
 }
 
 impl Figures {
@@ -72,6 +75,10 @@ impl Figures {
                 .calibration
                 .imu_alignment()
                 .map(perturb::CalibratedImu::of),
+            load_cells: config
+                .calibration
+                .load_cell_gains()
+                .map(perturb::CalibratedGains::of),
         }
     }
 }
@@ -266,6 +273,7 @@ pub fn analyse(
         described: &figures.legs,
         motions: &motions,
         imu: figures.imu.as_ref(),
+        load_cells: figures.load_cells.as_ref(),
         rest_gravity_m_s2: (exact.accel_offset_measured && config.local_gravity_m_s2 > 0.0)
             .then_some(config.local_gravity_m_s2),
     };

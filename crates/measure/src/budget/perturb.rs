@@ -29,6 +29,9 @@ pub enum Scalar {
     Drift(usize),
     /// Gain error of a load cell, `gain_error`.
     Gain(usize),
+    /// One principal direction of calibrated load-cell gains' covariance
+    /// ([`CalibratedGains::modes`]): every cell's gain off by σ times its share.
+    GainMode(usize),
     /// A load cell's reading of the transverse force through it along its direction (0, 1),
     /// `transverse_sensitivity`.
     Crosstalk(usize, usize),
@@ -66,7 +69,7 @@ impl Scalar {
         match self {
             Scalar::AccelBias(_) => ErrorSource::AccelBias,
             Scalar::Offset(_) | Scalar::Drift(_) => ErrorSource::LoadCellOffset,
-            Scalar::Gain(_) => ErrorSource::LoadCellScale,
+            Scalar::Gain(_) | Scalar::GainMode(_) => ErrorSource::LoadCellScale,
             Scalar::Crosstalk(..) => ErrorSource::LoadCellCrosstalk,
             Scalar::Misalignment(_)
             | Scalar::GyroScale(_)
@@ -107,6 +110,11 @@ impl Scalar {
             Scalar::Offset(_) => s.load_cell.zero_offset_n,
             Scalar::Drift(_) => s.load_cell.zero_drift_n_per_min,
             Scalar::Gain(_) => s.load_cell.gain_error,
+            Scalar::GainMode(k) => f
+                .load_cells
+                .as_ref()
+                .and_then(|c| c.modes.get(*k))
+                .map_or(0.0, |m| m.0),
             Scalar::Crosstalk(..) => s.load_cell.transverse_sensitivity,
             Scalar::Misalignment(_) => s.imu.misalignment_deg.to_radians(),
             Scalar::GyroScale(_) => s.gyro.scale_error,
@@ -147,7 +155,8 @@ impl Scalar {
 
 /// Every scalar of `source`, in a fixed order for given figures (empty for the statistical
 /// sources): with a calibrated IMU, its gyro's nine principal errors and the accelerometer's
-/// three datasheet scales, and its position's three principal errors.
+/// three datasheet scales, and its position's three principal errors; with calibrated load
+/// cells, the six principal errors of their gains.
 pub fn scalars(source: ErrorSource, figures: &super::Figures) -> Vec<Scalar> {
     let axes = 0..3;
     let legs = 0..6;
@@ -158,6 +167,9 @@ pub fn scalars(source: ErrorSource, figures: &super::Figures) -> Vec<Scalar> {
             .chain(axes.map(Scalar::AccelScale))
             .collect(),
         ErrorSource::ImuLeverArm if calibrated => (0..3).map(Scalar::LeverArmMode).collect(),
+        ErrorSource::LoadCellScale if figures.load_cells.is_some() => {
+            (0..6).map(Scalar::GainMode).collect()
+        }
         ErrorSource::AccelBias => axes.map(Scalar::AccelBias).collect(),
         ErrorSource::LoadCellOffset => legs
             .clone()
@@ -240,6 +252,33 @@ impl CalibratedImu {
     }
 }
 
+/// Calibrated load-cell gains' uncertainty as the budget applies it: the principal directions
+/// of their 6 × 6 covariance, each with its sigma (√ of the eigenvalue). The gains' errors
+/// are correlated (their mean is fixed by the reference mass, their differences by the
+/// motion), so the modes, not six independent sigmas, carry what the calibration left.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CalibratedGains {
+    /// Unit δg along each eigenvector, and its sigma.
+    pub modes: Vec<(f64, Vector6<f64>)>,
+}
+
+impl CalibratedGains {
+    /// The modes of `gains`' covariance.
+    pub fn of(gains: &crate::calibration::LoadCellGains) -> Self {
+        let eig = gains.covariance_matrix().symmetric_eigen();
+        let modes = (0..6)
+            .map(|k| {
+                let v = eig.eigenvectors.column(k);
+                (
+                    eig.eigenvalues[k].max(0.0).sqrt(),
+                    Vector6::from_fn(|i, _| v[i]),
+                )
+            })
+            .collect();
+        Self { modes }
+    }
+}
+
 /// What the perturbations read besides the scalar: the base data and fit, the legs' model.
 pub struct Context<'a> {
     /// The record's data.
@@ -254,6 +293,8 @@ pub struct Context<'a> {
     pub motions: &'a [Option<PlateMotion>],
     /// The calibrated IMU, when one is applied.
     pub imu: Option<&'a CalibratedImu>,
+    /// The calibrated load-cell gains, when applied.
+    pub load_cells: Option<&'a CalibratedGains>,
     /// Gravity, m/s², when the run measured the accelerometer's vertical offset at rest
     /// ([`estimator::hold`]): that measurement takes up the static part of an accelerometer
     /// error along z as well, so the error's effect is what is left of it in motion.
@@ -334,6 +375,15 @@ impl Scalar {
             Scalar::Offset(leg) => leg_force(leg, &|_| sigma),
             Scalar::Drift(leg) => leg_force(leg, &|i| sigma * (base.entries[i].time_s - t0) / 60.0),
             Scalar::Gain(leg) => leg_force(leg, &|i| sigma * base.entries[i].leg_forces_n[leg]),
+            Scalar::GainMode(k) => {
+                let Some((_, dir)) = ctx.load_cells.and_then(|c| c.modes.get(k)) else {
+                    return vec![Vector6::zeros(); fit.idx.len()];
+                };
+                wrench_only(&|i| {
+                    let df = base.entries[i].leg_forces_n.component_mul(dir) * sigma;
+                    leg_wrench(&model.geometry, &base.poses[i], &df)
+                })
+            }
             Scalar::Crosstalk(leg, dir) => {
                 leg_force(leg, &|i| sigma * ctx.legs.transverse[i][leg][dir])
             }

@@ -49,6 +49,7 @@ fn effect(
         described: l,
         motions: &motions,
         imu: None,
+        load_cells: None,
         rest_gravity_m_s2: None,
     };
     fit.effect(&scalar.residual_change(&ctx, sigma))
@@ -323,6 +324,7 @@ fn the_fits_bias_effect_matches_the_estimators_sensitivity() {
         described: &described,
         motions: &motions,
         imu: None,
+        load_cells: None,
         rest_gravity_m_s2: None,
     };
     for axis in 0..3 {

@@ -46,7 +46,7 @@ pub enum CalibrationFileError {
         source: std::io::Error,
     },
     /// Not a calibration file of this format, or damaged.
-    #[error("{path} is not a calibration file this tool reads ({problem}); write it again with `stewart simulate --calibrate-imu FILE`")]
+    #[error("{path} is not a calibration file this tool reads ({problem}); write it again with the command that made it (`stewart simulate --calibrate-imu FILE`, `--calibrate-load-cells FILE`)")]
     Format {
         /// The file.
         path: String,

@@ -4,13 +4,18 @@
 //!
 //! - [`imu`]: the IMU's alignment against the forward kinematics (its axes' rotation and
 //!   scales, the accelerometer's position, the IMU's delay), from a moving plate.
+//! - [`load_cells`]: the load cells' gains from a reference body of known mass, measured like
+//!   a payload (tare run, then the reference on the fixture).
 //! - [`file`]: the dated calibration file.
 
 pub mod file;
 pub mod imu;
+pub mod load_cells;
+pub(crate) mod normal;
 
 pub use file::CalibrationFile;
 pub use imu::ImuAlignment;
+pub use load_cells::{LoadCellFile, LoadCellGains};
 
 /// A calibration a measurement applied, as its report records it.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -23,19 +28,6 @@ pub struct AppliedCalibration {
     pub calibrated_utc: String,
     /// The tool that fitted it.
     pub tool: String,
-}
-
-/// The calibrations `config` applies, for the report.
-pub fn applied(config: &crate::config::CalibrationConfig) -> Vec<AppliedCalibration> {
-    match (&config.imu, &config.imu_file) {
-        (Some(source), Some(file)) => vec![AppliedCalibration {
-            kind: "imu".into(),
-            source: source.clone(),
-            calibrated_utc: file.calibrated_utc.clone(),
-            tool: file.tool.clone(),
-        }],
-        _ => Vec::new(),
-    }
 }
 
 /// This tool and its version, as reports and calibration files name it.

@@ -197,6 +197,11 @@ fn metadata(
         plate_joints_m,
         stroke_m: [stroke.min_length_m, stroke.max_length_m],
         imu_calibration_toml: config.calibration.imu_file.as_ref().map(|f| f.to_toml()),
+        load_cell_calibration_toml: config
+            .calibration
+            .load_cells_file
+            .as_ref()
+            .map(|f| f.to_toml()),
     }
 }
 

@@ -78,14 +78,24 @@ pub fn rig_description_of(meta: &RunMetadata, rig: Option<&LoadedConfig>) -> Res
         .map(|t| measure::calibration::CalibrationFile::parse(t, "the log's IMU calibration"))
         .transpose()
         .map_err(|e| anyhow!("{e}"))?;
-    let loaded =
-        measure::load::load_recorded(&meta.config_toml, "<rig description in the log>", imu)
-            .map_err(|e| {
-                anyhow!(
-                "the log's rig description is refused (a log of an older version? give the rig \
+    let load_cells = meta
+        .load_cell_calibration_toml
+        .as_deref()
+        .map(|t| measure::calibration::LoadCellFile::parse(t, "the log's load-cell calibration"))
+        .transpose()
+        .map_err(|e| anyhow!("{e}"))?;
+    let loaded = measure::load::load_recorded(
+        &meta.config_toml,
+        "<rig description in the log>",
+        imu,
+        load_cells,
+    )
+    .map_err(|e| {
+        anyhow!(
+            "the log's rig description is refused (a log of an older version? give the rig \
                  description with --rig FILE): {e}"
-            )
-            })?;
+        )
+    })?;
     Ok(loaded)
 }
 
@@ -192,6 +202,7 @@ fn start_replay(config: EstimatorConfig, fk: FkOptions, rig: &LoadedConfig) -> R
     Replay::new(config, fk, &rig.config.sensors.imu, sigmas, trace_every)
         .map(|r| {
             r.with_alignment(rig.config.calibration.imu_alignment())
+                .with_load_cell_gains(rig.config.calibration.load_cell_gains())
                 .with_budget(measure::budget::Figures::of(&rig.config))
         })
         .map_err(|e| anyhow!("{e}"))
@@ -304,7 +315,7 @@ pub fn build_report(
             log: Some(log.path.display().to_string()),
             backend: meta.backend.clone(),
             tool: measure::calibration::tool(),
-            calibrations: measure::calibration::applied(&rig.config.calibration),
+            calibrations: rig.config.calibration.applied(),
         },
     });
     report.data.truncated = log.damage.truncated.clone();

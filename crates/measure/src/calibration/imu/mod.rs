@@ -14,7 +14,7 @@
 //!
 //! The truth comes from forward kinematics of the leg lengths: R, ω = 2 Im(q̄ ⊗ q̇), ω̇ and a_O
 //! from the record's mean poses by zero-phase derivatives ([`crate::record::derivative`]). Both fits
-//! are linear least squares ([`normal`]): (G, b_g, τ), then (r, b_a) with A and τ fixed. The
+//! are linear least squares ([`super::normal`]): (G, b_g, τ), then (r, b_a) with A and τ fixed. The
 //! encoders and the load cells are taken to sample at the same instant (one controller tick),
 //! so τ is also the IMU's delay against the cells.
 //!
@@ -33,19 +33,14 @@
 //! the poses the same leg lengths would have had (one Newton step of forward kinematics), the
 //! fit is made again on them, and the change counts as one more independent error.
 
-mod normal;
-
 use kinematics::{Geometry, Pose, Rotation3};
 use nalgebra::{DMatrix, Matrix3, Quaternion, SVector, UnitQuaternion, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
+use super::normal::Normal;
+pub use super::normal::BLOCK_ENTRIES;
 use crate::record::derivative::{d1, d2, interior};
 use crate::record::Entry;
-use normal::Normal;
-
-/// Entries per block of the sandwich covariance: 0.4 s at the record's 100 Hz, long against
-/// the derivatives' stencils and the smoothing's reach, short against a 20 s run.
-pub const BLOCK_ENTRIES: usize = 40;
 
 /// Fewest entries a fit takes (two seconds at 100 Hz).
 pub const MIN_ENTRIES: usize = 200;
@@ -275,7 +270,7 @@ fn solve(
 /// The poses that the lengths of `poses` (legs of the described `geometry`) give on a rig
 /// whose joint `leg` (plate's, else base's) is off by `delta_m` along `coord`: one Newton step
 /// of forward kinematics from each pose. `None` when the moved geometry is not a platform.
-fn moved_poses(
+pub(crate) fn moved_poses(
     geometry: &Geometry,
     poses: &[Pose],
     plate: bool,

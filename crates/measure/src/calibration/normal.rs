@@ -1,9 +1,11 @@
-//! The linear least-squares problems of the alignment: equations smoothed alike on both sides,
-//! solved with a sandwich covariance over blocks of the record.
+//! The linear least-squares problems of the calibrations: equations smoothed alike on both
+//! sides, solved with a sandwich covariance over blocks of the record.
 
 use nalgebra::{DMatrix, DVector, SVector};
 
-use super::BLOCK_ENTRIES;
+/// Entries per block of the sandwich covariance: 0.4 s at the record's 100 Hz, long against
+/// the derivatives' stencils and the smoothing's reach, short against a 20 s run.
+pub const BLOCK_ENTRIES: usize = 40;
 
 /// Passes of the moving average [`smooth`] applies.
 const SMOOTHING_PASSES: usize = 3;
@@ -14,12 +16,14 @@ const SMOOTHING_PASSES: usize = 3;
 const SMOOTHING_WIDTH: usize = 5;
 
 /// One linear least-squares problem, one equation φᵀ x = y per record entry and component.
+/// Entries whose indices are not consecutive are a break in the record (no smoothing across
+/// it), and blocks of the covariance are [`BLOCK_ENTRIES`] consecutive indices.
 ///
 /// Every equation is linear in the signals, so a moving average applied alike to y and to
 /// every column of φ keeps it exact; it takes out of the regressors the noise of the
 /// kinematics' second derivative (blue, most of it far above the excitation), which would
 /// otherwise bias the fit towards zero (errors in variables).
-pub(super) struct Normal<const P: usize> {
+pub(crate) struct Normal<const P: usize> {
     /// (record entry, component, φ, y).
     rows: Vec<(usize, usize, SVector<f64, P>, f64)>,
 }
@@ -59,20 +63,21 @@ fn smooth<const P: usize>(
 }
 
 impl<const P: usize> Normal<P> {
-    pub(super) fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Self { rows: Vec::new() }
     }
 
     /// One equation φᵀ x = y of record entry `entry`, component `component`.
-    pub(super) fn push(&mut self, entry: usize, component: usize, phi: SVector<f64, P>, y: f64) {
+    pub(crate) fn push(&mut self, entry: usize, component: usize, phi: SVector<f64, P>, y: f64) {
         self.rows.push((entry, component, phi, y));
     }
 
     /// The solution, the sandwich covariance and the residual rms of the smoothed equations;
     /// `None` when singular.
-    pub(super) fn solve(&self) -> Option<(DVector<f64>, DMatrix<f64>, f64)> {
+    pub(crate) fn solve(&self) -> Option<(DVector<f64>, DMatrix<f64>, f64)> {
         let mut rows: Vec<(usize, SVector<f64, P>, f64)> = Vec::new();
-        for component in 0..3 {
+        let components = self.rows.iter().map(|r| r.1 + 1).max().unwrap_or(0);
+        for component in 0..components {
             let one: Vec<(usize, SVector<f64, P>, f64)> = self
                 .rows
                 .iter()

@@ -1,0 +1,214 @@
+//! The load cells' calibration as the commands run it: the gains fitted on a session of a tare
+//! run and a loaded run with the reference body ([`measure::calibration::load_cells`]), and
+//! what is printed of them.
+
+use std::path::Path;
+
+use measure::calibration::LoadCellFile;
+use measure::load::{ConfigError, LoadedConfig};
+use measure::reference_mass::{self, Run, Setup};
+use measure::session::{SessionOutcome, TareSource};
+use nalgebra::Vector3;
+
+/// The reference's mass the rig description gives (`calibration.reference_mass_kg`), or the
+/// refusal naming the key.
+pub fn reference_mass_kg(loaded: &LoadedConfig) -> Result<f64, ConfigError> {
+    loaded.config.calibration.reference_mass_kg.ok_or_else(|| {
+        ConfigError::single(loaded.issue(
+            "calibration.reference_mass_kg",
+            "the load-cell calibration needs the reference body's mass: set \
+                 calibration.reference_mass_kg (and reference_mass_tolerance_kg, its \
+                 certificate's sigma)",
+        ))
+    })
+}
+
+/// The gains fitted on `outcome` (a tare run, then the loaded run with the reference body), as
+/// the calibration file of `backend` with the rig description `loaded`, dated by `start_ns`.
+pub fn load_cell_calibration(
+    outcome: &SessionOutcome,
+    loaded: &LoadedConfig,
+    backend: &str,
+    start_ns: u64,
+    log_path: &Path,
+) -> anyhow::Result<LoadCellFile> {
+    let (tare_record, tare_offset) = match &outcome.tare {
+        Some(TareSource::Measured(_, effects)) => {
+            (effects.record.as_ref(), effects.accel_offset_m_s2)
+        }
+        _ => (None, None),
+    };
+    let tare_record = tare_record
+        .ok_or_else(|| anyhow::anyhow!("the calibration's tare run recorded no excitation"))?;
+    let run = outcome
+        .loaded
+        .as_ref()
+        .ok_or_else(|| anyhow::anyhow!("the calibration's loaded run did not run"))?;
+    let loaded_record = run
+        .record
+        .as_ref()
+        .ok_or_else(|| anyhow::anyhow!("the calibration's loaded run recorded no excitation"))?;
+    let config = &loaded.config;
+    let geometry = measure::setup::geometry(loaded).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let estimator =
+        measure::setup::estimator_config(config, &geometry, measure::Measurement::Loaded, 0.0, 1.0);
+    let legs = measure::setup::leg_model(config).map(|_| &config.legs);
+    let setup = Setup {
+        geometry,
+        lever_m: measure::setup::accelerometer_position(config),
+        equation_sigma: estimator.equation_sigma,
+        legs,
+        joint_tolerance_m: config.platform.joint_position_tolerance_m,
+        zero_drift_n_per_min: config.sensors.load_cell.zero_drift_n_per_min,
+        reference_mass_kg: reference_mass_kg(loaded).map_err(|e| anyhow::anyhow!("{e}"))?,
+        reference_mass_tolerance_kg: config.calibration.reference_mass_tolerance_kg,
+        prior_gain_sigma: config.sensors.load_cell.gain_error,
+    };
+    let offset = |o: Option<[f64; 3]>| o.map_or_else(Vector3::zeros, Vector3::from);
+    let tare_entries = tare_record.entries();
+    let loaded_entries = loaded_record.entries();
+    let gains = reference_mass::fit(
+        &Run {
+            entries: &tare_entries,
+            accel_offset_m_s2: offset(tare_offset),
+        },
+        &Run {
+            entries: &loaded_entries,
+            accel_offset_m_s2: offset(run.accel_offset_m_s2),
+        },
+        &setup,
+    )
+    .map_err(|e| anyhow::anyhow!("load-cell calibration: {e}"))?;
+    let mut file = LoadCellFile::new(gains, start_ns / 1_000_000_000, &loaded.source, backend);
+    file.log = Some(log_path.display().to_string());
+    Ok(file)
+}
+
+/// Prints what a load-cell calibration found, with one sigma, and where it was written.
+pub fn print_load_cell_calibration(file: &LoadCellFile, path: &Path, quiet: bool) {
+    let c = &file.load_cells;
+    if !quiet {
+        let list = |v: &[f64; 6]| {
+            v.iter()
+                .map(|x| format!("{:+.2e}", x))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let sigma: [f64; 6] = core::array::from_fn(|i| c.sigma(i));
+        let fitted: [f64; 6] = core::array::from_fn(|i| {
+            c.fitted_covariance
+                .get(i)
+                .and_then(|r| r.get(i))
+                .map_or(f64::NAN, |v| v.max(0.0).sqrt())
+        });
+        println!(
+            "load-cell gains: [{}]   (with the datasheet's ±{:.1e} as prior)",
+            list(&c.gains),
+            c.prior_sigma
+        );
+        println!("         ± 1σ:  [{}]", list(&sigma));
+        println!("  the fit alone: [{}]", list(&c.fitted_gains));
+        println!("         ± 1σ:  [{}]", list(&fitted));
+        println!(
+            "  the fit's σ parts: noise [{}], joints [{}], legs [{}], drift [{}], reference mass [{}]",
+            list(&c.noise_sigma),
+            list(&c.joints_sigma),
+            list(&c.legs_sigma),
+            list(&c.drift_sigma),
+            list(&c.mass_sigma),
+        );
+        let mean = c.gains.iter().sum::<f64>() / 6.0;
+        let ones = nalgebra::DVector::from_element(6, 1.0 / 6.0);
+        let mean_sigma = (ones.transpose() * c.covariance_matrix() * &ones)[(0, 0)]
+            .max(0.0)
+            .sqrt();
+        let com = c.reference_com_m;
+        println!(
+            "mean gain {mean:+.2e} ± {mean_sigma:.1e}; reference {} kg ± {} kg, its centre of \
+             mass found at [{:.4}, {:.4}, {:.4}] m; fixture {:.2} kg; residual {:.2} σ ({} \
+             entries)",
+            c.reference_mass_kg,
+            c.reference_mass_tolerance_kg,
+            com[0],
+            com[1],
+            com[2],
+            c.fixture_mass_kg,
+            c.residual_rms,
+            c.entries
+        );
+    }
+    println!("load-cell calibration: {}", path.display());
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::atomic::AtomicBool;
+
+    use crate::common::{MeasureArgs, SharedArgs};
+    use crate::simulate::{simulate, SimulateArgs};
+    use measure::sources::ErrorSource;
+
+    /// `simulate --calibrate-load-cells FILE --seed 7 --only load_cell_scale` recovers the
+    /// gains the simulated rig drew: the fit alone to its truncation error (no other
+    /// imperfection), the applied gains (with the datasheet's prior) within three of their
+    /// sigmas and their mean (what the mass reads) within one of the mean's.
+    #[test]
+    fn calibrate_load_cells_recovers_the_simulated_gains() {
+        let dir = tempfile::tempdir().unwrap();
+        let config = dir.path().join("short.toml");
+        std::fs::write(
+            &config,
+            "[run]\nduration_s = 10.0\ntare_duration_s = 10.0\n",
+        )
+        .unwrap();
+        let file = dir.path().join("cells.toml");
+        let args = SimulateArgs {
+            measure: MeasureArgs {
+                shared: SharedArgs {
+                    config: Some(config),
+                    log: Some(dir.path().join("cal.mcap")),
+                    quiet: true,
+                    ..SharedArgs::default()
+                },
+                ..MeasureArgs::default()
+            },
+            seed: Some(7),
+            only: Some(ErrorSource::LoadCellScale),
+            calibrate_load_cells: Some(file.clone()),
+            ..SimulateArgs::default()
+        };
+        let outcome = simulate(&args, &AtomicBool::new(false)).unwrap();
+        let written = outcome.load_cell_calibration.expect("a calibration");
+        assert_eq!(
+            measure::calibration::LoadCellFile::read(&file).unwrap(),
+            written
+        );
+        // The simulator's truth, read here only to check the calibration.
+        let scenario = args.scenario().unwrap();
+        let geometry = measure::setup::geometry(&scenario.loaded).unwrap();
+        let truth = scenario
+            .simulator(geometry, false)
+            .unwrap()
+            .true_load_cell_gains();
+        let c = &written.load_cells;
+        for (i, t) in truth.iter().enumerate() {
+            let z = (c.gains[i] - t) / c.sigma(i);
+            println!(
+                "cell {i}: {:+.3e} truth {:+.3e} sigma {:.1e} z {z:+.2}",
+                c.gains[i],
+                truth[i],
+                c.sigma(i)
+            );
+            assert!(z.abs() < 3.0, "cell {i}: z {z}");
+            // This world has no other imperfection (its joints as drawn, its legs as
+            // described, no noise): the fit alone is exact to the derivatives' truncation.
+            assert!((c.fitted_gains[i] - t).abs() < 2e-5, "cell {i}");
+        }
+        let mean = |g: &[f64; 6]| g.iter().sum::<f64>() / 6.0;
+        let ones = nalgebra::DVector::from_element(6, 1.0 / 6.0);
+        let mean_sigma = (ones.transpose() * c.covariance_matrix() * &ones)[(0, 0)].sqrt();
+        let z = (mean(&c.gains) - mean(&truth)) / mean_sigma;
+        println!("mean z {z:+.2} (sigma {mean_sigma:.1e})");
+        assert!(z.abs() < 1.0, "mean gain: z {z}");
+    }
+}
