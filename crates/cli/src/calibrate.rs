@@ -1,6 +1,7 @@
-//! The load cells' calibration as the commands run it: the gains fitted on a session of a tare
-//! run and a loaded run with the reference body ([`measure::calibration::load_cells`]), and
-//! what is printed of them.
+//! The calibrations as the commands run them: the IMU's alignment fitted on the empty fixture's
+//! run ([`measure::calibration::imu`]) and the load cells' gains on a session of a tare run and
+//! a loaded run with the reference body ([`measure::reference_mass`]), and what is printed of
+//! them.
 
 use std::path::Path;
 
@@ -138,6 +139,99 @@ pub fn print_load_cell_calibration(file: &LoadCellFile, path: &Path, quiet: bool
         );
     }
     println!("load-cell calibration: {}", path.display());
+}
+
+/// The IMU alignment fitted on the tare run of `outcome` (a tare-only session), as the
+/// calibration file of `backend` with the rig description `loaded`, dated by `start_ns`.
+pub fn imu_calibration(
+    outcome: &measure::session::SessionOutcome,
+    loaded: &LoadedConfig,
+    backend: &str,
+    start_ns: u64,
+    log_path: &Path,
+) -> anyhow::Result<measure::calibration::CalibrationFile> {
+    let record = match &outcome.tare {
+        Some(measure::session::TareSource::Measured(_, effects)) => effects.record.as_ref(),
+        _ => None,
+    }
+    .ok_or_else(|| anyhow::anyhow!("the calibration run recorded no excitation to fit"))?;
+    let g = loaded
+        .config
+        .estimator
+        .local_gravity_m_s2
+        .filter(|g| *g > 0.0)
+        .unwrap_or(stewart_types::STANDARD_GRAVITY_M_S2);
+    let geometry = measure::setup::geometry(loaded).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let alignment = measure::calibration::imu::fit(
+        &record.entries(),
+        &nalgebra::Vector3::new(0.0, 0.0, -g),
+        &geometry,
+        loaded.config.platform.joint_position_tolerance_m,
+    )
+    .map_err(|e| anyhow::anyhow!("IMU calibration: {e}"))?;
+    let mut file = measure::calibration::CalibrationFile::new(
+        alignment,
+        start_ns / 1_000_000_000,
+        &loaded.source,
+        backend,
+    );
+    file.log = Some(log_path.display().to_string());
+    Ok(file)
+}
+
+/// Prints what an IMU calibration found, with one sigma, and where it was written.
+pub fn print_imu_calibration(
+    file: &measure::calibration::CalibrationFile,
+    path: &Path,
+    quiet: bool,
+) {
+    let a = &file.imu;
+    if !quiet {
+        let g = a.gyro();
+        // G ≈ I + S + [θ×], S symmetric: the reading's axes turned by −θ against P's.
+        let turned = nalgebra::Vector3::new(
+            0.5 * (g[(1, 2)] - g[(2, 1)]),
+            0.5 * (g[(2, 0)] - g[(0, 2)]),
+            0.5 * (g[(0, 1)] - g[(1, 0)]),
+        );
+        println!(
+            "IMU axes turned by [{:+.4}, {:+.4}, {:+.4}]° (gyro and accelerometer, one package)",
+            turned.x.to_degrees(),
+            turned.y.to_degrees(),
+            turned.z.to_degrees(),
+        );
+        println!(
+            "gyro scale errors: [{:+.2e}, {:+.2e}, {:+.2e}] ± [{:.1e}, {:.1e}, {:.1e}] \
+             (accelerometer scales not fitted: the datasheet's stay in the budget)",
+            g[(0, 0)] - 1.0,
+            g[(1, 1)] - 1.0,
+            g[(2, 2)] - 1.0,
+            a.gyro_sigma(0),
+            a.gyro_sigma(4),
+            a.gyro_sigma(8),
+        );
+        let r = a.accelerometer_position_m;
+        println!(
+            "accelerometer position: [{:.5}, {:.5}, {:.5}] m ± [{:.1e}, {:.1e}, {:.1e}]",
+            r[0],
+            r[1],
+            r[2],
+            a.position_sigma(0),
+            a.position_sigma(1),
+            a.position_sigma(2)
+        );
+        println!(
+            "IMU delay: {:.1} µs ± {:.1} µs   residual rms: gyro {:.2e} rad/s, accelerometer \
+             {:.2e} m/s² ({} entries; sigmas count noise and {} mm joints)",
+            a.imu_delay_s * 1e6,
+            a.gyro_sigma(9) * 1e6,
+            a.residual_rms[0],
+            a.residual_rms[1],
+            a.entries,
+            a.joint_tolerance_m * 1e3
+        );
+    }
+    println!("IMU calibration: {}", path.display());
 }
 
 #[cfg(test)]

@@ -481,7 +481,7 @@ pub fn rig_with_abort(
     let calibration = match &plan {
         Plan::CalibrateImu(path) if outcome.end == measure::End::Completed => {
             let file =
-                crate::common::imu_calibration(&outcome, &loaded, "rig", start_ns, &log_path)
+                crate::calibrate::imu_calibration(&outcome, &loaded, "rig", start_ns, &log_path)
                     .map_err(CommandError::Run)?;
             file.write(path).map_err(CommandError::Run)?;
             Some(file)

@@ -206,7 +206,7 @@ fn calibration_pass(
         Ok(outcome) => match (outcome.end.clone(), outcome.calibration.clone()) {
             (End::Completed, Some(c)) => {
                 if !args.measure.shared.quiet {
-                    common::print_imu_calibration(&c, &file, false);
+                    crate::calibrate::print_imu_calibration(&c, &file, false);
                 }
                 Ok(Pass::Calibrated(file, Box::new(c)))
             }
@@ -384,8 +384,9 @@ pub fn simulate(
     finished.map_err(CommandError::Run)?;
     let calibration = match &args.calibrate_imu {
         Some(path) if outcome.end == End::Completed => {
-            let file = common::imu_calibration(&outcome, loaded, "sim", start_ns, &log_path)
-                .map_err(CommandError::Run)?;
+            let file =
+                crate::calibrate::imu_calibration(&outcome, loaded, "sim", start_ns, &log_path)
+                    .map_err(CommandError::Run)?;
             file.write(path).map_err(CommandError::Run)?;
             Some(file)
         }
@@ -433,7 +434,7 @@ pub fn main(args: &SimulateArgs, interrupt: &AtomicBool) -> u8 {
         Ok(outcome) => {
             let code = common::end_code(&outcome.end, "");
             if let (Some(path), Some(file)) = (&args.calibrate_imu, &outcome.calibration) {
-                common::print_imu_calibration(file, path, args.measure.shared.quiet);
+                crate::calibrate::print_imu_calibration(file, path, args.measure.shared.quiet);
                 return code;
             }
             if let (Some(path), Some(file)) =

@@ -124,7 +124,7 @@ pub fn finish(args: &RigArgs, outcome: &RigOutcome) -> u8 {
         .unwrap_or_default();
     let code = crate::common::end_code(&outcome.end, &noticed);
     if let (super::Plan::CalibrateImu(path), Some(file)) = (&plan, &outcome.calibration) {
-        crate::common::print_imu_calibration(file, path, run_args.shared.quiet);
+        crate::calibrate::print_imu_calibration(file, path, run_args.shared.quiet);
         return code;
     }
     if let Some(tare) = &outcome.tare {
