@@ -7,7 +7,7 @@ mod support;
 
 use std::sync::atomic::AtomicBool;
 
-use measure::calibration::CalibrationFile;
+use measure::calibration::{CalibrationDocument, CalibrationFile};
 use measure::sources::ErrorSource;
 use support::*;
 

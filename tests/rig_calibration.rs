@@ -5,7 +5,7 @@
 
 mod support;
 
-use measure::calibration::CalibrationFile;
+use measure::calibration::{CalibrationDocument, CalibrationFile};
 use measure::End;
 use support::*;
 
@@ -39,7 +39,7 @@ fn rig_calibrate_imu_agrees_with_the_simulated_calibration_of_the_same_world() {
         "a calibration measures no payload"
     );
     let rig = CalibrationFile::read(&file).unwrap();
-    assert_eq!(rig.backend, "rig");
+    assert_eq!(rig.provenance.backend, "rig");
     assert_eq!(Some(&rig), outcome.calibration.as_ref());
 
     let sim_file = scratch.path("sim-imu.toml");

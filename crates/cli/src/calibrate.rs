@@ -81,7 +81,7 @@ pub fn load_cell_calibration(
     )
     .map_err(|e| anyhow::anyhow!("load-cell calibration: {e}"))?;
     let mut file = LoadCellFile::new(gains, start_ns / 1_000_000_000, &loaded.source, backend);
-    file.log = Some(log_path.display().to_string());
+    file.provenance.log = Some(log_path.display().to_string());
     Ok(file)
 }
 
@@ -175,7 +175,7 @@ pub fn imu_calibration(
         &loaded.source,
         backend,
     );
-    file.log = Some(log_path.display().to_string());
+    file.provenance.log = Some(log_path.display().to_string());
     Ok(file)
 }
 
@@ -240,6 +240,7 @@ mod tests {
 
     use crate::common::{MeasureArgs, SharedArgs};
     use crate::simulate::{simulate, SimulateArgs};
+    use measure::calibration::CalibrationDocument;
     use measure::sources::ErrorSource;
 
     /// `simulate --calibrate-load-cells FILE --seed 7 --only load_cell_scale` recovers the

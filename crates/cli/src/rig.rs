@@ -19,6 +19,7 @@
 mod outcome;
 mod station;
 
+use measure::calibration::CalibrationDocument;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;

@@ -6,6 +6,7 @@
 //! goes only into the report's `truth`, the table and `/run/truth`; the estimator sees sensor
 //! frames only, and assumes what the rig description's datasheet says.
 
+use measure::calibration::CalibrationDocument;
 use runlog::compact::AtLogResolution;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;

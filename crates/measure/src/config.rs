@@ -110,25 +110,43 @@ impl Default for CalibrationConfig {
 }
 
 impl CalibrationConfig {
+    /// Each applied calibration: what it calibrates (`"imu"`, `"load_cells"`), where it came
+    /// from, its provenance, and the command that makes it again.
+    fn files(
+        &self,
+    ) -> Vec<(
+        &'static str,
+        &String,
+        &crate::calibration::Provenance,
+        &'static str,
+    )> {
+        let mut out = Vec::new();
+        if let (Some(source), Some(f)) = (&self.imu, &self.imu_file) {
+            let again = "`stewart simulate --calibrate-imu FILE` or `stewart rig calibrate-imu \
+                         --out FILE`";
+            out.push(("imu", source, &f.provenance, again));
+        }
+        if let (Some(source), Some(f)) = (&self.load_cells, &self.load_cells_file) {
+            let again = "`stewart simulate --calibrate-load-cells FILE`";
+            out.push(("load_cells", source, &f.provenance, again));
+        }
+        out
+    }
+
     /// The calibrations applied, for the report: what each calibrates, its source, when its
     /// data were taken and what fitted it.
     pub fn applied(&self) -> Vec<crate::calibration::AppliedCalibration> {
-        let entry = |kind: &str, source: &String, utc: &String, tool: &String| {
-            crate::calibration::AppliedCalibration {
-                kind: kind.into(),
-                source: source.clone(),
-                calibrated_utc: utc.clone(),
-                tool: tool.clone(),
-            }
-        };
-        let mut out = Vec::new();
-        if let (Some(source), Some(f)) = (&self.imu, &self.imu_file) {
-            out.push(entry("imu", source, &f.calibrated_utc, &f.tool));
-        }
-        if let (Some(source), Some(f)) = (&self.load_cells, &self.load_cells_file) {
-            out.push(entry("load_cells", source, &f.calibrated_utc, &f.tool));
-        }
-        out
+        self.files()
+            .into_iter()
+            .map(
+                |(kind, source, p, _)| crate::calibration::AppliedCalibration {
+                    kind: kind.into(),
+                    source: source.clone(),
+                    calibrated_utc: p.calibrated_utc.clone(),
+                    tool: p.tool.clone(),
+                },
+            )
+            .collect()
     }
 
     /// Whether the IMU is calibrated at the start of every measurement (`measure_imu` and no
@@ -149,30 +167,20 @@ impl CalibrationConfig {
 
     /// A warning for each applied calibration older than `max_age_days` at `now_unix_s`.
     pub fn age_warnings(&self, now_unix_s: u64) -> Vec<String> {
-        let mut out = Vec::new();
-        if let (Some(path), Some(file)) = (&self.load_cells, &self.load_cells_file) {
-            let age = file.age_days(now_unix_s);
-            if age > self.max_age_days {
-                out.push(format!(
-                    "the load-cell calibration {path} is {age:.0} days old (taken {}; \
-                     calibration.max_age_days = {}): calibrate again with `stewart \
-                     simulate --calibrate-load-cells FILE`",
-                    file.calibrated_utc, self.max_age_days
-                ));
-            }
-        }
-        if let (Some(path), Some(file)) = (&self.imu, &self.imu_file) {
-            let age = file.age_days(now_unix_s);
-            if age > self.max_age_days {
-                out.push(format!(
-                    "the IMU calibration {path} is {age:.0} days old (taken {}; \
-                     calibration.max_age_days = {}): calibrate again with `stewart \
-                     simulate --calibrate-imu FILE` or `stewart rig --calibrate-imu FILE`",
-                    file.calibrated_utc, self.max_age_days
-                ));
-            }
-        }
-        out
+        self.files()
+            .into_iter()
+            .filter_map(|(kind, source, p, again)| {
+                let age = p.age_days(now_unix_s);
+                let what = if kind == "imu" { "IMU" } else { "load-cell" };
+                (age > self.max_age_days).then(|| {
+                    format!(
+                        "the {what} calibration {source} is {age:.0} days old (taken {}; \
+                         calibration.max_age_days = {}): calibrate again with {again}",
+                        p.calibrated_utc, self.max_age_days
+                    )
+                })
+            })
+            .collect()
     }
 }
 

@@ -340,6 +340,7 @@ pub fn load_recorded(
 /// Reads the calibration files `config` references, relative to `source`'s directory; a file
 /// that cannot be used is refused at its key.
 fn read_calibrations(config: &mut Config, text: &str, source: &str) -> Result<(), ConfigError> {
+    use crate::calibration::CalibrationDocument;
     let directory = if source == DEFAULT_CONFIG_NAME {
         std::path::PathBuf::new()
     } else {

@@ -10,6 +10,7 @@ use rand_distr::{Distribution, Normal as Gauss};
 
 use crate::budget::testkit;
 use crate::calibration::load_cells::LoadCellFile;
+use crate::calibration::CalibrationDocument;
 
 const H: f64 = 0.01;
 const TRUE_GAINS: [f64; 6] = [4e-4, -6e-4, 2e-4, 8e-4, -3e-4, -5e-4];
@@ -305,7 +306,7 @@ fn a_written_file_reads_back_exactly_and_a_damaged_one_is_refused() {
     file.write(&path).unwrap();
     let back = LoadCellFile::read(&path).unwrap();
     assert_eq!(back, file);
-    assert_eq!(back.calibrated_utc, "2026-11-18T11:06:40Z");
+    assert_eq!(back.provenance.calibrated_utc, "2026-11-18T11:06:40Z");
     let text = std::fs::read_to_string(&path).unwrap();
     for (bad, why) in [
         (text.replace("[load_cells]", "[imu]"), "unknown field"),

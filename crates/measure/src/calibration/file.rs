@@ -10,12 +10,11 @@ use super::imu::ImuAlignment;
 /// The file's `format`, checked on reading.
 pub const FORMAT: &str = "stewart-calibration-1";
 
-/// A calibration file.
+/// When a calibration's data were taken, by what and from what: every calibration file's
+/// `[provenance]` table.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct CalibrationFile {
-    /// [`FORMAT`].
-    pub format: String,
+pub struct Provenance {
     /// When the calibration's data were taken, seconds since 1970-01-01 UTC.
     pub calibrated_unix_s: u64,
     /// The same instant, readable (`2026-11-24T17:40:00Z`).
@@ -26,11 +25,32 @@ pub struct CalibrationFile {
     pub rig: String,
     /// The station: `"sim"` or `"rig"`.
     pub backend: String,
-    /// The run log of the calibration's motion, when one was written.
+    /// The run log of the calibration's runs, when one was written.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub log: Option<String>,
-    /// The IMU's alignment ([`super::imu`]).
-    pub imu: ImuAlignment,
+}
+
+impl Provenance {
+    /// Data taken at `unix_s` on `backend` with rig description `rig`, fitted by this tool.
+    pub fn new(unix_s: u64, rig: &str, backend: &str) -> Self {
+        let t = crate::calendar::UtcTime::from_unix_s(unix_s);
+        Self {
+            calibrated_unix_s: unix_s,
+            calibrated_utc: format!(
+                "{:04}-{:02}-{:02}T{:02}:{:02}:{:02}Z",
+                t.year, t.month, t.day, t.hour, t.minute, t.second
+            ),
+            tool: super::tool(),
+            rig: rig.into(),
+            backend: backend.into(),
+            log: None,
+        }
+    }
+
+    /// The calibration's age at `now_unix_s`, days (0 for data from the future).
+    pub fn age_days(&self, now_unix_s: u64) -> f64 {
+        now_unix_s.saturating_sub(self.calibrated_unix_s) as f64 / 86_400.0
+    }
 }
 
 /// Why a calibration file could not be used.
@@ -55,27 +75,24 @@ pub enum CalibrationFileError {
     },
 }
 
-impl CalibrationFile {
-    /// A file for `imu`, fitted at `unix_s` on `backend` with rig description `rig`.
-    pub fn new(imu: ImuAlignment, unix_s: u64, rig: &str, backend: &str) -> Self {
-        let t = crate::calendar::UtcTime::from_unix_s(unix_s);
-        Self {
-            format: FORMAT.into(),
-            calibrated_unix_s: unix_s,
-            calibrated_utc: format!(
-                "{:04}-{:02}-{:02}T{:02}:{:02}:{:02}Z",
-                t.year, t.month, t.day, t.hour, t.minute, t.second
-            ),
-            tool: super::tool(),
-            rig: rig.into(),
-            backend: backend.into(),
-            log: None,
-            imu,
-        }
-    }
+/// A kind of calibration file: its `format`, its [`Provenance`] and its own table, with the
+/// checks of what that table holds. Reading, parsing, writing and dating are the same for
+/// every kind.
+pub trait CalibrationDocument: Serialize + serde::de::DeserializeOwned {
+    /// What the file's first line says it holds.
+    const DESCRIPTION: &'static str;
 
-    /// Reads and checks `path`: the format, and every number of the alignment finite.
-    pub fn read(path: &Path) -> Result<Self, CalibrationFileError> {
+    /// Its `format` field.
+    fn format(&self) -> &str;
+
+    /// Its provenance.
+    fn provenance(&self) -> &Provenance;
+
+    /// What is wrong with its own table (sizes, non-finite numbers, impossible values).
+    fn problem(&self) -> Option<String>;
+
+    /// Reads and checks `path`.
+    fn read(path: &Path) -> Result<Self, CalibrationFileError> {
         let name = path.display().to_string();
         let text = std::fs::read_to_string(path).map_err(|source| CalibrationFileError::Read {
             path: name.clone(),
@@ -84,34 +101,84 @@ impl CalibrationFile {
         Self::parse(&text, &name)
     }
 
+    /// Parses and checks a file's `text`, named `name` in messages: the format, then
+    /// [`Self::problem`].
+    fn parse(text: &str, name: &str) -> Result<Self, CalibrationFileError> {
+        let format = |problem: String| CalibrationFileError::Format {
+            path: name.to_string(),
+            problem,
+        };
+        let file: Self = toml::from_str(text).map_err(|e| format(e.message().to_string()))?;
+        if file.format() != FORMAT {
+            return Err(format(format!(
+                "format {:?}, expected {FORMAT:?}",
+                file.format()
+            )));
+        }
+        match file.problem() {
+            Some(problem) => Err(format(problem)),
+            None => Ok(file),
+        }
+    }
+
     /// The file's text as TOML (what [`Self::write`] writes, and a run log carries).
-    pub fn to_toml(&self) -> String {
+    fn to_toml(&self) -> String {
         format!(
-            "# IMU alignment fitted by `{}` from the platform's forward kinematics; see \
-             docs/calibration.md.\n{}",
-            self.tool,
+            "# {} fitted by `{}`; see docs/calibration.md.\n{}",
+            Self::DESCRIPTION,
+            self.provenance().tool,
             toml::to_string(self).unwrap_or_default()
         )
     }
 
-    /// Parses and checks a calibration file's `text`, named `name` in messages.
-    pub fn parse(text: &str, name: &str) -> Result<Self, CalibrationFileError> {
-        let name = name.to_string();
-        let format = |problem: String| CalibrationFileError::Format {
-            path: name.clone(),
-            problem,
-        };
-        let file: Self = toml::from_str(text).map_err(|e| format(e.message().to_string()))?;
-        if file.format != FORMAT {
-            return Err(format(format!(
-                "format {:?}, expected {FORMAT:?}",
-                file.format
-            )));
+    /// Writes the file (TOML) to `path`.
+    fn write(&self, path: &Path) -> anyhow::Result<()> {
+        std::fs::write(path, self.to_toml()).map_err(|e| {
+            anyhow::anyhow!("cannot write the calibration file {}: {e}", path.display())
+        })
+    }
+}
+
+/// The IMU calibration file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CalibrationFile {
+    /// [`FORMAT`].
+    pub format: String,
+    /// When, by what, from what.
+    pub provenance: Provenance,
+    /// The IMU's alignment ([`super::imu`]).
+    pub imu: ImuAlignment,
+}
+
+impl CalibrationFile {
+    /// A file for `imu`, fitted at `unix_s` on `backend` with rig description `rig`.
+    pub fn new(imu: ImuAlignment, unix_s: u64, rig: &str, backend: &str) -> Self {
+        Self {
+            format: FORMAT.into(),
+            provenance: Provenance::new(unix_s, rig, backend),
+            imu,
         }
-        let a = &file.imu;
+    }
+}
+
+impl CalibrationDocument for CalibrationFile {
+    const DESCRIPTION: &'static str = "IMU alignment, against the platform's forward kinematics,";
+
+    fn format(&self) -> &str {
+        &self.format
+    }
+
+    fn provenance(&self) -> &Provenance {
+        &self.provenance
+    }
+
+    /// Covariances of the right size, every number finite, both sensor matrices invertible.
+    fn problem(&self) -> Option<String> {
+        let a = &self.imu;
         let square = |m: &[Vec<f64>], n: usize| m.len() == n && m.iter().all(|r| r.len() == n);
         if !square(&a.gyro_covariance, 10) || !square(&a.position_covariance, 3) {
-            return Err(format("covariances of the wrong size".into()));
+            return Some("covariances of the wrong size".into());
         }
         let finite = a
             .gyro_matrix
@@ -124,24 +191,12 @@ impl CalibrationFile {
             .chain([&a.imu_delay_s])
             .all(|v| v.is_finite());
         if !finite {
-            return Err(format("a value is not a finite number".into()));
+            return Some("a value is not a finite number".into());
         }
         if a.gyro().try_inverse().is_none() || a.accel().try_inverse().is_none() {
-            return Err(format("a sensor matrix is singular".into()));
+            return Some("a sensor matrix is singular".into());
         }
-        Ok(file)
-    }
-
-    /// Writes the file (TOML) to `path`.
-    pub fn write(&self, path: &Path) -> anyhow::Result<()> {
-        std::fs::write(path, self.to_toml()).map_err(|e| {
-            anyhow::anyhow!("cannot write the calibration file {}: {e}", path.display())
-        })
-    }
-
-    /// Its age at `now_unix_s`, days (0 for a file from the future).
-    pub fn age_days(&self, now_unix_s: u64) -> f64 {
-        now_unix_s.saturating_sub(self.calibrated_unix_s) as f64 / 86_400.0
+        None
     }
 }
 
@@ -180,8 +235,8 @@ mod tests {
         file.write(&path).unwrap();
         let back = CalibrationFile::read(&path).unwrap();
         assert_eq!(back, file);
-        assert_eq!(back.calibrated_utc, "2026-11-18T11:06:40Z");
-        assert!((back.age_days(1_795_000_000 + 10 * 86_400) - 10.0).abs() < 1e-12);
+        assert_eq!(back.provenance.calibrated_utc, "2026-11-18T11:06:40Z");
+        assert!((back.provenance.age_days(1_795_000_000 + 10 * 86_400) - 10.0).abs() < 1e-12);
     }
 
     #[test]

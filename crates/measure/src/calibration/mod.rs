@@ -13,7 +13,7 @@ pub mod imu;
 pub mod load_cells;
 pub(crate) mod normal;
 
-pub use file::CalibrationFile;
+pub use file::{CalibrationDocument, CalibrationFile, Provenance};
 pub use imu::ImuAlignment;
 pub use load_cells::{LoadCellFile, LoadCellGains};
 

@@ -22,6 +22,7 @@ pub mod table;
 #[cfg(test)]
 mod tests;
 
+use measure::calibration::CalibrationDocument;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 

@@ -5,6 +5,7 @@
 
 pub mod stream;
 
+use measure::calibration::CalibrationDocument;
 use std::path::Path;
 
 use anyhow::{anyhow, bail, Context, Result};
