@@ -53,8 +53,6 @@ pub struct ImuAlignment {
     pub gyro_matrix: [[f64; 3]; 3],
     /// b_g, rad/s (reported, not applied).
     pub gyro_bias_rad_s: [f64; 3],
-    /// A: the accelerometer's reading in P is A f + b_a; G's rotation ([`rotation_of`]).
-    pub accel_matrix: [[f64; 3]; 3],
     /// b_a, m/s² (reported, not applied).
     pub accel_bias_m_s2: [f64; 3],
     /// r: the accelerometer's position in P, m.
@@ -349,11 +347,9 @@ pub fn fit(
             }
         }
     }
-    let a = rotation_of(&g);
     Ok(ImuAlignment {
         gyro_matrix: core::array::from_fn(|i| core::array::from_fn(|j| g[(i, j)])),
         gyro_bias_rad_s: [base.gyro[9], base.gyro[10], base.gyro[11]],
-        accel_matrix: core::array::from_fn(|i| core::array::from_fn(|j| a[(i, j)])),
         accel_bias_m_s2: [base.accel[3], base.accel[4], base.accel[5]],
         accelerometer_position_m: base.position().into(),
         imu_delay_s: base.gyro[12],
@@ -371,9 +367,10 @@ impl ImuAlignment {
         Matrix3::from_fn(|i, j| self.gyro_matrix[i][j])
     }
 
-    /// A as a matrix.
+    /// A: the accelerometer's reading in P is A f + b_a, A the rotation of G
+    /// ([`rotation_of`]: one package, the gyro's axes).
     pub fn accel(&self) -> Matrix3<f64> {
-        Matrix3::from_fn(|i, j| self.accel_matrix[i][j])
+        rotation_of(&self.gyro())
     }
 
     /// One sigma of the gyro's parameter `k` ([`GYRO_PARAMETERS`]).
