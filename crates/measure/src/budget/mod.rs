@@ -34,6 +34,7 @@ mod tests;
 
 use estimator::{EstimatorConfig, ParameterVector};
 use nalgebra::Vector6;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::config::{Config, LegsConfig, SensorsConfig};
@@ -276,28 +277,44 @@ pub fn analyse(
         load_cells: figures.load_cells.as_ref(),
         rest_gravity_m_s2: (exact.accel_offset_measured && config.local_gravity_m_s2 > 0.0)
             .then_some(config.local_gravity_m_s2),
+        joint_baseline: Default::default(),
     };
     let rows = rigid::subset(&fit);
-    let mut modes = Vec::new();
-    for source in ErrorSource::ALL {
-        let scalars = perturb::scalars(source, figures);
-        if scalars.is_empty() {
-            continue;
-        }
-        let mut effects = Vec::with_capacity(scalars.len());
-        for s in &scalars {
+    // Each elementary error is a fit of its own on shared, read-only data: they run in
+    // parallel, and each source's effects come back in the scalars' order.
+    let work: Vec<(ErrorSource, perturb::Scalar)> = ErrorSource::ALL
+        .into_iter()
+        .flat_map(|source| {
+            perturb::scalars(source, figures)
+                .into_iter()
+                .map(move |s| (source, s))
+        })
+        .collect();
+    let done: Vec<([f64; 10], Option<Vec<Vector6<f64>>>)> = work
+        .par_iter()
+        .map(|(_, s)| {
             let sigma = s.sigma(figures);
             if !(sigma.is_finite() && sigma != 0.0) {
-                effects.push([0.0; 10]);
-                continue;
+                return ([0.0; 10], None);
             }
             let dr = s.residual_change(&ctx, sigma);
-            effects.push(fit.effect(&dr).into());
-            if s.is_smooth() {
-                modes.push(rows.iter().map(|&k| dr[k]).collect::<Vec<Vector6<f64>>>());
-            }
+            let mode = s
+                .is_smooth()
+                .then(|| rows.iter().map(|&k| dr[k]).collect::<Vec<Vector6<f64>>>());
+            (fit.effect(&dr).into(), mode)
+        })
+        .collect();
+    let mut modes = Vec::new();
+    let mut done = work.iter().zip(done).peekable();
+    for source in ErrorSource::ALL {
+        let mut effects = Vec::new();
+        while let Some(((_, _), (effect, mode))) = done.next_if(|((s, _), _)| *s == source) {
+            effects.push(effect);
+            modes.extend(mode);
         }
-        budget.effects.push(with_exact(source, effects, exact));
+        if !effects.is_empty() {
+            budget.effects.push(with_exact(source, effects, exact));
+        }
     }
     let prediction = statistical::predict(&data, &fit, figures);
     budget.jitter_share = prediction.jitter_share;

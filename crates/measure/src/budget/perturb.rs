@@ -7,6 +7,8 @@
 //! figure giving a zero effect), so the tare run's and the loaded run's effects pair up by
 //! index ([`super::combine`]).
 
+use std::sync::OnceLock;
+
 use kinematics::{Geometry, Pose};
 use nalgebra::{Matrix3, Rotation3, Vector3, Vector6};
 
@@ -299,6 +301,28 @@ pub struct Context<'a> {
     /// ([`estimator::hold`]): that measurement takes up the static part of an accelerometer
     /// error along z as well, so the error's effect is what is left of it in motion.
     pub rest_gravity_m_s2: Option<f64>,
+    /// The described geometry's leg lengths and leg wrench at each interior entry, which
+    /// every joint coordinate's perturbation compares against: computed once, by the first
+    /// that needs them.
+    pub joint_baseline: OnceLock<Vec<(Vector6<f64>, Vector6<f64>)>>,
+}
+
+impl Context<'_> {
+    /// The described geometry's (leg lengths, leg wrench) at each interior entry.
+    fn joint_baseline(&self) -> &[(Vector6<f64>, Vector6<f64>)] {
+        self.joint_baseline.get_or_init(|| {
+            let g = &self.data.model.geometry;
+            self.fit
+                .idx
+                .iter()
+                .map(|&i| {
+                    let pose = self.data.poses[i];
+                    let f = self.data.entries[i].leg_forces_n;
+                    (g.leg_lengths(&pose), leg_wrench(g, &pose, &f))
+                })
+                .collect()
+        })
+    }
 }
 
 /// The IMU's readings through M and N, less what the offset measured at rest takes out: at the
@@ -489,9 +513,10 @@ fn joint_change(
     ctx.fit
         .idx
         .iter()
-        .map(|&i| {
+        .zip(ctx.joint_baseline())
+        .map(|(&i, (lengths, wrench))| {
             let pose = base.poses[i];
-            let dl = g.leg_lengths(&pose) - built.leg_lengths(&pose);
+            let dl = lengths - built.leg_lengths(&pose);
             let Some(dx) = built.jacobian(&pose).lu().solve(&dl) else {
                 return Vector6::zeros();
             };
@@ -500,7 +525,7 @@ fn joint_change(
                 Rotation3::new(Vector3::new(dx[3], dx[4], dx[5])) * pose.rotation,
             );
             let f = base.entries[i].leg_forces_n;
-            model.map_wrench(&(leg_wrench(&built, &moved, &f) - leg_wrench(g, &pose, &f)))
+            model.map_wrench(&(leg_wrench(&built, &moved, &f) - wrench))
         })
         .collect()
 }

@@ -51,6 +51,7 @@ fn effect(
         imu: None,
         load_cells: None,
         rest_gravity_m_s2: None,
+        joint_baseline: Default::default(),
     };
     fit.effect(&scalar.residual_change(&ctx, sigma))
 }
@@ -326,6 +327,7 @@ fn the_fits_bias_effect_matches_the_estimators_sensitivity() {
         imu: None,
         load_cells: None,
         rest_gravity_m_s2: None,
+        joint_baseline: Default::default(),
     };
     for axis in 0..3 {
         let got = fit.effect(&Scalar::AccelBias(axis).residual_change(&ctx, 0.01));
