@@ -12,7 +12,7 @@ use crate::timebase::Timing;
 use crate::uncertainty::ScoreCovariance;
 use crate::wrench::{measured, to_vector};
 use kinematics::{Geometry, Pose, Wrench};
-use nalgebra::{Matrix6, SMatrix, SVector, Vector3, Vector6};
+use nalgebra::{Const, DimMin, Matrix6, SMatrix, SVector, Vector3, Vector6};
 use stewart_types::{InertialParameters, ParameterVector, GRAVITY_B_M_S2};
 
 /// Which parameters are estimated.
@@ -167,6 +167,17 @@ pub enum Outcome {
     AfterWindow,
 }
 
+/// How θ is taken from the solver ([`OnlineEstimator::theta`], [`OnlineEstimator::theta_quick`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Correction {
+    /// Corrected for regressor noise, its definiteness checked.
+    Full,
+    /// Corrected by one solve, on the last block's verdict.
+    Quick,
+    /// The plain least-squares θ.
+    None,
+}
+
 /// Least squares plus residual scores for `N` parameters and `R` equations per sample
 /// (`NR` = N·R sizes the scores' offset terms).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -181,6 +192,9 @@ struct Solver<const N: usize, const R: usize, const NR: usize> {
     /// Σ λ^(age) φ_wᵀ W L over the samples, L the (conditioned) map from the six leg forces
     /// to the sample's equations: b's sensitivity to constant leg-force offsets.
     leg: SMatrix<f64, N, 6>,
+    /// Whether the full correction at the last residual block's close applied (a definite
+    /// corrected system); `None` before the first block closed.
+    correction_applied: Option<bool>,
 }
 
 impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
@@ -202,6 +216,7 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             noise_moment,
             samples: 0.0,
             leg: SMatrix::zeros(),
+            correction_applied: None,
         })
     }
 
@@ -232,6 +247,7 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         if self.score.add(&wrows, &wy) {
             let (theta, p, moment) = self.corrected_with_moment();
             self.score.close_block(&theta, &p, &moment);
+            self.correction_applied = Some(moment.iter().any(|v| *v != 0.0));
         }
         self.samples = self.samples * self.rls.forgetting() + 1.0;
         if let Some(l) = leg_map {
@@ -282,6 +298,25 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
 
     fn theta(&self) -> SVector<f64, N> {
         self.corrected().0
+    }
+
+    /// θ' = (𝟙 − nPC)⁻¹ θ by one LU solve, when the last block's full correction applied
+    /// (its definiteness check needs P' = (𝟙 − nPC)⁻¹ P, ten solves and a product more);
+    /// otherwise, or when the solve fails, [`Self::theta`].
+    fn theta_quick(&self) -> SVector<f64, N>
+    where
+        Const<N>: DimMin<Const<N>, Output = Const<N>>,
+    {
+        if self.correction_applied != Some(true) {
+            return self.theta();
+        }
+        let m = SMatrix::<f64, N, N>::identity()
+            - self.rls.covariance() * self.noise_moment * self.samples;
+        let mut t: SVector<f64, N> = *self.rls.theta();
+        match m.lu().solve_mut(&mut t) {
+            true if t.iter().all(|v| v.is_finite()) => t,
+            _ => self.theta(),
+        }
     }
 
     /// ∂θ/∂c for a constant offset c added to every sample's (unweighted) measurements:
@@ -761,7 +796,7 @@ impl OnlineEstimator {
                 solver.update(&inertia_columns(&c.signals), &yc, lc.as_ref())?;
             }
         }
-        let r = y - phi * self.assemble(false);
+        let r = y - phi * self.assemble(Correction::None);
         let lambda = self.config.forgetting_factor;
         self.residual_sq = self.residual_sq * lambda + r.component_mul(&r);
         self.residual_weight = self.residual_weight * lambda + 1.0;
@@ -769,24 +804,22 @@ impl OnlineEstimator {
     }
 
     /// θ of all ten parameters from the solver's, corrected for regressor noise or not.
-    fn assemble(&self, corrected: bool) -> ParameterVector {
+    pub(crate) fn assemble(&self, correction: Correction) -> ParameterVector {
         match &self.engine {
-            Engine::Full(s) => {
-                if corrected {
-                    s.theta()
-                } else {
-                    *s.rls.theta()
-                }
-            }
+            Engine::Full(s) => match correction {
+                Correction::Full => s.theta(),
+                Correction::Quick => s.theta_quick(),
+                Correction::None => *s.rls.theta(),
+            },
             Engine::Six {
                 solver,
                 mass_kg,
                 com_m,
             } => {
-                let j = if corrected {
-                    solver.theta()
-                } else {
-                    *solver.rls.theta()
+                let j = match correction {
+                    Correction::Full => solver.theta(),
+                    Correction::Quick => solver.theta_quick(),
+                    Correction::None => *solver.rls.theta(),
                 };
                 let mut jc = ParameterVector::zeros();
                 jc.fixed_rows_mut::<6>(4).copy_from(&j);
@@ -800,7 +833,16 @@ impl OnlineEstimator {
     /// The current θ = [m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz] (cheap unless a sensor
     /// noise is configured, when the errors-in-variables correction costs a 10×10 solve).
     pub fn theta(&self) -> ParameterVector {
-        self.assemble(true)
+        self.assemble(Correction::Full)
+    }
+
+    /// θ as [`Self::theta`] for a per-sample history: the errors-in-variables correction is
+    /// one 10×10 LU solve, applied when the last residual block's full correction found the
+    /// corrected system definite (a verdict at most one block old), where [`Self::theta`]
+    /// checks it again at every call. Equal to [`Self::theta`] to rounding whenever both apply
+    /// the correction or neither does.
+    pub fn theta_quick(&self) -> ParameterVector {
+        self.assemble(Correction::Quick)
     }
 
     /// Covariance of θ (P and the residual scores; see [`crate::uncertainty`]).

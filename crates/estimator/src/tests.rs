@@ -1,6 +1,6 @@
 //! Whole-estimator tests against an independent rigid-body model (`testkit`).
 
-use crate::online::{EstimatorConfig, OnlineEstimator, ParameterSet, Sample};
+use crate::online::{Correction, EstimatorConfig, OnlineEstimator, Outcome, ParameterSet, Sample};
 use crate::regressor::rigid_body;
 use crate::rls::{NormalEquations, Rls};
 use crate::testkit::{
@@ -440,6 +440,56 @@ fn long_run_without_forgetting() {
 #[test]
 fn long_run_with_forgetting() {
     long_run(0.999);
+}
+
+/// The per-sample history's θ (one LU solve on the last block's verdict) is the checked θ to
+/// rounding at every sample of a run whose regressor-noise correction applies, and it does
+/// take the correction (it differs from the plain least-squares θ).
+#[test]
+fn quick_theta_is_the_corrected_theta_along_a_noisy_run() {
+    let body = PointBody::vehicle_like();
+    let mut c = config(Some(20.0), 1e-3);
+    c.gyro_noise_rad_s = 2e-2;
+    let mut e = OnlineEstimator::new(c).unwrap();
+    let g = test_geometry();
+    let noise = SensorNoise {
+        leg_force_n: 3.0,
+        gyro_rad_s: 2e-2,
+        accel_m_s2: 0.01,
+    };
+    let mut rng = StdRng::seed_from_u64(5);
+    let (mut compared, mut worst, mut correction) = (0, 0.0f64, 0.0f64);
+    for k in 0..3000 {
+        let s = synthetic_sample(
+            &g,
+            &body,
+            &Motion::rich(),
+            k as f64 * 1e-3,
+            &Vector3::zeros(),
+            &noise,
+            &mut rng,
+        );
+        if e.update(&s) != Ok(Outcome::Used) || k < 1500 {
+            continue;
+        }
+        let (full, quick) = (e.theta(), e.theta_quick());
+        let scale = group_scales(&full);
+        for i in 0..10 {
+            worst = worst.max((quick[i] - full[i]).abs() / scale[i]);
+        }
+        let plain = e.assemble(Correction::None);
+        correction = correction.max(((full - plain).component_div(&scale)).amax());
+        compared += 1;
+    }
+    assert!(compared > 1000, "{compared} samples compared");
+    assert!(
+        correction > 1e-6,
+        "the correction did not apply: {correction:e}"
+    );
+    assert!(
+        worst < 1e-10,
+        "quick θ off the checked one by {worst:e} of scale"
+    );
 }
 
 /// The same stream gives bit-identical estimates (what `stewart estimate` relies on to
