@@ -258,7 +258,7 @@ where
             None => fk_failures += 1,
         }
         if let (Some(Ok(Outcome::Used)), Some(sample)) = (step.estimator, &step.sample) {
-            history.push(tick.estimator.theta().into());
+            history.push(tick.estimator.theta_quick().into());
             record.push(sample);
             last_fed_s = frame.time_s;
         }

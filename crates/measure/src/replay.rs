@@ -5,7 +5,7 @@
 //! recorded settings the result is the online estimate, to rounding.
 
 use control::io::SensorFrame;
-use estimator::{Estimate, EstimatorConfig, OnlineEstimator, Outcome};
+use estimator::{Estimate, EstimatorConfig, OnlineEstimator, Outcome, Sample};
 use kinematics::FkOptions;
 
 use crate::config::ImuMounting;
@@ -158,21 +158,36 @@ impl Replay {
 
     /// The next frame of the measurement.
     pub fn push(&mut self, frame: &SensorFrame) {
+        let sample = self.feed.next(frame);
+        self.push_fed(frame.time_s, sample);
+    }
+
+    /// The frame-to-sample stage ([`Feed`]) in its current state, to run on another thread:
+    /// a reader that turns each frame into its sample there and hands it to
+    /// [`Self::push_fed`] splits the per-frame work (forward kinematics on one side, the
+    /// estimator on the other) with the same result as [`Self::push`]. Use one or the other
+    /// for a whole measurement.
+    pub fn feed(&self) -> Feed {
+        self.feed
+    }
+
+    /// The next frame of the measurement, at backend time `time_s`, as its [`Feed`] (from
+    /// [`Self::feed`]) turned it into a sample; `None` when its forward kinematics failed.
+    pub fn push_fed(&mut self, time_s: f64, sample: Option<Sample>) {
         let index = self.frames;
         self.frames += 1;
         let config = &self.config;
-        let sample = self.feed.next(frame);
-        if self.start_s.is_nan() && frame.time_s >= config.window_start_s {
-            self.start_s = frame.time_s;
+        if self.start_s.is_nan() && time_s >= config.window_start_s {
+            self.start_s = time_s;
         }
         match sample {
-            Some(s) if frame.time_s <= config.window_end_s => {
+            Some(s) if time_s <= config.window_end_s => {
                 if let Ok(Outcome::Used) = self.estimator.update(&s) {
-                    self.history.push(self.estimator.theta().into());
+                    self.history.push(self.estimator.theta_quick().into());
                     if let Some((record, _)) = &mut self.budget {
                         record.push(&s);
                     }
-                    self.last_used_s = frame.time_s;
+                    self.last_used_s = time_s;
                 }
             }
             Some(_) => {}
@@ -180,7 +195,7 @@ impl Replay {
         }
         if self.start_s.is_finite() && index.is_multiple_of(self.trace_every) {
             self.trace.push(TracePoint {
-                time_s: frame.time_s,
+                time_s,
                 estimate: self.estimator.estimate(),
             });
             self.trace_index.push(index);
@@ -188,7 +203,7 @@ impl Replay {
                 self.thin_trace();
             }
         }
-        self.last_time_s = frame.time_s;
+        self.last_time_s = time_s;
     }
 
     /// Keeps the trace points at multiples of twice the spacing.

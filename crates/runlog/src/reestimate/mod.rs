@@ -211,7 +211,15 @@ fn start_replay(config: EstimatorConfig, fk: FkOptions, rig: &LoadedConfig) -> R
 
 /// The replay's outcome, its error in the log's words.
 fn finish_replay(r: Replay, run: &str) -> Result<RunEstimate> {
-    let replay = r.finish().map_err(|e| match e {
+    run_estimate(r.finish(), run)
+}
+
+/// The estimate of measurement `run` from its finished replay.
+fn run_estimate(
+    outcome: Result<measure::replay::ReplayOutcome, measure::replay::ReplayError>,
+    run: &str,
+) -> Result<RunEstimate> {
+    let replay = outcome.map_err(|e| match e {
         measure::replay::ReplayError::NoFramesInWindow { .. } => anyhow!(
             "the log has no {} frames of the {run} measurement from its excitation on",
             topics::SENSORS

@@ -12,11 +12,11 @@ use std::path::Path;
 
 use anyhow::{anyhow, bail, Context, Result};
 use control::io::SensorFrame;
-use measure::replay::Replay;
+use measure::replay::{Replay, ReplayError, ReplayOutcome};
 use measure::{LoadedConfig, Report, TareFile};
 
 use super::{
-    build_report, finish_replay, logged_tare, measured_tare, no_settings, rig_description_of,
+    build_report, logged_tare, measured_tare, no_settings, rig_description_of, run_estimate,
     settings_of, start_replay, tare_file, LogFacts, RunEstimate, SettingsOverride, TareOrigin,
 };
 use crate::messages as topics;
@@ -37,41 +37,61 @@ enum RunState {
 /// Frames handed to a replay's thread at a time.
 const BATCH_FRAMES: usize = 512;
 
-/// A replay on a thread of its own, fed in batches: the log is read and decoded on the caller's
-/// thread while the estimator runs on another (two cores: about half the wall time).
+/// A frame's backend time and its sample (`None`: forward kinematics failed).
+type Fed = (f64, Option<estimator::Sample>);
+
+/// What a replay's thread gives once its measurement's frames are all in.
+type Finished = std::result::Result<ReplayOutcome, ReplayError>;
+
+/// A replay on a thread of its own, fed in batches: the log is read, decoded and posed by
+/// forward kinematics ([`Replay::feed`]) on the caller's thread while the estimator runs on
+/// another ([`Replay::push_fed`]), which splits the per-frame work about evenly over two cores.
+/// Once its input is closed ([`Worker::close`]: the next measurement began) the thread also
+/// finishes the replay, error budget included, while the next measurement is read.
 struct Worker {
-    batch: Vec<SensorFrame>,
+    feed: measure::feed::Feed,
+    batch: Vec<Fed>,
     frames: u64,
-    queue: Option<std::sync::mpsc::SyncSender<Vec<SensorFrame>>>,
-    thread: std::thread::JoinHandle<Replay>,
+    /// Frames that came after the input was closed.
+    late: u64,
+    queue: Option<std::sync::mpsc::SyncSender<Vec<Fed>>>,
+    thread: std::thread::JoinHandle<Finished>,
 }
 
 impl Worker {
     fn start(mut replay: Replay) -> Result<Self> {
+        let feed = replay.feed();
         // A few batches in flight bound the memory whichever side is faster.
-        let (queue, batches) = std::sync::mpsc::sync_channel::<Vec<SensorFrame>>(8);
+        let (queue, batches) = std::sync::mpsc::sync_channel::<Vec<Fed>>(8);
         let thread = std::thread::Builder::new()
             .name("replay".into())
             .spawn(move || {
                 for batch in batches {
-                    for f in &batch {
-                        replay.push(f);
+                    for (time_s, sample) in batch {
+                        replay.push_fed(time_s, sample);
                     }
                 }
-                replay
+                replay.finish()
             })
             .context("cannot start the replay thread")?;
         Ok(Self {
+            feed,
             batch: Vec::with_capacity(BATCH_FRAMES),
             frames: 0,
+            late: 0,
             queue: Some(queue),
             thread,
         })
     }
 
     fn push(&mut self, frame: SensorFrame) {
+        if self.queue.is_none() {
+            self.late += 1;
+            return;
+        }
         self.frames += 1;
-        self.batch.push(frame);
+        let sample = self.feed.next(&frame);
+        self.batch.push((frame.time_s, sample));
         if self.batch.len() >= BATCH_FRAMES {
             self.send();
         }
@@ -85,12 +105,29 @@ impl Worker {
         }
     }
 
-    fn finish(mut self) -> Result<Replay> {
-        self.send();
-        self.queue = None;
-        self.thread
+    /// No more frames: the thread finishes the replay.
+    fn close(&mut self) {
+        if self.queue.is_some() {
+            self.send();
+            self.queue = None;
+        }
+    }
+
+    fn finish(mut self) -> Result<Finished> {
+        self.close();
+        let finished = self
+            .thread
             .join()
-            .map_err(|_| anyhow!("the replay thread panicked"))
+            .map_err(|_| anyhow!("the replay thread panicked"))?;
+        if self.late > 0 {
+            bail!(
+                "{} of its {} frames came after the next measurement's began: the log \
+                 interleaves its measurements, which are read one after another",
+                self.late,
+                self.frames + self.late
+            );
+        }
+        Ok(finished)
     }
 }
 
@@ -110,6 +147,8 @@ struct Stream<'a> {
     sequences: Option<(u64, u64)>,
     /// The protobuf `/sensors` message decoded into, its buffers reused.
     scratch: proto::SensorBlock,
+    /// The measurement of the last frame read.
+    current: Option<String>,
 }
 
 impl Stream<'_> {
@@ -164,7 +203,19 @@ impl Stream<'_> {
     }
 
     /// Hands `frame` of measurement `run` to its replay, or holds it until the replay starts.
+    /// Measurements are logged one after another: the first frame of one closes the input of
+    /// the others, whose threads then finish while this one is read.
     fn frame(&mut self, run: &str, frame: SensorFrame) {
+        if self.current.as_deref() != Some(run) {
+            for (name, state) in &mut self.runs {
+                if let RunState::Running(w) = state {
+                    if *name != run {
+                        w.close();
+                    }
+                }
+            }
+            self.current = Some(run.to_string());
+        }
         match self.state(run) {
             Some(RunState::Running(w)) => w.push(frame),
             Some(RunState::Waiting(q)) => {
@@ -334,7 +385,7 @@ pub fn tare_of_file(
                 topics::ESTIMATOR_SETTINGS
             ),
         };
-        let run = finish_replay(worker.finish()?, "tare").context("re-estimating the tare run")?;
+        let run = run_estimate(worker.finish()?, "tare").context("re-estimating the tare run")?;
         Ok(StreamedTare {
             tare: super::saved_tare(&run, meta, rig),
             run,
@@ -363,6 +414,7 @@ impl<'a> Stream<'a> {
             runs: Vec::new(),
             sequences: None,
             scratch: proto::SensorBlock::default(),
+            current: None,
         }
     }
 }
@@ -400,14 +452,14 @@ fn finish_stream(
     } else {
         match tare_state {
             Some(RunState::Running(w)) if w.frames > 0 => {
-                let r = finish_replay(w.finish()?, "tare").context("re-estimating the tare run")?;
+                let r = run_estimate(w.finish()?, "tare").context("re-estimating the tare run")?;
                 measured_tare(r, meta)
             }
             _ => logged_tare(s.tare.as_ref(), meta)?,
         }
     };
     let loaded = match loaded_state {
-        Some(RunState::Running(w)) => w.finish().and_then(|r| finish_replay(r, "loaded")),
+        Some(RunState::Running(w)) => w.finish().and_then(|r| run_estimate(r, "loaded")),
         _ if s.settings.iter().all(|k| k.run != "loaded") => Err(no_settings("loaded")),
         _ => Err(anyhow!(
             "the log has no {} frames of the loaded measurement from its excitation on",
