@@ -112,8 +112,11 @@ pub struct RunRecord {
 }
 
 impl RunRecord {
-    /// Entries kept at most: 655 s at 100 Hz before the first doubling (18 MB).
-    pub const CAPACITY: usize = 1 << 16;
+    /// Entries kept at most: 327 s at 100 Hz before the first doubling (9 MB). The budget's
+    /// fit holds about five times the record (its regressors, motions and one perturbed copy
+    /// per thread), which this bounds for a run of any length; after a doubling, 50 Hz entries
+    /// still sample the excitation's highest line (under 2 Hz) 25 times a period.
+    pub const CAPACITY: usize = 1 << 15;
 
     /// Rate of the entries before any doubling, Hz.
     pub const RATE_HZ: f64 = 100.0;
@@ -180,10 +183,12 @@ impl RunRecord {
 
     /// The entries, the block still open included when it holds at least half a block.
     pub fn entries(&self) -> Vec<Entry> {
-        let mut v = self.entries.clone();
-        if self.open.samples * 2 >= self.stride && self.open.samples > 0 {
-            v.push(self.open);
-        }
+        let open =
+            (self.open.samples * 2 >= self.stride && self.open.samples > 0).then_some(self.open);
+        // Sized exactly: a clone and a push would double a long record's copy.
+        let mut v = Vec::with_capacity(self.entries.len() + 1);
+        v.extend_from_slice(&self.entries);
+        v.extend(open);
         v
     }
 
