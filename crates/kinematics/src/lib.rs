@@ -28,6 +28,7 @@ mod geometry;
 mod jacobian;
 mod legs;
 mod pose;
+pub mod real;
 
 pub use error::{ErrorKind, KinematicsError};
 pub use fk::{FkOptions, FkSolution};
@@ -36,6 +37,7 @@ pub use jacobian::Wrench;
 pub use legs::Legs;
 pub use nalgebra::{Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 pub use pose::Pose;
+pub use real::Real;
 /// Number of legs (and of joints on each plate), defined in `stewart-types`.
 pub use stewart_types::LEG_COUNT;
 
