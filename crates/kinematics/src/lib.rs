@@ -23,6 +23,8 @@
 )]
 
 mod error;
+#[cfg(test)]
+mod f32_tests;
 mod fk;
 mod geometry;
 mod jacobian;
