@@ -36,6 +36,8 @@ pub trait Real: RealField + Copy + Default + core::iter::Sum + 'static {
     fn lit(value: f64) -> Self;
     /// This value as an `f64` (exact for both precisions): for error reports and casts.
     fn to_f64(self) -> f64;
+    /// True for NaN (`RealField` gives `is_finite` but not this).
+    fn is_nan(self) -> bool;
 
     /// sin x, by `libm`.
     fn libm_sin(self) -> Self;
@@ -62,6 +64,9 @@ impl Real for f64 {
     }
     fn to_f64(self) -> f64 {
         self
+    }
+    fn is_nan(self) -> bool {
+        f64::is_nan(self)
     }
     fn libm_sin(self) -> Self {
         libm::sin(self)
@@ -97,6 +102,9 @@ impl Real for f32 {
     }
     fn to_f64(self) -> f64 {
         f64::from(self)
+    }
+    fn is_nan(self) -> bool {
+        f32::is_nan(self)
     }
     fn libm_sin(self) -> Self {
         libm::sinf(self)
