@@ -25,6 +25,8 @@
 
 pub mod controller;
 mod error;
+#[cfg(test)]
+mod f32_tests;
 mod fault;
 pub mod io;
 pub mod pid;
