@@ -5,6 +5,9 @@
 //! `no_std`, no allocation, no panics: every function that can meet bad input returns a
 //! [`KinematicsError`].
 //!
+//! Every type is generic over the scalar [`Real`] (`f64` or `f32`), `f64` by default: the
+//! [`real`] module says why and how, docs/firmware.md what f32 costs in accuracy.
+//!
 //! Conventions: base frame B fixed to the ground with z up; platform frame P fixed to the plate;
 //! a pose (p, R) holds the position p of the P origin in B and the rotation R that maps
 //! P-vectors into B. With bᵢ the base joints in B and pᵢ the plate joints in P, leg i's vector is
