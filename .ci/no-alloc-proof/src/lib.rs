@@ -1,10 +1,11 @@
 //! Links the three cores and the shared types into a `no_std` static library without an
 //! allocator (see Cargo.toml) and calls their per-tick functions, so that the linker sees every
-//! path a tick can take.
+//! path a tick can take; the kinematics and the control pieces also in their f32 instantiation.
 #![no_std]
 
 use control::controller::{Controller, ControllerConfig};
 use control::io::SensorFrame;
+use control::pid::{PidBank, PidConfig};
 use control::trajectory::{MultiSineConfig, Trajectory};
 use estimator::{EstimatorConfig, OnlineEstimator, Sample};
 use kinematics::{FkOptions, Geometry, StrokeLimits, Vector3, Vector6};
@@ -36,6 +37,40 @@ pub extern "C" fn proof_kinematics_tick(z_offset_m: f64) -> f64 {
     match geometry.forward_kinematics(&lengths, &geometry.home_pose(), &FkOptions::default()) {
         Ok(solution) => solution.residual_m,
         Err(_) => -2.0,
+    }
+}
+
+/// The f32 instantiation of the kinematics and of the control pieces generic over the scalar
+/// (IK, FK, the PID bank, a trajectory sample), as a Cortex-M4F firmware would link them.
+/// Returns the first leg's PID output, N (NaN on any error).
+#[no_mangle]
+pub extern "C" fn proof_f32_tick(time_s: f32, measured_m: f32) -> f32 {
+    let stroke = StrokeLimits {
+        min_length_m: 1.5_f32,
+        max_length_m: 2.3,
+    };
+    let Ok(geometry) = Geometry::from_radii(1.5_f32, 1.2, 0.35, 0.35, stroke) else {
+        return f32::NAN;
+    };
+    let Ok(trajectory) =
+        Trajectory::multisine(geometry.home_pose(), &MultiSineConfig::<f32>::default())
+    else {
+        return f32::NAN;
+    };
+    let desired = trajectory.sample(time_s).pose;
+    let lengths = geometry.leg_lengths(&desired);
+    if geometry
+        .forward_kinematics(&lengths, &geometry.home_pose(), &FkOptions::default())
+        .is_err()
+    {
+        return f32::NAN;
+    }
+    let Ok(mut pids) = PidBank::uniform(PidConfig::<f32>::default()) else {
+        return f32::NAN;
+    };
+    match pids.update(&lengths.into(), &[measured_m; 6], &[0.0; 6], 1e-3) {
+        Ok([first, ..]) => first.output,
+        Err(_) => f32::NAN,
     }
 }
 

@@ -5,6 +5,10 @@
 //! `no_std`, no `alloc`: every type is fixed-size, nothing allocates, nothing panics on any input
 //! (invalid data gives a [`ControlError`] or a supervisor [`Fault`]). Units are SI throughout.
 //!
+//! The PID bank, the trajectories, the ramps and the feasibility check are generic over the
+//! scalar ([`kinematics::Real`]: `f64` by default, or `f32` for a single-precision FPU); the
+//! [`Controller`] and the [`Supervisor`] run in `f64` on the wire's frames (docs/firmware.md).
+//!
 //! What a user needs is re-exported at the crate root; the modules keep their paths
 //! (`control::io::SensorFrame`, `control::controller::Controller`, …) and hold the rest.
 //!
@@ -25,6 +29,8 @@
 
 pub mod controller;
 mod error;
+#[cfg(test)]
+mod f32_tests;
 mod fault;
 pub mod io;
 pub mod pid;

@@ -23,12 +23,14 @@
 //!   previous measurement); after [`Pid::reset_to`] it also outputs exactly the given force, the
 //!   integral term taking up the difference.
 
+use kinematics::Real;
+
 use crate::error::ControlError;
 use crate::io::LEG_COUNT;
 
 /// How the integrator is kept from winding up while the output saturates.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum AntiWindup {
+pub enum AntiWindup<T = f64> {
     /// No protection: the integrator keeps integrating into saturation. Only for comparison
     /// (tests, tuning); never use it on a rig.
     None,
@@ -41,50 +43,70 @@ pub enum AntiWindup {
     /// is `√(T_i·T_d)` with `T_i = kp/ki`, `T_d = kd/kp`.
     BackCalculation {
         /// Tracking time constant `T_t`, seconds.
-        tracking_time_s: f64,
+        tracking_time_s: T,
     },
 }
 
 /// Gains and limits of one leg PID. Plain `Copy` data; check it with [`PidConfig::validate`].
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PidConfig {
+pub struct PidConfig<T = f64> {
     /// Proportional gain, N/m.
-    pub kp: f64,
+    pub kp: T,
     /// Integral gain, N/(m·s).
-    pub ki: f64,
+    pub ki: T,
     /// Derivative gain, N·s/m.
-    pub kd: f64,
+    pub kd: T,
     /// Time constant `T_f` of the first-order filter on the derivative, seconds (0 = unfiltered).
-    pub derivative_filter_s: f64,
+    pub derivative_filter_s: T,
     /// Lower output limit, N.
-    pub output_min_n: f64,
+    pub output_min_n: T,
     /// Upper output limit, N.
-    pub output_max_n: f64,
+    pub output_max_n: T,
     /// Anti-windup scheme.
-    pub anti_windup: AntiWindup,
+    pub anti_windup: AntiWindup<T>,
 }
 
-impl Default for PidConfig {
+impl<T: Real> Default for PidConfig<T> {
     /// A starting point for a leg carrying about 250 kg of effective mass at a 1 kHz loop:
     /// closed-loop bandwidth near 10 Hz (`kp = m·ω²`, `kd = 2·0.7·m·ω`, `ki = kp·ω/10` with
     /// `ω = 2π·10 rad/s`), derivative filtered at 2 ms, ±20 kN, back-calculation with
     /// `T_t = 20 ms`. Tune per rig.
     fn default() -> Self {
         Self {
-            kp: 1.0e6,
-            ki: 6.0e6,
-            kd: 2.2e4,
-            derivative_filter_s: 0.002,
-            output_min_n: -20_000.0,
-            output_max_n: 20_000.0,
+            kp: T::lit(1.0e6),
+            ki: T::lit(6.0e6),
+            kd: T::lit(2.2e4),
+            derivative_filter_s: T::lit(0.002),
+            output_min_n: T::lit(-20_000.0),
+            output_max_n: T::lit(20_000.0),
             anti_windup: AntiWindup::BackCalculation {
-                tracking_time_s: 0.02,
+                tracking_time_s: T::lit(0.02),
             },
         }
     }
 }
 
-impl PidConfig {
+impl<T: Real> PidConfig<T> {
+    /// The same configuration in another precision (each value rounded to nearest).
+    pub fn cast<U: Real>(&self) -> PidConfig<U> {
+        let c = |v: T| U::lit(v.to_f64());
+        PidConfig {
+            kp: c(self.kp),
+            ki: c(self.ki),
+            kd: c(self.kd),
+            derivative_filter_s: c(self.derivative_filter_s),
+            output_min_n: c(self.output_min_n),
+            output_max_n: c(self.output_max_n),
+            anti_windup: match self.anti_windup {
+                AntiWindup::None => AntiWindup::None,
+                AntiWindup::Clamping => AntiWindup::Clamping,
+                AntiWindup::BackCalculation { tracking_time_s } => AntiWindup::BackCalculation {
+                    tracking_time_s: c(tracking_time_s),
+                },
+            },
+        }
+    }
+
     /// Checks that every gain is finite and non-negative, the filter time is finite and
     /// non-negative, the output range is finite and non-empty (`min < max`), and a
     /// back-calculation tracking time is finite and positive.
@@ -96,7 +118,7 @@ impl PidConfig {
             ("pid.derivative_filter_s", self.derivative_filter_s),
         ];
         for (name, value) in gains {
-            if !value.is_finite() || value < 0.0 {
+            if !value.is_finite() || value < T::zero() {
                 return Err(ControlError::InvalidConfig {
                     parameter: name,
                     reason: "must be finite and >= 0",
@@ -113,7 +135,7 @@ impl PidConfig {
             });
         }
         if let AntiWindup::BackCalculation { tracking_time_s } = self.anti_windup {
-            if !tracking_time_s.is_finite() || tracking_time_s <= 0.0 {
+            if !tracking_time_s.is_finite() || tracking_time_s <= T::zero() {
                 return Err(ControlError::InvalidConfig {
                     parameter: "pid.anti_windup.tracking_time_s",
                     reason: "must be finite and > 0",
@@ -126,58 +148,62 @@ impl PidConfig {
 
 /// Each term's contribution to one update, for logging.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct PidOutput {
+pub struct PidOutput<T = f64> {
     /// Proportional term `kp·e`, N.
-    pub p: f64,
+    pub p: T,
     /// Integral term used in this output, N.
-    pub i: f64,
+    pub i: T,
     /// Filtered derivative-on-measurement term, N.
-    pub d: f64,
+    pub d: T,
     /// Feed-forward force added before saturation, N.
-    pub feedforward: f64,
+    pub feedforward: T,
     /// Saturated output `clamp(feedforward + p + i + d)`, N.
-    pub output: f64,
+    pub output: T,
     /// True when the clamp changed the output.
     pub saturated: bool,
 }
 
 /// One leg's PID controller. See the [module docs](self) for the law.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Pid {
-    config: PidConfig,
+pub struct Pid<T = f64> {
+    config: PidConfig<T>,
     /// Integral term (N) to be used by the next update.
-    integral: f64,
+    integral: T,
     /// Last filtered derivative term, N.
-    derivative: f64,
-    last_measurement: f64,
+    derivative: T,
+    last_measurement: T,
     /// False until the first update after a reset: no previous measurement to differentiate.
     primed: bool,
     /// Output the first update after [`Pid::reset_to`] must produce.
-    start_output: Option<f64>,
+    start_output: Option<T>,
 }
 
-impl Pid {
+impl<T: Real> Pid<T> {
     /// A controller in the reset state.
-    pub fn new(config: PidConfig) -> Result<Self, ControlError> {
+    pub fn new(config: PidConfig<T>) -> Result<Self, ControlError> {
         config.validate()?;
-        Ok(Self {
+        Ok(Self::reset_state(config))
+    }
+
+    fn reset_state(config: PidConfig<T>) -> Self {
+        Self {
             config,
-            integral: 0.0,
-            derivative: 0.0,
-            last_measurement: 0.0,
+            integral: T::zero(),
+            derivative: T::zero(),
+            last_measurement: T::zero(),
             primed: false,
             start_output: None,
-        })
+        }
     }
 
     /// The configuration in use.
-    pub fn config(&self) -> &PidConfig {
+    pub fn config(&self) -> &PidConfig<T> {
         &self.config
     }
 
     /// Replaces gains and limits without resetting the state. Because the state is the integral
     /// term itself, the output does not jump when `ki` changes.
-    pub fn set_config(&mut self, config: PidConfig) -> Result<(), ControlError> {
+    pub fn set_config(&mut self, config: PidConfig<T>) -> Result<(), ControlError> {
         config.validate()?;
         self.config = config;
         Ok(())
@@ -186,8 +212,8 @@ impl Pid {
     /// Clears the integrator and the derivative history. The next update outputs
     /// `F_ff + P` (no integral, no derivative kick).
     pub fn reset(&mut self) {
-        self.integral = 0.0;
-        self.derivative = 0.0;
+        self.integral = T::zero();
+        self.derivative = T::zero();
         self.primed = false;
         self.start_output = None;
     }
@@ -196,7 +222,7 @@ impl Pid {
     /// (clamped to the output range) by loading the integral term with
     /// `output_n − F_ff − P`. Use it when taking over from another controller or from brakes
     /// that were holding a known load. A non-finite `output_n` is treated as a plain reset.
-    pub fn reset_to(&mut self, output_n: f64) {
+    pub fn reset_to(&mut self, output_n: T) {
         self.reset();
         if output_n.is_finite() {
             self.start_output = Some(output_n);
@@ -204,7 +230,7 @@ impl Pid {
     }
 
     /// The integral term the next update will use, N.
-    pub fn integral_term(&self) -> f64 {
+    pub fn integral_term(&self) -> T {
         self.integral
     }
 
@@ -215,11 +241,11 @@ impl Pid {
     /// [`ControlError::InvalidTimeStep`] unless `dt_s` is finite and positive.
     pub fn update(
         &mut self,
-        setpoint: f64,
-        measurement: f64,
-        feedforward_n: f64,
-        dt_s: f64,
-    ) -> Result<PidOutput, ControlError> {
+        setpoint: T,
+        measurement: T,
+        feedforward_n: T,
+        dt_s: T,
+    ) -> Result<PidOutput<T>, ControlError> {
         check_inputs(setpoint, measurement, feedforward_n, 0)?;
         check_dt(dt_s)?;
         Ok(self.update_unchecked(setpoint, measurement, feedforward_n, dt_s))
@@ -227,11 +253,11 @@ impl Pid {
 
     fn update_unchecked(
         &mut self,
-        setpoint: f64,
-        measurement: f64,
-        feedforward_n: f64,
-        dt_s: f64,
-    ) -> PidOutput {
+        setpoint: T,
+        measurement: T,
+        feedforward_n: T,
+        dt_s: T,
+    ) -> PidOutput<T> {
         let c = self.config;
         let error = setpoint - measurement;
         let p = c.kp * error;
@@ -240,7 +266,7 @@ impl Pid {
             (c.derivative_filter_s * self.derivative - c.kd * (measurement - self.last_measurement))
                 / denominator
         } else {
-            0.0
+            T::zero()
         };
         if let Some(start) = self.start_output.take() {
             let start = start.clamp(c.output_min_n, c.output_max_n);
@@ -256,8 +282,8 @@ impl Pid {
         self.integral = match c.anti_windup {
             AntiWindup::None => i + increment,
             AntiWindup::Clamping => {
-                let deeper = (unsaturated > c.output_max_n && increment > 0.0)
-                    || (unsaturated < c.output_min_n && increment < 0.0);
+                let deeper = (unsaturated > c.output_max_n && increment > T::zero())
+                    || (unsaturated < c.output_min_n && increment < T::zero());
                 let next = if deeper { i } else { i + increment };
                 next.clamp(
                     c.output_min_n - feedforward_n,
@@ -266,9 +292,9 @@ impl Pid {
             }
             // Without integral action there is no integrator to track the output; the
             // tracking term alone would invent one.
-            AntiWindup::BackCalculation { .. } if c.ki == 0.0 => i,
+            AntiWindup::BackCalculation { .. } if c.ki == T::zero() => i,
             AntiWindup::BackCalculation { tracking_time_s } => {
-                let gain = (dt_s / tracking_time_s).min(1.0);
+                let gain = (dt_s / tracking_time_s).min(T::one());
                 i + increment + gain * (output - unsaturated)
             }
         };
@@ -286,10 +312,10 @@ impl Pid {
     }
 }
 
-fn check_inputs(
-    setpoint: f64,
-    measurement: f64,
-    feedforward_n: f64,
+fn check_inputs<T: Real>(
+    setpoint: T,
+    measurement: T,
+    feedforward_n: T,
     leg: usize,
 ) -> Result<(), ControlError> {
     let named = [
@@ -305,45 +331,40 @@ fn check_inputs(
     Ok(())
 }
 
-fn check_dt(dt_s: f64) -> Result<(), ControlError> {
-    if dt_s.is_finite() && dt_s > 0.0 {
+fn check_dt<T: Real>(dt_s: T) -> Result<(), ControlError> {
+    if dt_s.is_finite() && dt_s > T::zero() {
         Ok(())
     } else {
-        Err(ControlError::InvalidTimeStep { dt_s })
+        Err(ControlError::InvalidTimeStep {
+            dt_s: dt_s.to_f64(),
+        })
     }
 }
 
 /// The six leg PIDs, updated together.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PidBank {
-    pids: [Pid; LEG_COUNT],
+pub struct PidBank<T = f64> {
+    pids: [Pid<T>; LEG_COUNT],
 }
 
-impl PidBank {
+impl<T: Real> PidBank<T> {
     /// Six controllers with their own configurations.
-    pub fn new(configs: [PidConfig; LEG_COUNT]) -> Result<Self, ControlError> {
+    pub fn new(configs: [PidConfig<T>; LEG_COUNT]) -> Result<Self, ControlError> {
         for config in &configs {
             config.validate()?;
         }
         Ok(Self {
-            pids: configs.map(|config| Pid {
-                config,
-                integral: 0.0,
-                derivative: 0.0,
-                last_measurement: 0.0,
-                primed: false,
-                start_output: None,
-            }),
+            pids: configs.map(Pid::reset_state),
         })
     }
 
     /// Six controllers with the same configuration.
-    pub fn uniform(config: PidConfig) -> Result<Self, ControlError> {
+    pub fn uniform(config: PidConfig<T>) -> Result<Self, ControlError> {
         Self::new([config; LEG_COUNT])
     }
 
     /// The controllers, leg by leg.
-    pub fn pids(&self) -> &[Pid; LEG_COUNT] {
+    pub fn pids(&self) -> &[Pid<T>; LEG_COUNT] {
         &self.pids
     }
 
@@ -353,7 +374,7 @@ impl PidBank {
     }
 
     /// [`Pid::reset_to`] on every leg, with per-leg start forces.
-    pub fn reset_to(&mut self, outputs_n: &[f64; LEG_COUNT]) {
+    pub fn reset_to(&mut self, outputs_n: &[T; LEG_COUNT]) {
         for (pid, &output) in self.pids.iter_mut().zip(outputs_n) {
             pid.reset_to(output);
         }
@@ -364,11 +385,11 @@ impl PidBank {
     /// the first offending leg.
     pub fn update(
         &mut self,
-        setpoints_m: &[f64; LEG_COUNT],
-        measurements_m: &[f64; LEG_COUNT],
-        feedforward_n: &[f64; LEG_COUNT],
-        dt_s: f64,
-    ) -> Result<[PidOutput; LEG_COUNT], ControlError> {
+        setpoints_m: &[T; LEG_COUNT],
+        measurements_m: &[T; LEG_COUNT],
+        feedforward_n: &[T; LEG_COUNT],
+        dt_s: T,
+    ) -> Result<[PidOutput<T>; LEG_COUNT], ControlError> {
         check_dt(dt_s)?;
         for (leg, ((&r, &y), &f)) in setpoints_m
             .iter()

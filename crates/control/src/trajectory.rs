@@ -30,8 +30,7 @@ mod ramp;
 pub use feasibility::{FeasibilityLimits, FeasibilityReport};
 pub use ramp::{coordinates_of, Ramp};
 
-use core::f64::consts::PI;
-
+use kinematics::real::{self, Real};
 use kinematics::{Pose, Rotation3, Vector3, Vector6};
 
 use crate::error::ControlError;
@@ -97,34 +96,34 @@ impl Axis {
 
 /// One term `amplitude · sin(2π·frequency_hz·t + phase_rad)` on one axis.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct SineComponent {
+pub struct SineComponent<T = f64> {
     /// The coordinate it moves.
     pub axis: Axis,
     /// Amplitude, m for translations, rad for rotations.
-    pub amplitude: f64,
+    pub amplitude: T,
     /// Frequency, Hz (> 0).
-    pub frequency_hz: f64,
+    pub frequency_hz: T,
     /// Phase, rad.
-    pub phase_rad: f64,
+    pub phase_rad: T,
 }
 
 /// Settings of [`Trajectory::multisine`]. Plain `Copy` data.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MultiSineConfig {
+pub struct MultiSineConfig<T = f64> {
     /// Base frequency f₀, Hz; the signal repeats every 1/f₀.
-    pub base_frequency_hz: f64,
+    pub base_frequency_hz: T,
     /// Harmonics per excited axis (≥ 1); the total over excited axes must not exceed
     /// [`MAX_COMPONENTS`].
     pub harmonics_per_axis: usize,
     /// Peak excursion per axis `[x, y, z, α, β, γ]` (m, m, m, rad, rad, rad); 0 leaves the axis
     /// still.
-    pub peak_amplitudes: [f64; 6],
+    pub peak_amplitudes: [T; 6],
     /// Total duration including the fades, s.
-    pub duration_s: f64,
+    pub duration_s: T,
     /// Fade-in time, s (> 0).
-    pub fade_in_s: f64,
+    pub fade_in_s: T,
     /// Fade-out time, s (> 0).
-    pub fade_out_s: f64,
+    pub fade_out_s: T,
     /// How the amplitude is shared among an axis's harmonics.
     pub spectrum: Spectrum,
 }
@@ -140,48 +139,62 @@ pub enum Spectrum {
     FlatVelocity,
 }
 
-impl Default for MultiSineConfig {
+impl<T: Real> Default for MultiSineConfig<T> {
     /// 0.1 Hz base (10 s period), 3 harmonics on each of the six axes (so harmonics 1–18, up to
     /// 1.8 Hz) with a flat velocity spectrum, peaks of 10 mm and 0.04 rad, 44 s with 2 s fades
     /// (four periods on the plateau). On a rig with 1.5 m / 1.2 m joint circles this asks
     /// at most 0.36 m/s of the legs.
     fn default() -> Self {
         Self {
-            base_frequency_hz: 0.1,
+            base_frequency_hz: T::lit(0.1),
             harmonics_per_axis: 3,
-            peak_amplitudes: [0.01, 0.01, 0.01, 0.04, 0.04, 0.04],
-            duration_s: 44.0,
-            fade_in_s: 2.0,
-            fade_out_s: 2.0,
+            peak_amplitudes: [0.01, 0.01, 0.01, 0.04, 0.04, 0.04].map(T::lit),
+            duration_s: T::lit(44.0),
+            fade_in_s: T::lit(2.0),
+            fade_out_s: T::lit(2.0),
             spectrum: Spectrum::FlatVelocity,
         }
     }
 }
 
 /// Pose, velocity and acceleration of a trajectory at one instant.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TrajectorySample {
+#[derive(Clone, Copy, Debug)]
+pub struct TrajectorySample<T = f64> {
     /// Desired pose of P in B.
-    pub pose: Pose,
+    pub pose: Pose<T>,
     /// Coordinates `[x, y, z, α, β, γ]` relative to the offset pose.
-    pub coordinates: Vector6<f64>,
+    pub coordinates: Vector6<T>,
     /// Their time derivatives.
-    pub coordinate_rates: Vector6<f64>,
+    pub coordinate_rates: Vector6<T>,
     /// Their second time derivatives.
-    pub coordinate_accelerations: Vector6<f64>,
+    pub coordinate_accelerations: Vector6<T>,
     /// Velocity of the P origin, in B, m/s.
-    pub velocity_m_s: Vector3<f64>,
+    pub velocity_m_s: Vector3<T>,
     /// Angular velocity of P, in B, rad/s.
-    pub angular_velocity_rad_s: Vector3<f64>,
+    pub angular_velocity_rad_s: Vector3<T>,
     /// Acceleration of the P origin, in B, m/s².
-    pub acceleration_m_s2: Vector3<f64>,
+    pub acceleration_m_s2: Vector3<T>,
     /// Angular acceleration of P, in B, rad/s².
-    pub angular_acceleration_rad_s2: Vector3<f64>,
+    pub angular_acceleration_rad_s2: Vector3<T>,
 }
 
-impl TrajectorySample {
+// Written out: the derive would ask only `T: PartialEq`, and a pose compares for a `Real`.
+impl<T: Real> PartialEq for TrajectorySample<T> {
+    fn eq(&self, other: &Self) -> bool {
+        self.pose == other.pose
+            && self.coordinates == other.coordinates
+            && self.coordinate_rates == other.coordinate_rates
+            && self.coordinate_accelerations == other.coordinate_accelerations
+            && self.velocity_m_s == other.velocity_m_s
+            && self.angular_velocity_rad_s == other.angular_velocity_rad_s
+            && self.acceleration_m_s2 == other.acceleration_m_s2
+            && self.angular_acceleration_rad_s2 == other.angular_acceleration_rad_s2
+    }
+}
+
+impl<T: Real> TrajectorySample<T> {
     /// `[v; ω]` in B, the twist that [`kinematics::Geometry::jacobian`] maps to leg rates.
-    pub fn twist(&self) -> Vector6<f64> {
+    pub fn twist(&self) -> Vector6<T> {
         let (v, w) = (self.velocity_m_s, self.angular_velocity_rad_s);
         Vector6::new(v.x, v.y, v.z, w.x, w.y, w.z)
     }
@@ -189,10 +202,10 @@ impl TrajectorySample {
     /// The sample for coordinates `c` and their derivatives about `offset` (see the
     /// [module docs](self) for the formulas).
     pub fn from_coordinates(
-        offset: &Pose,
-        c: &Vector6<f64>,
-        rates: &Vector6<f64>,
-        accelerations: &Vector6<f64>,
+        offset: &Pose<T>,
+        c: &Vector6<T>,
+        rates: &Vector6<T>,
+        accelerations: &Vector6<T>,
     ) -> Self {
         let (roll, pitch, yaw) = (c[3], c[4], c[5]);
         let (roll_rate, pitch_rate, yaw_rate) = (rates[3], rates[4], rates[5]);
@@ -200,9 +213,9 @@ impl TrajectorySample {
         let rx = Rotation3::from_axis_angle(&Vector3::x_axis(), roll);
         let pitch_axis = rx * Vector3::y();
         let yaw_axis = Vector3::new(
-            libm::sin(pitch),
-            -libm::sin(roll) * libm::cos(pitch),
-            libm::cos(roll) * libm::cos(pitch),
+            real::sin(pitch),
+            -real::sin(roll) * real::cos(pitch),
+            real::cos(roll) * real::cos(pitch),
         );
         let roll_part = Vector3::x() * roll_rate;
         let roll_pitch = roll_part + pitch_axis * pitch_rate;
@@ -231,43 +244,57 @@ impl TrajectorySample {
 
 /// Quintic smoothstep `h(s) = 10s³ − 15s⁴ + 6s⁵` on [0, 1] with its first two derivatives
 /// (with respect to s); 0 below, 1 above, so that `h, h′, h″` are continuous everywhere.
-pub fn smoothstep(s: f64) -> (f64, f64, f64) {
-    if s <= 0.0 {
-        (0.0, 0.0, 0.0)
-    } else if s >= 1.0 {
-        (1.0, 0.0, 0.0)
+pub fn smoothstep<T: Real>(s: T) -> (T, T, T) {
+    let (zero, one) = (T::zero(), T::one());
+    let k = T::lit;
+    if s <= zero {
+        (zero, zero, zero)
+    } else if s >= one {
+        (one, zero, zero)
     } else {
         let s2 = s * s;
         (
-            s2 * s * (10.0 - 15.0 * s + 6.0 * s2),
-            30.0 * s2 * (1.0 - 2.0 * s + s2),
-            60.0 * s * (1.0 - 3.0 * s + 2.0 * s2),
+            s2 * s * (k(10.0) - k(15.0) * s + k(6.0) * s2),
+            k(30.0) * s2 * (one - k(2.0) * s + s2),
+            k(60.0) * s * (one - k(3.0) * s + k(2.0) * s2),
         )
     }
 }
 
 /// A sum of sines per axis with a C² fade-in and fade-out around an offset pose. See the
 /// [module docs](self).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Trajectory {
-    offset: Pose,
-    components: [SineComponent; MAX_COMPONENTS],
+#[derive(Clone, Copy, Debug)]
+pub struct Trajectory<T = f64> {
+    offset: Pose<T>,
+    components: [SineComponent<T>; MAX_COMPONENTS],
     count: usize,
-    duration_s: f64,
-    fade_in_s: f64,
-    fade_out_s: f64,
+    duration_s: T,
+    fade_in_s: T,
+    fade_out_s: T,
 }
 
-impl Trajectory {
+// Written out: the derive would ask only `T: PartialEq`, and a pose compares for a `Real`.
+impl<T: Real> PartialEq for Trajectory<T> {
+    fn eq(&self, other: &Self) -> bool {
+        self.offset == other.offset
+            && self.components == other.components
+            && self.count == other.count
+            && self.duration_s == other.duration_s
+            && self.fade_in_s == other.fade_in_s
+            && self.fade_out_s == other.fade_out_s
+    }
+}
+
+impl<T: Real> Trajectory<T> {
     /// A trajectory of the given components. Errors: more than [`MAX_COMPONENTS`], a
     /// non-finite amplitude or phase, a non-positive frequency, a non-finite offset, fades not
     /// positive, or fades longer together than the duration.
     pub fn new(
-        offset: Pose,
-        components: &[SineComponent],
-        duration_s: f64,
-        fade_in_s: f64,
-        fade_out_s: f64,
+        offset: Pose<T>,
+        components: &[SineComponent<T>],
+        duration_s: T,
+        fade_in_s: T,
+        fade_out_s: T,
     ) -> Result<Self, ControlError> {
         if components.len() > MAX_COMPONENTS {
             return Err(ControlError::TooManyComponents {
@@ -287,14 +314,17 @@ impl Trajectory {
                     index,
                 });
             }
-            if !c.frequency_hz.is_finite() || c.frequency_hz <= 0.0 {
+            if !c.frequency_hz.is_finite() || c.frequency_hz <= T::zero() {
                 return Err(ControlError::InvalidConfig {
                     parameter: "trajectory.frequency_hz",
                     reason: "must be finite and > 0",
                 });
             }
         }
-        if !(fade_in_s.is_finite() && fade_in_s > 0.0 && fade_out_s.is_finite() && fade_out_s > 0.0)
+        if !(fade_in_s.is_finite()
+            && fade_in_s > T::zero()
+            && fade_out_s.is_finite()
+            && fade_out_s > T::zero())
         {
             return Err(ControlError::InvalidConfig {
                 parameter: "trajectory.fade_in_s/fade_out_s",
@@ -324,11 +354,11 @@ impl Trajectory {
     /// The paper's Eq. 8: `α = A₁ sin(2π f₁ t)`, `β = A₂ sin(2π f₂ t)`, `γ = A₃ sin(2π f₃ t)`,
     /// `x = y = z = 0` (relative to `offset`), with the fades of this module.
     pub fn paper_eq8(
-        offset: Pose,
-        amplitudes_rad: [f64; 3],
-        frequencies_hz: [f64; 3],
-        duration_s: f64,
-        fade_s: f64,
+        offset: Pose<T>,
+        amplitudes_rad: [T; 3],
+        frequencies_hz: [T; 3],
+        duration_s: T,
+        fade_s: T,
     ) -> Result<Self, ControlError> {
         let [a_roll, a_pitch, a_yaw] = amplitudes_rad;
         let [f_roll, f_pitch, f_yaw] = frequencies_hz;
@@ -336,7 +366,7 @@ impl Trajectory {
             axis,
             amplitude,
             frequency_hz,
-            phase_rad: 0.0,
+            phase_rad: T::zero(),
         };
         let components = [
             sine(Axis::Roll, a_roll, f_roll),
@@ -359,9 +389,9 @@ impl Trajectory {
     /// of its highest harmonic) equals the requested peak. The fade window only lowers the
     /// peak (the fade adds velocity, though: check the result with
     /// [`Trajectory::check_feasibility`]).
-    pub fn multisine(offset: Pose, config: &MultiSineConfig) -> Result<Self, ControlError> {
+    pub fn multisine(offset: Pose<T>, config: &MultiSineConfig<T>) -> Result<Self, ControlError> {
         let f0 = config.base_frequency_hz;
-        if !f0.is_finite() || f0 <= 0.0 {
+        if !f0.is_finite() || f0 <= T::zero() {
             return Err(ControlError::InvalidConfig {
                 parameter: "multisine.base_frequency_hz",
                 reason: "must be finite and > 0",
@@ -375,14 +405,18 @@ impl Trajectory {
             });
         }
         for (index, &peak) in config.peak_amplitudes.iter().enumerate() {
-            if !peak.is_finite() || peak < 0.0 {
+            if !peak.is_finite() || peak < T::zero() {
                 return Err(ControlError::NonFinite {
                     what: "multisine peak amplitude (finite, >= 0)",
                     index,
                 });
             }
         }
-        let excited = config.peak_amplitudes.iter().filter(|&&a| a > 0.0).count();
+        let excited = config
+            .peak_amplitudes
+            .iter()
+            .filter(|&&a| a > T::zero())
+            .count();
         if excited.saturating_mul(k_per_axis) > MAX_COMPONENTS {
             return Err(ControlError::TooManyComponents {
                 max: MAX_COMPONENTS,
@@ -393,20 +427,20 @@ impl Trajectory {
         let excited_axes = Axis::ALL
             .iter()
             .zip(config.peak_amplitudes)
-            .filter(|(_, peak)| *peak > 0.0);
+            .filter(|(_, peak)| *peak > T::zero());
         for (slot, (&axis, peak)) in excited_axes.enumerate() {
             let first = count;
             for k in 1..=k_per_axis {
-                let harmonic = (slot + 1 + (k - 1) * excited) as f64;
+                let harmonic = T::lit((slot + 1 + (k - 1) * excited) as f64);
                 if let Some(c) = components.get_mut(count) {
                     *c = SineComponent {
                         axis,
                         amplitude: match config.spectrum {
-                            Spectrum::FlatPosition => 1.0,
-                            Spectrum::FlatVelocity => 1.0 / harmonic,
+                            Spectrum::FlatPosition => T::one(),
+                            Spectrum::FlatVelocity => T::one() / harmonic,
                         },
                         frequency_hz: f0 * harmonic,
-                        phase_rad: 0.0,
+                        phase_rad: T::zero(),
                     };
                     count += 1;
                 }
@@ -415,10 +449,10 @@ impl Trajectory {
             schroeder_phases(axis_components, f0);
             refine_phases(axis_components, f0);
             let unit_peak = peak_over_period(axis_components, f0);
-            let scale = if unit_peak > 0.0 {
+            let scale = if unit_peak > T::zero() {
                 peak / unit_peak
             } else {
-                0.0
+                T::zero()
             };
             for c in axis_components.iter_mut() {
                 c.amplitude *= scale;
@@ -434,28 +468,28 @@ impl Trajectory {
     }
 
     /// The offset (home) pose the motion is centred on.
-    pub fn offset(&self) -> &Pose {
+    pub fn offset(&self) -> &Pose<T> {
         &self.offset
     }
 
     /// The sine components.
-    pub fn components(&self) -> &[SineComponent] {
+    pub fn components(&self) -> &[SineComponent<T>] {
         self.components.get(..self.count).unwrap_or_default()
     }
 
     /// Total duration including the fades, s.
-    pub fn duration_s(&self) -> f64 {
+    pub fn duration_s(&self) -> T {
         self.duration_s
     }
 
     /// Fade-in and fade-out times, s.
-    pub fn fades_s(&self) -> (f64, f64) {
+    pub fn fades_s(&self) -> (T, T) {
         (self.fade_in_s, self.fade_out_s)
     }
 
     /// Highest component frequency, Hz (0 without components).
-    pub fn max_frequency_hz(&self) -> f64 {
-        self.components().iter().fold(0.0, |m, c| {
+    pub fn max_frequency_hz(&self) -> T {
+        self.components().iter().fold(T::zero(), |m, c| {
             if c.frequency_hz > m {
                 c.frequency_hz
             } else {
@@ -465,9 +499,10 @@ impl Trajectory {
     }
 
     /// The window `w(t)` and its first two time derivatives.
-    pub fn window(&self, t_s: f64) -> (f64, f64, f64) {
-        if !(t_s > 0.0 && t_s < self.duration_s) {
-            return (0.0, 0.0, 0.0);
+    pub fn window(&self, t_s: T) -> (T, T, T) {
+        let zero = T::zero();
+        if !(t_s > zero && t_s < self.duration_s) {
+            return (zero, zero, zero);
         }
         let (fin, fout) = (self.fade_in_s, self.fade_out_s);
         let (a, da, dda) = smoothstep(t_s / fin);
@@ -476,34 +511,44 @@ impl Trajectory {
         // window and its derivatives follow by the product rule.
         let (da, dda) = (da / fin, dda / (fin * fin));
         let (db, ddb) = (-db / fout, ddb / (fout * fout));
-        (a * b, da * b + a * db, dda * b + 2.0 * da * db + a * ddb)
+        (
+            a * b,
+            da * b + a * db,
+            dda * b + T::lit(2.0) * da * db + a * ddb,
+        )
     }
 
     /// Coordinates relative to the offset and their first two derivatives at `t_s` (0 outside
     /// `[0, duration]`).
-    pub fn coordinates(&self, t_s: f64) -> (Vector6<f64>, Vector6<f64>, Vector6<f64>) {
-        let mut g = [0.0; 6];
-        let mut dg = [0.0; 6];
-        let mut ddg = [0.0; 6];
+    pub fn coordinates(&self, t_s: T) -> (Vector6<T>, Vector6<T>, Vector6<T>) {
+        let zero = T::zero();
+        let mut g = [zero; 6];
+        let mut dg = [zero; 6];
+        let mut ddg = [zero; 6];
         let (w, dw, ddw) = self.window(t_s);
-        if w == 0.0 && dw == 0.0 && ddw == 0.0 {
+        if w == zero && dw == zero && ddw == zero {
             return (Vector6::zeros(), Vector6::zeros(), Vector6::zeros());
         }
+        let two_pi = T::lit(2.0) * real::pi::<T>();
         for c in self.components() {
-            let omega = 2.0 * PI * c.frequency_hz;
+            let omega = two_pi * c.frequency_hz;
             let angle = omega * t_s + c.phase_rad;
-            let (s, co) = (libm::sin(angle), libm::cos(angle));
+            let (s, co) = (real::sin(angle), real::cos(angle));
             *c.axis.entry_mut(&mut g) += c.amplitude * s;
             *c.axis.entry_mut(&mut dg) += c.amplitude * omega * co;
             *c.axis.entry_mut(&mut ddg) -= c.amplitude * omega * omega * s;
         }
         let (g, dg, ddg) = (Vector6::from(g), Vector6::from(dg), Vector6::from(ddg));
-        (w * g, dw * g + w * dg, ddw * g + 2.0 * dw * dg + w * ddg)
+        (
+            g * w,
+            g * dw + dg * w,
+            g * ddw + dg * (T::lit(2.0) * dw) + ddg * w,
+        )
     }
 
     /// Pose, velocity and acceleration at trajectory time `t_s` (the offset pose at rest
     /// outside `[0, duration]`).
-    pub fn sample(&self, t_s: f64) -> TrajectorySample {
+    pub fn sample(&self, t_s: T) -> TrajectorySample<T> {
         let (c, dc, ddc) = self.coordinates(t_s);
         TrajectorySample::from_coordinates(&self.offset, &c, &dc, &ddc)
     }
@@ -514,18 +559,19 @@ impl Trajectory {
 /// frequency. With power shares `p_l = a_l²/Σa²` and harmonic numbers `m_k = f_k/f₀`:
 /// `φ₁ = 0`, `φ_{k+1} = φ_k − 2π·(m_{k+1} − m_k)·Σ_{l≤k} p_l`, which for consecutive harmonics is
 /// Schroeder's `φₖ = −2π·Σ_{l<k} (k − l)·p_l`.
-fn schroeder_phases(components: &mut [SineComponent], f0: f64) {
-    let total: f64 = components.iter().map(|c| c.amplitude * c.amplitude).sum();
-    if total <= 0.0 {
+fn schroeder_phases<T: Real>(components: &mut [SineComponent<T>], f0: T) {
+    let total: T = components.iter().map(|c| c.amplitude * c.amplitude).sum();
+    if total <= T::zero() {
         return;
     }
-    let mut share_sum = 0.0;
-    let mut phase = 0.0;
-    let mut previous_hz: Option<f64> = None;
+    let two_pi = T::lit(2.0) * real::pi::<T>();
+    let mut share_sum = T::zero();
+    let mut phase = T::zero();
+    let mut previous_hz: Option<T> = None;
     for c in components.iter_mut() {
         if let Some(f) = previous_hz {
             let spacing = (c.frequency_hz - f) / f0;
-            phase = libm::remainder(phase - 2.0 * PI * spacing * share_sum, 2.0 * PI);
+            phase = real::remainder(phase - two_pi * spacing * share_sum, two_pi);
         }
         c.phase_rad = phase;
         share_sum += c.amplitude * c.amplitude / total;
@@ -536,7 +582,7 @@ fn schroeder_phases(components: &mut [SineComponent], f0: f64) {
 /// Lowers the crest factor from Schroeder's start: for each phase but the first (a common
 /// phase shift only moves the signal in time), try the other eleven multiples of 30° added to
 /// it and keep any that lowers the grid peak; two sweeps. Deterministic, construction time only.
-fn refine_phases(components: &mut [SineComponent], f0: f64) {
+fn refine_phases<T: Real>(components: &mut [SineComponent<T>], f0: T) {
     let mut best = peak_over_period(components, f0);
     for _sweep in 0..2 {
         for index in 1..components.len() {
@@ -545,7 +591,7 @@ fn refine_phases(components: &mut [SineComponent], f0: f64) {
             };
             let mut chosen = original;
             for step in 1..12 {
-                let candidate = original + PI * step as f64 / 6.0;
+                let candidate = original + real::pi::<T>() * T::lit(f64::from(step)) / T::lit(6.0);
                 if let Some(c) = components.get_mut(index) {
                     c.phase_rad = candidate;
                 }
@@ -556,7 +602,7 @@ fn refine_phases(components: &mut [SineComponent], f0: f64) {
                 }
             }
             if let Some(c) = components.get_mut(index) {
-                c.phase_rad = libm::remainder(chosen, 2.0 * PI);
+                c.phase_rad = real::remainder(chosen, T::lit(2.0) * real::pi::<T>());
             }
         }
     }
@@ -565,7 +611,7 @@ fn refine_phases(components: &mut [SineComponent], f0: f64) {
 /// Largest |Σ aₖ sin(2π fₖ t + φₖ)| over one period 1/f₀, on a grid of 64 points per period of
 /// the highest harmonic (at most 64·[`MAX_COMPONENTS`]·… points; bounded by the harmonic
 /// numbers, which are at most [`MAX_COMPONENTS`]).
-fn peak_over_period(components: &[SineComponent], f0: f64) -> f64 {
+fn peak_over_period<T: Real>(components: &[SineComponent<T>], f0: T) -> T {
     let f_max = components.iter().fold(f0, |m, c| {
         if c.frequency_hz > m {
             c.frequency_hz
@@ -573,14 +619,15 @@ fn peak_over_period(components: &[SineComponent], f0: f64) -> f64 {
             m
         }
     });
-    let steps = 64 * libm::ceil(f_max / f0) as usize;
-    let period = 1.0 / f0;
-    let mut peak: f64 = 0.0;
+    let steps = 64 * real::ceil(f_max / f0).to_f64() as usize;
+    let period = T::one() / f0;
+    let two_pi = T::lit(2.0) * real::pi::<T>();
+    let mut peak = T::zero();
     for n in 0..steps {
-        let t = period * n as f64 / steps as f64;
-        let value: f64 = components
+        let t = period * T::lit(n as f64) / T::lit(steps as f64);
+        let value: T = components
             .iter()
-            .map(|c| c.amplitude * libm::sin(2.0 * PI * c.frequency_hz * t + c.phase_rad))
+            .map(|c| c.amplitude * real::sin(two_pi * c.frequency_hz * t + c.phase_rad))
             .sum();
         peak = peak.max(value.abs());
     }

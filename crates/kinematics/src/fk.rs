@@ -1,42 +1,66 @@
 //! Forward kinematics: the pose from six measured leg lengths.
 
+use crate::real::{self, Real};
 use crate::{Geometry, KinematicsError, Pose};
 use nalgebra::{Rotation3, Vector3, Vector6};
 
 /// Settings of the Newton–Raphson forward kinematics.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FkOptions {
+pub struct FkOptions<T = f64> {
     /// Converged when every leg-length residual is below this, m.
-    pub tolerance_m: f64,
+    pub tolerance_m: T,
     /// Give up (with an error, never a pose) after this many iterations.
     pub max_iterations: u32,
     /// Refuse a solution further than this from the warm start, m: at a 1 kHz loop the plate
     /// moves millimetres between samples, so a larger jump means another assembly mode.
-    pub max_jump_m: f64,
+    pub max_jump_m: T,
     /// Refuse a solution rotated more than this from the warm start, rad.
-    pub max_jump_rad: f64,
+    pub max_jump_rad: T,
 }
 
-impl Default for FkOptions {
+impl<T: Real> Default for FkOptions<T> {
+    /// Tolerance [`Real::FK_TOLERANCE_M`] (1e-12 m in f64, 2e-6 m in f32), 30 iterations, jumps
+    /// of 0.5 m and 0.5 rad.
     fn default() -> Self {
         Self {
-            tolerance_m: 1e-12,
+            tolerance_m: T::FK_TOLERANCE_M,
             max_iterations: 30,
-            max_jump_m: 0.5,
-            max_jump_rad: 0.5,
+            max_jump_m: T::lit(0.5),
+            max_jump_rad: T::lit(0.5),
+        }
+    }
+}
+
+impl<T: Real> FkOptions<T> {
+    /// The same options in another precision. The tolerance is converted as it is: pick
+    /// [`Real::FK_TOLERANCE_M`] of the target precision when it is below that precision's reach.
+    pub fn cast<U: Real>(&self) -> FkOptions<U> {
+        FkOptions {
+            tolerance_m: U::lit(self.tolerance_m.to_f64()),
+            max_iterations: self.max_iterations,
+            max_jump_m: U::lit(self.max_jump_m.to_f64()),
+            max_jump_rad: U::lit(self.max_jump_rad.to_f64()),
         }
     }
 }
 
 /// A converged forward-kinematics solution.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FkSolution {
+#[derive(Clone, Copy, Debug)]
+pub struct FkSolution<T = f64> {
     /// The pose whose leg lengths match the measurement.
-    pub pose: Pose,
+    pub pose: Pose<T>,
     /// Newton iterations used.
     pub iterations: u32,
     /// Largest leg-length residual, m.
-    pub residual_m: f64,
+    pub residual_m: T,
+}
+
+impl<T: Real> PartialEq for FkSolution<T> {
+    fn eq(&self, other: &Self) -> bool {
+        self.pose == other.pose
+            && self.iterations == other.iterations
+            && self.residual_m == other.residual_m
+    }
 }
 
 /// Largest Newton step, m or rad: keeps a distant start from leaping into another branch.
@@ -50,7 +74,7 @@ pub const CONTINUATION_STEP_M: f64 = 0.01;
 /// Continuation steps at most (a walk across ten metres of stroke).
 const MAX_CONTINUATION_STEPS: f64 = 1000.0;
 
-impl Geometry {
+impl<T: Real> Geometry<T> {
     /// Newton–Raphson on the six leg-length equations ‖p + R pᵢ − bᵢ‖ = Lᵢ, warm-started from
     /// `guess`. The step solves J·[δp; δφ] = −r with the Jacobian of [`Geometry::jacobian`],
     /// updating p ← p + δp and R ← exp(δφ)·R, so rotations stay exact.
@@ -60,10 +84,10 @@ impl Geometry {
     /// when the solution is further from the warm start than the options allow.
     pub fn forward_kinematics(
         &self,
-        leg_lengths_m: &Vector6<f64>,
-        guess: &Pose,
-        options: &FkOptions,
-    ) -> Result<FkSolution, KinematicsError> {
+        leg_lengths_m: &Vector6<T>,
+        guess: &Pose<T>,
+        options: &FkOptions<T>,
+    ) -> Result<FkSolution<T>, KinematicsError> {
         if !leg_lengths_m.iter().all(|l| l.is_finite()) {
             return Err(KinematicsError::NonFinite {
                 what: "measured leg lengths",
@@ -75,7 +99,7 @@ impl Geometry {
             });
         }
         let mut pose = *guess;
-        let mut residual_m = f64::INFINITY;
+        let mut residual_m = T::lit(f64::INFINITY);
         for iteration in 0..=options.max_iterations {
             let legs = self.legs(&pose);
             let r = legs.lengths_m - leg_lengths_m;
@@ -92,16 +116,17 @@ impl Geometry {
                     inverse_condition: 0.0,
                 });
             };
-            let [dx, dy, dz, dphi_x, dphi_y, dphi_z]: [f64; 6] = step.into();
+            let [dx, dy, dz, dphi_x, dphi_y, dphi_z]: [T; 6] = step.into();
             let mut dp = Vector3::new(dx, dy, dz);
             let mut dphi = Vector3::new(dphi_x, dphi_y, dphi_z);
             let largest = dp.norm().max(dphi.norm());
             if !largest.is_finite() {
                 break;
             }
-            if largest > MAX_STEP {
-                dp *= MAX_STEP / largest;
-                dphi *= MAX_STEP / largest;
+            let max_step = T::lit(MAX_STEP);
+            if largest > max_step {
+                dp *= max_step / largest;
+                dphi *= max_step / largest;
             }
             pose.position_m += dp;
             pose.rotation = Rotation3::new(dphi) * pose.rotation;
@@ -109,7 +134,7 @@ impl Geometry {
         }
         Err(KinematicsError::FkDidNotConverge {
             iterations: options.max_iterations,
-            residual_m,
+            residual_m: residual_m.to_f64(),
         })
     }
 
@@ -122,9 +147,9 @@ impl Geometry {
     /// whole walk.
     pub fn forward_kinematics_cold(
         &self,
-        leg_lengths_m: &Vector6<f64>,
-        options: &FkOptions,
-    ) -> Result<FkSolution, KinematicsError> {
+        leg_lengths_m: &Vector6<T>,
+        options: &FkOptions<T>,
+    ) -> Result<FkSolution<T>, KinematicsError> {
         if !leg_lengths_m.iter().all(|l| l.is_finite()) {
             return Err(KinematicsError::NonFinite {
                 what: "measured leg lengths",
@@ -134,13 +159,14 @@ impl Geometry {
         let home_lengths = self.legs(&home).lengths_m;
         let span_m = (leg_lengths_m - home_lengths).amax();
         // Finite (checked above), so the cast saturates at most at the cap.
-        let steps =
-            libm::ceil(span_m / CONTINUATION_STEP_M).clamp(1.0, MAX_CONTINUATION_STEPS) as u32;
+        let steps = real::ceil(span_m / T::lit(CONTINUATION_STEP_M))
+            .to_f64()
+            .clamp(1.0, MAX_CONTINUATION_STEPS) as u32;
         let mut pose = home;
         let mut iterations = 0;
         for k in 1..=steps {
-            let target =
-                home_lengths + (leg_lengths_m - home_lengths) * (f64::from(k) / f64::from(steps));
+            let fraction = T::lit(f64::from(k)) / T::lit(f64::from(steps));
+            let target = home_lengths + (leg_lengths_m - home_lengths) * fraction;
             let solution = self.forward_kinematics(&target, &pose, options)?;
             iterations += solution.iterations;
             pose = solution.pose;
@@ -157,18 +183,23 @@ impl Geometry {
 
     fn accept(
         &self,
-        pose: Pose,
-        guess: &Pose,
+        pose: Pose<T>,
+        guess: &Pose<T>,
         iterations: u32,
-        residual_m: f64,
-        options: &FkOptions,
-    ) -> Result<FkSolution, KinematicsError> {
+        residual_m: T,
+        options: &FkOptions<T>,
+    ) -> Result<FkSolution<T>, KinematicsError> {
         let (jump_m, jump_rad) = pose.distance_to(guess);
         let legs_point_up = self.plate_joints_m().iter().zip(self.base_joints_m()).all(
-            |(plate_joint, base_joint)| (pose.transform_point(plate_joint) - base_joint).z > 0.0,
+            |(plate_joint, base_joint)| {
+                (pose.transform_point(plate_joint) - base_joint).z > T::zero()
+            },
         );
         if !legs_point_up || jump_m > options.max_jump_m || jump_rad > options.max_jump_rad {
-            return Err(KinematicsError::FkWrongAssembly { jump_m, jump_rad });
+            return Err(KinematicsError::FkWrongAssembly {
+                jump_m: jump_m.to_f64(),
+                jump_rad: jump_rad.to_f64(),
+            });
         }
         Ok(FkSolution {
             pose,

@@ -1,22 +1,30 @@
 //! The platform's design: joint positions and leg stroke, validated on construction.
 
+use crate::real::{self, Real};
 use crate::{KinematicsError, Pose, LEG_COUNT, SINGULARITY_THRESHOLD};
-use core::f64::consts::PI;
 use nalgebra::Vector3;
 
 /// Minimum and maximum leg length (joint centre to joint centre), metres.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct StrokeLimits {
+pub struct StrokeLimits<T = f64> {
     /// Shortest allowed leg length, m.
-    pub min_length_m: f64,
+    pub min_length_m: T,
     /// Longest allowed leg length, m.
-    pub max_length_m: f64,
+    pub max_length_m: T,
 }
 
-impl StrokeLimits {
+impl<T: Real> StrokeLimits<T> {
     /// Middle of the stroke, m.
-    pub fn mid_m(&self) -> f64 {
-        0.5 * (self.min_length_m + self.max_length_m)
+    pub fn mid_m(&self) -> T {
+        T::lit(0.5) * (self.min_length_m + self.max_length_m)
+    }
+
+    /// The same limits in another precision.
+    pub fn cast<U: Real>(&self) -> StrokeLimits<U> {
+        StrokeLimits {
+            min_length_m: U::lit(self.min_length_m.to_f64()),
+            max_length_m: U::lit(self.max_length_m.to_f64()),
+        }
     }
 }
 
@@ -25,19 +33,20 @@ impl StrokeLimits {
 /// Leg i joins base joint bᵢ (in B) to plate joint pᵢ (in P). Construction refuses designs
 /// that are degenerate or singular at their home pose, so every `Geometry` can be moved.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Geometry {
-    base_joints_m: [Vector3<f64>; LEG_COUNT],
-    plate_joints_m: [Vector3<f64>; LEG_COUNT],
-    stroke: StrokeLimits,
+pub struct Geometry<T = f64> {
+    base_joints_m: [Vector3<T>; LEG_COUNT],
+    plate_joints_m: [Vector3<T>; LEG_COUNT],
+    stroke: StrokeLimits<T>,
     /// Length that makes torque columns of the Jacobian comparable with force columns.
-    characteristic_length_m: f64,
-    home_height_m: f64,
+    characteristic_length_m: T,
+    home_height_m: T,
 }
 
-/// Joints closer than this are treated as coincident, m.
+/// Joints closer than this are treated as coincident, m (8 units in the last place of a
+/// 1.5 m coordinate in f32, so the check means the same in both precisions).
 const MIN_JOINT_SPACING_M: f64 = 1e-6;
 
-impl Geometry {
+impl<T: Real> Geometry<T> {
     /// The usual design: joints in three pairs on each circle, the plate's pairs turned 60°
     /// against the base's (the paper's Eq. 1–2 as printed put both at the same angles, which is
     /// architecturally singular).
@@ -48,11 +57,11 @@ impl Geometry {
     /// joint at 120°k − 60° + s_p/2: each leg reaches to the nearest joint of the neighbouring
     /// plate pair, which gives the inclined legs that make the mechanism stiff in yaw.
     pub fn from_radii(
-        base_radius_m: f64,
-        plate_radius_m: f64,
-        base_pair_separation_rad: f64,
-        plate_pair_separation_rad: f64,
-        stroke: StrokeLimits,
+        base_radius_m: T,
+        plate_radius_m: T,
+        base_pair_separation_rad: T,
+        plate_pair_separation_rad: T,
+        stroke: StrokeLimits<T>,
     ) -> Result<Self, KinematicsError> {
         positive("base radius must be positive and finite", base_radius_m)?;
         positive("plate radius must be positive and finite", plate_radius_m)?;
@@ -64,23 +73,29 @@ impl Geometry {
             "plate pair separation must lie in (0°, 120°)",
             plate_pair_separation_rad,
         )?;
-        let on_circle = |radius: f64, angle: f64| {
-            Vector3::new(radius * libm::cos(angle), radius * libm::sin(angle), 0.0)
+        let on_circle = |radius: T, angle: T| {
+            Vector3::new(
+                radius * real::cos(angle),
+                radius * real::sin(angle),
+                T::zero(),
+            )
         };
-        let third = 2.0 * PI / 3.0;
+        let pi = real::pi::<T>();
+        let third = T::lit(2.0) * pi / T::lit(3.0);
         // Leg i belongs to pair k = i/2; even legs take the pair's first joints, odd legs its
         // second.
-        let centre = |i: usize| third * (i / 2) as f64;
+        let centre = |i: usize| third * T::lit((i / 2) as f64);
+        let half = T::lit(0.5);
         let base = core::array::from_fn(|i| {
-            let half = 0.5 * base_pair_separation_rad;
+            let half = half * base_pair_separation_rad;
             let offset = if i % 2 == 0 { -half } else { half };
             on_circle(base_radius_m, centre(i) + offset)
         });
         let plate = core::array::from_fn(|i| {
             let angle = if i % 2 == 0 {
-                centre(i) - PI / 3.0 + 0.5 * plate_pair_separation_rad
+                centre(i) - pi / T::lit(3.0) + half * plate_pair_separation_rad
             } else {
-                centre(i) + PI / 3.0 - 0.5 * plate_pair_separation_rad
+                centre(i) + pi / T::lit(3.0) - half * plate_pair_separation_rad
             };
             on_circle(plate_radius_m, angle)
         });
@@ -90,9 +105,9 @@ impl Geometry {
     /// A design from six explicit joint positions on each body (base joints in B, plate joints
     /// in P), for rigs that are not perfectly symmetric.
     pub fn from_points(
-        base_joints_m: [Vector3<f64>; LEG_COUNT],
-        plate_joints_m: [Vector3<f64>; LEG_COUNT],
-        stroke: StrokeLimits,
+        base_joints_m: [Vector3<T>; LEG_COUNT],
+        plate_joints_m: [Vector3<T>; LEG_COUNT],
+        stroke: StrokeLimits<T>,
     ) -> Result<Self, KinematicsError> {
         if !all_finite(&base_joints_m) {
             return Err(KinematicsError::NonFinite {
@@ -106,24 +121,24 @@ impl Geometry {
         }
         if !(stroke.min_length_m.is_finite()
             && stroke.max_length_m.is_finite()
-            && stroke.min_length_m > 0.0
+            && stroke.min_length_m > T::zero()
             && stroke.min_length_m < stroke.max_length_m)
         {
             return Err(KinematicsError::InvalidStroke {
-                min_length_m: stroke.min_length_m,
-                max_length_m: stroke.max_length_m,
+                min_length_m: stroke.min_length_m.to_f64(),
+                max_length_m: stroke.max_length_m.to_f64(),
             });
         }
         distinct(&base_joints_m, true)?;
         distinct(&plate_joints_m, false)?;
-        let mean_radius = |joints: &[Vector3<f64>; LEG_COUNT]| {
-            joints.iter().map(|p| p.xy().norm()).sum::<f64>() / LEG_COUNT as f64
+        let mean_radius = |joints: &[Vector3<T>; LEG_COUNT]| {
+            joints.iter().map(|p| p.xy().norm()).sum::<T>() / T::lit(LEG_COUNT as f64)
         };
         let plate_radius_m = mean_radius(&plate_joints_m);
-        if plate_radius_m < MIN_JOINT_SPACING_M {
+        if plate_radius_m < T::lit(MIN_JOINT_SPACING_M) {
             return Err(KinematicsError::InvalidDimension {
                 what: "plate joints must not all lie on the plate's z axis",
-                value: plate_radius_m,
+                value: plate_radius_m.to_f64(),
             });
         }
         // The rig's size, not the plate's alone: a plate far smaller than the base resolves
@@ -136,10 +151,12 @@ impl Geometry {
             plate_joints_m,
             stroke,
             characteristic_length_m,
-            home_height_m: 0.0,
+            home_height_m: T::zero(),
         };
         geometry.home_height_m = geometry.solve_home_height()?;
-        let inverse_condition = geometry.inverse_condition_number(&geometry.home_pose());
+        let inverse_condition = geometry
+            .inverse_condition_number(&geometry.home_pose())
+            .to_f64();
         if inverse_condition.is_nan() || inverse_condition < SINGULARITY_THRESHOLD {
             return Err(KinematicsError::ArchitecturallySingular { inverse_condition });
         }
@@ -147,30 +164,30 @@ impl Geometry {
     }
 
     /// Base joint positions bᵢ, in B, m.
-    pub fn base_joints_m(&self) -> &[Vector3<f64>; LEG_COUNT] {
+    pub fn base_joints_m(&self) -> &[Vector3<T>; LEG_COUNT] {
         &self.base_joints_m
     }
 
     /// Plate joint positions pᵢ, in P, m.
-    pub fn plate_joints_m(&self) -> &[Vector3<f64>; LEG_COUNT] {
+    pub fn plate_joints_m(&self) -> &[Vector3<T>; LEG_COUNT] {
         &self.plate_joints_m
     }
 
     /// Leg stroke limits.
-    pub fn stroke(&self) -> StrokeLimits {
+    pub fn stroke(&self) -> StrokeLimits<T> {
         self.stroke
     }
 
     /// Length used to scale rotations against translations, m: the larger of the mean base and
     /// mean plate joint radius (the rig's size).
-    pub fn characteristic_length_m(&self) -> f64 {
+    pub fn characteristic_length_m(&self) -> T {
         self.characteristic_length_m
     }
 
     /// The level, centred pose whose mean leg length is mid-stroke.
-    pub fn home_pose(&self) -> Pose {
+    pub fn home_pose(&self) -> Pose<T> {
         Pose::new(
-            Vector3::new(0.0, 0.0, self.home_height_m),
+            Vector3::new(T::zero(), T::zero(), self.home_height_m),
             nalgebra::Rotation3::identity(),
         )
     }
@@ -178,63 +195,84 @@ impl Geometry {
     /// Height z of the level, centred pose whose mean leg length is the mid-stroke length.
     ///
     /// Mean length is monotonic in z for z above every joint, so bisection is exact and safe.
-    fn solve_home_height(&self) -> Result<f64, KinematicsError> {
+    fn solve_home_height(&self) -> Result<T, KinematicsError> {
         let target = self.stroke.mid_m();
-        let mean_length = |z: f64| {
-            let offset = Vector3::new(0.0, 0.0, z);
-            let mut sum = 0.0;
+        let mean_length = |z: T| {
+            let offset = Vector3::new(T::zero(), T::zero(), z);
+            let mut sum = T::zero();
             for (b, p) in self.base_joints_m.iter().zip(self.plate_joints_m.iter()) {
                 sum += (offset + p - b).norm();
             }
-            sum / LEG_COUNT as f64
+            sum / T::lit(LEG_COUNT as f64)
         };
         let lowest = self
             .base_joints_m
             .iter()
             .zip(self.plate_joints_m.iter())
             .map(|(b, p)| b.z - p.z)
-            .fold(f64::NEG_INFINITY, f64::max);
+            .fold(T::lit(f64::NEG_INFINITY), T::max);
         let mut lo = lowest;
         if mean_length(lo) > target {
             return Err(KinematicsError::HomeUnreachable);
         }
-        let mut hi = lowest + target + 1.0;
+        let mut hi = lowest + target + T::one();
         for _ in 0..200 {
-            let mid = 0.5 * (lo + hi);
+            let mid = T::lit(0.5) * (lo + hi);
             if mean_length(mid) < target {
                 lo = mid;
             } else {
                 hi = mid;
             }
         }
-        Ok(0.5 * (lo + hi))
+        Ok(T::lit(0.5) * (lo + hi))
+    }
+
+    /// The same design in another precision: the joints and the stroke converted (rounded to
+    /// nearest into f32), the home height and the conditioning recomputed in `U`.
+    pub fn cast<U: Real>(&self) -> Result<Geometry<U>, KinematicsError> {
+        let convert =
+            |joints: &[Vector3<T>; LEG_COUNT]| joints.map(|p| p.map(|v| U::lit(v.to_f64())));
+        Geometry::from_points(
+            convert(&self.base_joints_m),
+            convert(&self.plate_joints_m),
+            self.stroke.cast(),
+        )
     }
 }
 
-fn positive(what: &'static str, value: f64) -> Result<(), KinematicsError> {
-    if value.is_finite() && value > 0.0 {
+fn positive<T: Real>(what: &'static str, value: T) -> Result<(), KinematicsError> {
+    if value.is_finite() && value > T::zero() {
         Ok(())
     } else {
-        Err(KinematicsError::InvalidDimension { what, value })
+        Err(KinematicsError::InvalidDimension {
+            what,
+            value: value.to_f64(),
+        })
     }
 }
 
-fn separation(what: &'static str, value: f64) -> Result<(), KinematicsError> {
-    if value.is_finite() && value > 0.0 && value < 2.0 * PI / 3.0 {
+fn separation<T: Real>(what: &'static str, value: T) -> Result<(), KinematicsError> {
+    if value.is_finite() && value > T::zero() && value < T::lit(2.0) * real::pi() / T::lit(3.0) {
         Ok(())
     } else {
-        Err(KinematicsError::InvalidDimension { what, value })
+        Err(KinematicsError::InvalidDimension {
+            what,
+            value: value.to_f64(),
+        })
     }
 }
 
-fn all_finite(points: &[Vector3<f64>; LEG_COUNT]) -> bool {
+fn all_finite<T: Real>(points: &[Vector3<T>; LEG_COUNT]) -> bool {
     points.iter().all(|p| p.iter().all(|v| v.is_finite()))
 }
 
-fn distinct(points: &[Vector3<f64>; LEG_COUNT], on_base: bool) -> Result<(), KinematicsError> {
+fn distinct<T: Real>(
+    points: &[Vector3<T>; LEG_COUNT],
+    on_base: bool,
+) -> Result<(), KinematicsError> {
     for (first, a) in points.iter().enumerate() {
         for (second, b) in points.iter().enumerate().skip(first + 1) {
-            if (a - b).norm() < MIN_JOINT_SPACING_M {
+            if (a - b).norm() < T::lit(MIN_JOINT_SPACING_M) {
                 return Err(KinematicsError::CoincidentJoints {
                     on_base,
                     first,
@@ -250,6 +288,7 @@ fn distinct(points: &[Vector3<f64>; LEG_COUNT], on_base: bool) -> Result<(), Kin
 mod tests {
     use super::*;
     use crate::ErrorKind;
+    use core::f64::consts::PI;
 
     fn stroke() -> StrokeLimits {
         StrokeLimits {

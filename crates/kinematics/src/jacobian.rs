@@ -1,26 +1,36 @@
 //! The Jacobian, the leg-force → wrench map and the conditioning measure.
 
+use crate::real::{self, Real};
 use crate::{Geometry, Pose, LEG_COUNT};
 use nalgebra::{Matrix6, Vector3, Vector6};
 
 /// A force and a torque acting on the plate. Which point and which axes is said by the
 /// function that returns it.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Wrench {
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Wrench<T = f64> {
     /// Force, N.
-    pub force_n: Vector3<f64>,
+    pub force_n: Vector3<T>,
     /// Torque, N·m.
-    pub torque_nm: Vector3<f64>,
+    pub torque_nm: Vector3<T>,
 }
 
-impl Geometry {
+impl<T: Real> Default for Wrench<T> {
+    fn default() -> Self {
+        Self {
+            force_n: Vector3::zeros(),
+            torque_nm: Vector3::zeros(),
+        }
+    }
+}
+
+impl<T: Real> Geometry<T> {
     /// The 6×6 Jacobian J with row i = [uᵢᵀ, ((R pᵢ) × uᵢ)ᵀ], so that the leg rates are
     /// l̇ = J·[v; ω] with v the velocity of the P origin and ω the angular velocity, both in B.
     ///
     /// By virtual work the same matrix maps leg forces to the plate wrench: w = Jᵀ f.
-    pub fn jacobian(&self, pose: &Pose) -> Matrix6<f64> {
+    pub fn jacobian(&self, pose: &Pose<T>) -> Matrix6<T> {
         let legs = self.legs(pose);
-        let mut rows = [[0.0; 6]; LEG_COUNT];
+        let mut rows = [[T::zero(); 6]; LEG_COUNT];
         for ((row, plate_joint), u) in rows.iter_mut().zip(self.plate_joints_m()).zip(&legs.units) {
             let m = (pose.rotation * plate_joint).cross(u);
             *row = [u.x, u.y, u.z, m.x, m.y, m.z];
@@ -31,9 +41,9 @@ impl Geometry {
 
     /// Wrench of six axial leg forces on the plate: force in B and torque about the P origin
     /// in B axes, F = Σ fᵢ uᵢ, τ = Σ (R pᵢ) × fᵢ uᵢ (= Jᵀ f).
-    pub fn wrench_in_base(&self, pose: &Pose, leg_forces_n: &Vector6<f64>) -> Wrench {
+    pub fn wrench_in_base(&self, pose: &Pose<T>, leg_forces_n: &Vector6<T>) -> Wrench<T> {
         let w = self.jacobian(pose).transpose() * leg_forces_n;
-        let [fx, fy, fz, tx, ty, tz]: [f64; 6] = w.into();
+        let [fx, fy, fz, tx, ty, tz]: [T; 6] = w.into();
         Wrench {
             force_n: Vector3::new(fx, fy, fz),
             torque_nm: Vector3::new(tx, ty, tz),
@@ -41,7 +51,7 @@ impl Geometry {
     }
 
     /// The same wrench as [`Geometry::wrench_in_base`] (torque about the P origin), in P axes.
-    pub fn wrench_in_platform(&self, pose: &Pose, leg_forces_n: &Vector6<f64>) -> Wrench {
+    pub fn wrench_in_platform(&self, pose: &Pose<T>, leg_forces_n: &Vector6<T>) -> Wrench<T> {
         let w = self.wrench_in_base(pose, leg_forces_n);
         let to_p = pose.rotation.inverse();
         Wrench {
@@ -53,29 +63,29 @@ impl Geometry {
     /// σmin/σmax of the Jacobian with its angular columns divided by the characteristic length
     /// ([`Geometry::characteristic_length_m`]: the rig's size), so that the measure does not depend on units. 1 is perfectly
     /// isotropic, 0 singular; NaN only if the pose itself is not finite.
-    pub fn inverse_condition_number(&self, pose: &Pose) -> f64 {
+    pub fn inverse_condition_number(&self, pose: &Pose<T>) -> T {
         let mut j = self.jacobian(pose);
-        let scale = 1.0 / self.characteristic_length_m();
+        let scale = T::one() / self.characteristic_length_m();
         for mut angular_column in j.column_iter_mut().skip(3) {
             angular_column *= scale;
         }
         if !j.iter().all(|v| v.is_finite()) {
-            return f64::NAN;
+            return T::lit(f64::NAN);
         }
         // Eigenvalues of JᵀJ are the squared singular values; the symmetric eigensolver is
         // robust and allocation-free for fixed-size matrices.
         let jtj = j.transpose() * j;
-        match nalgebra::SymmetricEigen::try_new(jtj, 1e-15, 1000) {
+        match nalgebra::SymmetricEigen::try_new(jtj, T::EIGEN_TOLERANCE, 1000) {
             Some(eig) => {
                 let max = eig.eigenvalues.max();
-                let min = eig.eigenvalues.min().max(0.0);
-                if max > 0.0 {
-                    libm::sqrt(min / max)
+                let min = eig.eigenvalues.min().max(T::zero());
+                if max > T::zero() {
+                    real::sqrt(min / max)
                 } else {
-                    0.0
+                    T::zero()
                 }
             }
-            None => 0.0,
+            None => T::zero(),
         }
     }
 }

@@ -1,25 +1,26 @@
 //! Inverse kinematics: leg vectors, lengths and directions for a pose.
 
+use crate::real::Real;
 use crate::{Geometry, KinematicsError, Pose, LEG_COUNT};
 use nalgebra::{Vector3, Vector6};
 
 /// The six legs at one pose, all in B.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Legs {
+pub struct Legs<T = f64> {
     /// lᵢ = p + R pᵢ − bᵢ, from base joint to plate joint, m.
-    pub vectors_m: [Vector3<f64>; LEG_COUNT],
+    pub vectors_m: [Vector3<T>; LEG_COUNT],
     /// ‖lᵢ‖, m.
-    pub lengths_m: Vector6<f64>,
+    pub lengths_m: Vector6<T>,
     /// uᵢ = lᵢ/‖lᵢ‖; a positive leg force pushes the plate along uᵢ.
-    pub units: [Vector3<f64>; LEG_COUNT],
+    pub units: [Vector3<T>; LEG_COUNT],
 }
 
-impl Geometry {
+impl<T: Real> Geometry<T> {
     /// Inverse kinematics (corrected Eq. 5): leg vectors, lengths and unit vectors for `pose`.
     ///
     /// A zero-length leg (joints coincide) gets a zero unit vector rather than NaN; the stroke
     /// check refuses such a pose because the minimum length is positive.
-    pub fn legs(&self, pose: &Pose) -> Legs {
+    pub fn legs(&self, pose: &Pose<T>) -> Legs<T> {
         let mut vectors_m = [Vector3::zeros(); LEG_COUNT];
         for ((v, plate_joint), base_joint) in vectors_m
             .iter_mut()
@@ -31,7 +32,7 @@ impl Geometry {
         let lengths_m = vectors_m.map(|v| v.norm());
         let mut units = [Vector3::zeros(); LEG_COUNT];
         for ((u, v), &length) in units.iter_mut().zip(&vectors_m).zip(&lengths_m) {
-            if length > 0.0 {
+            if length > T::zero() {
                 *u = v / length;
             }
         }
@@ -43,13 +44,13 @@ impl Geometry {
     }
 
     /// Leg lengths for `pose`, m.
-    pub fn leg_lengths(&self, pose: &Pose) -> Vector6<f64> {
+    pub fn leg_lengths(&self, pose: &Pose<T>) -> Vector6<T> {
         self.legs(pose).lengths_m
     }
 
     /// Inverse kinematics with the stroke check: the legs, or an error naming the first leg
     /// out of stroke and by how much.
-    pub fn check_reachable(&self, pose: &Pose) -> Result<Legs, KinematicsError> {
+    pub fn check_reachable(&self, pose: &Pose<T>) -> Result<Legs<T>, KinematicsError> {
         if !pose.is_finite() {
             return Err(KinematicsError::NonFinite { what: "pose" });
         }
@@ -59,15 +60,15 @@ impl Geometry {
             if length_m < stroke.min_length_m {
                 return Err(KinematicsError::LegTooShort {
                     leg,
-                    length_m,
-                    min_length_m: stroke.min_length_m,
+                    length_m: length_m.to_f64(),
+                    min_length_m: stroke.min_length_m.to_f64(),
                 });
             }
             if length_m > stroke.max_length_m {
                 return Err(KinematicsError::LegTooLong {
                     leg,
-                    length_m,
-                    max_length_m: stroke.max_length_m,
+                    length_m: length_m.to_f64(),
+                    max_length_m: stroke.max_length_m.to_f64(),
                 });
             }
         }

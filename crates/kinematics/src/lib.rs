@@ -5,6 +5,9 @@
 //! `no_std`, no allocation, no panics: every function that can meet bad input returns a
 //! [`KinematicsError`].
 //!
+//! Every type is generic over the scalar [`Real`] (`f64` or `f32`), `f64` by default: the
+//! [`real`] module says why and how, docs/firmware.md what f32 costs in accuracy.
+//!
 //! Conventions: base frame B fixed to the ground with z up; platform frame P fixed to the plate;
 //! a pose (p, R) holds the position p of the P origin in B and the rotation R that maps
 //! P-vectors into B. With bᵢ the base joints in B and pᵢ the plate joints in P, leg i's vector is
@@ -23,11 +26,14 @@
 )]
 
 mod error;
+#[cfg(test)]
+mod f32_tests;
 mod fk;
 mod geometry;
 mod jacobian;
 mod legs;
 mod pose;
+pub mod real;
 
 pub use error::{ErrorKind, KinematicsError};
 pub use fk::{FkOptions, FkSolution};
@@ -36,6 +42,7 @@ pub use jacobian::Wrench;
 pub use legs::Legs;
 pub use nalgebra::{Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 pub use pose::Pose;
+pub use real::Real;
 /// Number of legs (and of joints on each plate), defined in `stewart-types`.
 pub use stewart_types::LEG_COUNT;
 

@@ -451,7 +451,7 @@ fn fast_multisine(fraction: f64) -> Trajectory {
     };
     let unit = build(1.0).check_feasibility(&g, &limits).unwrap();
     let peak = unit.max_speed_m_s.iter().copied().fold(0.0, f64::max);
-    build(fraction * FeasibilityLimits::default().max_leg_speed_m_s / peak)
+    build(fraction * FeasibilityLimits::<f64>::default().max_leg_speed_m_s / peak)
 }
 
 #[test]
@@ -460,7 +460,7 @@ fn a_park_from_any_moment_of_a_fast_excitation_stays_under_the_leg_speed_limit()
     // acceleration through the whole ramp: cut short at full speed, a fast excitation's park
     // along it overshoots the leg speed limit and faults.
     let g = geometry();
-    let limit_m_s = FeasibilityLimits::default().max_leg_speed_m_s;
+    let limit_m_s = FeasibilityLimits::<f64>::default().max_leg_speed_m_s;
     let mut controller = Controller::new(g, fast_multisine(0.98), config()).unwrap();
     let mut legs = Legs::at(&g.home_pose());
     let mut parks = 0;

@@ -288,7 +288,7 @@ fn invalid_configs_are_refused() {
         tracking_time_s: 0.0,
     };
     assert!(Pid::new(bad).is_err());
-    assert!(PidConfig::default().validate().is_ok());
+    assert!(PidConfig::<f64>::default().validate().is_ok());
 }
 
 #[test]
