@@ -235,7 +235,7 @@ impl McapLog {
         specs: &[ChannelSpec],
         delivery: Delivery,
         queue_batches: usize,
-        mut forward: Option<Forward>,
+        #[cfg_attr(not(feature = "live"), allow(unused_mut))] mut forward: Option<Forward>,
     ) -> Result<Self> {
         if let Some(dir) = path.parent() {
             if !dir.as_os_str().is_empty() {
