@@ -225,10 +225,10 @@ pub fn plate_transform(bytes: &[u8]) -> foxglove::messages::FrameTransform {
         .unwrap_or_else(|e| panic!("/tf is not a foxglove.FrameTransform: {e}"));
     assert_eq!(tf.parent_frame_id, runlog::foxglove::BASE_FRAME);
     assert_eq!(tf.child_frame_id, runlog::foxglove::PLATFORM_FRAME);
-    let q = tf.rotation.clone().expect("rotation");
+    let q = tf.rotation.expect("rotation");
     let norm = (q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w).sqrt();
     assert!((norm - 1.0).abs() < 1e-9, "|q| = {norm}");
-    let p = tf.translation.clone().expect("translation");
+    let p = tf.translation.expect("translation");
     assert!(p.z > 0.5 && p.z < 5.0, "plate height {} m", p.z);
     assert!(tf.timestamp.is_some());
     tf

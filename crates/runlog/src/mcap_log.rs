@@ -805,8 +805,12 @@ mod tests {
     #[cfg(feature = "live")]
     struct Recorder {
         id: foxglove::SinkId,
-        got: Mutex<Vec<(String, Vec<u8>, u64, Option<String>)>>,
+        got: Mutex<Vec<Recorded>>,
     }
+
+    /// Topic, bytes, log time and the name of the thread that handed them over.
+    #[cfg(feature = "live")]
+    type Recorded = (String, Vec<u8>, u64, Option<String>);
 
     #[cfg(feature = "live")]
     impl foxglove::Sink for Recorder {
