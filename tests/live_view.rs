@@ -8,82 +8,17 @@
 mod support;
 
 use std::collections::HashMap;
-use std::net::{SocketAddr, TcpListener, TcpStream};
-use std::path::Path;
+use std::net::TcpListener;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use foxglove::ws_protocol::server::ServerMessage;
 use measure::End;
+use support::live::{assert_in_log, free_port, plate_transform, LiveClient, LiveMessage};
 use support::{simulate_args, Scratch, SHORT};
-use tungstenite::client::IntoClientRequest;
-use tungstenite::{Message, WebSocket};
 
 /// A short run: the shortest excitation the fades allow, for the tare run and the loaded one.
 const LIVE: &str = "[run]\nduration_s = 4.0\ntare_duration_s = 4.0\n";
-
-/// The subprotocol the SDK's server speaks (the Foxglove app offers it).
-const SUBPROTOCOL: &str = "foxglove.sdk.v1";
-
-/// A loopback port nobody listens on now.
-fn free_port() -> SocketAddr {
-    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
-    listener.local_addr().unwrap()
-}
-
-/// Connects to the live view at `addr`, retrying until the run has bound it (or `deadline`,
-/// or the run ended).
-fn connect<T>(
-    addr: SocketAddr,
-    deadline: Instant,
-    run: &std::thread::JoinHandle<T>,
-) -> WebSocket<TcpStream> {
-    loop {
-        if let Ok(stream) = TcpStream::connect(addr) {
-            stream
-                .set_read_timeout(Some(Duration::from_secs(20)))
-                .unwrap();
-            let mut request = format!("ws://{addr}").into_client_request().unwrap();
-            request
-                .headers_mut()
-                .insert("Sec-WebSocket-Protocol", SUBPROTOCOL.parse().unwrap());
-            let (socket, response) = tungstenite::client(request, stream)
-                .unwrap_or_else(|e| panic!("WebSocket handshake with {addr}: {e}"));
-            assert_eq!(
-                response.headers()["sec-websocket-protocol"],
-                SUBPROTOCOL,
-                "the server's subprotocol"
-            );
-            return socket;
-        }
-        assert!(
-            Instant::now() < deadline && !run.is_finished(),
-            "nothing listens on {addr}"
-        );
-        std::thread::sleep(Duration::from_millis(5));
-    }
-}
-
-/// What the client received on one subscription.
-#[derive(Default)]
-struct Received {
-    /// (log time, payload) in arrival order.
-    messages: Vec<(u64, Vec<u8>)>,
-}
-
-/// Every message of the log at `path` as (topic, log time) → payload.
-fn log_payloads(path: &Path) -> HashMap<(String, u64), Vec<Vec<u8>>> {
-    let bytes = std::fs::read(path).unwrap();
-    let mut out: HashMap<(String, u64), Vec<Vec<u8>>> = HashMap::new();
-    for m in mcap::MessageStream::new(&bytes).unwrap() {
-        let m = m.unwrap();
-        out.entry((m.channel.topic.clone(), m.log_time))
-            .or_default()
-            .push(m.data.to_vec());
-    }
-    out
-}
 
 #[test]
 fn a_foxglove_client_watches_a_simulation_live() {
@@ -106,21 +41,17 @@ fn a_foxglove_client_watches_a_simulation_live() {
     };
 
     let deadline = Instant::now() + Duration::from_secs(60);
-    let mut socket = connect(addr, deadline, &run);
     let wanted = [
         runlog::messages::ESTIMATE,
         runlog::messages::TF,
         runlog::messages::METADATA,
     ];
+    let mut client = LiveClient::connect(addr, deadline, &run, Some(&wanted));
     let catalogue = runlog::messages::channels();
-    // channel id → topic, from the advertisements; subscription id → topic once subscribed.
-    let mut advertised: HashMap<u64, String> = HashMap::new();
-    let mut subscribed: HashMap<u32, String> = HashMap::new();
-    let mut received: HashMap<String, Received> = HashMap::new();
-    let mut server_name = None;
-    let finite_mass = |r: &Received| {
-        r.messages.iter().any(|(_, bytes)| {
-            let v: serde_json::Value = serde_json::from_slice(bytes).unwrap();
+    let mut received: HashMap<String, Vec<LiveMessage>> = HashMap::new();
+    let finite_mass = |r: &Vec<LiveMessage>| {
+        r.iter().any(|m| {
+            let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
             v["body"]["mass_kg"].as_f64().is_some_and(f64::is_finite)
         })
     };
@@ -129,68 +60,28 @@ fn a_foxglove_client_watches_a_simulation_live() {
             && received
                 .get(runlog::messages::ESTIMATE)
                 .is_some_and(finite_mass)
-            && received[runlog::messages::TF].messages.len() >= 3;
+            && received[runlog::messages::TF].len() >= 3;
         if done {
             break;
         }
         assert!(
             !run.is_finished() && Instant::now() < deadline,
-            "the run ended before the client had /estimate and /tf: subscribed {subscribed:?}, \
+            "the run ended before the client had /estimate and /tf: subscribed {:?}, \
              received {:?}",
+            client.subscribed,
             received
                 .iter()
-                .map(|(t, r)| (t.clone(), r.messages.len()))
+                .map(|(t, r)| (t.clone(), r.len()))
                 .collect::<Vec<_>>()
         );
-        let message = socket.read().unwrap_or_else(|e| panic!("reading: {e}"));
-        match message {
-            Message::Text(text) => match ServerMessage::parse_json(text.as_str()).unwrap() {
-                ServerMessage::ServerInfo(info) => server_name = Some(info.name),
-                ServerMessage::Advertise(a) => {
-                    let mut subscriptions = Vec::new();
-                    for c in &a.channels {
-                        let spec = catalogue
-                            .iter()
-                            .find(|s| s.topic == c.topic)
-                            .unwrap_or_else(|| panic!("{} is not a log channel", c.topic));
-                        assert_eq!(c.schema_name, spec.schema_name, "{}", c.topic);
-                        assert_eq!(c.encoding, spec.encoding.message_encoding(), "{}", c.topic);
-                        assert_eq!(
-                            c.schema_encoding.as_deref(),
-                            Some(spec.encoding.schema_encoding()),
-                            "{}",
-                            c.topic
-                        );
-                        advertised.insert(c.id, c.topic.to_string());
-                        if wanted.contains(&c.topic.as_ref()) {
-                            let id = subscribed.len() as u32 + 1;
-                            subscribed.insert(id, c.topic.to_string());
-                            subscriptions.push(serde_json::json!({"id": id, "channelId": c.id}));
-                        }
-                    }
-                    if !subscriptions.is_empty() {
-                        let subscribe =
-                            serde_json::json!({"op": "subscribe", "subscriptions": subscriptions});
-                        socket.send(Message::text(subscribe.to_string())).unwrap();
-                    }
-                }
-                _ => {}
-            },
-            Message::Binary(bytes) => {
-                if let ServerMessage::MessageData(m) = ServerMessage::parse_binary(&bytes).unwrap()
-                {
-                    let topic = subscribed[&m.subscription_id].clone();
-                    received
-                        .entry(topic)
-                        .or_default()
-                        .messages
-                        .push((m.log_time, m.data.to_vec()));
-                }
-            }
-            _ => {}
-        }
+        let m = client
+            .next_message()
+            .expect("the server closed the connection during the run");
+        received.entry(m.topic.clone()).or_default().push(m);
     }
-    drop(socket);
+    let server_name = client.server_name.clone();
+    let advertised = client.advertised.clone();
+    drop(client);
     interrupt.store(true, Ordering::SeqCst);
     let (outcome, took) = run.join().unwrap();
     assert!(
@@ -224,21 +115,12 @@ fn a_foxglove_client_watches_a_simulation_live() {
 
     // /tf decodes as the SDK's FrameTransform: base → platform, a unit quaternion, the plate
     // above the base.
-    for (_, bytes) in &received[runlog::messages::TF].messages {
-        let tf = <foxglove::messages::FrameTransform as prost::Message>::decode(&bytes[..])
-            .unwrap_or_else(|e| panic!("/tf is not a foxglove.FrameTransform: {e}"));
-        assert_eq!(tf.parent_frame_id, runlog::foxglove::BASE_FRAME);
-        assert_eq!(tf.child_frame_id, runlog::foxglove::PLATFORM_FRAME);
-        let q = tf.rotation.expect("rotation");
-        let norm = (q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w).sqrt();
-        assert!((norm - 1.0).abs() < 1e-9, "|q| = {norm}");
-        let p = tf.translation.expect("translation");
-        assert!(p.z > 0.5 && p.z < 5.0, "plate height {} m", p.z);
-        assert!(tf.timestamp.is_some());
+    for m in &received[runlog::messages::TF] {
+        plate_transform(&m.data);
     }
     // /estimate is the log's JSON: θ's mass is the body's mass.
-    for (_, bytes) in &received[runlog::messages::ESTIMATE].messages {
-        let v: serde_json::Value = serde_json::from_slice(bytes).unwrap();
+    for m in &received[runlog::messages::ESTIMATE] {
+        let v: serde_json::Value = serde_json::from_slice(&m.data).unwrap();
         assert!(v["run"] == "tare" || v["run"] == "loaded", "{v}");
         if let Some(m) = v["body"]["mass_kg"].as_f64() {
             assert_eq!(v["theta"][0].as_f64(), Some(m));
@@ -247,19 +129,12 @@ fn a_foxglove_client_watches_a_simulation_live() {
     }
     // The run's metadata reached a client that connected after it was written.
     let meta: serde_json::Value =
-        serde_json::from_slice(&received[runlog::messages::METADATA].messages[0].1).unwrap();
+        serde_json::from_slice(&received[runlog::messages::METADATA][0].data).unwrap();
     assert_eq!(meta["command"], "simulate");
 
     // Each message received is the log's message at the same log time, byte for byte.
-    let in_log = log_payloads(&log);
-    for (topic, r) in &received {
-        for (time, bytes) in &r.messages {
-            let same = in_log
-                .get(&(topic.clone(), *time))
-                .is_some_and(|all| all.contains(bytes));
-            assert!(same, "{topic} at {time} ns is not the log's message");
-        }
-    }
+    let all: Vec<LiveMessage> = received.into_values().flatten().collect();
+    assert_in_log(&all, &log);
 }
 
 #[test]
@@ -294,22 +169,12 @@ fn a_client_that_stops_reading_does_not_hold_the_run() {
             .unwrap_or_else(|e| panic!("simulate --live failed: {e}"));
         (outcome, started.elapsed())
     });
-    let mut socket = connect(addr, Instant::now() + Duration::from_secs(60), &run);
     // Subscribe to everything advertised, then stop reading.
-    let mut subscriptions = Vec::new();
-    while subscriptions.is_empty() {
-        if let Message::Text(text) = socket.read().unwrap() {
-            if let ServerMessage::Advertise(a) = ServerMessage::parse_json(text.as_str()).unwrap() {
-                for (i, c) in a.channels.iter().enumerate() {
-                    subscriptions.push(serde_json::json!({"id": i, "channelId": c.id}));
-                }
-            }
-        }
-    }
-    let subscribe = serde_json::json!({"op": "subscribe", "subscriptions": subscriptions});
-    socket.send(Message::text(subscribe.to_string())).unwrap();
+    let mut client =
+        LiveClient::connect(addr, Instant::now() + Duration::from_secs(60), &run, None);
+    client.wait_subscribed();
     let (outcome, took) = run.join().unwrap();
-    drop(socket);
+    drop(client);
     assert_eq!(outcome.end, End::Completed);
     let messages = support::read_messages(&log);
     let first = messages.iter().map(|m| m.log_time).min().unwrap();

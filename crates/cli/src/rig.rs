@@ -388,9 +388,9 @@ pub fn rig_with_abort(
     // that blocks), messages are dropped and counted instead.
     let live = runlog::live::serve(common.run.shared.live, runlog::live::Pace::AsRun)
         .map_err(CommandError::Input)?;
-    let mut log = RunLog::create_with(&log_path, start_ns, Delivery::DropWhenFull)
-        .map_err(CommandError::Run)?
-        .with_live(live);
+    // The live view is served from the log's writer thread: the control loop never calls it.
+    let mut log = RunLog::create_live(&log_path, start_ns, Delivery::DropWhenFull, live)
+        .map_err(CommandError::Run)?;
     common::announce_live(&log, common.run.shared.quiet);
     let mut runs = Vec::new();
     if matches!(tare, TarePlan::Measure(_)) {

@@ -18,6 +18,7 @@ use measure::report::RunInfo;
 use measure::session::{self, Job, SessionPlan, Station, TarePlan};
 use measure::sources::ErrorSource;
 use measure::{setup, End, MeasureOutcome, Report, TareFile};
+use runlog::mcap_log::Delivery;
 use runlog::messages as topics;
 use runlog::metadata::{BodyTruth, RunMetadata, TruthMsg};
 use runlog::{LogObserver, RunLog};
@@ -294,9 +295,8 @@ pub fn simulate(
     // Watched live, the simulation keeps to the wall clock.
     let live = runlog::live::serve(args.measure.shared.live, runlog::live::Pace::WallClock)
         .map_err(CommandError::Input)?;
-    let mut log = RunLog::create(&log_path, start_ns)
-        .map_err(CommandError::Run)?
-        .with_live(live);
+    let mut log = RunLog::create_live(&log_path, start_ns, Delivery::Lossless, live)
+        .map_err(CommandError::Run)?;
     common::announce_live(&log, args.measure.shared.quiet);
     let stroke = geometry.stroke();
     let mut runs = Vec::new();

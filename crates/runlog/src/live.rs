@@ -2,16 +2,40 @@
 //! log is written (`--live` of `stewart simulate` and `stewart rig`), by Foxglove's own SDK.
 //!
 //! **One message, two sinks.** The observer builds each message once; [`crate::mcap_log`]
-//! serializes it into its batch and hands the same bytes, with the same log time, to
-//! [`LiveServer::log`]. So the live view has exactly the log's channels (topic, schema name,
-//! schema, encoding) at the log's rates ([`crate::run_log::rates`]), and a channel added to
-//! the catalogue ([`crate::messages::channels`]) is served without a change here.
+//! serializes it into its batch, and the log's writer thread hands the same bytes, with the
+//! same log time, to [`LiveServer::log`] before it writes them to the file. So the live view
+//! has exactly the log's channels (topic, schema name, schema, encoding) at the log's rates
+//! ([`crate::run_log::rates`]), and a channel added to the catalogue
+//! ([`crate::messages::channels`]) is served without a change here.
+//!
+//! **Which thread does what.**
+//!
+//! - The caller's thread (the run loop; on a rig, the control loop) only serializes the message
+//!   into a recycled batch and queues full batches, as without a live view: it never calls the
+//!   SDK. The SDK allocates a frame per message per subscribed client and takes locks; a rig's
+//!   control loop is allocation-free once warm (`tests/no_heap_tick.rs`) and must not wait on a
+//!   lock a socket thread holds, so none of that happens on it. With a live view a batch is
+//!   handed over once it spans [`crate::mcap_log::LIVE_BATCH_SPAN_NS`] of log time (the view
+//!   runs at most that far behind the log, and moves in steps of 25 a second), and the queue
+//!   is longer in proportion, so that it holds as many seconds of log as without one.
+//! - The log's writer thread (`mcap-writer`) gets every batch queued and, for each message,
+//!   calls [`LiveServer::log`] (the SDK copies the message to each subscribed client's queue,
+//!   and keeps the [`LATCHED`] records), then writes the batch to the file. A batch the log
+//!   drops for a full queue ([`crate::mcap_log::Delivery::DropWhenFull`]) is missing from the
+//!   live view too: the view is the log's messages, never more.
+//! - The SDK's own threads (a tokio runtime) write the sockets.
 //!
 //! **Never in the run's way.** [`LiveServer::log`] does not wait: with no client subscribed to
 //! a channel it returns at once; otherwise the SDK queues the message for each subscribed
 //! client (a bounded queue of [`BACKLOG_MESSAGES`] that drops the oldest message when a client
-//! falls behind) and a thread pool of its own writes the sockets. Stopping the server detaches
-//! its connections instead of waiting for them.
+//! falls behind). So a stalled client holds neither the writer thread nor, through it, the log
+//! or the run. Stopping the server detaches its connections instead of waiting for them.
+//!
+//! **Pace.** A simulation served live is held to the wall clock ([`Pace::WallClock`]) on the
+//! caller's thread: a message is not queued before its log time (within [`PACE_SLACK_NS`]), so
+//! the simulation runs at real speed and the view shows the motion as it happens. That is the
+//! log's pace, not a call into the live view; without `--live`, or on a rig
+//! ([`Pace::AsRun`]), nothing is held.
 //!
 //! **Late clients.** The run-level records written once ([`LATCHED`]: metadata, truth,
 //! estimator settings, tare) are kept, and a client subscribing to one of those channels
@@ -70,9 +94,10 @@ impl ServerListener for Replay {
 }
 
 /// How the live view keeps time with the run.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Pace {
     /// As the run goes: a rig runs in real time by itself.
+    #[default]
     AsRun,
     /// No message goes out ahead of its log time on the wall clock: a simulation, which runs
     /// many times faster than real time, is held to it so that the view shows the motion at
@@ -94,7 +119,21 @@ pub fn serve(addr: Option<SocketAddr>, pace: Pace) -> Result<Option<LiveServer>>
 
 /// How far a message may run ahead of the wall clock before [`Pace::WallClock`] sleeps, ns:
 /// a sleep per message of a 1 kHz run would cost more than it keeps.
-const PACE_SLACK_NS: u64 = 2_000_000;
+pub const PACE_SLACK_NS: u64 = 2_000_000;
+
+impl Pace {
+    /// [`Pace::WallClock`]: sleeps until `log_time_ns` (ns since the Unix epoch) on the wall
+    /// clock when the message is more than [`PACE_SLACK_NS`] ahead of it, so that
+    /// `now ≥ log_time_ns − PACE_SLACK_NS` on return. [`Pace::AsRun`]: returns at once.
+    pub fn hold(self, log_time_ns: u64) {
+        if self == Pace::WallClock {
+            let ahead_ns = log_time_ns.saturating_sub(crate::clock::unix_now_ns());
+            if ahead_ns > PACE_SLACK_NS {
+                std::thread::sleep(std::time::Duration::from_nanos(ahead_ns));
+            }
+        }
+    }
+}
 
 /// A Foxglove WebSocket server with every channel of the log. See the [module docs](self).
 pub struct LiveServer {
@@ -172,6 +211,17 @@ impl LiveServer {
         self.addr
     }
 
+    /// How the log that serves this view keeps time ([`serve`]'s `pace`).
+    pub fn pace(&self) -> Pace {
+        self.pace
+    }
+
+    /// The SDK's context of the channels: tests add a sink of their own to it.
+    #[cfg(test)]
+    pub(crate) fn context(&self) -> &Arc<foxglove::Context> {
+        &self._context
+    }
+
     /// Clients connected now.
     pub fn client_count(&self) -> usize {
         self.handle.as_ref().map_or(0, |h| h.client_count())
@@ -179,17 +229,12 @@ impl LiveServer {
 
     /// Sends `bytes` (one message in its channel's encoding) on `topic` at `log_time_ns` to the
     /// clients subscribed to it; an unknown topic is ignored (the log refuses it). Never waits
-    /// for a client; with [`Pace::WallClock`] it waits until `log_time_ns` on the wall clock.
+    /// for a client (nor for the wall clock: see [`Pace::hold`]). The log calls it on its
+    /// writer thread (see the [module docs](self)); it allocates.
     pub fn log(&self, topic: &str, bytes: &[u8], log_time_ns: u64) {
         let Some((&topic, channel)) = self.channels.get_key_value(topic) else {
             return;
         };
-        if self.pace == Pace::WallClock {
-            let ahead_ns = log_time_ns.saturating_sub(crate::clock::unix_now_ns());
-            if ahead_ns > PACE_SLACK_NS {
-                std::thread::sleep(std::time::Duration::from_nanos(ahead_ns));
-            }
-        }
         if LATCHED.contains(&topic) {
             let mut latest = self.latest.lock().unwrap_or_else(|p| p.into_inner());
             latest.insert(topic, (bytes.to_vec(), log_time_ns));
@@ -226,17 +271,18 @@ mod tests {
     }
 
     #[test]
-    fn wall_clock_pace_holds_a_message_until_its_time() {
-        let specs = crate::messages::channels();
-        let mut server = LiveServer::start("127.0.0.1:0".parse().unwrap(), &specs).unwrap();
-        server.pace = Pace::WallClock;
+    fn wall_clock_pace_holds_until_the_time_and_as_run_does_not() {
         let due = crate::clock::unix_now_ns() + 30_000_000;
-        server.log(topics::ESTIMATE, b"{}", due);
-        assert!(crate::clock::unix_now_ns() >= due, "sent before its time");
-        // A message whose time has passed goes at once.
+        Pace::WallClock.hold(due);
+        assert!(
+            crate::clock::unix_now_ns() >= due,
+            "released before its time"
+        );
+        // A time that has passed is not held; nor is anything as the run goes.
         let start = std::time::Instant::now();
-        server.log(topics::ESTIMATE, b"{}", due);
-        assert!(start.elapsed() < std::time::Duration::from_millis(25));
+        Pace::WallClock.hold(due);
+        Pace::AsRun.hold(due + 10_000_000_000);
+        assert!(start.elapsed() < std::time::Duration::from_secs(5));
     }
 
     #[test]

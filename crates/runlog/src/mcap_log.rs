@@ -14,6 +14,11 @@
 //! batch is dropped and its messages counted ([`McapLog::dropped`]), so a slow disk never
 //! stalls the control loop. Dropped messages leave gaps in the MCAP sequence numbers.
 //!
+//! **The live view** ([`McapLog::create_live`], feature `live`) is served from the writer
+//! thread too: it hands each message of a batch to [`crate::live::LiveServer::log`] before
+//! writing the batch, so the caller's thread never calls the Foxglove SDK (see
+//! [`crate::live`] for the threads and the pace).
+//!
 //! **Integrity.** Every chunk carries the CRC-32 of its records (`uncompressed_crc`, the mcap
 //! crate's default, checked by [`crate::read`]), so a damaged chunk is recognised and skipped.
 //!
@@ -63,6 +68,17 @@ pub const BATCH_MESSAGES: usize = 64;
 /// Batches the queue to the writer thread holds: about 28 s of a 1 kHz run's log, a few MB.
 pub const QUEUE_BATCHES: usize = 256;
 
+/// With a live view, a batch goes to the writer (and so to the view) once its messages span
+/// this much log time, ns, even with fewer than [`BATCH_MESSAGES`]: the view is at most 40 ms
+/// behind the log and moves 25 times a second, where batches of 64 messages (about 0.11 s)
+/// would move it 9 times a second.
+pub const LIVE_BATCH_SPAN_NS: u64 = 40_000_000;
+
+/// Batches the queue holds with a live view: [`QUEUE_BATCHES`] times the ratio of a full
+/// batch's span to [`LIVE_BATCH_SPAN_NS`] (0.11 s / 0.04 s), so that the queue holds as many
+/// seconds of log (about 28 s) as without one before [`Delivery::DropWhenFull`] drops.
+pub const QUEUE_BATCHES_LIVE: usize = 3 * QUEUE_BATCHES;
+
 /// What [`McapLog::write`] does when the writer thread falls behind and its queue is full.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Delivery {
@@ -94,6 +110,46 @@ impl Batch {
         self.entries.clear();
         self.data.clear();
     }
+}
+
+/// The live view as the writer thread holds it: the server and each channel's topic.
+#[cfg(feature = "live")]
+struct Forward {
+    server: crate::live::LiveServer,
+    topics: HashMap<u16, &'static str>,
+}
+
+/// Without the `live` feature there is no live view: no value of this type exists.
+#[cfg(not(feature = "live"))]
+enum Forward {}
+
+impl Forward {
+    /// Hands every message of `batch` to the live view, with its log time.
+    #[cfg(feature = "live")]
+    fn batch(&self, batch: &Batch) {
+        let mut start = 0;
+        for e in &batch.entries {
+            if let (Some(topic), Some(bytes)) =
+                (self.topics.get(&e.channel_id), batch.data.get(start..e.end))
+            {
+                self.server.log(topic, bytes, e.log_time_ns);
+            }
+            start = e.end;
+        }
+    }
+
+    #[cfg(not(feature = "live"))]
+    fn batch(&self, _: &Batch) {
+        match *self {}
+    }
+}
+
+/// What the caller's side of the log knows of its live view.
+#[cfg(feature = "live")]
+#[derive(Clone, Copy, Debug)]
+struct LiveSide {
+    addr: std::net::SocketAddr,
+    pace: crate::live::Pace,
 }
 
 /// Work for the writer thread.
@@ -129,9 +185,10 @@ pub struct McapLog {
     dropped: u64,
     delivery: Delivery,
     path: PathBuf,
-    /// The live view, handed every message as it is queued.
+    /// The live view's address and pace, when one is served (the server itself is the
+    /// writer thread's).
     #[cfg(feature = "live")]
-    live: Option<crate::live::LiveServer>,
+    live: Option<LiveSide>,
 }
 
 impl McapLog {
@@ -143,7 +200,34 @@ impl McapLog {
 
     /// [`Self::create`] with the given behaviour when the writer falls behind.
     pub fn create_with(path: &Path, specs: &[ChannelSpec], delivery: Delivery) -> Result<Self> {
-        Self::create_queued(path, specs, delivery, QUEUE_BATCHES)
+        Self::create_queued(path, specs, delivery, QUEUE_BATCHES, None)
+    }
+
+    /// [`Self::create_with`], and every message written is served by `live` as well: the same
+    /// bytes at the same log time, handed to it by the writer thread (a message dropped for a
+    /// full queue is dropped from both). Batches are handed over every
+    /// [`LIVE_BATCH_SPAN_NS`] of log time at least, in a queue of [`QUEUE_BATCHES_LIVE`];
+    /// with [`crate::live::Pace::WallClock`] each write waits for its log time
+    /// ([`crate::live::Pace::hold`]).
+    #[cfg(feature = "live")]
+    pub fn create_live(
+        path: &Path,
+        specs: &[ChannelSpec],
+        delivery: Delivery,
+        live: crate::live::LiveServer,
+    ) -> Result<Self> {
+        let side = LiveSide {
+            addr: live.addr(),
+            pace: live.pace(),
+        };
+        let forward = Forward {
+            server: live,
+            topics: HashMap::new(),
+        };
+        let mut log =
+            Self::create_queued(path, specs, delivery, QUEUE_BATCHES_LIVE, Some(forward))?;
+        log.live = Some(side);
+        Ok(log)
     }
 
     fn create_queued(
@@ -151,6 +235,7 @@ impl McapLog {
         specs: &[ChannelSpec],
         delivery: Delivery,
         queue_batches: usize,
+        #[cfg_attr(not(feature = "live"), allow(unused_mut))] mut forward: Option<Forward>,
     ) -> Result<Self> {
         if let Some(dir) = path.parent() {
             if !dir.as_os_str().is_empty() {
@@ -193,6 +278,10 @@ impl McapLog {
                     schema_name: spec.schema_name,
                 },
             );
+            #[cfg(feature = "live")]
+            if let Some(f) = forward.as_mut() {
+                f.topics.insert(id, spec.topic);
+            }
         }
         // The schemas and channels in a chunk of their own (the summary repeats them): a
         // damaged first data chunk then costs its messages, not every channel's definition.
@@ -213,7 +302,8 @@ impl McapLog {
                         slot.get_or_insert_with(|| format!("{e:#}"));
                         failed.store(true, Ordering::SeqCst);
                     };
-                    let result = write_jobs(writer, &queue, &recycle, &path, &report);
+                    let result =
+                        write_jobs(writer, &queue, &recycle, forward.as_ref(), &path, &report);
                     if let Err(e) = &result {
                         report(e);
                     }
@@ -238,17 +328,10 @@ impl McapLog {
         })
     }
 
-    /// Hands every message written from here on to `live` as well, the same bytes at the same
-    /// log time (a message dropped for a full queue still reaches the live view).
+    /// The live view's address, when one is served ([`Self::create_live`]).
     #[cfg(feature = "live")]
-    pub fn serve_live(&mut self, live: crate::live::LiveServer) {
-        self.live = Some(live);
-    }
-
-    /// The live view, when one is served.
-    #[cfg(feature = "live")]
-    pub fn live(&self) -> Option<&crate::live::LiveServer> {
-        self.live.as_ref()
+    pub fn live_addr(&self) -> Option<std::net::SocketAddr> {
+        self.live.map(|l| l.addr)
     }
 
     /// The file being written.
@@ -304,7 +387,7 @@ impl McapLog {
             self.batch.data.truncate(start);
             return Err(e.into());
         }
-        self.queued(topic, channel.id, start, log_time_ns)
+        self.queued(channel.id, log_time_ns)
     }
 
     /// Queues `message` in protobuf on `topic` at `log_time_ns`. Errors: an unregistered or
@@ -324,9 +407,8 @@ impl McapLog {
             ));
         }
         self.check_writer()?;
-        let start = self.batch.data.len();
         message.encode(&mut Encoder::new(&mut self.batch.data));
-        self.queued(topic, channel.id, start, log_time_ns)
+        self.queued(channel.id, log_time_ns)
     }
 
     /// Queues `message`, one of the Foxglove SDK's well-known types, in protobuf on `topic` at
@@ -356,24 +438,26 @@ impl McapLog {
             self.batch.data.truncate(start);
             return Err(e.into());
         }
-        self.queued(topic, channel.id, start, log_time_ns)
+        self.queued(channel.id, log_time_ns)
     }
 
-    /// Records the message just appended to the batch (its bytes from `start`), hands it to
-    /// the live view, and hands a full batch to the writer.
-    fn queued(
-        &mut self,
-        topic: &str,
-        channel_id: u16,
-        start: usize,
-        log_time_ns: u64,
-    ) -> Result<()> {
+    /// Records the message just appended to the batch and hands a full batch to the writer:
+    /// [`BATCH_MESSAGES`] messages, or with a live view [`LIVE_BATCH_SPAN_NS`] of log time.
+    /// With a live view held to the wall clock, first waits for the message's log time. No
+    /// call into the live view here: the writer thread makes them.
+    fn queued(&mut self, channel_id: u16, log_time_ns: u64) -> Result<()> {
         #[cfg(feature = "live")]
-        if let (Some(live), Some(bytes)) = (&self.live, self.batch.data.get(start..)) {
-            live.log(topic, bytes, log_time_ns);
-        }
+        let span_full = match self.live {
+            Some(live) => {
+                live.pace.hold(log_time_ns);
+                self.batch.entries.first().is_some_and(|first| {
+                    log_time_ns.saturating_sub(first.log_time_ns) >= LIVE_BATCH_SPAN_NS
+                })
+            }
+            None => false,
+        };
         #[cfg(not(feature = "live"))]
-        let _ = (topic, start);
+        let span_full = false;
         self.sequence = self.sequence.wrapping_add(1);
         self.batch.entries.push(Entry {
             channel_id,
@@ -381,7 +465,7 @@ impl McapLog {
             log_time_ns,
             end: self.batch.data.len(),
         });
-        if self.batch.entries.len() >= BATCH_MESSAGES {
+        if self.batch.entries.len() >= BATCH_MESSAGES || span_full {
             self.send_batch(self.delivery)?;
         }
         Ok(())
@@ -499,6 +583,7 @@ fn write_jobs(
     mut writer: mcap::Writer<BufWriter<File>>,
     queue: &Receiver<Job>,
     recycle: &Sender<Batch>,
+    forward: Option<&Forward>,
     path: &Path,
     report: &dyn Fn(&anyhow::Error),
 ) -> Result<()> {
@@ -510,6 +595,10 @@ fn write_jobs(
         let mut ack = None;
         let result = match job {
             Job::Messages(batch) => {
+                // The view first: the SDK only queues, the file may wait on compression.
+                if let Some(f) = forward {
+                    f.batch(&batch);
+                }
                 let r = write_batch(&mut writer, &batch);
                 let _ = recycle.send(batch);
                 r
@@ -614,7 +703,8 @@ mod tests {
     fn a_full_queue_drops_and_counts_without_waiting_when_asked() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("x.mcap");
-        let mut log = McapLog::create_queued(&path, &[spec()], Delivery::DropWhenFull, 2).unwrap();
+        let mut log =
+            McapLog::create_queued(&path, &[spec()], Delivery::DropWhenFull, 2, None).unwrap();
         let release = stall(&log);
         // The writer is stuck: two batches fit in the queue, the next three are dropped, and
         // no write waits (this test would hang if one did).
@@ -640,7 +730,8 @@ mod tests {
     fn a_lossless_log_waits_for_a_slow_writer_and_keeps_everything() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("x.mcap");
-        let mut log = McapLog::create_queued(&path, &[spec()], Delivery::Lossless, 1).unwrap();
+        let mut log =
+            McapLog::create_queued(&path, &[spec()], Delivery::Lossless, 1, None).unwrap();
         let release = stall(&log);
         let releaser = std::thread::spawn(move || {
             std::thread::sleep(std::time::Duration::from_millis(20));
@@ -707,6 +798,113 @@ mod tests {
         assert_eq!(schema.encoding, "jsonschema");
         let v: serde_json::Value = serde_json::from_slice(&messages[999].data).unwrap();
         assert_eq!(v["v"], 999.0);
+    }
+
+    /// A sink subscribed to every channel, as a client subscribed to all of them is: it
+    /// records what the SDK hands it, with the name of the thread that handed it.
+    #[cfg(feature = "live")]
+    struct Recorder {
+        id: foxglove::SinkId,
+        got: Mutex<Vec<Recorded>>,
+    }
+
+    /// Topic, bytes, log time and the name of the thread that handed them over.
+    #[cfg(feature = "live")]
+    type Recorded = (String, Vec<u8>, u64, Option<String>);
+
+    #[cfg(feature = "live")]
+    impl foxglove::Sink for Recorder {
+        fn id(&self) -> foxglove::SinkId {
+            self.id
+        }
+        fn log(
+            &self,
+            channel: &foxglove::RawChannel,
+            msg: &[u8],
+            metadata: &foxglove::Metadata,
+        ) -> Result<(), foxglove::FoxgloveError> {
+            let thread = std::thread::current().name().map(String::from);
+            let record = (
+                channel.topic().into(),
+                msg.to_vec(),
+                metadata.log_time,
+                thread,
+            );
+            self.got.lock().unwrap().push(record);
+            Ok(())
+        }
+    }
+
+    /// The writer thread, not the writing one, hands the messages to the live view: with the
+    /// writer stalled, a write (and the hand-over of its batch) returns with nothing sent to
+    /// the subscribed sink; once the writer runs, the sink has each message, the file's bytes
+    /// at the file's log time, handed over on the writer's thread.
+    #[cfg(feature = "live")]
+    #[test]
+    fn the_writer_thread_serves_the_live_view_not_the_caller() {
+        use crate::messages as topics;
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.mcap");
+        let specs = crate::messages::channels();
+        let live = crate::live::LiveServer::start("127.0.0.1:0".parse().unwrap(), &specs).unwrap();
+        let recorder = Arc::new(Recorder {
+            id: foxglove::SinkId::next(),
+            got: Mutex::default(),
+        });
+        assert!(live.context().add_sink(recorder.clone()));
+        let mut log = McapLog::create_live(&path, &specs, Delivery::DropWhenFull, live).unwrap();
+        let release = stall(&log);
+        let t0 = 1_700_000_000_000_000_000;
+        log.write(topics::METADATA, t0, &serde_json::json!({"command": "rig"}))
+            .unwrap();
+        log.write(
+            topics::ESTIMATE,
+            t0 + 10_000_000,
+            &serde_json::json!({"n": 1}),
+        )
+        .unwrap();
+        assert!(
+            !log.batch.entries.is_empty(),
+            "two messages 10 ms apart wait"
+        );
+        let t2 = t0 + LIVE_BATCH_SPAN_NS;
+        log.write(topics::ESTIMATE, t2, &serde_json::json!({"n": 2}))
+            .unwrap();
+        // The batch spanned LIVE_BATCH_SPAN_NS: it went to the (stalled) writer, and no
+        // message reached the view from this thread.
+        assert!(
+            log.batch.entries.is_empty(),
+            "a batch of 40 ms is handed over"
+        );
+        assert!(
+            recorder.got.lock().unwrap().is_empty(),
+            "sent by the caller"
+        );
+        release.send(()).unwrap();
+        log.flush().unwrap();
+        log.finish().unwrap();
+
+        let got = recorder.got.lock().unwrap().clone();
+        let bytes = std::fs::read(&path).unwrap();
+        let in_file: Vec<(String, Vec<u8>, u64)> = mcap::MessageStream::new(&bytes)
+            .unwrap()
+            .map(|m| {
+                let m = m.unwrap();
+                (m.channel.topic.clone(), m.data.to_vec(), m.log_time)
+            })
+            .collect();
+        assert_eq!(in_file.len(), 3);
+        let sent: Vec<_> = got
+            .iter()
+            .map(|(topic, data, time, _)| (topic.clone(), data.clone(), *time))
+            .collect();
+        assert_eq!(sent, in_file, "the view gets the file's messages");
+        assert!(
+            got.iter()
+                .all(|(.., thread)| thread.as_deref() == Some("mcap-writer")),
+            "{:?}",
+            got.iter().map(|g| &g.3).collect::<Vec<_>>()
+        );
     }
 
     #[test]

@@ -53,8 +53,32 @@ impl RunLog {
     /// [`Self::create`] with the given behaviour when the log's writer thread falls behind
     /// (`stewart rig`: drop and count, never stall the control loop).
     pub fn create_with(path: &Path, start_unix_ns: u64, delivery: Delivery) -> Result<Self> {
-        Ok(Self {
-            log: McapLog::create_with(path, &channels(), delivery)?,
+        Ok(Self::around(
+            McapLog::create_with(path, &channels(), delivery)?,
+            start_unix_ns,
+        ))
+    }
+
+    /// [`Self::create_with`], every message served live by `live` as well when it is given
+    /// ([`McapLog::create_live`]: the log's writer thread hands the messages to the view, so
+    /// the thread writing the log never calls into it; see [`crate::live`]).
+    #[cfg(feature = "live")]
+    pub fn create_live(
+        path: &Path,
+        start_unix_ns: u64,
+        delivery: Delivery,
+        live: Option<crate::live::LiveServer>,
+    ) -> Result<Self> {
+        let log = match live {
+            Some(live) => McapLog::create_live(path, &channels(), delivery, live)?,
+            None => McapLog::create_with(path, &channels(), delivery)?,
+        };
+        Ok(Self::around(log, start_unix_ns))
+    }
+
+    fn around(log: McapLog, start_unix_ns: u64) -> Self {
+        Self {
+            log,
             start_unix_ns,
             first_time_s: None,
             last_ns: start_unix_ns,
@@ -68,23 +92,13 @@ impl RunLog {
                 last: CommandCounts::default(),
                 last_ns: 0,
             },
-        })
-    }
-
-    /// Serves every message written from here on live as well ([`crate::live`]); `None`
-    /// leaves the log as it is.
-    #[cfg(feature = "live")]
-    pub fn with_live(mut self, live: Option<crate::live::LiveServer>) -> Self {
-        if let Some(live) = live {
-            self.log.serve_live(live);
         }
-        self
     }
 
     /// The address of the live view, when one is served.
     #[cfg(feature = "live")]
     pub fn live_addr(&self) -> Option<std::net::SocketAddr> {
-        self.log.live().map(crate::live::LiveServer::addr)
+        self.log.live_addr()
     }
 
     /// Messages dropped because the writer fell behind ([`Delivery::DropWhenFull`]).
