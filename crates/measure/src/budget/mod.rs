@@ -212,6 +212,13 @@ pub struct EstimatorEffects {
     pub accel_offset_measured: bool,
 }
 
+/// One elementary error's effect on θ at one sigma.
+type Effect = [f64; 10];
+
+/// One elementary error's residual change at the rigid-body check's entries
+/// ([`rigid::subset`]), for the errors smooth in the motion.
+type Mode = Vec<Vector6<f64>>;
+
 /// The budget of one run at its end: the record, the estimator's settings, the rig
 /// description's figures, the run's estimate θ̂ with its counts, and the estimator's own
 /// effects. Without a usable record (too short) only the estimator's effects are known.
@@ -290,7 +297,7 @@ pub fn analyse(
                 .map(move |s| (source, s))
         })
         .collect();
-    let done: Vec<([f64; 10], Option<Vec<Vector6<f64>>>)> = work
+    let done: Vec<(Effect, Option<Mode>)> = work
         .par_iter()
         .map(|(_, s)| {
             let sigma = s.sigma(figures);

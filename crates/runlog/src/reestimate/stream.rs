@@ -31,7 +31,8 @@ pub const WAITING_FRAMES: usize = 120_000;
 enum RunState {
     /// Frames waiting for the settings.
     Waiting(VecDeque<SensorFrame>),
-    Running(Worker),
+    /// The replay under way (boxed: it carries the frame-to-sample stage).
+    Running(Box<Worker>),
 }
 
 /// Frames handed to a replay's thread at a time.
@@ -180,7 +181,7 @@ impl Stream<'_> {
             for f in frames.drain(..) {
                 worker.push(f);
             }
-            *state = RunState::Running(worker);
+            *state = RunState::Running(Box::new(worker));
         }
         Ok(())
     }
