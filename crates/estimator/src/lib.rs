@@ -44,7 +44,8 @@ pub use estimate::{ConvergenceTolerances, Counts, Estimate, ParameterCovariance}
 pub use hold::AccelerometerOffset;
 pub use legs::{CellEnd, LegModel};
 pub use online::{
-    EstimatorConfig, OnlineEstimator, Outcome, ParameterSet, Sample, ONLINE_ESTIMATOR_MAX_BYTES,
+    EstimatorConfig, OnlineEstimator, Outcome, ParameterSet, Sample, DEFAULT_MAX_RATE_ERROR,
+    ONLINE_ESTIMATOR_MAX_BYTES,
 };
 pub use rls::Rls;
 /// The inertial parameters and their θ layout, defined once in `stewart-types`.

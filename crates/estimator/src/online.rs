@@ -125,7 +125,7 @@ impl EstimatorConfig {
             window_start_s: f64::NEG_INFINITY,
             window_end_s: f64::INFINITY,
             max_gap_s: 10.0 * sample_period_s,
-            max_rate_error: 1e-4,
+            max_rate_error: DEFAULT_MAX_RATE_ERROR,
             gyro_noise_rad_s: 0.0,
             accel_noise_m_s2: 0.0,
             leg_force_offsets: false,
@@ -166,6 +166,10 @@ pub enum Outcome {
     /// It lies after the window and was ignored.
     AfterWindow,
 }
+
+/// [`EstimatorConfig::max_rate_error`]'s default: timestamps whose mean period is within 1e-4
+/// of the nominal one (0.1 µs at 1 kHz) keep the nominal period.
+pub const DEFAULT_MAX_RATE_ERROR: f64 = 1e-4;
 
 /// How θ is taken from the solver ([`OnlineEstimator::theta`], [`OnlineEstimator::theta_quick`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

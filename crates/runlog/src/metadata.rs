@@ -144,6 +144,11 @@ pub struct EstimatorSettings {
     pub window_end_s: Option<f64>,
     /// A longer step between samples restarts the conditioning, s.
     pub max_gap_s: f64,
+    /// Largest relative error of the nominal sample rate the timestamps may show before the
+    /// conditioning takes the measured period ([`estimator::timebase`]); a log without it was
+    /// estimated with the estimator's default, 1e-4.
+    #[serde(default = "default_max_rate_error")]
+    pub max_rate_error: f64,
     /// Samples per residual block of the covariance estimate.
     pub covariance_block_samples: u32,
     /// Gyro white noise per sample for the errors-in-variables correction, rad/s (0: off).
@@ -204,6 +209,10 @@ impl EstimatorSettings {
                     nullable(num("backend time, s; null = +inf")),
                 ),
                 ("max_gap_s", num("s")),
+                (
+                    "max_rate_error",
+                    num("largest relative sample-rate error before the measured period is used"),
+                ),
                 ("covariance_block_samples", int("")),
                 (
                     "gyro_noise_rad_s",
@@ -265,6 +274,7 @@ impl EstimatorSettings {
             window_start_s: finite(c.window_start_s),
             window_end_s: finite(c.window_end_s),
             max_gap_s: c.max_gap_s,
+            max_rate_error: c.max_rate_error,
             covariance_block_samples: c.covariance_block_samples,
             gyro_noise_rad_s: c.gyro_noise_rad_s,
             accel_noise_m_s2: c.accel_noise_m_s2,
@@ -302,6 +312,7 @@ impl EstimatorSettings {
         c.window_start_s = self.window_start_s.unwrap_or(f64::NEG_INFINITY);
         c.window_end_s = self.window_end_s.unwrap_or(f64::INFINITY);
         c.max_gap_s = self.max_gap_s;
+        c.max_rate_error = self.max_rate_error;
         c.covariance_block_samples = self.covariance_block_samples;
         c.gyro_noise_rad_s = self.gyro_noise_rad_s;
         c.accel_noise_m_s2 = self.accel_noise_m_s2;
@@ -318,6 +329,11 @@ impl EstimatorSettings {
 }
 
 /// The `[legs]` table as the log carries it.
+/// `max_rate_error` of a log that does not record it: the estimator's default then.
+fn default_max_rate_error() -> f64 {
+    estimator::DEFAULT_MAX_RATE_ERROR
+}
+
 fn legs_schema() -> Schema {
     object(
         vec![
@@ -434,6 +450,7 @@ mod tests {
         c.window_start_s = 1.234;
         c.window_end_s = 61.234;
         c.max_gap_s = 0.0123;
+        c.max_rate_error = 2.5e-4;
         c.gyro_noise_rad_s = 1.7e-4;
         c.accel_noise_m_s2 = 2.3e-3;
         c.covariance_block_samples = 321;
