@@ -9,6 +9,9 @@
 //! most [`super::Planner::max_frequency_hz`]. Then a coordinate search on the six axes' shares
 //! (each ×0.6 or ×1.6, kept when the criterion drops), two sweeps.
 //!
+//! **Fades.** The rig description's, each shortened to at most [`MAX_FADE_SHARE`] of the
+//! loaded run's excitation (for a short run), and written with the plan.
+//!
 //! **Scale.** The motion's size is the largest scale at which every limit holds along the
 //! whole path ([`super::Planner::check`]), found by bisection on a 5 ms grid and confirmed at
 //! the limits' own step; what broke first just above it is the binding limit.
@@ -122,6 +125,7 @@ pub fn design(
     tare_duration_s: f64,
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Plan, PlanError> {
+    let base = &with_short_fades(base, duration_s);
     let (fade_in, fade_out) = (base.fade_s, base.fade_out());
     let plateau = duration_s - fade_in - fade_out;
     if !(plateau > 0.0 && plateau.is_finite()) {
@@ -201,6 +205,24 @@ pub fn design(
         binding: best.binding,
         evaluated,
     })
+}
+
+/// Largest share of the loaded run's excitation each fade may take in a plan.
+pub const MAX_FADE_SHARE: f64 = 0.125;
+
+/// `base` with each fade at most [`MAX_FADE_SHARE`] of `duration_s`: the rig description's
+/// fades (2 s by default) suit a 20 s excitation, but would leave a 5 s one a 1 s plateau
+/// whose whole periods are too fast for the legs. The planned file carries the fades it
+/// was designed with, so the run moves as planned; the scale search keeps the shorter fades'
+/// faster start and stop within every limit.
+pub(super) fn with_short_fades(base: &ExcitationConfig, duration_s: f64) -> ExcitationConfig {
+    let cap = MAX_FADE_SHARE * duration_s;
+    let mut e = base.clone();
+    if base.fade_s > cap || base.fade_out() > cap {
+        e.fade_out_s = Some(base.fade_out().min(cap));
+        e.fade_s = base.fade_s.min(cap);
+    }
+    e
 }
 
 /// The family's shapes (see the [module docs](self)).

@@ -221,3 +221,28 @@ fn a_prior_that_is_not_a_body_is_refused_naming_the_key() {
     let err = crate::load::load_str("[plan]\ntarget_com_m = 0.0\n", "t.toml").expect_err("zero");
     assert!(err.to_string().contains("plan.target_com_m"), "{err}");
 }
+
+/// A short plan's fades take at most an eighth of its excitation each, and the file carries
+/// them; the default 20 s excitation keeps the rig description's 2 s, and a fade already
+/// short (the paper's 0.03 s fade-in) stays as it is.
+#[test]
+fn a_short_plan_shortens_the_fades_to_an_eighth_of_its_excitation() {
+    let (loaded, _) = default_planner();
+    let base = &loaded.config.excitation;
+    assert_eq!(base.fade_s, 2.0, "the default's fades");
+    let long = search::with_short_fades(base, 20.0);
+    assert_eq!((long.fade_s, long.fade_out()), (2.0, 2.0));
+    for (duration, fade) in [(5.0, 0.625), (2.0, 0.25)] {
+        let short = search::with_short_fades(base, duration);
+        assert_eq!(
+            (short.fade_s, short.fade_out()),
+            (fade, fade),
+            "{duration} s"
+        );
+    }
+    let mut paper = base.clone();
+    paper.fade_s = 0.03;
+    paper.fade_out_s = Some(1.0);
+    let short = search::with_short_fades(&paper, 4.0);
+    assert_eq!((short.fade_s, short.fade_out()), (0.03, 0.5));
+}
