@@ -38,7 +38,12 @@
 //!
 //! (Bₖ = J(L eₖ)) by damped Newton steps with a backtracking line search that keeps G ≻ 0.
 //! After centring at t the objective is within 4/t of the optimum (4 = the barrier's degree),
-//! so the iteration stops once 4/t ≤ 1e-8 (1 + ½‖z‖²) — ½d² is exact to 1e-8 of itself (or absolutely, below one). Every iterate is strictly consistent.
+//! so the iteration stops once 4/t ≤ 1e-8 (1 + ½‖z‖²): ½d² is exact to 1e-8 of itself (or
+//! absolutely, below one). It starts from θ̂'s pseudo-inertia with its eigenvalues raised to a
+//! small positive floor (in the units of T), at t₀ = 4/(½‖z₀‖²); every iterate is strictly
+//! consistent. H is formed as the Gram matrix of Cₖ = Λ⁻¹ Bₖ Λ⁻ᵀ (G = Λ Λᵀ) and the Newton
+//! system solved through its eigen-decomposition, which keeps the step finite and downhill
+//! when G is nearly singular.
 //!
 //! Fixed-size nalgebra, no allocation, no panic: a non-finite estimate or a covariance with no
 //! positive finite eigenvalue gives `None`.
