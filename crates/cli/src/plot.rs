@@ -81,7 +81,7 @@ pub struct Figures {
     pub course: Option<PredictedCourse>,
 }
 
-const NAMES: [(&str, &str, &str); 10] = [
+pub(crate) const NAMES: [(&str, &str, &str); 10] = [
     ("mass", "mass", "kg"),
     ("com_x", "centre of mass x", "m"),
     ("com_y", "centre of mass y", "m"),
