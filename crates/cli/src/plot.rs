@@ -9,7 +9,7 @@
 //! negative times. `sigma_course` sets the payload's sigma the run achieved beside the one
 //! `stewart plan` predicts for the log's excitation ([`course`]).
 
-mod course;
+pub mod course;
 mod draw;
 
 use std::path::{Path, PathBuf};
@@ -23,7 +23,7 @@ use runlog::metadata::BodyTruth;
 use runlog::read::{BodyRecord, LogContents};
 
 pub use course::{course_of_log, predicted_course, PredictedCourse, COURSE_POINTS};
-pub use draw::{write_figures, FIGURE_SIZE, OVERVIEW_SIZE};
+pub use draw::{write_figures, COURSE_SIZE, FIGURE_SIZE, OVERVIEW_SIZE};
 
 /// One quantity over time.
 #[derive(Clone, Debug, Default, PartialEq)]

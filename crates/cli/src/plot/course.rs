@@ -55,6 +55,33 @@ pub fn course_of_log(log: &LogContents) -> Option<PredictedCourse> {
     predicted_course(&loaded, COURSE_POINTS)
 }
 
+/// The course as CSV, one row per predicted time: `time_s`, then for each quantity (mass, com
+/// x/y/z in m, J_C xx … yz in kg·m²) its predicted sigma and the achieved one, the last
+/// `/estimate` sigma at or before that time (empty where there is none).
+pub fn course_csv(course: &PredictedCourse, achieved: &[super::ParameterSeries]) -> String {
+    let mut out = String::from("time_s");
+    for (stem, _, _) in super::NAMES {
+        out.push_str(&format!(",{stem}_predicted,{stem}_achieved"));
+    }
+    out.push('\n');
+    for (i, t) in course.time_s.iter().enumerate() {
+        out.push_str(&format!("{t}"));
+        for k in 0..10 {
+            let got = achieved.get(k).and_then(|p| {
+                let n = p.time_s.iter().take_while(|s| **s <= *t + 1e-9).count();
+                n.checked_sub(1).and_then(|j| p.sigma.get(j).copied())
+            });
+            out.push_str(&format!(
+                ",{},{}",
+                course.sigma[k][i],
+                got.map_or(String::new(), |v| v.to_string())
+            ));
+        }
+        out.push('\n');
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -76,6 +103,9 @@ mod tests {
         assert_eq!(course.time_s, vec![2.0, 4.0, 6.0, 8.0]);
         let last: [f64; 10] = core::array::from_fn(|k| course.sigma[k][3]);
         assert_eq!(last, plan.sigma.flat());
+        let csv = course_csv(&course, &[]);
+        assert_eq!(csv.lines().count(), 5);
+        assert!(csv.starts_with("time_s,mass_predicted,mass_achieved,com_x_predicted"));
         for (k, s) in course.sigma.iter().enumerate() {
             let known: Vec<f64> = s.iter().copied().filter(|v| v.is_finite()).collect();
             assert!(known.len() >= 3, "quantity {k}: {s:?}");

@@ -20,7 +20,8 @@ pub const FIGURE_SIZE: (u32, u32) = (900, 500);
 /// Pixel size of the overview of all ten quantities.
 pub const OVERVIEW_SIZE: (u32, u32) = (1800, 820);
 const EXCITATION_SIZE: (u32, u32) = (900, 700);
-const COURSE_SIZE: (u32, u32) = (1500, 520);
+/// Pixel size of the `sigma_course` figure (three panels side by side).
+pub const COURSE_SIZE: (u32, u32) = (1500, 520);
 
 const FONT: &str = "sans-serif";
 const LEG_COLOURS: [RGBColor; 6] = [
@@ -43,7 +44,7 @@ type DrawResult<T, DB> = Result<T, DrawingAreaErrorKind<<DB as DrawingBackend>::
 /// Writes every figure of `f` into `dir` (created if needed) as `NAME.svg` and `NAME.png`:
 /// `parameters` (all ten quantities), one per quantity (`mass`, `com_x`, …, `J_yz`),
 /// `tracking_error`, `excitation` and `sigma_course` (predicted against achieved sigma, when
-/// `f.course` is known). Returns the files written.
+/// `f.course` is known; its numbers also as `sigma_course.csv`). Returns the files written.
 pub fn write_figures(dir: &Path, f: &Figures) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)
         .with_context(|| format!("cannot create the figure directory {}", dir.display()))?;
@@ -90,6 +91,10 @@ pub fn write_figures(dir: &Path, f: &Figures) -> Result<Vec<PathBuf>> {
             &|a| sigma_course(a, c, &f.parameters),
             &|a| sigma_course(a, c, &f.parameters),
         )?;
+        let csv = dir.join("sigma_course.csv");
+        std::fs::write(&csv, super::course::course_csv(c, &f.parameters))
+            .with_context(|| format!("cannot write {}", csv.display()))?;
+        written.push(csv);
     }
     Ok(written)
 }
@@ -422,8 +427,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let files = write_figures(dir.path(), &figures()).unwrap();
         // overview + 10 quantities (all named `mass` here, so written over) + tracking +
-        // excitation + sigma course, each twice.
-        assert_eq!(files.len(), 2 * (1 + 10 + 3));
+        // excitation + sigma course, each twice, and the course's CSV.
+        assert_eq!(files.len(), 2 * (1 + 10 + 3) + 1);
         let course = std::fs::read_to_string(dir.path().join("sigma_course.svg")).unwrap();
         assert!(course.contains("mass: predicted") && course.contains("J_C yz: achieved"));
         assert!(course.contains("centre of mass (mm)"));

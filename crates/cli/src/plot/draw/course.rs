@@ -86,6 +86,7 @@ fn course_panel<DB: DrawingBackend>(
         .configure_mesh()
         .x_desc("time from excitation start (s)")
         .y_desc(format!("one sigma ({unit})"))
+        .y_label_formatter(&|v| two_significant(*v))
         .label_style((FONT, 14))
         .axis_desc_style((FONT, 14))
         .light_line_style(WHITE.mix(0.0))
@@ -117,4 +118,23 @@ fn course_panel<DB: DrawingBackend>(
         .border_style(BLACK.mix(0.5))
         .draw()?;
     Ok(())
+}
+
+/// A tick label with two significant digits (a log axis's ticks are not round in binary).
+fn two_significant(v: f64) -> String {
+    if !(v.is_finite() && v > 0.0) {
+        return String::new();
+    }
+    let decimals = (1.0 - v.log10().floor()).max(0.0) as usize;
+    format!("{v:.decimals$}")
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn tick_labels_keep_two_significant_digits() {
+        assert_eq!(super::two_significant(0.7000000000000001), "0.70");
+        assert_eq!(super::two_significant(0.012), "0.012");
+        assert_eq!(super::two_significant(250.0), "250");
+    }
 }
