@@ -126,5 +126,8 @@ fn simulate_and_estimate_plot_valid_svg_and_png() {
     let files = stewart_cli::plot::plot_log(&log, &again).unwrap();
     assert_eq!(files.len(), 2 * STEMS.len() + 1);
     let csv = std::fs::read_to_string(again.join("sigma_course.csv")).unwrap();
-    assert!(csv.starts_with("time_s,mass_predicted,mass_achieved"), "{csv}");
+    assert!(
+        csv.starts_with("time_s,mass_predicted,mass_achieved"),
+        "{csv}"
+    );
 }
