@@ -5,9 +5,9 @@ mod support;
 
 use std::path::Path;
 
-use stewart_cli::plot::{FIGURE_SIZE, OVERVIEW_SIZE};
+use stewart_cli::plot::{COURSE_SIZE, FIGURE_SIZE, OVERVIEW_SIZE};
 
-const STEMS: [&str; 13] = [
+const STEMS: [&str; 14] = [
     "parameters",
     "mass",
     "com_x",
@@ -21,6 +21,7 @@ const STEMS: [&str; 13] = [
     "J_yz",
     "tracking_error",
     "excitation",
+    "sigma_course",
 ];
 
 /// Decodes a PNG: its size, and how many pixels are not white.
@@ -56,6 +57,7 @@ fn check_dir(dir: &Path) {
         let expect = match stem {
             "parameters" => OVERVIEW_SIZE,
             "excitation" => (FIGURE_SIZE.0, 700),
+            "sigma_course" => COURSE_SIZE,
             _ => FIGURE_SIZE,
         };
         assert_eq!((w, h), expect, "{stem}.png size");
@@ -119,8 +121,13 @@ fn simulate_and_estimate_plot_valid_svg_and_png() {
     );
     check_dir(&estimate_figures);
 
-    // The library call the rig command uses writes the same set.
+    // The library call the rig command uses writes the same set, and the course's numbers.
     let again = d.join("figures-again");
     let files = stewart_cli::plot::plot_log(&log, &again).unwrap();
-    assert_eq!(files.len(), 2 * STEMS.len());
+    assert_eq!(files.len(), 2 * STEMS.len() + 1);
+    let csv = std::fs::read_to_string(again.join("sigma_course.csv")).unwrap();
+    assert!(
+        csv.starts_with("time_s,mass_predicted,mass_achieved"),
+        "{csv}"
+    );
 }

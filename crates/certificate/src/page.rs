@@ -170,7 +170,22 @@ fn results(s: &mut String, r: &Report) {
             esc(&r.consistency.problems.join("; "))
         )
     };
-    let _ = writeln!(s, "<p>{verdict}</p></section>");
+    let projected = if r.consistency.projected {
+        format!(
+            " The fitted estimate is not physically consistent: the values above are its \
+             projection onto the consistent set, the nearest consistent body in the metric of \
+             the covariance, {} from the fit (the report's <code>consistency.raw</code> holds the \
+             fit).",
+            r.consistency
+                .distance_sigma
+                .map_or("at an unknown distance".to_string(), |d| format!(
+                    "{d:.2} σ"
+                ))
+        )
+    } else {
+        String::new()
+    };
+    let _ = writeln!(s, "<p>{verdict}{projected}</p></section>");
 }
 
 fn principal(s: &mut String, r: &Report, cx: &Context<'_>) {

@@ -151,3 +151,17 @@ fn the_page_lists_the_applied_calibrations_with_their_dates() {
         assert!(html.contains(text), "{text} not on the page");
     }
 }
+
+#[test]
+fn a_projected_estimate_is_said_to_be_one() {
+    let plain = render(&parse(&report().to_json()).unwrap(), &context());
+    assert!(!plain.contains("projection onto the consistent set"));
+    let mut r = report();
+    r.consistency.verdict = "inconsistent".into();
+    r.consistency.problems = vec!["principal moments break the triangle inequality".into()];
+    r.consistency.projected = true;
+    r.consistency.distance_sigma = Some(2.5);
+    let html = render(&parse(&r.to_json()).unwrap(), &context());
+    assert!(html.contains("projection onto the consistent set"));
+    assert!(html.contains("2.50 σ from the fit"));
+}

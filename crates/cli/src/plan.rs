@@ -5,6 +5,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
+use control::trajectory::Trajectory;
 use measure::load::Overrides;
 use measure::plan::{self, Planner, Prediction};
 use measure::report::Quantities;
@@ -94,10 +95,7 @@ fn run(args: &PlanArgs) -> Result<(), CommandError> {
     .map_err(|e| refuse(e.to_string()))?;
     progress.finish();
     // The rig description's own excitation, predicted alike, for comparison.
-    let configured = measure::setup::trajectory(&loaded, &planner.geometry, duration_s)
-        .ok()
-        .zip(measure::setup::tare_trajectory(&loaded, &planner.geometry).ok())
-        .and_then(|(l, t)| planner.predict(&l, &t));
+    let configured = configured_prediction(&loaded, &planner, duration_s);
     let (worst_index, criterion) = plan.prediction.worst();
     let worst = Quantities::NAMES[worst_index];
     if let Some(path) = &args.out {
@@ -144,6 +142,28 @@ fn run(args: &PlanArgs) -> Result<(), CommandError> {
         }
     }
     Ok(())
+}
+
+/// The loaded and tare runs' trajectories of the rig description's own `[excitation]`, the
+/// loaded one `duration_s` long; `None` when either cannot be built.
+pub fn configured_trajectories(
+    loaded: &measure::LoadedConfig,
+    planner: &Planner,
+    duration_s: f64,
+) -> Option<(Trajectory, Trajectory)> {
+    measure::setup::trajectory(loaded, &planner.geometry, duration_s)
+        .ok()
+        .zip(measure::setup::tare_trajectory(loaded, &planner.geometry).ok())
+}
+
+/// The predicted sigma of the rig description's own excitation: the `configured σ` column of
+/// `stewart plan` (`configured_predicted_sigma` in `--json`).
+pub fn configured_prediction(
+    loaded: &measure::LoadedConfig,
+    planner: &Planner,
+    duration_s: f64,
+) -> Option<Prediction> {
+    configured_trajectories(loaded, planner, duration_s).and_then(|(l, t)| planner.predict(&l, &t))
 }
 
 /// The file's header: what it is, when, for what, and what it predicts.

@@ -6,8 +6,10 @@
 //! ([`figures_from_log`], what `simulate` and `rig` call through [`plot_log`]) or from an offline
 //! re-run ([`figures_from_reestimate`], what `estimate` calls). Time is in seconds from the
 //! start of the measurement's excitation (the estimator's first sample), so settling shows at
-//! negative times.
+//! negative times. `sigma_course` sets the payload's sigma the run achieved beside the one
+//! `stewart plan` predicts for the log's excitation ([`course`]).
 
+pub mod course;
 mod draw;
 
 use std::path::{Path, PathBuf};
@@ -20,7 +22,8 @@ use measure::TareFile;
 use runlog::metadata::BodyTruth;
 use runlog::read::{BodyRecord, LogContents};
 
-pub use draw::{write_figures, FIGURE_SIZE, OVERVIEW_SIZE};
+pub use course::{course_of_log, predicted_course, PredictedCourse, COURSE_POINTS};
+pub use draw::{write_figures, COURSE_SIZE, FIGURE_SIZE, OVERVIEW_SIZE};
 
 /// One quantity over time.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -72,9 +75,13 @@ pub struct Figures {
     pub tracking: Option<TrackingSeries>,
     /// Excitation (when the log has `/pose`).
     pub excitation: Option<ExcitationSeries>,
+    /// The payload's sigma as `stewart plan` predicts it over the excitation, for the
+    /// `sigma_course` figure beside the achieved sigma of `parameters` (when the log's rig
+    /// description can be planned for and the figures are the payload's).
+    pub course: Option<PredictedCourse>,
 }
 
-const NAMES: [(&str, &str, &str); 10] = [
+pub(crate) const NAMES: [(&str, &str, &str); 10] = [
     ("mass", "mass", "kg"),
     ("com_x", "centre of mass x", "m"),
     ("com_y", "centre of mass y", "m"),
@@ -256,6 +263,9 @@ pub fn figures_from_log(log: &LogContents) -> Result<Figures> {
         parameters: series(&times, &values, truth_of(log, &run, payload)),
         tracking,
         excitation,
+        course: (payload && run == "loaded")
+            .then(|| course_of_log(log))
+            .flatten(),
     })
 }
 
@@ -288,6 +298,7 @@ pub fn figures_from_reestimate(
         parameters: series(&times, &values, truth_of(log, run, true)),
         tracking,
         excitation,
+        course: (run == "loaded").then(|| course_of_log(log)).flatten(),
     })
 }
 

@@ -151,7 +151,24 @@ pub fn render(report: &Report) -> String {
             format!(" ({})", report.consistency.problems.join("; "))
         }
     );
+    if let Some(line) = projection_line(&report.consistency) {
+        let _ = writeln!(out, "{line}");
+    }
     out
+}
+
+/// The line that says the printed estimate is the fit's projection onto the consistent set,
+/// and how far it moved; `None` when the estimate is the fit itself.
+pub fn projection_line(c: &measure::report::Consistency) -> Option<String> {
+    if !c.projected {
+        return None;
+    }
+    Some(format!(
+        "estimate projected onto the physically consistent set: the nearest consistent body to \
+         the fit, {} from it in the covariance's metric (the fit is the report's consistency.raw)",
+        c.distance_sigma
+            .map_or("an unknown distance".to_string(), |d| format!("{d:.2} σ"))
+    ))
 }
 
 /// The error budget as a table: one row per source of the report's `error_budget`, columns
@@ -266,6 +283,20 @@ mod tests {
         });
         let w = rigid_body_warning(&report).unwrap();
         assert!(w.contains("1.30 Hz"), "{w}");
+    }
+
+    #[test]
+    fn a_projected_estimate_says_so() {
+        let mut report = Report::default();
+        assert!(!render(&report).contains("projected"));
+        report.consistency.projected = true;
+        report.consistency.distance_sigma = Some(1.234);
+        let text = render(&report);
+        let line = text.lines().find(|l| l.contains("projected")).unwrap();
+        assert!(
+            line.contains("1.23 σ") && line.contains("consistency.raw"),
+            "{line}"
+        );
     }
 
     #[test]

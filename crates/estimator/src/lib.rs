@@ -7,7 +7,9 @@
 //! the cells do not see of the legs' mass and the joints' friction ([`legs`], when described) →
 //! [`regressor`] (Newton–Euler about the P origin, linear in θ) → rows weighted by their noise →
 //! [`rls`] (U-D factorised recursive least squares) → [`uncertainty`] (block-sandwich
-//! covariance, propagated to c and J_C) → [`Estimate`].
+//! covariance, propagated to c and J_C) → [`Estimate`]. An estimate that is not physically
+//! consistent is projected onto the consistent set by [`projection::nearest_consistent`] (the
+//! nearest point in the metric of its covariance).
 //!
 //! θ = [m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz] about the P origin in P axes, with
 //! h = m·c and J_O = ∫(‖r‖²𝟙 − r rᵀ) dm (tensor entries, so the off-diagonal ones are minus the
@@ -27,6 +29,7 @@ pub mod filter;
 pub mod hold;
 pub mod legs;
 mod online;
+pub mod projection;
 pub mod regressor;
 pub mod rls;
 pub mod timebase;
@@ -47,6 +50,7 @@ pub use online::{
     EstimatorConfig, OnlineEstimator, Outcome, ParameterSet, Sample, DEFAULT_MAX_RATE_ERROR,
     ONLINE_ESTIMATOR_MAX_BYTES,
 };
+pub use projection::{nearest_consistent, Projection};
 pub use rls::Rls;
 /// The inertial parameters and their θ layout, defined once in `stewart-types`.
 pub use stewart_types::{

@@ -79,15 +79,7 @@ pub struct ResidualRms {
     pub torque_nm: [f64; 3],
 }
 
-/// Physical-consistency verdict on the payload estimate.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Consistency {
-    /// `"consistent"` or `"inconsistent"`.
-    pub verdict: String,
-    /// What failed, if anything (mass not positive, J_C not positive definite, triangle
-    /// inequality broken).
-    pub problems: Vec<String>,
-}
+pub use crate::consistency::{consistency_of, Consistency, RawEstimate};
 
 /// The tare (empty fixture) subtracted from the loaded estimate.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -469,17 +461,13 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
         })
         .collect();
     let systematic_only = Estimate::from_parameters(theta, systematic);
-    let axes = payload.principal_axes;
-    let consistency = payload.consistency;
+    let (consistency, reported) = consistency_of(&payload);
     let tare_estimate = Estimate::from_parameters(tare_params.0, tare_params.1);
     Report {
-        estimate: quantities(&payload),
+        estimate: quantities(&reported),
         sigma: sigmas(&payload),
         truth: i.truth,
-        principal: Principal {
-            moments: payload.principal_moments_kg_m2.into(),
-            axes: core::array::from_fn(|k| core::array::from_fn(|r| axes[(r, k)])),
-        },
+        principal: principal_of(&reported),
         samples: i.loaded.counts.used,
         excitation_s: i.excitation_s,
         convergence: Convergence {
@@ -510,17 +498,7 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
             rate_error: i.loaded.timing.rate_error,
             ..DataLoss::default()
         },
-        consistency: Consistency {
-            verdict: if consistency.is_consistent() {
-                "consistent".into()
-            } else {
-                "inconsistent".into()
-            },
-            problems: consistency
-                .first_failure()
-                .map(|f| vec![f.to_string()])
-                .unwrap_or_default(),
-        },
+        consistency,
         tare: TareUsed {
             source: match i.tare_kind {
                 TareKind::Measured => "measured".into(),
@@ -545,6 +523,15 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
             tare_blocks: i.tare.covariance_blocks,
             block_s: i.loaded.counts.covariance_block_samples as f64 * i.loaded.timing.period_s,
         },
+    }
+}
+
+/// Principal moments and axes of an estimate, as the report gives them.
+pub fn principal_of(e: &Estimate) -> Principal {
+    let axes = e.principal_axes;
+    Principal {
+        moments: e.principal_moments_kg_m2.into(),
+        axes: core::array::from_fn(|k| core::array::from_fn(|r| axes[(r, k)])),
     }
 }
 

@@ -12,11 +12,16 @@ use plotters::prelude::*;
 
 use super::{ExcitationSeries, Figures, ParameterSeries, TrackingSeries};
 
+mod course;
+use course::sigma_course;
+
 /// Pixel size of a single figure.
 pub const FIGURE_SIZE: (u32, u32) = (900, 500);
 /// Pixel size of the overview of all ten quantities.
 pub const OVERVIEW_SIZE: (u32, u32) = (1800, 820);
 const EXCITATION_SIZE: (u32, u32) = (900, 700);
+/// Pixel size of the `sigma_course` figure (three panels side by side).
+pub const COURSE_SIZE: (u32, u32) = (1500, 520);
 
 const FONT: &str = "sans-serif";
 const LEG_COLOURS: [RGBColor; 6] = [
@@ -38,7 +43,8 @@ type DrawResult<T, DB> = Result<T, DrawingAreaErrorKind<<DB as DrawingBackend>::
 
 /// Writes every figure of `f` into `dir` (created if needed) as `NAME.svg` and `NAME.png`:
 /// `parameters` (all ten quantities), one per quantity (`mass`, `com_x`, …, `J_yz`),
-/// `tracking_error` and `excitation`. Returns the files written.
+/// `tracking_error`, `excitation` and `sigma_course` (predicted against achieved sigma, when
+/// `f.course` is known; its numbers also as `sigma_course.csv`). Returns the files written.
 pub fn write_figures(dir: &Path, f: &Figures) -> Result<Vec<PathBuf>> {
     std::fs::create_dir_all(dir)
         .with_context(|| format!("cannot create the figure directory {}", dir.display()))?;
@@ -77,6 +83,18 @@ pub fn write_figures(dir: &Path, f: &Figures) -> Result<Vec<PathBuf>> {
         both("excitation", EXCITATION_SIZE, &|a| excitation(a, e), &|a| {
             excitation(a, e)
         })?;
+    }
+    if let Some(c) = &f.course {
+        both(
+            "sigma_course",
+            COURSE_SIZE,
+            &|a| sigma_course(a, c, &f.parameters),
+            &|a| sigma_course(a, c, &f.parameters),
+        )?;
+        let csv = dir.join("sigma_course.csv");
+        std::fs::write(&csv, super::course::course_csv(c, &f.parameters))
+            .with_context(|| format!("cannot write {}", csv.display()))?;
+        written.push(csv);
     }
     Ok(written)
 }
@@ -352,6 +370,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::plot::PredictedCourse;
 
     fn figures() -> Figures {
         let time_s: Vec<f64> = (0..200).map(|i| i as f64 * 0.05 - 1.0).collect();
@@ -396,6 +415,10 @@ mod tests {
                         .collect()
                 }),
             }),
+            course: Some(PredictedCourse {
+                time_s: (1..=8).map(|k| k as f64).collect(),
+                sigma: core::array::from_fn(|_| (1..=8).map(|k| 40.0 / k as f64).collect()),
+            }),
         }
     }
 
@@ -404,8 +427,13 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let files = write_figures(dir.path(), &figures()).unwrap();
         // overview + 10 quantities (all named `mass` here, so written over) + tracking +
-        // excitation, each twice.
-        assert_eq!(files.len(), 2 * (1 + 10 + 2));
+        // excitation + sigma course, each twice, and the course's CSV.
+        assert_eq!(files.len(), 2 * (1 + 10 + 3) + 1);
+        let course = std::fs::read_to_string(dir.path().join("sigma_course.svg")).unwrap();
+        assert!(course.contains("mass: predicted") && course.contains("J_C yz: achieved"));
+        assert!(course.contains("centre of mass (mm)"));
+        let png = std::fs::read(dir.path().join("sigma_course.png")).unwrap();
+        assert_eq!(&png[1..4], b"PNG");
         let svg = std::fs::read_to_string(dir.path().join("parameters.svg")).unwrap();
         assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
         assert!(svg.contains("truth") && svg.contains("estimate"));

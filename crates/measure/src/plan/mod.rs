@@ -227,19 +227,35 @@ impl Planner {
     /// `tare` (the payload is loaded − tare, so both runs' noise counts); `None` when a run
     /// does not determine all ten parameters.
     pub fn predict(&self, loaded: &Trajectory, tare: &Trajectory) -> Option<Prediction> {
+        self.predict_until(loaded, tare, f64::INFINITY)
+    }
+
+    /// The payload's predicted sigma after the loaded run's first `until_s` seconds of
+    /// `loaded` (its samples at t ≤ `until_s`; the tare run whole): the information of
+    /// [`Self::predict`] accumulated up to that time, through the same code. `None` when the
+    /// samples so far do not determine all ten parameters.
+    pub fn predict_until(
+        &self,
+        loaded: &Trajectory,
+        tare: &Trajectory,
+        until_s: f64,
+    ) -> Option<Prediction> {
         let period = self.conditioning.period_s;
         let total = self.payload + self.fixture;
-        let run = |trajectory: &Trajectory, theta: &ParameterVector| {
-            let points = motion::sample(trajectory, period);
+        let run = |points: &[motion::MotionPoint], theta: &ParameterVector| {
             predict::covariance(
-                &points,
+                points,
                 theta,
                 &self.geometry,
                 &self.conditioning,
                 &self.noise,
             )
         };
-        let cov: SMatrix<f64, 10, 10> = run(loaded, &total)? + run(tare, &self.fixture)?;
+        let mut loaded_points = motion::sample(loaded, period);
+        loaded_points.retain(|p| p.time_s <= until_s);
+        let tare_points = motion::sample(tare, period);
+        let cov: SMatrix<f64, 10, 10> =
+            run(&loaded_points, &total)? + run(&tare_points, &self.fixture)?;
         let derived = estimator::uncertainty::derive(&self.payload, &cov)?;
         let sigma = Quantities {
             mass: cov[(0, 0)].max(0.0).sqrt(),
@@ -251,6 +267,20 @@ impl Planner {
         let flat = sigma.flat();
         let ratios = core::array::from_fn(|i| flat[i] / self.targets[i]);
         Some(Prediction { sigma, ratios })
+    }
+
+    /// [`Self::predict_until`] at each of `times_s`: the predicted sigma's course over the
+    /// excitation, with `None` where the samples so far do not yet determine θ.
+    pub fn predicted_course(
+        &self,
+        loaded: &Trajectory,
+        tare: &Trajectory,
+        times_s: &[f64],
+    ) -> Vec<(f64, Option<Prediction>)> {
+        times_s
+            .iter()
+            .map(|&t| (t, self.predict_until(loaded, tare, t)))
+            .collect()
     }
 
     /// Checks `trajectory` with the body `theta` on the plate (the payload's centre of mass

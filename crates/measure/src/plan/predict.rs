@@ -80,6 +80,9 @@ pub fn covariance(
     for phi in &phis {
         a += phi.transpose() * w * phi;
     }
+    if !determined(&a) {
+        return None;
+    }
     let a_inv = a.try_inverse()?;
     let sens = |s: RegressorSignals| -> Vector6<f64> { from_signals(&s) * theta };
     let r = conditioning.lever_m;
@@ -122,6 +125,23 @@ pub fn covariance(
     }
     let cov = a_inv * b * a_inv;
     cov.iter().all(|v| v.is_finite()).then_some(cov)
+}
+
+/// Smallest eigenvalue of A scaled to a unit diagonal, D^-½ A D^-½, below which the samples do
+/// not determine θ (the motion so far leaves a combination of parameters unseen).
+const MIN_SCALED_EIGENVALUE: f64 = 1e-12;
+
+/// True when the information A = Σ Φᵀ W Φ determines all ten parameters: every diagonal entry
+/// positive and the smallest eigenvalue of D^-½ A D^-½ (D = diag A, a unit-free measure) at
+/// least [`MIN_SCALED_EIGENVALUE`]. A singular A's inverse in floating point is not a
+/// prediction.
+fn determined(a: &Cov) -> bool {
+    let d = a.diagonal();
+    if !d.iter().all(|v| *v > 0.0 && v.is_finite()) {
+        return false;
+    }
+    let s = Cov::from_diagonal(&d.map(|v| 1.0 / v.sqrt()));
+    (s * a * s).symmetric_eigenvalues().min() >= MIN_SCALED_EIGENVALUE
 }
 
 /// ∂[ωx², ωy², ωz², ωxωy, ωxωz, ωyωz]/∂ω_k.

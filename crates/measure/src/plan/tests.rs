@@ -246,3 +246,36 @@ fn a_short_plan_shortens_the_fades_to_an_eighth_of_its_excitation() {
     let short = search::with_short_fades(&paper, 4.0);
     assert_eq!((short.fade_s, short.fade_out()), (0.03, 0.5));
 }
+
+/// The course over the excitation: at the full length it is `predict` itself (the same code,
+/// to the bit), and it falls as the loaded run's information accumulates; before the motion
+/// has determined θ it is `None`, not a figure.
+#[test]
+fn the_predicted_sigma_falls_with_excitation_time_to_the_whole_runs() {
+    let (_, planner) = default_planner();
+    let duration = 12.0;
+    let loaded = brisk(&planner, duration);
+    let tare = brisk(&planner, 6.0);
+    let whole = planner.predict(&loaded, &tare).expect("determined");
+    let course = planner.predicted_course(&loaded, &tare, &[0.002, 3.0, 6.0, 9.0, duration]);
+    assert!(course[0].1.is_none(), "two samples determine nothing");
+    let last = course[4].1.as_ref().expect("determined");
+    assert_eq!(last.sigma, whole.sigma);
+    for pair in course[1..].windows(2) {
+        let (a, b) = (
+            pair[0].1.as_ref().expect("determined").sigma.flat(),
+            pair[1].1.as_ref().expect("determined").sigma.flat(),
+        );
+        for k in 0..10 {
+            assert!(
+                b[k] < a[k],
+                "{} at {} s: {} ≥ {} at {} s",
+                Quantities::NAMES[k],
+                pair[1].0,
+                b[k],
+                a[k],
+                pair[0].0
+            );
+        }
+    }
+}
