@@ -73,6 +73,25 @@ pub fn needed_seconds(block_s: f64) -> f64 {
     f64::from(MIN_COVARIANCE_BLOCKS + 2) * block_s
 }
 
+/// Samples per residual block for an excitation of `excitation_s` sampled every `period_s`:
+/// `default_samples` (the estimator's 8/f_c), or, when the excitation would give fewer than
+/// [`MIN_COVARIANCE_BLOCKS`] counted blocks of it, the length that gives them with one block to
+/// spare (`excitation / (MIN_COVARIANCE_BLOCKS + 3)`), but never under half the default: 4/f_c
+/// is still four times the low-pass's memory, so the blocks stay nearly independent, and a
+/// shorter excitation is refused ([`check_covariance`]) as before.
+pub fn block_samples_for(default_samples: u32, excitation_s: f64, period_s: f64) -> u32 {
+    let samples = excitation_s / period_s;
+    if !(samples.is_finite() && samples > 0.0) {
+        return default_samples;
+    }
+    let fitting = (samples / f64::from(MIN_COVARIANCE_BLOCKS + 3)).floor();
+    if fitting >= f64::from(default_samples) {
+        return default_samples;
+    }
+    let floor = default_samples.div_ceil(2).max(1);
+    (fitting as u32).max(floor)
+}
+
 /// rejected / (used + rejected); 0 without samples.
 pub fn rejected_share(used: u64, rejected: u64) -> f64 {
     let total = used.saturating_add(rejected);
@@ -114,6 +133,20 @@ pub fn check_covariance(run: &'static str, blocks: u64, block_s: f64) -> Result<
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_short_excitation_gets_shorter_blocks_down_to_half_the_default() {
+        // 400 samples of 1 ms (0.4 s) by default; MIN_COVARIANCE_BLOCKS + 3 = 9 blocks.
+        assert_eq!(block_samples_for(400, 20.0, 1e-3), 400);
+        assert_eq!(block_samples_for(400, 3.6, 1e-3), 400);
+        assert_eq!(block_samples_for(400, 2.0, 1e-3), 222);
+        assert_eq!(block_samples_for(400, 1.0, 1e-3), 200);
+        assert_eq!(block_samples_for(400, f64::INFINITY, 1e-3), 400);
+        assert_eq!(block_samples_for(400, f64::NAN, 1e-3), 400);
+        assert_eq!(block_samples_for(400, -1.0, 1e-3), 400);
+        // A 2 s excitation at 222 samples needs needed_seconds(0.222) = 1.8 s: it fits.
+        assert!(needed_seconds(0.222) <= 2.0);
+    }
 
     #[test]
     fn no_samples_or_mostly_rejected_fail_and_say_so() {

@@ -306,12 +306,18 @@ pub fn tick(
         )
         .with_load_cell_gains(config.calibration.load_cell_gains());
     let excitation_s = controller.trajectory().duration_s();
-    let estimator = estimator_config(
+    let mut estimator = estimator_config(
         config,
         geometry,
         measurement,
         f64::NEG_INFINITY,
         f64::INFINITY,
+    );
+    // A short excitation gets blocks short enough for a measured sigma (the log records them).
+    estimator.covariance_block_samples = crate::quality::block_samples_for(
+        estimator.covariance_block_samples,
+        excitation_s,
+        estimator.sample_period_s,
     );
     crate::tick::Tick::new(controller, feed, estimator, excitation_s)
 }

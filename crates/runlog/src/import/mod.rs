@@ -255,8 +255,14 @@ pub fn import(plan: &ImportPlan<'_>) -> Result<Imported> {
         // The settings are logged when the window opens, as the online run logs them.
         if let Some((_, started @ false)) = &mut current {
             if time_s >= r.window_s[0] {
-                let c =
+                let mut c =
                     setup::estimator_config(config, &geometry, run, r.window_s[0], r.window_s[1]);
+                // As a measurement does: a short window gets blocks short enough for a sigma.
+                c.covariance_block_samples = measure::quality::block_samples_for(
+                    c.covariance_block_samples,
+                    r.window_s[1] - r.window_s[0],
+                    c.sample_period_s,
+                );
                 let settings = EstimatorSettings::from_config(run.name(), &c, &fk);
                 log.write(topics::ESTIMATOR_SETTINGS, time_s, &settings)?;
                 *started = true;
