@@ -136,17 +136,7 @@ fn jacobian_in_f32_maps_twists_as_finite_differences_of_f64_ik() {
     for pose in poses(20) {
         let j32 = jacobian_case::<f32>(&pose);
         for k in 0..6 {
-            let mut twist = Vector6::zeros();
-            twist[k] = h;
-            let step = |sign: f64| {
-                let dp = Vector3::new(twist[0], twist[1], twist[2]) * sign;
-                let dphi = Vector3::new(twist[3], twist[4], twist[5]) * sign;
-                Pose::new(
-                    pose.position_m + dp,
-                    nalgebra::Rotation3::new(dphi) * pose.rotation,
-                )
-            };
-            let numeric = (g.leg_lengths(&step(1.0)) - g.leg_lengths(&step(-1.0))) / (2.0 * h);
+            let numeric = crate::jacobian::tests::numeric_column(&g, &pose, k, h);
             let difference = (numeric - j32.column(k)).amax();
             assert!(difference < 20.0 * U, "column {k}: {difference:e}");
         }

@@ -91,7 +91,7 @@ impl<T: Real> Geometry<T> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use crate::{Geometry, Pose, StrokeLimits};
     use nalgebra::{Vector3, Vector6};
 
@@ -101,6 +101,22 @@ mod tests {
             max_length_m: 2.3,
         };
         Geometry::from_radii(1.5, 1.2, 0.35, 0.35, stroke).unwrap()
+    }
+
+    /// Column `k` of the Jacobian by central differences of IK with step `h` along twist
+    /// component k (an angular velocity in B acts as a left multiplication by exp(dφ)).
+    pub(crate) fn numeric_column(g: &Geometry, pose: &Pose, k: usize, h: f64) -> Vector6<f64> {
+        let step = |sign: f64| {
+            let mut twist = Vector6::zeros();
+            twist[k] = h * sign;
+            let dp = Vector3::new(twist[0], twist[1], twist[2]);
+            let dphi = Vector3::new(twist[3], twist[4], twist[5]);
+            Pose::new(
+                pose.position_m + dp,
+                nalgebra::Rotation3::new(dphi) * pose.rotation,
+            )
+        };
+        (g.leg_lengths(&step(1.0)) - g.leg_lengths(&step(-1.0))) / (2.0 * h)
     }
 
     #[test]
@@ -113,20 +129,8 @@ mod tests {
             0.1,
         );
         let j = g.jacobian(&pose);
-        let h = 1e-6;
         for k in 0..6 {
-            let mut twist = Vector6::zeros();
-            twist[k] = h;
-            let step = |sign: f64| {
-                let dp = Vector3::new(twist[0], twist[1], twist[2]) * sign;
-                let dphi = Vector3::new(twist[3], twist[4], twist[5]) * sign;
-                // Angular velocity in B acts as a left multiplication by exp(dφ).
-                Pose::new(
-                    pose.position_m + dp,
-                    nalgebra::Rotation3::new(dphi) * pose.rotation,
-                )
-            };
-            let numeric = (g.leg_lengths(&step(1.0)) - g.leg_lengths(&step(-1.0))) / (2.0 * h);
+            let numeric = numeric_column(&g, &pose, k, 1e-6);
             for i in 0..6 {
                 assert!(
                     (numeric[i] - j[(i, k)]).abs() < 1e-8,
