@@ -95,6 +95,13 @@ pub struct TareUsed {
     pub sigma: [f64; 10],
     /// The fixture's mass, centre of mass and J_C.
     pub estimate: Quantities,
+    /// One sigma of `estimate` with every error source of the rig description: the tare run's
+    /// covariance plus each elementary error's effect on the tare run alone (its error budget,
+    /// [`crate::budget::payload_covariances`] with nothing to subtract), what the fixture itself
+    /// is measured to. `sigma` above is the covariance alone; most of the sources cancel in the
+    /// payload (loaded − tare) but not here. `null` when the tare carries no error budget.
+    #[serde(default)]
+    pub own_sigma: Option<Quantities>,
 }
 
 /// One source's line of the error budget.
@@ -463,6 +470,16 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
     let systematic_only = Estimate::from_parameters(theta, systematic);
     let (consistency, reported) = consistency_of(&payload);
     let tare_estimate = Estimate::from_parameters(tare_params.0, tare_params.1);
+    let tare_own_sigma = tare_budget.as_ref().map(|b| {
+        let (alone, _) = crate::budget::payload_covariances(
+            b,
+            &tare_params.1,
+            Some(&empty),
+            &estimator::ParameterCovariance::zeros(),
+        );
+        let own: estimator::ParameterCovariance = alone.iter().map(|c| c.covariance).sum();
+        sigmas(&Estimate::from_parameters(tare_params.0, own))
+    });
     Report {
         estimate: quantities(&reported),
         sigma: sigmas(&payload),
@@ -508,6 +525,7 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
             theta: i.tare.theta,
             sigma: core::array::from_fn(|k| i.tare.covariance[k][k].max(0.0).sqrt()),
             estimate: quantities(&tare_estimate),
+            own_sigma: tare_own_sigma,
         },
         error_budget,
         budget_notes: notes,
@@ -931,6 +949,20 @@ mod tests {
             .iter()
             .all(|l| l.sigma.inertia_com[0][0] > 0.0));
         assert_budget_adds_up(&r);
+        // The fixture's own mass sigma: its covariance (the statistical sources) plus every
+        // other source's three effects on the tare alone (0.3 × 0.01 sin(0.37 j) on the mass),
+        // none cancelled.
+        let effects: f64 = (0..3)
+            .map(|j| (0.3 * (j as f64 * 0.37).sin() * 0.01).powi(2))
+            .sum();
+        let systematic = ErrorSource::ALL
+            .iter()
+            .filter(|s| !is_statistical(**s))
+            .count();
+        let own = (0.5e-3 + systematic as f64 * effects).sqrt();
+        let got = r.tare.own_sigma.expect("the tare has a budget").mass;
+        assert!((got - own).abs() < 1e-12 * own, "{got} against {own}");
+        assert!(got > r.tare.sigma[0]);
     }
 
     #[test]
