@@ -17,10 +17,10 @@
 #![warn(missing_docs)]
 
 pub mod codec;
+mod convert;
+pub mod station;
 pub mod wire;
 
-#[cfg(feature = "std")]
-mod convert;
 #[cfg(feature = "std")]
 pub mod emulator;
 #[cfg(feature = "std")]
