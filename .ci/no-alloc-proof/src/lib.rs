@@ -1,6 +1,6 @@
-//! Links the three cores and the shared types into a `no_std` static library without an
-//! allocator (see Cargo.toml) and calls their per-tick functions, so that the linker sees every
-//! path a tick can take.
+//! Links the three cores, the rig core and the shared types into a `no_std` static library
+//! without an allocator (see Cargo.toml) and calls their per-tick functions, so that the linker
+//! sees every path a tick can take.
 #![no_std]
 
 use control::controller::{Controller, ControllerConfig};
