@@ -97,22 +97,22 @@ pub extern "C" fn proof_parameters_consistent(mass_kg: f64, height_m: f64) -> u3
     u32::from((sphere + point).consistency().is_consistent())
 }
 
-/// The rig core: a keyed station opens a session from a host's `Hello`, takes one command and
+/// The rig core: a keyed core opens a session from a host's `Hello`, takes one command and
 /// runs `ticks` periods on a sensed frame at rest, encoding every frame into a static outbox.
-/// Returns the bytes the station emitted (0 when the session did not open).
+/// Returns the bytes the core emitted (0 when the session did not open).
 #[no_mangle]
 pub extern "C" fn proof_rig_tick(ticks: u32, leg_length_m: f64) -> u32 {
     use rig::codec::{self, Auth, MAX_FRAME_LEN};
-    use rig::station::{Outbox, Station, StationConfig, StationKey};
+    use rig::firmware::{CoreConfig, CoreKey, Outbox, RigCore};
     use rig::wire::{identity_from_str, Command, Hello, Limits, Message, SensorLayout};
 
     static mut OUTBOX: Outbox<u8> = Outbox::new();
     const KEY: &[u8] = b"no-alloc proof key, 32 bytes....";
     const MS: u64 = 1_000_000;
-    let Ok(key) = StationKey::new(KEY) else {
+    let Ok(key) = CoreKey::new(KEY) else {
         return 0;
     };
-    let config = StationConfig {
+    let config = CoreConfig {
         identity: identity_from_str("no-alloc proof"),
         layout: SensorLayout {
             leg_count: 6,
@@ -134,7 +134,7 @@ pub extern "C" fn proof_rig_tick(ticks: u32, leg_length_m: f64) -> u32 {
         speed_window: 10,
         seed: u64::from(ticks),
     };
-    let Ok(mut station) = Station::<u8>::new(config) else {
+    let Ok(mut rig) = RigCore::<u8>::new(config) else {
         return 0;
     };
     // SAFETY: the only reference to OUTBOX, on the one thread that runs this function.
@@ -151,9 +151,9 @@ pub extern "C" fn proof_rig_tick(ticks: u32, leg_length_m: f64) -> u32 {
     let Ok(n) = codec::encode(&hello, Some(&auth), &mut frame) else {
         return 0;
     };
-    station.receive(0, 1, frame.get(..n).unwrap_or(&[]), out);
+    rig.receive(0, 1, frame.get(..n).unwrap_or(&[]), out);
     out.clear();
-    let Some(session) = station.session() else {
+    let Some(session) = rig.session() else {
         return 0;
     };
     let command = Message::Command(Command {
@@ -169,7 +169,7 @@ pub extern "C" fn proof_rig_tick(ticks: u32, leg_length_m: f64) -> u32 {
     let Ok(n) = codec::encode(&command, Some(&auth), &mut frame) else {
         return 0;
     };
-    station.receive(0, 1, frame.get(..n).unwrap_or(&[]), out);
+    rig.receive(0, 1, frame.get(..n).unwrap_or(&[]), out);
     let sensors = SensorFrame {
         leg_lengths_m: [leg_length_m; 6],
         accel_m_s2: [0.0, 0.0, STANDARD_GRAVITY_M_S2],
@@ -177,7 +177,7 @@ pub extern "C" fn proof_rig_tick(ticks: u32, leg_length_m: f64) -> u32 {
     };
     let mut sent = 0u32;
     for k in 0..ticks {
-        let _ = station.tick(u64::from(k) * MS, &sensors, out);
+        let _ = rig.tick(u64::from(k) * MS, &sensors, out);
         for f in out.frames() {
             sent = sent.saturating_add(u32::try_from(f.bytes().len()).unwrap_or(u32::MAX));
         }

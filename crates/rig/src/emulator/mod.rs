@@ -1,13 +1,13 @@
 //! The rig emulator: any `control::io::Backend` (the simulator, in practice) served behind the
 //! protocol in real time, with the safety a real rig controller enforces by itself.
 //!
-//! The rig's side of the protocol is the firmware's own code, [`crate::station::Station`]:
-//! the emulator adds a wall clock, a transport and the inner backend as the station's sensors
-//! and actuators. Every sample period, paced by the wall clock, it asks the station for the
+//! The rig's side of the protocol is the firmware's own code, [`crate::firmware::RigCore`]:
+//! the emulator adds a wall clock, a transport and the inner backend as the rig core's sensors
+//! and actuators. Every sample period, paced by the wall clock, it asks the rig core for the
 //! actuator output (the newest valid command, or the brakes), applies it to the inner backend
 //! (`write`, which advances a simulator by one period), hands the backend's sensors to the
-//! station and sends the frames the station assembled. Frames that arrive between ticks go to
-//! the station as they come. The station brakes and reports a [`Fault`] when no valid command
+//! rig core and sends the frames the rig core assembled. Frames that arrive between ticks go to
+//! the rig core as they come. The rig core brakes and reports a [`Fault`] when no valid command
 //! arrived within the watchdog time (20 ms), when a command exceeds the force limits, or when
 //! a leg leaves its stroke or exceeds its speed limit; a fault holds the brakes until the host
 //! opens a new session.
@@ -16,7 +16,7 @@
 //! of sequence, or (with a key) without a valid tag are dropped and counted.
 //!
 //! [`FaultInjection`] degrades the link on purpose, for tests: it acts on the frames the
-//! station emits, as a damaged link between the firmware and the host would.
+//! rig core emits, as a damaged link between the firmware and the host would.
 
 mod config;
 
@@ -37,9 +37,9 @@ use rand::{Rng, SeedableRng};
 
 use crate::codec::MAX_FRAME_LEN;
 use crate::error::RigError;
-use crate::station::{
-    FrameKind, Outbox, Station, StationConfig, StationEvent, StationKey, StationStats,
-    OUTBOX_EVENTS, OUTBOX_FRAMES,
+use crate::firmware::{
+    CoreConfig, CoreEvent, CoreKey, CoreStats, FrameKind, Outbox, RigCore, OUTBOX_EVENTS,
+    OUTBOX_FRAMES,
 };
 use crate::transport::{self, Address, Peer, Recv, Transport};
 use crate::wire::{identity_from_str, Command, Fault};
@@ -54,8 +54,8 @@ pub struct Emulator<B> {
     transport: Box<dyn Transport>,
     config: EmulatorConfig,
     period: Duration,
-    station: Station<Peer>,
-    /// The station's clock: its nanoseconds count from here.
+    core: RigCore<Peer>,
+    /// The rig core's clock: its nanoseconds count from here.
     epoch: Instant,
     stats: EmulatorStats,
     rng: StdRng,
@@ -88,16 +88,16 @@ where
     Ok(emulator.stats)
 }
 
-/// The station's configuration for an emulator's: times in nanoseconds, the key by value.
-fn station_config(config: &EmulatorConfig, period: Duration) -> Result<StationConfig, RigError> {
+/// The rig core's configuration for an emulator's: times in nanoseconds, the key by value.
+fn core_config(config: &EmulatorConfig, period: Duration) -> Result<CoreConfig, RigError> {
     let ns = |d: Duration| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX);
     let key = match &config.key {
         Some(key) => {
-            Some(StationKey::new(key.bytes()).map_err(|e| RigError::config("key", e.to_string()))?)
+            Some(CoreKey::new(key.bytes()).map_err(|e| RigError::config("key", e.to_string()))?)
         }
         None => None,
     };
-    Ok(StationConfig {
+    Ok(CoreConfig {
         identity: identity_from_str(&config.identity),
         layout: config.layout,
         limits: config.limits,
@@ -158,13 +158,13 @@ where
             return Err(RigError::config(format!("{l:?}"), "unusable limits"));
         }
         let period = Duration::from_secs_f64(period_s);
-        let station = Station::new(station_config(&config, period)?)
+        let core = RigCore::new(core_config(&config, period)?)
             .map_err(|e| RigError::config("emulator", e.to_string()))?;
         Ok(Self {
             inner,
             transport,
             period,
-            station,
+            core,
             epoch: Instant::now(),
             stats: EmulatorStats::default(),
             rng: StdRng::seed_from_u64(config.seed),
@@ -192,8 +192,8 @@ where
     }
 
     /// The rig core the emulator runs (its session, its counters).
-    pub fn station(&self) -> &Station<Peer> {
-        &self.station
+    pub fn core(&self) -> &RigCore<Peer> {
+        &self.core
     }
 
     /// Every fault the emulator reported, in order.
@@ -221,12 +221,12 @@ where
     /// open (the last one timed out), from the last session's; braking ones included; `None`
     /// before the first.
     pub fn last_command(&self) -> Option<Command> {
-        self.station.last_command()
+        self.core.last_command()
     }
 
     /// The current session's host.
     pub fn session_peer(&self) -> Option<Peer> {
-        self.station.session().map(|s| s.peer)
+        self.core.session().map(|s| s.peer)
     }
 
     /// When the last sensor frame went onto the link (for measuring how fast a host notices
@@ -299,7 +299,7 @@ where
     }
 
     fn host_is_behind(&self) -> bool {
-        match self.station.session() {
+        match self.core.session() {
             Some(s) if s.fault.is_none() && !self.silent => s
                 .latest
                 .is_some_and(|c| c.sensor_sequence < self.last_intact_sequence),
@@ -307,16 +307,16 @@ where
         }
     }
 
-    /// The station's time of `instant`, ns.
+    /// The rig core's time of `instant`, ns.
     fn ns(&self, instant: Instant) -> u64 {
         u64::try_from(instant.saturating_duration_since(self.epoch).as_nanos()).unwrap_or(u64::MAX)
     }
 
-    /// One sample period: the station's actuator output to the inner backend (which advances
-    /// by one period), its sensors back to the station, the station's frames onto the link.
+    /// One sample period: the rig core's actuator output to the inner backend (which advances
+    /// by one period), its sensors back to the rig core, the rig core's frames onto the link.
     fn tick(&mut self, now: Instant) -> Result<(), RigError> {
         self.stats.ticks += 1;
-        let command = self.station.actuate(self.ns(now), &mut self.outbox);
+        let command = self.core.actuate(self.ns(now), &mut self.outbox);
         self.deliver(now);
         self.inner.write(&command).map_err(|e| RigError::Backend {
             reason: e.to_string(),
@@ -324,12 +324,12 @@ where
         let frame = self.inner.read().map_err(|e| RigError::Backend {
             reason: e.to_string(),
         })?;
-        self.station.report(&frame, &mut self.outbox);
+        self.core.report(&frame, &mut self.outbox);
         self.deliver(now);
         Ok(())
     }
 
-    /// Acts on what the station's last call put in the outbox: its events first (a session
+    /// Acts on what the rig core's last call put in the outbox: its events first (a session
     /// hook runs before the `HelloAck` goes out), then its frames, in order; empties it.
     fn deliver(&mut self, now: Instant) {
         // Copies out of the outbox (no heap): the hooks and the link need `self` mutably.
@@ -338,7 +338,7 @@ where
                 break;
             };
             match event {
-                StationEvent::SessionOpened {
+                CoreEvent::SessionOpened {
                     number,
                     peer,
                     session_id,
@@ -355,7 +355,7 @@ where
                         hook(&mut self.inner, &start);
                     }
                 }
-                StationEvent::Fault {
+                CoreEvent::Fault {
                     session,
                     peer,
                     fault,
@@ -367,7 +367,7 @@ where
                         fault,
                     });
                 }
-                StationEvent::SessionTimedOut {
+                CoreEvent::SessionTimedOut {
                     session,
                     peer,
                     silent_for_ns,
@@ -397,9 +397,9 @@ where
         self.sync_stats();
     }
 
-    /// Copies the station's counters into the emulator's.
+    /// Copies the rig core's counters into the emulator's.
     fn sync_stats(&mut self) {
-        let StationStats {
+        let CoreStats {
             sessions,
             received,
             commands_accepted,
@@ -414,7 +414,7 @@ where
             faults_sent,
             braked_ticks,
             sensor_frames: _,
-        } = *self.station.stats();
+        } = *self.core.stats();
         let s = &mut self.stats;
         s.sessions = sessions;
         s.received = received;
@@ -431,7 +431,7 @@ where
         s.braked_ticks = braked_ticks;
     }
 
-    /// Puts a sensor frame of the station on the link through the injected damage.
+    /// Puts a sensor frame of the rig core on the link through the injected damage.
     fn send_sensor(&mut self, encoded: &[u8], peer: Peer, sequence: u64, now: Instant) {
         let faults = &self.config.faults;
         if faults.stop_after_frames.is_some_and(|n| sequence > n) {
@@ -480,7 +480,7 @@ where
         }
     }
 
-    /// Receives frames and hands them to the station (and sends delayed ones) until
+    /// Receives frames and hands them to the rig core (and sends delayed ones) until
     /// `deadline`. Frames already waiting are handled even when the deadline has passed: a rig
     /// that runs late must still hear the commands it was sent, or its own watchdog would trip
     /// on a host that answered (on a loaded machine a descheduled rig wakes past its deadline
@@ -515,13 +515,13 @@ where
                     let received = Instant::now();
                     let at = self.ns(received);
                     match self.buf.get(..len) {
-                        Some(frame) => self.station.receive(at, from, frame, &mut self.outbox),
-                        None => self.station.receive_garbled(),
+                        Some(frame) => self.core.receive(at, from, frame, &mut self.outbox),
+                        None => self.core.receive_garbled(),
                     }
                     self.deliver(received);
                 }
                 Recv::Garbled => {
-                    self.station.receive_garbled();
+                    self.core.receive_garbled();
                     self.sync_stats();
                 }
                 Recv::Timeout if late => return Ok(()),

@@ -1,4 +1,4 @@
-//! What a [`Station`](super::Station) presents and enforces, and the key it holds.
+//! What a [`RigCore`](super::RigCore) presents and enforces, and the key it holds.
 
 use core::fmt;
 
@@ -7,23 +7,23 @@ use sha2::{Digest, Sha256};
 use crate::codec::{key_id, MIN_KEY_LEN};
 use crate::wire::{Limits, SensorLayout, IDENTITY_LEN};
 
-/// Longest key a [`StationKey`] stores as given, bytes: one HMAC-SHA256 block. HMAC hashes a
+/// Longest key a [`CoreKey`] stores as given, bytes: one HMAC-SHA256 block. HMAC hashes a
 /// longer key with SHA-256 before use, so a longer key is stored as its digest, which tags
 /// every frame exactly as the long key does.
 pub const KEY_BLOCK_LEN: usize = 64;
 
-/// Largest [`StationConfig::speed_window`], samples (the window is a fixed ring, no heap).
+/// Largest [`CoreConfig::speed_window`], samples (the window is a fixed ring, no heap).
 pub const MAX_SPEED_WINDOW: usize = 32;
 
 /// A shared key held by value (no heap), with its fingerprint.
 #[derive(Clone, Copy, PartialEq, Eq)]
-pub struct StationKey {
+pub struct CoreKey {
     bytes: [u8; KEY_BLOCK_LEN],
     len: usize,
     id: u32,
 }
 
-impl StationKey {
+impl CoreKey {
     /// The key `bytes` (at least [`MIN_KEY_LEN`]). Keys longer than [`KEY_BLOCK_LEN`] are kept
     /// as SHA-256(key), as HMAC itself reduces them: HMAC(K, m) = HMAC(SHA-256(K), m) for
     /// |K| > 64. The fingerprint is `codec::key_id` of the key as given.
@@ -61,16 +61,16 @@ impl StationKey {
     }
 }
 
-impl fmt::Debug for StationKey {
+impl fmt::Debug for CoreKey {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "StationKey({:08x})", self.id)
+        write!(f, "CoreKey({:08x})", self.id)
     }
 }
 
-/// How a station presents itself in the handshake and what it enforces. Times are integer
+/// How a rig core presents itself in the handshake and what it enforces. Times are integer
 /// nanoseconds on the caller's clock.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct StationConfig {
+pub struct CoreConfig {
     /// Identity sent in the `HelloAck` (UTF-8, zero padded; `wire::identity_from_str`).
     pub identity: [u8; IDENTITY_LEN],
     /// Sensor layout sent in the `HelloAck`.
@@ -86,7 +86,7 @@ pub struct StationConfig {
     /// host may connect.
     pub session_timeout_ns: u64,
     /// Shared key: accept only frames tagged with it, tag every frame sent.
-    pub key: Option<StationKey>,
+    pub key: Option<CoreKey>,
     /// Brake on sensed stroke and speed violations while the actuators are driven.
     pub enforce_motion_limits: bool,
     /// Leg speed is the length change over this many samples (0 counts as 1), at most
@@ -99,7 +99,7 @@ pub struct StationConfig {
     pub seed: u64,
 }
 
-/// A [`StationConfig`] the station cannot run with.
+/// A [`CoreConfig`] the rig core cannot run with.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ConfigError {
     /// The sample period is zero or does not fit the `HelloAck`'s `u32` nanoseconds.
@@ -131,7 +131,7 @@ impl fmt::Display for ConfigError {
     }
 }
 
-impl StationConfig {
+impl CoreConfig {
     /// Checks the configuration (see [`ConfigError`]).
     pub fn check(&self) -> Result<(), ConfigError> {
         if self.sample_period_ns == 0 || self.sample_period_ns > u64::from(u32::MAX) {

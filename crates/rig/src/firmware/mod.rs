@@ -1,25 +1,25 @@
 //! The rig core: the rig's side of the protocol as a firmware runs it (no_std, no heap, no
 //! clock, no sockets, no threads).
 //!
-//! A [`Station`] holds the session with one host: the handshake and the key, command
+//! A [`RigCore`] holds the session with one host: the handshake and the key, command
 //! validation, the command watchdog, force, stroke and speed limits, the brakes, fault latching
 //! and reporting, and the assembly of sensor frames. Its caller owns the clock, the link and
 //! the hardware and drives it with three calls:
 //!
-//! * [`Station::receive`]`(now, from, frame, out)` for every frame that arrives;
-//! * [`Station::actuate`]`(now, out) -> CommandFrame` at the start of every sample period: the
+//! * [`RigCore::receive`]`(now, from, frame, out)` for every frame that arrives;
+//! * [`RigCore::actuate`]`(now, out) -> CommandFrame` at the start of every sample period: the
 //!   actuator output for the period (the newest valid command, or the brakes);
-//! * [`Station::report`]`(sensors, out)` with the sensors sampled at the end of the period:
+//! * [`RigCore::report`]`(sensors, out)` with the sensors sampled at the end of the period:
 //!   the stroke and speed checks and the sensor frame for the host.
 //!
-//! [`Station::tick`]`(now, sensors, out)` is `report` then `actuate`, the order of a firmware
+//! [`RigCore::tick`]`(now, sensors, out)` is `report` then `actuate`, the order of a firmware
 //! loop that samples, reports and drives at each period boundary. Every call appends the frames
 //! to send and the events to an [`Outbox`] the caller drains.
 //!
 //! Rules it enforces (docs/protocol.md): after a handshake only the session's host may command;
 //! frames from other senders, out of sequence, or (with a key) without a valid tag are dropped
 //! and counted; a `Hello` from the session's host with a new nonce opens a new session. The
-//! station brakes (a `CommandFrame` with `enable = false`) and reports a [`Fault`] when no
+//! rig core brakes (a `CommandFrame` with `enable = false`) and reports a [`Fault`] when no
 //! valid command arrived for longer than the watchdog time (quiet > watchdog), when a command
 //! force is outside [force_min, force_max] (NaN included), or while driven when a sensed leg
 //! length leaves [stroke_min, stroke_max] or a leg speed |lᵢ(k) − lᵢ(k−w)| / (w·T) exceeds
@@ -39,8 +39,8 @@ mod config;
 mod motion;
 mod outbox;
 
-pub use config::{ConfigError, StationConfig, StationKey, KEY_BLOCK_LEN, MAX_SPEED_WINDOW};
-pub use outbox::{FrameKind, Outbox, Outgoing, StationEvent, OUTBOX_EVENTS, OUTBOX_FRAMES};
+pub use config::{ConfigError, CoreConfig, CoreKey, KEY_BLOCK_LEN, MAX_SPEED_WINDOW};
+pub use outbox::{CoreEvent, FrameKind, Outbox, Outgoing, OUTBOX_EVENTS, OUTBOX_FRAMES};
 
 use stewart_types::{CommandFrame, SensorFrame, Status};
 
@@ -51,9 +51,9 @@ use crate::wire::{
 };
 use motion::SpeedWindow;
 
-/// What the station did and saw (the counters the emulator reports and tests read).
+/// What the rig core did and saw (the counters the emulator reports and tests read).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct StationStats {
+pub struct CoreStats {
     /// Sessions opened.
     pub sessions: u64,
     /// Frames received, of any kind and from anyone (garbled ones included).
@@ -89,7 +89,7 @@ pub struct StationStats {
 pub struct SessionView<P> {
     /// The host.
     pub peer: P,
-    /// 1 for the station's first session, then +1 per session.
+    /// 1 for the rig core's first session, then +1 per session.
     pub number: u64,
     /// The session number sent in the `HelloAck`.
     pub session_id: u64,
@@ -131,21 +131,21 @@ impl SplitMix64 {
 /// The rig's side of the protocol for peers identified by `P` (a small `Copy` id the caller's
 /// transport maps to addresses; `()` on a serial line). See the module documentation.
 #[derive(Clone, Debug)]
-pub struct Station<P> {
-    config: StationConfig,
+pub struct RigCore<P> {
+    config: CoreConfig,
     session_ids: SplitMix64,
     session: Option<Session<P>>,
     /// The newest command of the last session, once it timed out.
     timed_out_command: Option<Command>,
-    /// The output of the last [`Station::actuate`]: what drove the legs until the next report.
+    /// The output of the last [`RigCore::actuate`]: what drove the legs until the next report.
     applied: CommandFrame,
     speeds: SpeedWindow,
-    stats: StationStats,
+    stats: CoreStats,
 }
 
-impl<P: Copy + PartialEq> Station<P> {
-    /// A station with no session, braked.
-    pub fn new(config: StationConfig) -> Result<Self, ConfigError> {
+impl<P: Copy + PartialEq> RigCore<P> {
+    /// A rig core with no session, braked.
+    pub fn new(config: CoreConfig) -> Result<Self, ConfigError> {
         config.check()?;
         Ok(Self {
             session_ids: SplitMix64(config.seed),
@@ -153,18 +153,18 @@ impl<P: Copy + PartialEq> Station<P> {
             timed_out_command: None,
             applied: CommandFrame::safe_stop(0, 0),
             speeds: SpeedWindow::new(config.speed_window),
-            stats: StationStats::default(),
+            stats: CoreStats::default(),
             config,
         })
     }
 
     /// The configuration.
-    pub fn config(&self) -> &StationConfig {
+    pub fn config(&self) -> &CoreConfig {
         &self.config
     }
 
     /// The counters so far.
-    pub fn stats(&self) -> &StationStats {
+    pub fn stats(&self) -> &CoreStats {
         &self.stats
     }
 
@@ -247,7 +247,7 @@ impl<P: Copy + PartialEq> Station<P> {
         if let Some(s) = &self.session {
             let silent_for_ns = now_ns.saturating_sub(s.last_heard);
             if silent_for_ns > self.config.session_timeout_ns {
-                out.push_event(StationEvent::SessionTimedOut {
+                out.push_event(CoreEvent::SessionTimedOut {
                     session: s.view.number,
                     peer: s.view.peer,
                     silent_for_ns,
@@ -405,7 +405,7 @@ impl<P: Copy + PartialEq> Station<P> {
             &Message::Fault(fault),
             auth.as_ref(),
         );
-        out.push_event(StationEvent::Fault {
+        out.push_event(CoreEvent::Fault {
             session: s.view.number,
             peer,
             fault,
@@ -505,7 +505,7 @@ impl<P: Copy + PartialEq> Station<P> {
         });
         self.speeds.clear();
         self.stats.sessions = number;
-        out.push_event(StationEvent::SessionOpened {
+        out.push_event(CoreEvent::SessionOpened {
             number,
             peer: from,
             session_id,

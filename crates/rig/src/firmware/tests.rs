@@ -1,4 +1,4 @@
-//! The station alone: no sockets, no threads, an injected clock. The host's side is written
+//! The rig core alone: no sockets, no threads, an injected clock. The host's side is written
 //! here from the codec, not from the crate's host backend.
 
 use proptest::prelude::*;
@@ -25,9 +25,9 @@ fn limits() -> Limits {
     }
 }
 
-fn config() -> StationConfig {
-    StationConfig {
-        identity: identity_from_str("station-test"),
+fn config() -> CoreConfig {
+    CoreConfig {
+        identity: identity_from_str("rig-core-test"),
         layout: SensorLayout {
             leg_count: LEG_COUNT as u8,
             imu_present: true,
@@ -44,9 +44,9 @@ fn config() -> StationConfig {
     }
 }
 
-fn keyed() -> StationConfig {
-    StationConfig {
-        key: Some(StationKey::new(KEY).unwrap()),
+fn keyed() -> CoreConfig {
+    CoreConfig {
+        key: Some(CoreKey::new(KEY).unwrap()),
         ..config()
     }
 }
@@ -106,9 +106,9 @@ fn drain(out: &mut Outbox<u8>, auth: Option<Auth<'_>>) -> Vec<(u8, FrameKind, Me
 }
 
 /// Opens a session for HOST at `now`; returns the session id.
-fn open(station: &mut Station<u8>, now: u64, nonce: u64, key: Option<&[u8]>) -> u64 {
+fn open(rig: &mut RigCore<u8>, now: u64, nonce: u64, key: Option<&[u8]>) -> u64 {
     let mut out = Outbox::new();
-    station.receive(now, HOST, &hello(nonce, key), &mut out);
+    rig.receive(now, HOST, &hello(nonce, key), &mut out);
     let auth = key.map(|key| Auth { key, session_id: 0 });
     match drain(&mut out, auth).as_slice() {
         [(HOST, FrameKind::HelloAck, Message::HelloAck(ack))] => {
@@ -132,19 +132,19 @@ fn faults_of(frames: &[(u8, FrameKind, Message)]) -> Vec<Fault> {
 
 #[test]
 fn a_scripted_session_handshakes_takes_commands_and_streams_sensor_frames() {
-    let mut station = Station::new(config()).unwrap();
+    let mut rig = RigCore::new(config()).unwrap();
     let mut out = Outbox::new();
     // Before a session: braked, nothing sent.
-    assert!(!station.tick(0, &sensors(0.5), &mut out).enable);
+    assert!(!rig.tick(0, &sensors(0.5), &mut out).enable);
     assert!(out.is_empty());
-    let id = open(&mut station, 0, 77, None);
-    let session = station.session().unwrap();
+    let id = open(&mut rig, 0, 77, None);
+    let session = rig.session().unwrap();
     assert_eq!(
         (session.number, session.session_id, session.peer),
         (1, id, HOST)
     );
     // No command yet: braked, and the frame says so.
-    let applied = station.tick(MS, &sensors(0.5), &mut out);
+    let applied = rig.tick(MS, &sensors(0.5), &mut out);
     assert!(!applied.enable);
     match drain(&mut out, None).as_slice() {
         [(HOST, FrameKind::Sensor { sequence: 1 }, Message::Sensor(s))] => {
@@ -157,14 +157,14 @@ fn a_scripted_session_handshakes_takes_commands_and_streams_sensor_frames() {
     }
     for k in 1..=5u64 {
         let now = (k + 1) * MS;
-        station.receive(
+        rig.receive(
             now,
             HOST,
             &encode(command(k, 10.0 * k as f64, true), None),
             &mut out,
         );
         assert!(out.is_empty());
-        let applied = station.tick(now, &sensors(0.5), &mut out);
+        let applied = rig.tick(now, &sensors(0.5), &mut out);
         assert!(applied.enable);
         assert_eq!(applied.leg_forces_n, [10.0 * k as f64; LEG_COUNT]);
         assert_eq!(applied.sequence, k);
@@ -183,7 +183,7 @@ fn a_scripted_session_handshakes_takes_commands_and_streams_sensor_frames() {
             other => panic!("{other:?}"),
         }
     }
-    let stats = station.stats();
+    let stats = rig.stats();
     assert_eq!(stats.commands_accepted, 5);
     assert_eq!(stats.sessions, 1);
     assert_eq!(stats.sensor_frames, 6);
@@ -192,16 +192,16 @@ fn a_scripted_session_handshakes_takes_commands_and_streams_sensor_frames() {
 
 #[test]
 fn the_watchdog_trips_exactly_after_the_configured_time() {
-    let mut station = Station::new(config()).unwrap();
+    let mut rig = RigCore::new(config()).unwrap();
     let mut out = Outbox::new();
-    open(&mut station, 0, 1, None);
+    open(&mut rig, 0, 1, None);
     let t0 = 3 * MS + 17;
-    station.receive(t0, HOST, &encode(command(1, 5.0, true), None), &mut out);
+    rig.receive(t0, HOST, &encode(command(1, 5.0, true), None), &mut out);
     // quiet = watchdog: still driven.
-    assert!(station.actuate(t0 + 20 * MS, &mut out).enable);
+    assert!(rig.actuate(t0 + 20 * MS, &mut out).enable);
     assert!(out.is_empty());
     // quiet = watchdog + 1 ns: braked and reported.
-    assert!(!station.actuate(t0 + 20 * MS + 1, &mut out).enable);
+    assert!(!rig.actuate(t0 + 20 * MS + 1, &mut out).enable);
     let events: Vec<_> = out.events().copied().collect();
     let faults = faults_of(&drain(&mut out, None));
     assert_eq!(faults.len(), 1);
@@ -210,28 +210,28 @@ fn the_watchdog_trips_exactly_after_the_configured_time() {
     assert_eq!(faults[0].value, (20 * MS + 1) as f64 / 1e9);
     assert!(matches!(
         events.as_slice(),
-        [StationEvent::Fault {
+        [CoreEvent::Fault {
             session: 1,
             peer: HOST,
             ..
         }]
     ));
     // Latched: a fresh command does not release the brakes.
-    station.receive(
+    rig.receive(
         t0 + 21 * MS,
         HOST,
         &encode(command(2, 5.0, true), None),
         &mut out,
     );
-    assert!(!station.actuate(t0 + 21 * MS, &mut out).enable);
-    assert_eq!(station.stats().faults_sent, 1);
+    assert!(!rig.actuate(t0 + 21 * MS, &mut out).enable);
+    assert_eq!(rig.stats().faults_sent, 1);
 }
 
 #[test]
 fn forged_unauthenticated_and_replayed_commands_are_dropped_and_counted() {
-    let mut station = Station::new(keyed()).unwrap();
+    let mut rig = RigCore::new(keyed()).unwrap();
     let mut out = Outbox::new();
-    let id = open(&mut station, 0, 9, Some(KEY));
+    let id = open(&mut rig, 0, 9, Some(KEY));
     let good = Auth {
         key: KEY,
         session_id: id,
@@ -248,49 +248,49 @@ fn forged_unauthenticated_and_replayed_commands_are_dropped_and_counted() {
         .into_iter()
         .enumerate()
     {
-        station.receive(
+        rig.receive(
             MS,
             HOST,
             &encode(command(k as u64 + 1, 50.0, true), auth),
             &mut out,
         );
-        assert_eq!(station.stats().auth_failed, k as u64 + 1);
+        assert_eq!(rig.stats().auth_failed, k as u64 + 1);
     }
     assert!(out.is_empty());
-    assert_eq!(station.stats().commands_accepted, 0);
-    assert!(!station.actuate(MS, &mut out).enable);
+    assert_eq!(rig.stats().commands_accepted, 0);
+    assert!(!rig.actuate(MS, &mut out).enable);
     // The same command, tagged for the session, is taken.
-    station.receive(
+    rig.receive(
         MS,
         HOST,
         &encode(command(1, 50.0, true), Some(good)),
         &mut out,
     );
-    assert_eq!(station.stats().commands_accepted, 1);
-    assert!(station.actuate(2 * MS, &mut out).enable);
+    assert_eq!(rig.stats().commands_accepted, 1);
+    assert!(rig.actuate(2 * MS, &mut out).enable);
     // Its sensor frames are tagged for the session.
-    station.report(&sensors(0.5), &mut out);
+    rig.report(&sensors(0.5), &mut out);
     assert!(matches!(
         drain(&mut out, Some(good)).as_slice(),
         [(_, _, Message::Sensor(_))]
     ));
     // A command from another sender, even well tagged, is foreign.
-    station.receive(
+    rig.receive(
         2 * MS,
         OTHER,
         &encode(command(2, 0.0, true), Some(good)),
         &mut out,
     );
-    assert_eq!(station.stats().foreign_sender, 1);
-    assert_eq!(station.last_command().map(|c| c.sequence), Some(1));
+    assert_eq!(rig.stats().foreign_sender, 1);
+    assert_eq!(rig.last_command().map(|c| c.sequence), Some(1));
 }
 
 #[test]
 fn hellos_are_refused_by_reason() {
-    let mut station = Station::new(keyed()).unwrap();
+    let mut rig = RigCore::new(keyed()).unwrap();
     let mut out = Outbox::new();
-    station.receive(0, HOST, &hello(1, None), &mut out);
-    station.receive(
+    rig.receive(0, HOST, &hello(1, None), &mut out);
+    rig.receive(
         0,
         HOST,
         &hello(2, Some(b"another key of sixteen+ bytes")),
@@ -301,26 +301,26 @@ fn hellos_are_refused_by_reason() {
         .map(|f| f.code)
         .collect();
     assert_eq!(codes, [FaultCode::KEY_REQUIRED, FaultCode::KEY_MISMATCH]);
-    assert!(station.session().is_none());
-    open(&mut station, 0, 3, Some(KEY));
-    station.receive(0, OTHER, &hello(4, Some(KEY)), &mut out);
+    assert!(rig.session().is_none());
+    open(&mut rig, 0, 3, Some(KEY));
+    rig.receive(0, OTHER, &hello(4, Some(KEY)), &mut out);
     let frames = drain(&mut out, None);
     assert_eq!(frames[0].0, OTHER);
     assert_eq!(faults_of(&frames)[0].code, FaultCode::BUSY);
     // A repeated Hello of the session's handshake gets the same answer, not a new session.
-    let id = station.session().unwrap().session_id;
-    assert_eq!(open(&mut station, MS, 3, Some(KEY)), id);
-    assert_eq!(station.stats().sessions, 1);
+    let id = rig.session().unwrap().session_id;
+    assert_eq!(open(&mut rig, MS, 3, Some(KEY)), id);
+    assert_eq!(rig.stats().sessions, 1);
 }
 
 #[test]
 fn a_command_beyond_the_force_limit_faults_and_brakes() {
     for force in [100.5, -100.5, f64::NAN, f64::INFINITY] {
-        let mut station = Station::new(config()).unwrap();
+        let mut rig = RigCore::new(config()).unwrap();
         let mut out = Outbox::new();
-        open(&mut station, 0, 1, None);
-        station.receive(0, HOST, &encode(command(1, 99.0, true), None), &mut out);
-        assert!(station.actuate(MS, &mut out).enable);
+        open(&mut rig, 0, 1, None);
+        rig.receive(0, HOST, &encode(command(1, 99.0, true), None), &mut out);
+        assert!(rig.actuate(MS, &mut out).enable);
         let mut over = [99.0; LEG_COUNT];
         over[4] = force;
         let message = Message::Command(Command {
@@ -329,42 +329,39 @@ fn a_command_beyond_the_force_limit_faults_and_brakes() {
             leg_forces_n: over,
             enable: true,
         });
-        station.receive(MS, HOST, &encode(message, None), &mut out);
+        rig.receive(MS, HOST, &encode(message, None), &mut out);
         let faults = faults_of(&drain(&mut out, None));
         assert_eq!(faults.len(), 1, "{force}");
         assert_eq!(faults[0].code, FaultCode::FORCE_LIMIT);
         assert_eq!(faults[0].leg, 4);
         assert_eq!(faults[0].command_sequence, 2);
         assert!(faults[0].value == force || force.is_nan() && faults[0].value.is_nan());
-        assert_eq!(
-            station.actuate(2 * MS, &mut out),
-            CommandFrame::safe_stop(0, 0)
-        );
+        assert_eq!(rig.actuate(2 * MS, &mut out), CommandFrame::safe_stop(0, 0));
     }
     // Braking commands' forces are not checked (a host may send NaN with enable = false).
-    let mut station = Station::new(config()).unwrap();
+    let mut rig = RigCore::new(config()).unwrap();
     let mut out = Outbox::new();
-    open(&mut station, 0, 1, None);
-    station.receive(
+    open(&mut rig, 0, 1, None);
+    rig.receive(
         0,
         HOST,
         &encode(command(1, f64::NAN, false), None),
         &mut out,
     );
-    assert_eq!(station.actuate(MS, &mut out), CommandFrame::safe_stop(1, 0));
+    assert_eq!(rig.actuate(MS, &mut out), CommandFrame::safe_stop(1, 0));
     assert!(out.is_empty());
 }
 
 #[test]
 fn stroke_and_speed_faults_latch_until_a_new_session() {
-    let mut station = Station::new(config()).unwrap();
+    let mut rig = RigCore::new(config()).unwrap();
     let mut out = Outbox::new();
-    open(&mut station, 0, 1, None);
-    station.receive(0, HOST, &encode(command(1, 1.0, true), None), &mut out);
-    assert!(station.actuate(0, &mut out).enable);
+    open(&mut rig, 0, 1, None);
+    rig.receive(0, HOST, &encode(command(1, 1.0, true), None), &mut out);
+    assert!(rig.actuate(0, &mut out).enable);
     let mut beyond = sensors(0.5);
     beyond.leg_lengths_m[2] = 0.75;
-    let applied = station.tick(MS, &beyond, &mut out);
+    let applied = rig.tick(MS, &beyond, &mut out);
     assert!(!applied.enable);
     let frames = drain(&mut out, None);
     let faults = faults_of(&frames);
@@ -377,8 +374,8 @@ fn stroke_and_speed_faults_latch_until_a_new_session() {
     // fresh commands and sane sensors do not release the brakes.
     let mut repeats = 0;
     for k in 2..=41u64 {
-        station.receive(k * MS, HOST, &encode(command(k, 1.0, true), None), &mut out);
-        assert!(!station.tick(k * MS, &sensors(0.5), &mut out).enable);
+        rig.receive(k * MS, HOST, &encode(command(k, 1.0, true), None), &mut out);
+        assert!(!rig.tick(k * MS, &sensors(0.5), &mut out).enable);
         for (_, kind, message) in drain(&mut out, None) {
             match message {
                 Message::Fault(_) => repeats += 1,
@@ -389,121 +386,121 @@ fn stroke_and_speed_faults_latch_until_a_new_session() {
     }
     assert_eq!(repeats, 2, "sensor frames 20 and 40");
     // A new session (new nonce) releases them.
-    open(&mut station, 42 * MS, 2, None);
-    station.receive(
+    open(&mut rig, 42 * MS, 2, None);
+    rig.receive(
         42 * MS,
         HOST,
         &encode(command(1, 1.0, true), None),
         &mut out,
     );
-    assert!(station.actuate(42 * MS, &mut out).enable);
+    assert!(rig.actuate(42 * MS, &mut out).enable);
 
     // Speed: 0.5 m/s over 10 samples of 1 ms is 5 mm; 6 mm trips, on the first leg over.
-    let mut station = Station::new(config()).unwrap();
-    open(&mut station, 0, 1, None);
-    station.receive(0, HOST, &encode(command(1, 1.0, true), None), &mut out);
-    station.actuate(0, &mut out);
+    let mut rig = RigCore::new(config()).unwrap();
+    open(&mut rig, 0, 1, None);
+    rig.receive(0, HOST, &encode(command(1, 1.0, true), None), &mut out);
+    rig.actuate(0, &mut out);
     let mut faults = Vec::new();
     for k in 0..=10u64 {
         let mut s = sensors(0.5);
         s.leg_lengths_m[1] = 0.5 + 0.0006 * k as f64;
         s.leg_lengths_m[3] = 0.5 + 0.0006 * k as f64;
-        station.receive(
+        rig.receive(
             k * MS,
             HOST,
             &encode(command(k + 2, 1.0, true), None),
             &mut out,
         );
-        let driven = station.tick(k * MS, &s, &mut out).enable;
+        let driven = rig.tick(k * MS, &s, &mut out).enable;
         assert_eq!(driven, k < 10, "{k}");
         faults.extend(faults_of(&drain(&mut out, None)));
     }
     assert_eq!(faults.len(), 1);
     assert_eq!((faults[0].code, faults[0].leg), (FaultCode::SPEED_LIMIT, 1));
     assert!((faults[0].value - 0.6).abs() < 1e-9, "{}", faults[0].value);
-    open(&mut station, 20 * MS, 2, None);
-    assert!(station.session().unwrap().fault.is_none());
+    open(&mut rig, 20 * MS, 2, None);
+    assert!(rig.session().unwrap().fault.is_none());
 }
 
 #[test]
 fn a_silent_host_loses_its_session_and_another_may_connect() {
-    let mut station = Station::new(config()).unwrap();
+    let mut rig = RigCore::new(config()).unwrap();
     let mut out = Outbox::new();
-    open(&mut station, 0, 1, None);
-    station.receive(0, HOST, &encode(command(1, 1.0, true), None), &mut out);
-    station.actuate(1000 * MS, &mut out);
-    assert!(station.session().is_some());
+    open(&mut rig, 0, 1, None);
+    rig.receive(0, HOST, &encode(command(1, 1.0, true), None), &mut out);
+    rig.actuate(1000 * MS, &mut out);
+    assert!(rig.session().is_some());
     out.clear();
-    assert!(!station.actuate(1000 * MS + 1, &mut out).enable);
+    assert!(!rig.actuate(1000 * MS + 1, &mut out).enable);
     assert!(matches!(
         out.events().next(),
-        Some(StationEvent::SessionTimedOut { session: 1, peer: HOST, silent_for_ns })
+        Some(CoreEvent::SessionTimedOut { session: 1, peer: HOST, silent_for_ns })
             if *silent_for_ns == 1000 * MS + 1
     ));
-    assert!(station.session().is_none());
-    assert_eq!(station.last_command().map(|c| c.sequence), Some(1));
+    assert!(rig.session().is_none());
+    assert_eq!(rig.last_command().map(|c| c.sequence), Some(1));
     out.clear();
-    station.receive(1001 * MS, OTHER, &hello(5, None), &mut out);
-    assert_eq!(station.session().map(|s| s.peer), Some(OTHER));
+    rig.receive(1001 * MS, OTHER, &hello(5, None), &mut out);
+    assert_eq!(rig.session().map(|s| s.peer), Some(OTHER));
 }
 
 #[test]
 fn long_keys_tag_as_hmac_does_with_the_key_itself() {
     let long = [7u8; 100];
-    let config = StationConfig {
-        key: Some(StationKey::new(&long).unwrap()),
+    let config = CoreConfig {
+        key: Some(CoreKey::new(&long).unwrap()),
         ..config()
     };
-    let mut station = Station::new(config).unwrap();
-    let id = open(&mut station, 0, 1, Some(&long));
+    let mut rig = RigCore::new(config).unwrap();
+    let id = open(&mut rig, 0, 1, Some(&long));
     let mut out = Outbox::new();
     let auth = Auth {
         key: &long,
         session_id: id,
     };
-    station.receive(
+    rig.receive(
         0,
         HOST,
         &encode(command(1, 1.0, true), Some(auth)),
         &mut out,
     );
-    assert_eq!(station.stats().commands_accepted, 1);
-    assert_eq!(StationKey::new(&[1; 15]), Err(ConfigError::KeyTooShort(15)));
+    assert_eq!(rig.stats().commands_accepted, 1);
+    assert_eq!(CoreKey::new(&[1; 15]), Err(ConfigError::KeyTooShort(15)));
 }
 
 #[test]
 fn unusable_configurations_are_refused() {
-    let zero_period = StationConfig {
+    let zero_period = CoreConfig {
         sample_period_ns: 0,
         ..config()
     };
-    assert!(Station::<u8>::new(zero_period).is_err());
-    let wide = StationConfig {
+    assert!(RigCore::<u8>::new(zero_period).is_err());
+    let wide = CoreConfig {
         speed_window: MAX_SPEED_WINDOW + 1,
         ..config()
     };
-    assert!(Station::<u8>::new(wide).is_err());
-    let nan = StationConfig {
+    assert!(RigCore::<u8>::new(wide).is_err());
+    let nan = CoreConfig {
         limits: Limits {
             speed_max_m_s: f64::NAN,
             ..limits()
         },
         ..config()
     };
-    assert!(Station::<u8>::new(nan).is_err());
+    assert!(RigCore::<u8>::new(nan).is_err());
 }
 
-/// The memory a firmware gives a station and its outbox (docs/rig-core.md quotes them).
+/// The memory a firmware gives a rig core and its outbox (docs/rig-core.md quotes them).
 #[test]
-fn a_station_and_its_outbox_fit_in_a_few_kilobytes() {
-    let station = core::mem::size_of::<Station<()>>();
+fn a_rig_core_and_its_outbox_fit_in_a_few_kilobytes() {
+    let rig = core::mem::size_of::<RigCore<()>>();
     let outbox = core::mem::size_of::<Outbox<()>>();
-    println!("Station<()>: {station} bytes, Outbox<()>: {outbox} bytes");
-    assert!(station <= 2560, "{station}");
+    println!("RigCore<()>: {rig} bytes, Outbox<()>: {outbox} bytes");
+    assert!(rig <= 2560, "{rig}");
     assert!(outbox <= 1536, "{outbox}");
 }
 
-/// What a test drives a station with: frames (garbage, damaged or valid) and ticks.
+/// What a test drives a rig core with: frames (garbage, damaged or valid) and ticks.
 #[derive(Clone, Debug)]
 enum Step {
     Bytes(u8, Vec<u8>),
@@ -528,38 +525,39 @@ fn step() -> impl Strategy<Value = Step> {
 
 proptest! {
     #[test]
-    fn any_bytes_and_any_tick_sequence_leave_the_station_sane(
-        keyed_station in any::<bool>(),
+    fn any_bytes_and_any_tick_sequence_leave_the_rig_core_sane(
+        keyed_core in any::<bool>(),
         steps in proptest::collection::vec(step(), 1..60),
     ) {
-        let config = if keyed_station { keyed() } else { config() };
-        let mut station = Station::new(config).unwrap();
+        let config = if keyed_core { keyed() } else { config() };
+        let mut rig = RigCore::new(config).unwrap();
         let mut out = Outbox::new();
         let mut now = 0u64;
-        let key = keyed_station.then_some(&KEY[..]);
+        let key = keyed_core.then_some(&KEY[..]);
         for step in steps {
             match step {
-                Step::Bytes(peer, bytes) => station.receive(now, peer, &bytes, &mut out),
+                Step::Bytes(peer, bytes) => rig.receive(now, peer, &bytes, &mut out),
                 Step::Flip(peer, bit) => {
                     let mut frame = encode(command(1, 1.0, true), None);
                     let n = frame.len() * 8;
                     frame[(bit % n) / 8] ^= 1 << (bit % 8);
-                    station.receive(now, peer, &frame, &mut out);
+                    rig.receive(now, peer, &frame, &mut out);
                 }
-                Step::Hello(peer, nonce) => station.receive(now, peer, &hello(nonce, key), &mut out),
+                Step::Hello(peer, nonce) => rig.receive(now, peer, &hello(nonce, key), &mut out),
                 Step::Command(sequence, force, enable) => {
-                    let session_id = station.session().map_or(0, |s| s.session_id);
+                    let session_id = rig.session().map_or(0, |s| s.session_id);
                     let auth = key.map(|key| Auth { key, session_id });
-                    station.receive(now, HOST, &encode(command(sequence, force, enable), auth), &mut out);
+                    let frame = encode(command(sequence, force, enable), auth);
+                    rig.receive(now, HOST, &frame, &mut out);
                 }
-                Step::Garbled => station.receive_garbled(),
+                Step::Garbled => rig.receive_garbled(),
                 Step::Tick(dt, length) => {
                     now += dt;
-                    let applied = station.tick(now, &sensors(length), &mut out);
+                    let applied = rig.tick(now, &sensors(length), &mut out);
                     // Never driven beyond the limits or without a session, never driven
                     // with a fault latched.
                     if applied.enable {
-                        let session = station.session();
+                        let session = rig.session();
                         prop_assert!(session.is_some_and(|s| s.fault.is_none()));
                         prop_assert!(applied.leg_forces_n.iter().all(|f| f.abs() <= 100.0));
                     }

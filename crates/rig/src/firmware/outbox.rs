@@ -1,14 +1,14 @@
-//! What a station call produces besides the actuator output: frames to send and events for the
-//! operator, in a fixed buffer the caller owns and drains after every call.
+//! What a call of the rig core produces besides the actuator output: frames to send and events
+//! for the operator, in a fixed buffer the caller owns and drains after every call.
 
 use crate::codec::{self, Auth, MAX_FRAME_LEN};
 use crate::wire::{Fault, Message};
 
-/// Frames one [`Outbox`] holds. The most one station call emits is three (a motion fault, its
-/// periodic repeat and the sensor frame of the same tick).
+/// Frames one [`Outbox`] holds. The most one call of the rig core emits is three (a motion
+/// fault, its periodic repeat and the sensor frame of the same tick).
 pub const OUTBOX_FRAMES: usize = 4;
 
-/// Events one [`Outbox`] holds (one station call raises at most one).
+/// Events one [`Outbox`] holds (one call of the rig core raises at most one).
 pub const OUTBOX_EVENTS: usize = 2;
 
 /// Why a frame is sent: the transport may treat sensor frames (the stream) differently from
@@ -46,19 +46,19 @@ impl<P> Outgoing<P> {
     }
 }
 
-/// What happened in a station call that an operator (or a log) may want to know.
+/// What happened in a call of the rig core that an operator (or a log) may want to know.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum StationEvent<P> {
+pub enum CoreEvent<P> {
     /// A host opened a session (the `HelloAck` is in the same outbox, after this event).
     SessionOpened {
-        /// 1 for the station's first session, then +1 per session.
+        /// 1 for the rig core's first session, then +1 per session.
         number: u64,
         /// The session's host.
         peer: P,
         /// The session number sent in the `HelloAck`.
         session_id: u64,
     },
-    /// The station latched a fault and braked.
+    /// The rig core latched a fault and braked.
     Fault {
         /// The session's number.
         session: u64,
@@ -78,14 +78,14 @@ pub enum StationEvent<P> {
     },
 }
 
-/// Frames and events of station calls, in order. Fixed size: [`OUTBOX_FRAMES`] frames of
-/// `MAX_FRAME_LEN` bytes and [`OUTBOX_EVENTS`] events. Station calls append; the caller sends
-/// the frames, handles the events and [`clear`](Self::clear)s it after every call. What does
-/// not fit is dropped and counted in [`overflow`](Self::overflow).
+/// Frames and events of calls of the rig core, in order. Fixed size: [`OUTBOX_FRAMES`] frames
+/// of `MAX_FRAME_LEN` bytes and [`OUTBOX_EVENTS`] events. The rig core appends; the caller
+/// sends the frames, handles the events and [`clear`](Self::clear)s it after every call. What
+/// does not fit is dropped and counted in [`overflow`](Self::overflow).
 #[derive(Clone, Debug)]
 pub struct Outbox<P> {
     frames: [Option<Outgoing<P>>; OUTBOX_FRAMES],
-    events: [Option<StationEvent<P>>; OUTBOX_EVENTS],
+    events: [Option<CoreEvent<P>>; OUTBOX_EVENTS],
     overflow: u64,
 }
 
@@ -117,7 +117,7 @@ impl<P: Copy> Outbox<P> {
     }
 
     /// The events, in order.
-    pub fn events(&self) -> impl Iterator<Item = &StationEvent<P>> {
+    pub fn events(&self) -> impl Iterator<Item = &CoreEvent<P>> {
         self.events.iter().flatten()
     }
 
@@ -181,7 +181,7 @@ impl<P: Copy> Outbox<P> {
         }
     }
 
-    pub(super) fn push_event(&mut self, event: StationEvent<P>) {
+    pub(super) fn push_event(&mut self, event: CoreEvent<P>) {
         match self.events.iter_mut().find(|slot| slot.is_none()) {
             Some(slot) => *slot = Some(event),
             None => self.overflow += 1,

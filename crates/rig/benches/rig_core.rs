@@ -1,4 +1,4 @@
-//! Time of the rig core's work per sample period (`cargo bench -p rig --bench station`): one
+//! Time of the rig core's work per sample period (`cargo bench -p rig --bench rig_core`): one
 //! `tick` (stroke and speed checks, a sensor frame encoded, the actuator output chosen) and one
 //! received command (decoded, checked), without and with a key (HMAC-SHA256 on every frame).
 //! docs/rig-core.md quotes the medians.
@@ -7,15 +7,15 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use rig::codec::{self, Auth, MAX_FRAME_LEN};
-use rig::station::{Outbox, Station, StationConfig, StationKey};
+use rig::firmware::{CoreConfig, CoreKey, Outbox, RigCore};
 use rig::wire::{identity_from_str, Command, Hello, Limits, Message, SensorLayout, LEG_COUNT};
 use stewart_types::SensorFrame;
 
 const KEY: &[u8] = b"0123456789abcdef0123456789abcdef";
 const MS: u64 = 1_000_000;
 
-fn config(key: bool) -> StationConfig {
-    StationConfig {
+fn config(key: bool) -> CoreConfig {
+    CoreConfig {
         identity: identity_from_str("bench"),
         layout: SensorLayout {
             leg_count: LEG_COUNT as u8,
@@ -32,7 +32,7 @@ fn config(key: bool) -> StationConfig {
         sample_period_ns: MS,
         watchdog_ns: 20 * MS,
         session_timeout_ns: u64::MAX,
-        key: key.then(|| StationKey::new(KEY).unwrap()),
+        key: key.then(|| CoreKey::new(KEY).unwrap()),
         enforce_motion_limits: true,
         speed_window: 10,
         seed: 1,
@@ -45,9 +45,9 @@ fn frame(message: &Message, auth: Option<Auth<'_>>) -> Vec<u8> {
     out[..n].to_vec()
 }
 
-/// A station in a session with one command taken, and that command's frame.
-fn session(key: bool) -> (Station<u8>, Outbox<u8>, Vec<u8>) {
-    let mut station = Station::new(config(key)).unwrap();
+/// A rig core in a session with one command taken, and that command's frame.
+fn session(key: bool) -> (RigCore<u8>, Outbox<u8>, Vec<u8>) {
+    let mut rig = RigCore::new(config(key)).unwrap();
     let mut out = Outbox::new();
     let auth = |session_id| {
         key.then_some(Auth {
@@ -59,8 +59,8 @@ fn session(key: bool) -> (Station<u8>, Outbox<u8>, Vec<u8>) {
         host_nonce: 1,
         key_id: key.then(|| codec::key_id(KEY)),
     });
-    station.receive(0, 1, &frame(&hello, auth(0)), &mut out);
-    let id = station.session().unwrap().session_id;
+    rig.receive(0, 1, &frame(&hello, auth(0)), &mut out);
+    let id = rig.session().unwrap().session_id;
     let command = Message::Command(Command {
         sequence: u64::MAX - 1,
         sensor_sequence: 1,
@@ -68,9 +68,9 @@ fn session(key: bool) -> (Station<u8>, Outbox<u8>, Vec<u8>) {
         enable: true,
     });
     let command = frame(&command, auth(id));
-    station.receive(0, 1, &command, &mut out);
+    rig.receive(0, 1, &command, &mut out);
     out.clear();
-    (station, out, command)
+    (rig, out, command)
 }
 
 fn bench(c: &mut Criterion) {
@@ -83,19 +83,19 @@ fn bench(c: &mut Criterion) {
     };
     for key in [false, true] {
         let name = if key { " + HMAC" } else { "" };
-        let (mut station, mut out, command) = session(key);
-        c.bench_function(&format!("station tick{name}"), |b| {
+        let (mut rig, mut out, command) = session(key);
+        c.bench_function(&format!("rig core tick{name}"), |b| {
             b.iter(|| {
                 // The clock stands still so the watchdog never trips: every tick drives.
-                let applied = station.tick(0, black_box(&sensors), &mut out);
+                let applied = rig.tick(0, black_box(&sensors), &mut out);
                 out.clear();
                 applied
             })
         });
-        assert!(station.session().unwrap().fault.is_none());
-        c.bench_function(&format!("station receive command{name}"), |b| {
+        assert!(rig.session().unwrap().fault.is_none());
+        c.bench_function(&format!("rig core receive command{name}"), |b| {
             // A repeated sequence: decoded, authenticated, then counted as a duplicate.
-            b.iter(|| station.receive(0, 1, black_box(&command), &mut out))
+            b.iter(|| rig.receive(0, 1, black_box(&command), &mut out))
         });
     }
 }
