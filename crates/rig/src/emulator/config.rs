@@ -42,7 +42,7 @@ pub struct EmulatorConfig {
     /// Brake on measured stroke and speed violations while the actuators are driven (true).
     pub enforce_motion_limits: bool,
     /// Leg speed is the length change over this many samples, to keep sensor noise from
-    /// tripping the speed limit (10).
+    /// tripping the speed limit (10; at most `firmware::MAX_SPEED_WINDOW`, 32).
     pub speed_window: usize,
     /// Link damage for tests.
     pub faults: FaultInjection,
