@@ -1,6 +1,7 @@
-//! Links the three cores and the shared types into a `no_std` static library without an
-//! allocator (see Cargo.toml) and calls their per-tick functions, so that the linker sees every
-//! path a tick can take; the kinematics and the control pieces also in their f32 instantiation.
+//! Links the three cores, the rig core and the shared types into a `no_std` static library
+//! without an allocator (see Cargo.toml) and calls their per-tick functions, so that the linker
+//! sees every path a tick can take; the kinematics and the control pieces also in their f32
+//! instantiation.
 #![no_std]
 
 use control::controller::{Controller, ControllerConfig};
@@ -130,4 +131,93 @@ pub extern "C" fn proof_parameters_consistent(mass_kg: f64, height_m: f64) -> u3
         InertialParameters::from_com(1.0, Vector3::zeros(), kinematics::Matrix3::identity());
     let point = InertialParameters::point_mass(mass_kg, Vector3::new(0.0, 0.0, height_m));
     u32::from((sphere + point).consistency().is_consistent())
+}
+
+/// The rig core: a keyed core opens a session from a host's `Hello`, takes one command and
+/// runs `ticks` periods on a sensed frame at rest, encoding every frame into a static outbox.
+/// Returns the bytes the core emitted (0 when the session did not open).
+#[no_mangle]
+pub extern "C" fn proof_rig_tick(ticks: u32, leg_length_m: f64) -> u32 {
+    use rig::codec::{self, Auth, MAX_FRAME_LEN};
+    use rig::firmware::{CoreConfig, CoreKey, Outbox, RigCore};
+    use rig::wire::{identity_from_str, Command, Hello, Limits, Message, SensorLayout};
+
+    static mut OUTBOX: Outbox<u8> = Outbox::new();
+    const KEY: &[u8] = b"no-alloc proof key, 32 bytes....";
+    const MS: u64 = 1_000_000;
+    let Ok(key) = CoreKey::new(KEY) else {
+        return 0;
+    };
+    let config = CoreConfig {
+        identity: identity_from_str("no-alloc proof"),
+        layout: SensorLayout {
+            leg_count: 6,
+            imu_present: true,
+            accel_position_m: [0.0; 3],
+        },
+        limits: Limits {
+            stroke_min_m: 1.5,
+            stroke_max_m: 2.3,
+            speed_max_m_s: 0.5,
+            force_min_n: -5000.0,
+            force_max_n: 5000.0,
+        },
+        sample_period_ns: MS,
+        watchdog_ns: 20 * MS,
+        session_timeout_ns: 1000 * MS,
+        key: Some(key),
+        enforce_motion_limits: true,
+        speed_window: 10,
+        seed: u64::from(ticks),
+    };
+    let Ok(mut rig) = RigCore::<u8>::new(config) else {
+        return 0;
+    };
+    // SAFETY: the only reference to OUTBOX, on the one thread that runs this function.
+    let out = unsafe { &mut *core::ptr::addr_of_mut!(OUTBOX) };
+    let mut frame = [0u8; MAX_FRAME_LEN];
+    let hello = Message::Hello(Hello {
+        host_nonce: 1,
+        key_id: Some(codec::key_id(KEY)),
+    });
+    let auth = Auth {
+        key: KEY,
+        session_id: 0,
+    };
+    let Ok(n) = codec::encode(&hello, Some(&auth), &mut frame) else {
+        return 0;
+    };
+    rig.receive(0, 1, frame.get(..n).unwrap_or(&[]), out);
+    out.clear();
+    let Some(session) = rig.session() else {
+        return 0;
+    };
+    let command = Message::Command(Command {
+        sequence: 1,
+        sensor_sequence: 0,
+        leg_forces_n: [100.0; 6],
+        enable: true,
+    });
+    let auth = Auth {
+        key: KEY,
+        session_id: session.session_id,
+    };
+    let Ok(n) = codec::encode(&command, Some(&auth), &mut frame) else {
+        return 0;
+    };
+    rig.receive(0, 1, frame.get(..n).unwrap_or(&[]), out);
+    let sensors = SensorFrame {
+        leg_lengths_m: [leg_length_m; 6],
+        accel_m_s2: [0.0, 0.0, STANDARD_GRAVITY_M_S2],
+        ..SensorFrame::default()
+    };
+    let mut sent = 0u32;
+    for k in 0..ticks {
+        let _ = rig.tick(u64::from(k) * MS, &sensors, out);
+        for f in out.frames() {
+            sent = sent.saturating_add(u32::try_from(f.bytes().len()).unwrap_or(u32::MAX));
+        }
+        out.clear();
+    }
+    sent
 }

@@ -39,6 +39,9 @@ pub const MAX_BODY_LEN: usize = MAX_FRAME_LEN - HEADER_LEN - TAG_LEN - CRC_LEN;
 /// Largest COBS-encoded frame including its 0x00 delimiter, bytes.
 pub const MAX_COBS_LEN: usize = MAX_FRAME_LEN + MAX_FRAME_LEN / 254 + 2;
 
+/// Shortest shared key either side accepts, bytes (128 bits).
+pub const MIN_KEY_LEN: usize = 16;
+
 /// The CRC of every frame: CRC-32/ISO-HDLC.
 pub const CRC32: Crc<u32> = Crc::<u32>::new(&CRC_32_ISO_HDLC);
 

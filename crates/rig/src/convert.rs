@@ -3,14 +3,15 @@
 //! Values pass bit for bit; times become integer nanoseconds on the wire (rounded to the
 //! nearest; negative or non-finite times become 0).
 
-use control::io::{CommandFrame, SensorFrame, Status};
+use stewart_types::{CommandFrame, SensorFrame, Status};
 
 use crate::wire::{Command, Sensor};
 
 /// Seconds to wire nanoseconds (nearest, saturating; NaN and negatives give 0).
 pub fn seconds_to_ns(seconds: f64) -> u64 {
-    // `as` saturates and maps NaN to 0, which is what a timestamp field can hold.
-    (seconds * 1e9).round() as u64
+    // `as` saturates and maps NaN to 0, which is what a timestamp field can hold. libm's
+    // `round` (half away from zero) is `f64::round` without std.
+    libm::round(seconds * 1e9) as u64
 }
 
 /// Wire nanoseconds to seconds.

@@ -8,8 +8,7 @@ use std::path::Path;
 use crate::codec::key_id;
 use crate::error::RigError;
 
-/// Shortest key accepted, bytes (128 bits).
-pub const MIN_KEY_LEN: usize = 16;
+pub use crate::codec::MIN_KEY_LEN;
 
 /// Length of a generated key, bytes (256 bits, the HMAC-SHA256 block's recommended key size).
 pub const GENERATED_KEY_LEN: usize = 32;

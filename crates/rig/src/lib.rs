@@ -1,12 +1,13 @@
 //! Hardware I/O for the Stewart rig: the wire protocol, its transports, the host backend and a
 //! rig emulator.
 //!
-//! * [`wire`] and [`codec`] are the protocol (documented byte by byte in `docs/protocol.md`).
-//!   They build without `std` and without an allocator (`default-features = false`) so that a
-//!   rig's firmware can share them.
+//! * [`wire`] and [`codec`] are the protocol (documented byte by byte in `docs/protocol.md`),
+//!   and [`firmware::RigCore`] is the rig's side of it (session, key, watchdog, limits, brakes,
+//!   faults, sensor frames; docs/rig-core.md). They build without `std` and without an
+//!   allocator (`default-features = false`) so that a rig's firmware runs them as they are.
 //! * With the default `std` feature: [`transport`] (UDP, serial), [`host::RigBackend`] (a
 //!   `control::io::Backend` talking to a rig), [`emulator`] (any backend, e.g. the
-//!   simulator, served behind the protocol in real time with rig-side safety), [`link`] (the
+//!   simulator, served behind the protocol in real time by [`firmware::RigCore`]), [`link`] (the
 //!   backend as a measurement holds it: brake heartbeat, first failure, loop timing), [`key`]
 //!   (the shared key and its file) and [`realtime`] (real-time priority where allowed).
 //!
@@ -17,10 +18,10 @@
 #![warn(missing_docs)]
 
 pub mod codec;
+mod convert;
+pub mod firmware;
 pub mod wire;
 
-#[cfg(feature = "std")]
-mod convert;
 #[cfg(feature = "std")]
 pub mod emulator;
 #[cfg(feature = "std")]

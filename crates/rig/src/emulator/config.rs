@@ -1,0 +1,171 @@
+//! The emulator's configuration, counters, and what it tells its operator.
+
+use std::time::Duration;
+
+use control::io::LEG_COUNT;
+
+use crate::key::Key;
+use crate::transport::Peer;
+use crate::wire::{Fault, Limits, SensorLayout};
+
+/// Deliberate damage to the link, for tests. All fractions are probabilities per sensor frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FaultInjection {
+    /// Fraction of sensor frames not sent (their sequence numbers are used up).
+    pub drop_fraction: f64,
+    /// Fraction of sensor frames sent with one bit flipped (the CRC catches it).
+    pub corrupt_fraction: f64,
+    /// Fraction of sensor frames held back by [`delay`](Self::delay) before sending.
+    pub delay_fraction: f64,
+    /// How long delayed frames are held back.
+    pub delay: Duration,
+    /// After this many sensor frames in a session the emulator stops answering altogether
+    /// (no frames, no faults), as a rig whose link died.
+    pub stop_after_frames: Option<u64>,
+}
+
+/// How the emulator presents itself and what it enforces.
+#[derive(Clone, Debug)]
+pub struct EmulatorConfig {
+    /// Identity string sent in the handshake.
+    pub identity: String,
+    /// Sensor layout sent in the handshake.
+    pub layout: SensorLayout,
+    /// Hard limits: sent in the handshake and enforced.
+    pub limits: Limits,
+    /// Brake when no valid command arrived for this long (20 ms).
+    pub watchdog: Duration,
+    /// Drop a session whose host has been silent this long (1 s), so another host may connect.
+    pub session_timeout: Duration,
+    /// Shared key: accept only frames tagged with it, tag every frame sent.
+    pub key: Option<Key>,
+    /// Brake on measured stroke and speed violations while the actuators are driven (true).
+    pub enforce_motion_limits: bool,
+    /// Leg speed is the length change over this many samples, to keep sensor noise from
+    /// tripping the speed limit (10; at most `firmware::MAX_SPEED_WINDOW`, 32).
+    pub speed_window: usize,
+    /// Link damage for tests.
+    pub faults: FaultInjection,
+    /// Lockstep, for tests on busy machines (`None`, the default: real time, as a rig).
+    /// With `Some(limit)`, before each sample of a session the emulator waits, at most `limit`,
+    /// until the host has answered the last sensor frame it sent intact (not dropped or
+    /// corrupted by injection): a host that is descheduled then pauses the emulated world
+    /// instead of letting the platform run on its last command. The watchdog still trips
+    /// when the host stays silent for longer than the watchdog time.
+    pub lockstep: Option<Duration>,
+    /// Seed for session numbers and fault injection.
+    pub seed: u64,
+}
+
+impl EmulatorConfig {
+    /// Defaults around the given limits: identity "stewart-emulator", six legs, an IMU at the
+    /// P origin, a 20 ms watchdog, no key, no injected faults, a random seed.
+    pub fn new(limits: Limits) -> Self {
+        Self {
+            identity: "stewart-emulator".into(),
+            layout: SensorLayout {
+                leg_count: LEG_COUNT as u8,
+                imu_present: true,
+                accel_position_m: [0.0; 3],
+            },
+            limits,
+            watchdog: Duration::from_millis(20),
+            session_timeout: Duration::from_secs(1),
+            key: None,
+            enforce_motion_limits: true,
+            speed_window: 10,
+            faults: FaultInjection::default(),
+            lockstep: None,
+            seed: rand::random(),
+        }
+    }
+}
+
+/// What the emulator did and saw.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct EmulatorStats {
+    /// Sample periods run.
+    pub ticks: u64,
+    /// Ticks that started more than one period late (the machine could not keep up).
+    pub overruns: u64,
+    /// Sessions opened.
+    pub sessions: u64,
+    /// Sensor frames produced in sessions (including dropped ones).
+    pub sensor_frames: u64,
+    /// Sensor frames put on the link.
+    pub sent: u64,
+    /// Sensor frames dropped by fault injection.
+    pub dropped_injected: u64,
+    /// Sensor frames corrupted by fault injection.
+    pub corrupted_injected: u64,
+    /// Sensor frames delayed by fault injection.
+    pub delayed_injected: u64,
+    /// Frames received, of any kind and from anyone.
+    pub received: u64,
+    /// Commands accepted from the session's host.
+    pub commands_accepted: u64,
+    /// Gaps in the command sequence.
+    pub commands_lost: u64,
+    /// Commands repeating the last sequence.
+    pub duplicate: u64,
+    /// Commands older than the last accepted.
+    pub out_of_sequence: u64,
+    /// Frames from addresses other than the session's host.
+    pub foreign_sender: u64,
+    /// Frames whose tag was missing, unexpected or wrong.
+    pub auth_failed: u64,
+    /// Damaged frames.
+    pub corrupt: u64,
+    /// Frames of another protocol version or protocol.
+    pub version_mismatch: u64,
+    /// Valid frames of a kind the rig does not take (or commands outside a session).
+    pub unexpected: u64,
+    /// Fault reports sent.
+    pub faults_sent: u64,
+    /// Ticks in a session during which the brakes were applied.
+    pub braked_ticks: u64,
+    /// Sensor frames the link would not take (a serial output buffer full because the host
+    /// stopped reading, a UDP send refused): dropped, as rig firmware must, never waited for.
+    pub send_failed: u64,
+}
+
+/// What a session hook learns when a host opens a session.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SessionStart {
+    /// 1 for the first session the emulator opened, then +1 per session.
+    pub number: u64,
+    /// The session's host.
+    pub peer: Peer,
+    /// The session number sent in the `HelloAck`.
+    pub session_id: u64,
+}
+
+/// Called with the served backend when a session opens, before the `HelloAck` is sent: the
+/// place for what an operator does between sessions (put the payload on, take it off).
+pub type SessionHook<B> = Box<dyn FnMut(&mut B, &SessionStart) + Send>;
+
+/// What the emulator tells its operator about a session while it runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum EmulatorEvent {
+    /// The rig latched a fault and braked (a watchdog trip, a limit).
+    Fault {
+        /// The session's number (as in [`SessionStart::number`]).
+        session: u64,
+        /// Its host.
+        peer: Peer,
+        /// The fault as reported to the host.
+        fault: Fault,
+    },
+    /// The session's host stayed silent for the session timeout: the session ended.
+    SessionTimedOut {
+        /// The session's number.
+        session: u64,
+        /// Its host.
+        peer: Peer,
+        /// How long the host had been silent.
+        silent_for: Duration,
+    },
+}
+
+/// Called on every [`EmulatorEvent`] (e.g. to print it).
+pub type EventHook = Box<dyn FnMut(&EmulatorEvent) + Send>;
