@@ -1,7 +1,7 @@
 //! Time of the rig core's work per sample period (`cargo bench -p rig --bench rig_core`): one
 //! `tick` (stroke and speed checks, a sensor frame encoded, the actuator output chosen) and one
 //! received command (decoded, checked), without and with a key (HMAC-SHA256 on every frame).
-//! docs/rig-core.md quotes the medians.
+//! docs/firmware.md quotes the medians.
 
 use std::hint::black_box;
 

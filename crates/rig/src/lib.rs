@@ -3,7 +3,7 @@
 //!
 //! * [`wire`] and [`codec`] are the protocol (documented byte by byte in `docs/protocol.md`),
 //!   and [`firmware::RigCore`] is the rig's side of it (session, key, watchdog, limits, brakes,
-//!   faults, sensor frames; docs/rig-core.md). They build without `std` and without an
+//!   faults, sensor frames; docs/firmware.md). They build without `std` and without an
 //!   allocator (`default-features = false`) so that a rig's firmware runs them as they are.
 //! * With the default `std` feature: [`transport`] (UDP, serial), [`host::RigBackend`] (a
 //!   `control::io::Backend` talking to a rig), [`emulator`] (any backend, e.g. the

@@ -490,7 +490,7 @@ fn unusable_configurations_are_refused() {
     assert!(RigCore::<u8>::new(nan).is_err());
 }
 
-/// The memory a firmware gives a rig core and its outbox (docs/rig-core.md quotes them).
+/// The memory a firmware gives a rig core and its outbox (docs/firmware.md quotes them).
 #[test]
 fn a_rig_core_and_its_outbox_fit_in_a_few_kilobytes() {
     let rig = core::mem::size_of::<RigCore<()>>();
