@@ -191,14 +191,14 @@ pub fn stencil_weights(period_s: f64) -> ([f64; STENCIL], [f64; STENCIL]) {
 /// Lagrange weights at `x` of the first `n` of the points `xs` (distinct, n ≤ 4).
 fn lagrange_weights(xs: &[f64; STENCIL], n: usize, x: f64) -> [f64; STENCIL] {
     let mut w = [0.0; STENCIL];
-    for k in 0..n {
+    for (k, (wk, xk)) in w.iter_mut().zip(xs).enumerate().take(n) {
         let mut v = 1.0;
-        for j in 0..n {
+        for (j, xj) in xs.iter().enumerate().take(n) {
             if j != k {
-                v *= (x - xs[j]) / (xs[k] - xs[j]);
+                v *= (x - xj) / (xk - xj);
             }
         }
-        w[k] = v;
+        *wk = v;
     }
     w
 }
@@ -223,7 +223,7 @@ fn warmup_samples(biquad: &Biquad) -> u32 {
     f.reset_to(&SVector::from_element(1.0));
     let mut last_above = 0;
     for k in 0..limit {
-        if f.step(&SVector::zeros())[0].abs() > 1e-3 {
+        if f.step(&SVector::zeros()).x.abs() > 1e-3 {
             last_above = k + 1;
         }
     }
@@ -340,14 +340,10 @@ impl Conditioner {
             let mut f = self.filter;
             f.reset_to(&SVector::zeros());
             let mut sum = 0.0;
-            // An impulse at one sample meets the stencil's taps newest first.
-            for n in 0..200_000usize {
-                let x = if n < STENCIL {
-                    taps[STENCIL - 1 - n]
-                } else {
-                    0.0
-                };
-                let y = f.step(&SVector::from_element(x))[0];
+            // An impulse at one sample meets the stencil's taps newest first, then zeros.
+            let impulse = taps.iter().rev().copied().chain(core::iter::repeat(0.0));
+            for (n, x) in (0..200_000usize).zip(impulse) {
+                let [y, ..]: [f64; CHANNELS] = f.step(&SVector::from_element(x)).into();
                 sum += y * y;
                 if n > 1000 && y.abs() < 1e-18 * (1.0 + libm::sqrt(sum)) {
                     break;
@@ -461,8 +457,12 @@ impl Conditioner {
             pose_channels
                 .fixed_rows_mut::<3>(0)
                 .copy_from(&p.position_m);
-            for (k, v) in p.rotation.matrix().iter().enumerate() {
-                pose_channels[3 + k] = *v;
+            for (channel, v) in pose_channels
+                .iter_mut()
+                .skip(3)
+                .zip(p.rotation.matrix().iter())
+            {
+                *channel = *v;
             }
             if !all_bounded(&pose_channels) {
                 return Err(EstimatorError::NonFiniteSample("pose"));
@@ -511,26 +511,27 @@ impl Conditioner {
     /// each through both stages, its output discarded.
     fn bridge(&mut self, raw: &Raw, missing: u64, with: Carried) -> Result<(), EstimatorError> {
         let m = self.held.min(FILL_POINTS_BEFORE);
-        let mut xs = [0.0; STENCIL];
+        // Held samples at −(m−1) … 0 on the grid (the last m of the history, oldest first),
+        // then `raw` after the gap: point m and those after it start as `raw` at the gap's
+        // end, and only the first m + 1 points are used.
+        let mut xs = [missing as f64 + 1.0; STENCIL];
         let mut points = [*raw; STENCIL];
-        for i in 0..m {
-            // Held samples at −(m−1) … 0 on the grid; `raw` after the gap.
-            xs[i] = i as f64 - (m as f64 - 1.0);
-            points[i] = self.history[STENCIL - m + i];
+        let held = self.history.iter().skip(STENCIL.saturating_sub(m));
+        for (i, ((x, point), h)) in xs.iter_mut().zip(points.iter_mut()).zip(held).enumerate() {
+            *x = i as f64 - (m as f64 - 1.0);
+            *point = *h;
         }
-        xs[m] = missing as f64 + 1.0;
-        points[m] = *raw;
         for j in 1..=missing {
             let w = lagrange_weights(&xs, m + 1, j as f64);
             let mut fill = Raw::zero();
-            for k in 0..=m {
-                fill.omega += points[k].omega * w[k];
-                fill.rest += points[k].rest * w[k];
+            for (point, wk) in points.iter().zip(w).take(m + 1) {
+                fill.omega += point.omega * wk;
+                fill.rest += point.rest * wk;
                 if with.leg_map {
-                    fill.leg_map += points[k].leg_map * w[k];
+                    fill.leg_map += point.leg_map * wk;
                 }
                 if with.pose {
-                    fill.pose += points[k].pose * w[k];
+                    fill.pose += point.pose * wk;
                 }
             }
             self.advance(fill, with)?;
@@ -555,19 +556,19 @@ impl Conditioner {
         let mut rest_mid = SVector::<f64, 15>::zeros();
         let mut map_mid = SVector::<f64, 36>::zeros();
         let mut motion_mid = SVector::<f64, MOTION_CHANNELS>::zeros();
-        for k in 0..STENCIL {
-            omega_dot += window[k].omega * slope[k];
-            rest_mid += window[k].rest * value[k];
+        for ((sample, value_k), slope_k) in window.iter().zip(value).zip(slope) {
+            omega_dot += sample.omega * slope_k;
+            rest_mid += sample.rest * value_k;
             if with.leg_map {
-                map_mid += window[k].leg_map * value[k];
+                map_mid += sample.leg_map * value_k;
             }
             if with.pose {
                 let mut m = motion_mid.fixed_rows_mut::<POSE_CHANNELS>(0);
-                m += window[k].pose * value[k];
+                m += sample.pose * value_k;
                 let mut w = motion_mid.fixed_rows_mut::<3>(POSE_CHANNELS);
-                w += window[k].omega * value[k];
+                w += sample.omega * value_k;
                 let mut v = motion_mid.fixed_rows_mut::<3>(POSE_CHANNELS + 3);
-                v += window[k].pose.fixed_rows::<3>(0) * slope[k];
+                v += sample.pose.fixed_rows::<3>(0) * slope_k;
             }
         }
         let mut x = SVector::<f64, CHANNELS>::zeros();
@@ -605,8 +606,9 @@ impl Conditioner {
             specific_force_m_s2: y.fixed_rows::<3>(9).into_owned(),
         };
         let offset = self.config.gyro_noise_rad_s * self.config.gyro_noise_rad_s;
-        for i in 0..3 {
-            signals.rate_products_rad2_s2[i] -= offset;
+        // The squares ωx², ωy², ωz² (the first three rate products) carry the noise's variance.
+        for square in signals.rate_products_rad2_s2.iter_mut().take(3) {
+            *square -= offset;
         }
         let r = self.config.accelerometer_position_m;
         signals.specific_force_m_s2 -=

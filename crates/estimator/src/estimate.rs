@@ -102,13 +102,14 @@ impl Estimate {
         let theta = parameters.to_vector();
         let covariance = (covariance + covariance.transpose()) * 0.5;
         let parameter_sigma = covariance.diagonal().map(sqrt_nonneg);
+        let [mass_sigma_kg, ..]: [f64; PARAMETER_COUNT] = parameter_sigma.into();
         let nan3 = Vector3::from_element(f64::NAN);
         let nan33 = Matrix3::from_element(f64::NAN);
         let mut e = Estimate {
             parameters,
             covariance,
             parameter_sigma,
-            mass_sigma_kg: parameter_sigma[0],
+            mass_sigma_kg,
             com_m: nan3,
             com_sigma_m: nan3,
             inertia_com_kg_m2: nan33,

@@ -204,13 +204,13 @@ pub fn unseen(
     gravity_b_m_s2: &Vector3<f64>,
 ) -> Unseen {
     let mut out = Unseen::zero();
-    for leg in 0..LEG_COUNT {
-        let one = unseen_of_leg(geometry, leg, legs, motion, gravity_b_m_s2);
+    for (leg, transverse) in out.transverse_n.iter_mut().enumerate() {
+        let one = leg_terms(geometry, leg, legs, motion, gravity_b_m_s2);
         out.dynamics.force_n += one.dynamics.force_n;
         out.dynamics.torque_nm += one.dynamics.torque_nm;
         out.friction.force_n += one.friction.force_n;
         out.friction.torque_nm += one.friction.torque_nm;
-        out.transverse_n[leg] = one.transverse_n[leg];
+        *transverse = one.transverse_n;
     }
     out
 }
@@ -224,7 +224,36 @@ pub fn unseen_of_leg(
     motion: &PlateMotion,
     gravity_b_m_s2: &Vector3<f64>,
 ) -> Unseen {
+    let one = leg_terms(geometry, leg, legs, motion, gravity_b_m_s2);
     let mut out = Unseen::zero();
+    out.dynamics = one.dynamics;
+    out.friction = one.friction;
+    if let Some(transverse) = out.transverse_n.get_mut(leg) {
+        *transverse = one.transverse_n;
+    }
+    out
+}
+
+/// One leg's share of [`Unseen`]: its two wrenches and the transverse force through its cell.
+struct LegTerms {
+    dynamics: Wrench,
+    friction: Wrench,
+    transverse_n: [f64; 2],
+}
+
+/// [`unseen_of_leg`]'s terms; all zero for a leg of zero length or an index beyond the sixth.
+fn leg_terms(
+    geometry: &Geometry,
+    leg: usize,
+    legs: &LegModel,
+    motion: &PlateMotion,
+    gravity_b_m_s2: &Vector3<f64>,
+) -> LegTerms {
+    let mut out = LegTerms {
+        dynamics: zero_wrench(),
+        friction: zero_wrench(),
+        transverse_n: [0.0; 2],
+    };
     let (Some(pj), Some(bj)) = (
         geometry.plate_joints_m().get(leg),
         geometry.base_joints_m().get(leg),
@@ -281,8 +310,8 @@ pub fn unseen_of_leg(
     };
     out.dynamics = wrench(unseen_dyn, Vector3::zeros());
     out.friction = wrench(f_fric, t_plate);
-    let e = transverse_axes(&u);
-    out.transverse_n[leg] = [through_cell.dot(&e[0]), through_cell.dot(&e[1])];
+    let [e1, e2] = transverse_axes(&u);
+    out.transverse_n = [through_cell.dot(&e1), through_cell.dot(&e2)];
     out
 }
 

@@ -21,6 +21,15 @@
 //! any state, and a bad one is rejected with an [`EstimatorError`] and counted.
 #![cfg_attr(not(test), no_std)]
 #![warn(missing_docs)]
+#![cfg_attr(
+    not(test),
+    deny(
+        clippy::unwrap_used,
+        clippy::expect_used,
+        clippy::panic,
+        clippy::indexing_slicing
+    )
+)]
 
 pub mod conditioning;
 mod error;

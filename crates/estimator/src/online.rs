@@ -226,8 +226,8 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
 
     fn weigh(&self, rows: &SMatrix<f64, R, N>) -> SMatrix<f64, R, N> {
         let mut w = *rows;
-        for r in 0..R {
-            w.row_mut(r).scale_mut(self.inv_sigma[r]);
+        for (mut row, s) in w.row_iter_mut().zip(self.inv_sigma.iter()) {
+            row.scale_mut(*s);
         }
         w
     }
@@ -256,8 +256,8 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         self.samples = self.samples * self.rls.forgetting() + 1.0;
         if let Some(l) = leg_map {
             let mut wl = *l;
-            for r in 0..R {
-                wl.row_mut(r).scale_mut(self.inv_sigma[r]);
+            for (mut row, s) in wl.row_iter_mut().zip(self.inv_sigma.iter()) {
+                row.scale_mut(*s);
             }
             self.leg = self.leg * self.rls.forgetting() + wrows.tr_mul(&wl);
         }
@@ -292,7 +292,7 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         let pc = inv * p;
         let pc = (pc + pc.transpose()) * 0.5;
         let t = inv * theta;
-        let definite = (0..N).all(|i| pc[(i, i)] > 0.0);
+        let definite = pc.diagonal().iter().all(|v| *v > 0.0);
         if definite && t.iter().all(|v| v.is_finite()) && pc.iter().all(|v| v.is_finite()) {
             (t, pc, self.noise_moment)
         } else {
@@ -329,8 +329,8 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         let (s, _) = self.score.totals();
         let (_, p) = self.corrected();
         let mut sw = p * s;
-        for r in 0..R {
-            sw.column_mut(r).scale_mut(self.inv_sigma[r]);
+        for (mut column, s) in sw.column_iter_mut().zip(self.inv_sigma.iter()) {
+            column.scale_mut(*s);
         }
         sw
     }
@@ -362,8 +362,7 @@ fn noise_moment<const N: usize, const R: usize>(
     regressor: impl Fn(&RegressorSignals) -> SMatrix<f64, R, N>,
 ) -> SMatrix<f64, N, N> {
     let mut c = SMatrix::<f64, N, N>::zeros();
-    for axis in 0..3 {
-        let e = Vector3::ith(axis, 1.0);
+    for e in [Vector3::x(), Vector3::y(), Vector3::z()] {
         let sources = [
             (
                 derivative_variance,
@@ -385,8 +384,8 @@ fn noise_moment<const N: usize, const R: usize>(
         for (variance, signals) in sources {
             if variance > 0.0 {
                 let mut b = regressor(&signals);
-                for r in 0..R {
-                    b.row_mut(r).scale_mut(inv_sigma[r]);
+                for (mut row, s) in b.row_iter_mut().zip(inv_sigma.iter()) {
+                    row.scale_mut(*s);
                 }
                 c += b.tr_mul(&b) * variance;
             }
@@ -411,14 +410,14 @@ fn to_com_rows(com_m: &Vector3<f64>) -> SMatrix<f64, 3, 6> {
 pub(crate) fn leg_map(geometry: &Geometry, pose: &Pose) -> Matrix6<f64> {
     let jt = geometry.jacobian(pose).transpose();
     let rt = pose.rotation.inverse();
+    // Jᵀ's columns, one per leg (nalgebra's arrays are column-major).
+    let columns: [[f64; 6]; 6] = jt.into();
     let mut g = Matrix6::zeros();
-    for i in 0..6 {
-        let col = jt.column(i);
-        let f = rt * Vector3::new(col[0], col[1], col[2]);
-        let t = rt * Vector3::new(col[3], col[4], col[5]);
-        for k in 0..3 {
-            g[(k, i)] = f[k];
-            g[(k + 3, i)] = t[k];
+    for (mut g_col, [f0, f1, f2, t0, t1, t2]) in g.column_iter_mut().zip(columns) {
+        let f = rt * Vector3::new(f0, f1, f2);
+        let t = rt * Vector3::new(t0, t1, t2);
+        for (dst, src) in g_col.iter_mut().zip(f.iter().chain(t.iter())) {
+            *dst = *src;
         }
     }
     g
@@ -684,10 +683,10 @@ impl OnlineEstimator {
             .then(|| leg_map(&self.config.geometry, &sample.pose));
         let w = match &map {
             Some(m) => {
-                let v = m * sample.leg_forces_n;
+                let [f0, f1, f2, t0, t1, t2]: [f64; 6] = (m * sample.leg_forces_n).into();
                 Wrench {
-                    force_n: Vector3::new(v[0], v[1], v[2]),
-                    torque_nm: Vector3::new(v[3], v[4], v[5]),
+                    force_n: Vector3::new(f0, f1, f2),
+                    torque_nm: Vector3::new(t0, t1, t2),
                 }
             }
             None => measured(&self.config.geometry, &sample.pose, &sample.leg_forces_n),
@@ -906,12 +905,13 @@ impl OnlineEstimator {
     pub fn accel_bias_sensitivity(&self) -> SMatrix<f64, 10, 3> {
         let mut d = SMatrix::<f64, 10, 3>::zeros();
         if let Engine::Full(s) = &self.engine {
-            for axis in 0..3 {
+            let axes = [Vector3::x(), Vector3::y(), Vector3::z()];
+            for (mut column, axis) in d.column_iter_mut().zip(axes) {
                 let b = from_signals(&RegressorSignals {
-                    specific_force_m_s2: Vector3::ith(axis, 1.0),
+                    specific_force_m_s2: axis,
                     ..RegressorSignals::default()
                 });
-                d.set_column(axis, &s.regressor_perturbation_effect(&b));
+                column.copy_from(&s.regressor_perturbation_effect(&b));
             }
         }
         d

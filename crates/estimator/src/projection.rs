@@ -94,7 +94,7 @@ pub fn pseudo_inertia(theta: &ParameterVector) -> Matrix4<f64> {
     out.fixed_view_mut::<3, 3>(0, 0).copy_from(&sigma);
     out.fixed_view_mut::<3, 1>(0, 3).copy_from(&h);
     out.fixed_view_mut::<1, 3>(3, 0).copy_from(&h.transpose());
-    out[(3, 3)] = p.mass_kg;
+    out.m44 = p.mass_kg;
     out
 }
 
@@ -105,7 +105,7 @@ pub fn from_pseudo_inertia(j: &Matrix4<f64>) -> ParameterVector {
     let sigma: Matrix3<f64> = s.fixed_view::<3, 3>(0, 0).into_owned();
     let h: Vector3<f64> = s.fixed_view::<3, 1>(0, 3).into_owned();
     InertialParameters {
-        mass_kg: s[(3, 3)],
+        mass_kg: s.m44,
         first_moment_kg_m: h,
         inertia_origin_kg_m2: Matrix3::identity() * sigma.trace() - sigma,
     }
@@ -136,8 +136,8 @@ pub fn nearest_consistent(
     let t_ref = reference_body(theta, covariance);
     let g0 = pseudo_inertia(theta) - t_ref * CONSISTENCY_MARGIN;
     // Bₖ = J(L eₖ): how G moves with each whitened coordinate.
-    let basis: [Matrix4<f64>; N] =
-        core::array::from_fn(|k| pseudo_inertia(&l.column(k).into_owned()));
+    let columns: [[f64; N]; N] = l.into();
+    let basis: [Matrix4<f64>; N] = columns.map(|lk| pseudo_inertia(&ParameterVector::from(lk)));
     let z0 = start(theta, &t_ref, &l_inv)?;
     let problem = Barrier { g0, basis };
     let (z, converged) = problem.solve(z0)?;
@@ -180,9 +180,11 @@ fn square_root(
 /// T = m_ref · diag(ℓ², ℓ², ℓ², 1): a body of the estimate's mass and size, the yardstick of the
 /// margin and of the start.
 fn reference_body(theta: &ParameterVector, covariance: &ParameterCovariance) -> Matrix4<f64> {
-    let mass_sigma = libm::sqrt(covariance[(0, 0)].max(0.0));
-    let m_ref = theta[0].abs().max(mass_sigma).max(f64::MIN_POSITIVE);
-    let trace = (theta[4] + theta[5] + theta[6]).abs();
+    let [mass_variance, ..]: [f64; N] = covariance.diagonal().into();
+    let [m, _, _, _, jxx, jyy, jzz, ..]: [f64; N] = (*theta).into();
+    let mass_sigma = libm::sqrt(mass_variance.max(0.0));
+    let m_ref = m.abs().max(mass_sigma).max(f64::MIN_POSITIVE);
+    let trace = (jxx + jyy + jzz).abs();
     let mut l2 = trace / (6.0 * m_ref);
     if !(l2 > 0.0 && l2.is_finite()) {
         l2 = 1.0;
@@ -235,8 +237,7 @@ impl Barrier {
         let c = Cholesky::new(self.g(z))?;
         let l = c.l_dirty();
         let mut log_det = 0.0;
-        for k in 0..4 {
-            let d = l[(k, k)];
+        for d in l.diagonal().iter().copied() {
             if !(d > 0.0 && d.is_finite()) {
                 return None;
             }
@@ -257,10 +258,12 @@ impl Barrier {
         let lambda_inv = Cholesky::new(self.g(z))?
             .l()
             .solve_lower_triangular(&Matrix4::identity())?;
-        let c: [Matrix4<f64>; N] =
-            core::array::from_fn(|k| lambda_inv * self.basis[k] * lambda_inv.transpose());
-        let grad = SVector::<f64, N>::from_fn(|k, _| t * z[k] - c[k].trace());
-        let gram = SMatrix::<f64, N, N>::from_fn(|k, l| c[k].dot(&c[l]));
+        let c: [Matrix4<f64>; N] = self
+            .basis
+            .map(|bk| lambda_inv * bk * lambda_inv.transpose());
+        let grad = z * t - SVector::<f64, N>::from(c.map(|ck| ck.trace()));
+        // Column l holds ⟨Cₖ, Cₗ⟩ for k = 0…N−1 (nalgebra's arrays are column-major).
+        let gram = SMatrix::<f64, N, N>::from(c.map(|cl| c.map(|ck| ck.dot(&cl))));
         Some((grad, gram))
     }
 

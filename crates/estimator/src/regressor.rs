@@ -59,8 +59,7 @@ impl RegressorSignals {
 
     /// ω × (ω × r) = (ω ωᵀ − ‖ω‖²𝟙) r, written with the products so it stays linear in them.
     pub fn centripetal(&self, r: &Vector3<f64>) -> Vector3<f64> {
-        let q = &self.rate_products_rad2_s2;
-        let (xx, yy, zz, xy, xz, yz) = (q[0], q[1], q[2], q[3], q[4], q[5]);
+        let [xx, yy, zz, xy, xz, yz]: [f64; 6] = self.rate_products_rad2_s2.into();
         Vector3::new(
             -(yy + zz) * r.x + xy * r.y + xz * r.z,
             xy * r.x - (xx + zz) * r.y + yz * r.z,
@@ -84,8 +83,7 @@ impl RegressorSignals {
 /// inertia Ixy = ∫xy dm) as derived from τ = J ω̇ + ω × (J ω).
 pub fn inertia_columns(s: &RegressorSignals) -> TorqueRegressor {
     let a = &s.angular_acceleration_rad_s2;
-    let q = &s.rate_products_rad2_s2;
-    let (xx, yy, zz, xy, xz, yz) = (q[0], q[1], q[2], q[3], q[4], q[5]);
+    let [xx, yy, zz, xy, xz, yz]: [f64; 6] = s.rate_products_rad2_s2.into();
     #[rustfmt::skip]
     let m = TorqueRegressor::new(
         a.x, -yz,  yz,  a.y - xz, a.z + xy, yy - zz,
@@ -99,8 +97,7 @@ pub fn inertia_columns(s: &RegressorSignals) -> TorqueRegressor {
 pub fn from_signals(s: &RegressorSignals) -> Regressor {
     let a = &s.angular_acceleration_rad_s2;
     let f = &s.specific_force_m_s2;
-    let q = &s.rate_products_rad2_s2;
-    let (xx, yy, zz, xy, xz, yz) = (q[0], q[1], q[2], q[3], q[4], q[5]);
+    let [xx, yy, zz, xy, xz, yz]: [f64; 6] = s.rate_products_rad2_s2.into();
     let mut phi = Regressor::zeros();
     // Force rows: m f + ([ω̇]× + ω ωᵀ − ‖ω‖²𝟙) h.
     #[rustfmt::skip]

@@ -84,16 +84,17 @@ impl<const N: usize> Rls<N> {
     /// exactly symmetric.
     pub fn covariance(&self) -> SMatrix<f64, N, N> {
         let mut p = SMatrix::<f64, N, N>::zeros();
-        for i in 0..N {
-            for j in i..N {
+        // Column j's entries i ≤ j from rows i and j of U, then the upper triangle mirrored.
+        for (j, (mut p_col, u_j)) in p.column_iter_mut().zip(self.u.row_iter()).enumerate() {
+            for (p_ij, u_i) in p_col.iter_mut().zip(self.u.row_iter()).take(j + 1) {
                 let mut s = 0.0;
-                for k in j..N {
-                    s += self.u[(i, k)] * self.d[k] * self.u[(j, k)];
+                for ((u_ik, d_k), u_jk) in u_i.iter().zip(self.d.iter()).zip(u_j.iter()).skip(j) {
+                    s += u_ik * d_k * u_jk;
                 }
-                p[(i, j)] = s;
-                p[(j, i)] = s;
+                *p_ij = s;
             }
         }
+        p.fill_lower_triangle_with_upper_triangle();
         p
     }
 
@@ -113,20 +114,28 @@ impl<const N: usize> Rls<N> {
         let f = self.u.tr_mul(phi);
         let mut b = SVector::<f64, N>::zeros();
         let mut alpha = 1.0;
-        for j in 0..N {
-            let fj = f[j];
-            let vj = self.d[j] * fj;
+        for (j, ((fj, dj), mut u_col)) in f
+            .iter()
+            .zip(self.d.iter_mut())
+            .zip(self.u.column_iter_mut())
+            .enumerate()
+        {
+            let vj = *dj * fj;
             let beta = alpha;
             alpha += fj * vj;
             // d'ⱼ = dⱼ β/α: positive whenever dⱼ is.
-            self.d[j] *= beta / alpha;
+            *dj *= beta / alpha;
             let lambda = -fj / beta;
-            for i in 0..j {
-                let uij = self.u[(i, j)];
-                self.u[(i, j)] = uij + lambda * b[i];
-                b[i] += uij * vj;
+            // Rows i < j of column j, then bⱼ = vⱼ at i = j.
+            for (i, (uij, bi)) in u_col.iter_mut().zip(b.iter_mut()).enumerate().take(j + 1) {
+                if i < j {
+                    let u_old = *uij;
+                    *uij = u_old + lambda * *bi;
+                    *bi += u_old * vj;
+                } else {
+                    *bi = vj;
+                }
             }
-            b[j] = vj;
         }
         self.theta += b * (innovation / alpha);
         innovation
@@ -135,8 +144,8 @@ impl<const N: usize> Rls<N> {
     /// One sample of `R` weighted rows: begin_sample, then each row in turn.
     pub fn update<const R: usize>(&mut self, rows: &SMatrix<f64, R, N>, y: &SVector<f64, R>) {
         self.begin_sample();
-        for r in 0..R {
-            self.update_row(&rows.row(r).transpose(), y[r]);
+        for (row, yr) in rows.row_iter().zip(y.iter()) {
+            self.update_row(&row.transpose(), *yr);
         }
     }
 
@@ -177,10 +186,19 @@ impl<const N: usize> NormalEquations<N> {
 
     /// Adds the prior of an [`Rls`] started with the same `initial` and `prior_variance`.
     pub fn add_prior(&mut self, initial: &SVector<f64, N>, prior_variance: &SVector<f64, N>) {
-        for i in 0..N {
-            let w = 1.0 / prior_variance[i];
-            self.a[(i, i)] += w;
-            self.b[i] += w * initial[i];
+        for (i, ((mut a_col, b_i), (variance, initial_i))) in self
+            .a
+            .column_iter_mut()
+            .zip(self.b.iter_mut())
+            .zip(prior_variance.iter().zip(initial.iter()))
+            .enumerate()
+        {
+            let w = 1.0 / variance;
+            // Column i's diagonal entry: the one after its first i.
+            for a_ii in a_col.iter_mut().skip(i).take(1) {
+                *a_ii += w;
+            }
+            *b_i += w * initial_i;
         }
     }
 

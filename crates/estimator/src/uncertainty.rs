@@ -126,12 +126,12 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         self.block_s += rows.transpose();
         self.block_y += y;
         self.block_n = self.block_n * self.forgetting + 1.0;
-        for r in 0..R {
-            for i in 0..N {
-                let ri = rows[(r, i)];
-                if ri != 0.0 {
-                    for j in i..N {
-                        self.block_a[(i, j)] += ri * rows[(r, j)];
+        // A's upper triangle: row i gains rᵢ rⱼ for j ≥ i, row by row of the sample.
+        for row in rows.row_iter() {
+            for (i, (mut a_row, ri)) in self.block_a.row_iter_mut().zip(row.iter()).enumerate() {
+                if *ri != 0.0 {
+                    for (a_ij, rj) in a_row.iter_mut().zip(row.iter()).skip(i) {
+                        *a_ij += ri * rj;
                     }
                 }
             }
@@ -160,20 +160,20 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         self.total_samples = self.total_samples * age + self.in_block as f64;
         if self.finished > 0 {
             // A symmetric, stored as its upper triangle.
-            let a = SMatrix::<f64, N, N>::from_fn(|i, j| {
-                if j >= i {
-                    self.block_a[(i, j)]
-                } else {
-                    self.block_a[(j, i)]
-                }
-            }) - noise_moment * self.block_n;
+            let mut upper = self.block_a;
+            upper.fill_lower_triangle_with_upper_triangle();
+            let a = upper - noise_moment * self.block_n;
             let g = self.block_b - a * theta;
             let d = self.block_s - a * (p * self.total_s);
             let eta = g + self.last_g * age;
             let e = d + self.last_d * age;
             let decay = self.block_decay;
             self.eta_eta = self.eta_eta * decay + eta * eta.transpose();
-            let flat = SVector::<f64, NR>::from_fn(|k, _| e[(k / R, k % R)]);
+            // e's rows one after another: eᵀ's column-major storage (NR = N·R entries).
+            let mut flat = SVector::<f64, NR>::zeros();
+            for (dst, src) in flat.iter_mut().zip(e.transpose().iter()) {
+                *dst = *src;
+            }
             self.eta_e = self.eta_e * decay + eta * flat.transpose();
             self.e_e = self.e_e * decay + flat * flat.transpose();
             self.blocks = self.blocks * decay + 1.0;
@@ -205,10 +205,9 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             return offset;
         }
         let (values, vectors) = jacobi_eigen(schur);
-        for k in 0..R {
-            if values[k] > 1e-9 * n {
-                let v = vectors.column(k);
-                offset += v * (v.dot(&rhs) / values[k]);
+        for (value, v) in values.iter().zip(vectors.column_iter()) {
+            if *value > 1e-9 * n {
+                offset += v * (v.dot(&rhs) / value);
             }
         }
         if offset.iter().all(|v| v.is_finite()) {
@@ -227,18 +226,30 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     ) -> SMatrix<f64, N, N> {
         let mut cross = SMatrix::<f64, N, N>::zeros();
         let mut square = SMatrix::<f64, N, N>::zeros();
-        for i in 0..N {
-            for j in 0..N {
+        // Entry (i, j): x ⊗ X's row i at columns jR + r, X ⊗ X's rows iR + r at columns jR + t.
+        for (i, (x_row, (mut cross_row, mut square_row))) in x_x
+            .row_iter()
+            .zip(cross.row_iter_mut().zip(square.row_iter_mut()))
+            .enumerate()
+        {
+            for (j, (cross_ij, square_ij)) in
+                cross_row.iter_mut().zip(square_row.iter_mut()).enumerate()
+            {
                 let mut v = 0.0;
                 let mut w = 0.0;
-                for r in 0..R {
-                    v += x_x[(i, j * R + r)] * c[r];
-                    for t in 0..R {
-                        w += xx_xx[(i * R + r, j * R + t)] * c[r] * c[t];
+                for ((x_r, c_r), xx_row) in x_row
+                    .iter()
+                    .skip(j * R)
+                    .zip(c.iter())
+                    .zip(xx_xx.row_iter().skip(i * R))
+                {
+                    v += x_r * c_r;
+                    for (xx_rt, c_t) in xx_row.iter().skip(j * R).zip(c.iter()) {
+                        w += xx_rt * c_r * c_t;
                     }
                 }
-                cross[(i, j)] = v;
-                square[(i, j)] = w;
+                *cross_ij = v;
+                *square_ij = w;
             }
         }
         xx - cross - cross.transpose() + square
@@ -341,10 +352,13 @@ fn jacobi_eigen<const R: usize>(
     for _ in 0..30 {
         let mut off = 0.0;
         let mut diag = 0.0;
-        for i in 0..R {
-            diag += a[(i, i)] * a[(i, i)];
-            for j in (i + 1)..R {
-                off += a[(i, j)] * a[(i, j)];
+        for (i, row) in a.row_iter().enumerate() {
+            for (j, aij) in row.iter().enumerate() {
+                if j == i {
+                    diag += aij * aij;
+                } else if j > i {
+                    off += aij * aij;
+                }
             }
         }
         if off <= 1e-30 * diag || off == 0.0 {
@@ -352,12 +366,18 @@ fn jacobi_eigen<const R: usize>(
         }
         for p in 0..R {
             for q in (p + 1)..R {
-                let apq = a[(p, q)];
+                // p < q < R: both entries exist, so the `else` is never taken.
+                let (Some(apq), Some((app, aqq))) = (
+                    a.get((p, q)).copied(),
+                    pair(a.diagonal().iter().copied(), p, q),
+                ) else {
+                    continue;
+                };
                 if apq == 0.0 {
                     continue;
                 }
                 // The rotation that zeroes a[p][q] (Golub & Van Loan, Alg. 8.4.1).
-                let tau = (a[(q, q)] - a[(p, p)]) / (2.0 * apq);
+                let tau = (aqq - app) / (2.0 * apq);
                 let t = if tau >= 0.0 {
                     1.0 / (tau + libm::sqrt(1.0 + tau * tau))
                 } else {
@@ -365,28 +385,44 @@ fn jacobi_eigen<const R: usize>(
                 };
                 let c = 1.0 / libm::sqrt(1.0 + t * t);
                 let s = t * c;
-                for k in 0..R {
-                    let akp = a[(k, p)];
-                    let akq = a[(k, q)];
-                    a[(k, p)] = c * akp - s * akq;
-                    a[(k, q)] = s * akp + c * akq;
+                // Columns p and q of A, then its rows p and q, then V's columns p and q (each
+                // pair exists for p < q < R).
+                if let Some((col_p, col_q)) = pair(a.column_iter_mut(), p, q) {
+                    rotate(col_p.into_iter(), col_q.into_iter(), c, s);
                 }
-                for k in 0..R {
-                    let apk = a[(p, k)];
-                    let aqk = a[(q, k)];
-                    a[(p, k)] = c * apk - s * aqk;
-                    a[(q, k)] = s * apk + c * aqk;
+                if let Some((row_p, row_q)) = pair(a.row_iter_mut(), p, q) {
+                    rotate(row_p.into_iter(), row_q.into_iter(), c, s);
                 }
-                for k in 0..R {
-                    let vkp = v[(k, p)];
-                    let vkq = v[(k, q)];
-                    v[(k, p)] = c * vkp - s * vkq;
-                    v[(k, q)] = s * vkp + c * vkq;
+                if let Some((col_p, col_q)) = pair(v.column_iter_mut(), p, q) {
+                    rotate(col_p.into_iter(), col_q.into_iter(), c, s);
                 }
             }
         }
     }
     (a.diagonal(), v)
+}
+
+/// Items p and q (p < q) of `items`; `None` when q ≤ p or there are not q + 1 items.
+fn pair<T>(items: impl Iterator<Item = T>, p: usize, q: usize) -> Option<(T, T)> {
+    let gap = q.checked_sub(p)?.checked_sub(1)?;
+    let mut rest = items.skip(p);
+    let first = rest.next()?;
+    let second = rest.nth(gap)?;
+    Some((first, second))
+}
+
+/// The plane rotation of two rows or columns x, y: x ← c x − s y, y ← s x + c y, entry by entry.
+fn rotate<'a>(
+    x: impl Iterator<Item = &'a mut f64>,
+    y: impl Iterator<Item = &'a mut f64>,
+    c: f64,
+    s: f64,
+) {
+    for (xk, yk) in x.zip(y) {
+        let (x0, y0) = (*xk, *yk);
+        *xk = c * x0 - s * y0;
+        *yk = s * x0 + c * y0;
+    }
 }
 
 /// Derived quantities with their one-sigma uncertainties, propagated to first order.
@@ -408,25 +444,52 @@ pub struct Derived {
 /// ∂c/∂m = −h/m², ∂c/∂h = 𝟙/m; ∂J_C/∂m = (‖h‖²𝟙 − h hᵀ)/m², ∂J_C/∂hₖ = −(2hₖ𝟙 − eₖhᵀ − h eₖᵀ)/m,
 /// ∂J_C/∂J_O = 𝟙.
 pub fn derived_jacobian(theta: &SVector<f64, 10>) -> SMatrix<f64, 10, 10> {
-    let m = theta[0];
-    let h = Vector3::new(theta[1], theta[2], theta[3]);
-    let mut g = SMatrix::<f64, 10, 10>::zeros();
-    g[(0, 0)] = 1.0;
-    for i in 0..3 {
-        g[(1 + i, 0)] = -h[i] / (m * m);
-        g[(1 + i, 1 + i)] = 1.0 / m;
-    }
+    let [m, hx, hy, hz, ..]: [f64; 10] = (*theta).into();
+    let h = Vector3::new(hx, hy, hz);
     let dm = parallel_axis(&h) / (m * m);
-    for (row, r, c) in TENSOR_ENTRIES {
-        g[(row, row)] = 1.0;
-        g[(row, 0)] = dm[(r, c)];
-        for k in 0..3 {
-            let delta = |a: usize, b: usize| if a == b { 1.0 } else { 0.0 };
-            let d = 2.0 * h[k] * delta(r, c) - delta(k, r) * h[c] - h[r] * delta(k, c);
-            g[(row, 1 + k)] = -d / m;
+    let delta = |a: usize, b: usize| if a == b { 1.0 } else { 0.0 };
+    // Row i, column j: row 0 is m's, rows 1–3 c's, rows 4–9 J_C's entries (TENSOR_ENTRIES).
+    SMatrix::<f64, 10, 10>::from_fn(|i, j| match i {
+        0 => delta(i, j),
+        1..=3 => {
+            if j == 0 {
+                -component(&h, i - 1) / (m * m)
+            } else if j == i {
+                1.0 / m
+            } else {
+                0.0
+            }
         }
-    }
-    g
+        _ => match TENSOR_ENTRIES.iter().find(|(row, _, _)| *row == i) {
+            Some(&(row, r, c)) => {
+                if j == row {
+                    1.0
+                } else if j == 0 {
+                    entry(&dm, r, c)
+                } else if (1..=3).contains(&j) {
+                    let k = j - 1;
+                    let d = 2.0 * component(&h, k) * delta(r, c)
+                        - delta(k, r) * component(&h, c)
+                        - component(&h, r) * delta(k, c);
+                    -d / m
+                } else {
+                    0.0
+                }
+            }
+            None => 0.0,
+        },
+    })
+}
+
+/// vᵢ for i < 3 (an axis of TENSOR_ENTRIES or of a loop over three); NaN for any other i, so
+/// that a wrong index poisons the result rather than passing for a zero.
+fn component(v: &Vector3<f64>, i: usize) -> f64 {
+    v.get(i).copied().unwrap_or(f64::NAN)
+}
+
+/// Mᵣ꜀ for r, c < 3, NaN otherwise (as [`component`]).
+fn entry(m: &Matrix3<f64>, r: usize, c: usize) -> f64 {
+    m.get((r, c)).copied().unwrap_or(f64::NAN)
 }
 
 /// √v with rounding-level negatives read as 0; NaN stays NaN, so that a broken covariance can
@@ -441,29 +504,23 @@ pub(crate) fn sqrt_nonneg(v: f64) -> f64 {
 
 /// Propagates θ's covariance to c and J_C; `None` unless m is positive.
 pub fn derive(theta: &SVector<f64, 10>, covariance: &SMatrix<f64, 10, 10>) -> Option<Derived> {
-    let m = theta[0];
+    let [m, hx, hy, hz, ..]: [f64; 10] = (*theta).into();
     if !(m > 0.0 && m.is_finite()) {
         return None;
     }
     let g = derived_jacobian(theta);
     let cov = g * covariance * g.transpose();
-    let h = Vector3::new(theta[1], theta[2], theta[3]);
+    let h = Vector3::new(hx, hy, hz);
     let c = h / m;
     let jo = stewart_types::InertialParameters::from_vector(theta).inertia_origin_kg_m2;
     let jc = jo - parallel_axis(&h) / m;
-    let mut jc_sigma = Matrix3::zeros();
-    for (row, r, col) in TENSOR_ENTRIES {
-        let s = sqrt_nonneg(cov[(row, row)]);
-        jc_sigma[(r, col)] = s;
-        jc_sigma[(col, r)] = s;
-    }
+    // The sigmas in θ's layout; from_vector places J_C's entries where TENSOR_ENTRIES says.
+    let sigma = cov.diagonal().map(sqrt_nonneg);
+    let [_, sx, sy, sz, ..]: [f64; 10] = sigma.into();
+    let jc_sigma = stewart_types::InertialParameters::from_vector(&sigma).inertia_origin_kg_m2;
     Some(Derived {
         com_m: c,
-        com_sigma_m: Vector3::new(
-            sqrt_nonneg(cov[(1, 1)]),
-            sqrt_nonneg(cov[(2, 2)]),
-            sqrt_nonneg(cov[(3, 3)]),
-        ),
+        com_sigma_m: Vector3::new(sx, sy, sz),
         inertia_com_kg_m2: jc,
         inertia_com_sigma_kg_m2: jc_sigma,
         covariance: cov,
@@ -472,15 +529,13 @@ pub fn derive(theta: &SVector<f64, 10>, covariance: &SMatrix<f64, 10, 10>) -> Op
 
 /// Gradient of v_aᵀ J v_b with respect to the six tensor entries [xx, yy, zz, xy, xz, yz].
 fn bilinear_gradient(va: &Vector3<f64>, vb: &Vector3<f64>) -> SVector<f64, 6> {
-    let mut g = SVector::<f64, 6>::zeros();
-    for (k, (_, r, c)) in TENSOR_ENTRIES.iter().enumerate() {
-        g[k] = if r == c {
-            va[*r] * vb[*c]
+    SVector::<f64, 6>::from(TENSOR_ENTRIES.map(|(_, r, c)| {
+        if r == c {
+            component(va, r) * component(vb, c)
         } else {
-            va[*r] * vb[*c] + va[*c] * vb[*r]
-        };
-    }
-    g
+            component(va, r) * component(vb, c) + component(va, c) * component(vb, r)
+        }
+    }))
 }
 
 /// One sigma of the principal moments (λₖ = vₖᵀ J vₖ, so ∂λₖ = vₖᵀ ∂J vₖ) and of the direction
@@ -491,22 +546,29 @@ pub fn principal_sigma(
     principal: &Principal,
     inertia_covariance: &SMatrix<f64, 6, 6>,
 ) -> (Vector3<f64>, Vector3<f64>) {
-    let axis = |k: usize| -> Vector3<f64> { principal.axes.column(k).into_owned() };
-    let lam = principal.moments_kg_m2;
+    let axes: [[f64; 3]; 3] = principal.axes.into();
+    let axes = axes.map(Vector3::from);
+    let lam: [f64; 3] = principal.moments_kg_m2.into();
+    let variance = |g: &SVector<f64, 6>| (g.transpose() * inertia_covariance * g).x;
     let mut moments = Vector3::zeros();
     let mut angles = Vector3::zeros();
-    for k in 0..3 {
-        let gk = bilinear_gradient(&axis(k), &axis(k));
-        moments[k] = sqrt_nonneg((gk.transpose() * inertia_covariance * gk)[(0, 0)]);
+    for (k, ((moment, angle), (axis_k, lam_k))) in moments
+        .iter_mut()
+        .zip(angles.iter_mut())
+        .zip(axes.iter().zip(lam))
+        .enumerate()
+    {
+        let gk = bilinear_gradient(axis_k, axis_k);
+        *moment = sqrt_nonneg(variance(&gk));
         let mut var = 0.0;
-        for l in 0..3 {
+        for (l, (axis_l, lam_l)) in axes.iter().zip(lam).enumerate() {
             if l != k {
-                let gl = bilinear_gradient(&axis(l), &axis(k));
-                let gap = lam[k] - lam[l];
-                var += (gl.transpose() * inertia_covariance * gl)[(0, 0)] / (gap * gap);
+                let gl = bilinear_gradient(axis_l, axis_k);
+                let gap = lam_k - lam_l;
+                var += variance(&gl) / (gap * gap);
             }
         }
-        angles[k] = libm::sqrt(var);
+        *angle = libm::sqrt(var);
     }
     (moments, angles)
 }
