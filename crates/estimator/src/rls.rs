@@ -84,14 +84,22 @@ impl<const N: usize> Rls<N> {
     /// exactly symmetric.
     pub fn covariance(&self) -> SMatrix<f64, N, N> {
         let mut p = SMatrix::<f64, N, N>::zeros();
-        // Column j's entries i ≤ j from rows i and j of U, then the upper triangle mirrored.
-        for (j, (mut p_col, u_j)) in p.column_iter_mut().zip(self.u.row_iter()).enumerate() {
-            for (p_ij, u_i) in p_col.iter_mut().zip(self.u.row_iter()).take(j + 1) {
-                let mut s = 0.0;
-                for ((u_ik, d_k), u_jk) in u_i.iter().zip(self.d.iter()).zip(u_j.iter()).skip(j) {
-                    s += u_ik * d_k * u_jk;
+        // Column k of U adds u_ik d_k u_jk to each p_ij, i ≤ j ≤ k: over k ascending, every
+        // entry's sum Σ_{k ≥ j} in the order of k, from contiguous columns; then the upper
+        // triangle mirrored.
+        // Column-major storage: chunk k of U is its column k, chunk j of P its column j.
+        let n = N.max(1);
+        for (k, (u_k, d_k)) in self.u.as_slice().chunks(n).zip(self.d.iter()).enumerate() {
+            for (j, (p_j, u_jk)) in p
+                .as_mut_slice()
+                .chunks_mut(n)
+                .zip(u_k)
+                .enumerate()
+                .take(k + 1)
+            {
+                for (p_ij, u_ik) in p_j.iter_mut().zip(u_k).take(j + 1) {
+                    *p_ij += u_ik * d_k * u_jk;
                 }
-                *p_ij = s;
             }
         }
         p.fill_lower_triangle_with_upper_triangle();
@@ -126,15 +134,19 @@ impl<const N: usize> Rls<N> {
             // d'ⱼ = dⱼ β/α: positive whenever dⱼ is.
             *dj *= beta / alpha;
             let lambda = -fj / beta;
-            // Rows i < j of column j, then bⱼ = vⱼ at i = j.
-            for (i, (uij, bi)) in u_col.iter_mut().zip(b.iter_mut()).enumerate().take(j + 1) {
-                if i < j {
-                    let u_old = *uij;
-                    *uij = u_old + lambda * *bi;
-                    *bi += u_old * vj;
-                } else {
-                    *bi = vj;
-                }
+            // Rows i < j of column j (contiguous), then bⱼ = vⱼ.
+            for (uij, bi) in u_col
+                .as_mut_slice()
+                .iter_mut()
+                .zip(b.as_mut_slice().iter_mut())
+                .take(j)
+            {
+                let u_old = *uij;
+                *uij = u_old + lambda * *bi;
+                *bi += u_old * vj;
+            }
+            if let Some(bj) = b.get_mut(j) {
+                *bj = vj;
             }
         }
         self.theta += b * (innovation / alpha);

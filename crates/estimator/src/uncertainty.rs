@@ -126,11 +126,13 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         self.block_s += rows.transpose();
         self.block_y += y;
         self.block_n = self.block_n * self.forgetting + 1.0;
-        // A's upper triangle: row i gains rᵢ rⱼ for j ≥ i, row by row of the sample.
+        // A's upper triangle: entry (i, j ≥ i) gains rᵢ rⱼ (skipped where rᵢ = 0), row by row
+        // of the sample, column by contiguous column of A.
         for row in rows.row_iter() {
-            for (i, (mut a_row, ri)) in self.block_a.row_iter_mut().zip(row.iter()).enumerate() {
-                if *ri != 0.0 {
-                    for (a_ij, rj) in a_row.iter_mut().zip(row.iter()).skip(i) {
+            let r = row.transpose();
+            for (j, (mut a_col, rj)) in self.block_a.column_iter_mut().zip(r.iter()).enumerate() {
+                for (a_ij, ri) in a_col.as_mut_slice().iter_mut().zip(r.iter()).take(j + 1) {
+                    if *ri != 0.0 {
                         *a_ij += ri * rj;
                     }
                 }
@@ -227,25 +229,24 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         let mut cross = SMatrix::<f64, N, N>::zeros();
         let mut square = SMatrix::<f64, N, N>::zeros();
         // Entry (i, j): x ⊗ X's row i at columns jR + r, X ⊗ X's rows iR + r at columns jR + t.
-        for (i, (x_row, (mut cross_row, mut square_row))) in x_x
-            .row_iter()
-            .zip(cross.row_iter_mut().zip(square.row_iter_mut()))
-            .enumerate()
+        // The indices lie inside the N × NR and NR × NR sums by construction (NR = N·R); the
+        // NaN an out-of-range `get` would give cannot occur, and would poison the result
+        // rather than pass as zero.
+        let at = |m: &SMatrix<f64, NR, NR>, row: usize, col: usize| {
+            m.get((row, col)).copied().unwrap_or(f64::NAN)
+        };
+        for (i, (mut cross_row, mut square_row)) in
+            cross.row_iter_mut().zip(square.row_iter_mut()).enumerate()
         {
             for (j, (cross_ij, square_ij)) in
                 cross_row.iter_mut().zip(square_row.iter_mut()).enumerate()
             {
                 let mut v = 0.0;
                 let mut w = 0.0;
-                for ((x_r, c_r), xx_row) in x_row
-                    .iter()
-                    .skip(j * R)
-                    .zip(c.iter())
-                    .zip(xx_xx.row_iter().skip(i * R))
-                {
-                    v += x_r * c_r;
-                    for (xx_rt, c_t) in xx_row.iter().skip(j * R).zip(c.iter()) {
-                        w += xx_rt * c_r * c_t;
+                for (r, c_r) in c.iter().enumerate() {
+                    v += x_x.get((i, j * R + r)).copied().unwrap_or(f64::NAN) * c_r;
+                    for (t, c_t) in c.iter().enumerate() {
+                        w += at(xx_xx, i * R + r, j * R + t) * c_r * c_t;
                     }
                 }
                 *cross_ij = v;
