@@ -207,8 +207,9 @@ impl<T: Real> TrajectorySample<T> {
         rates: &Vector6<T>,
         accelerations: &Vector6<T>,
     ) -> Self {
-        let (roll, pitch, yaw) = (c[3], c[4], c[5]);
-        let (roll_rate, pitch_rate, yaw_rate) = (rates[3], rates[4], rates[5]);
+        let [x, y, z, roll, pitch, yaw]: [T; 6] = (*c).into();
+        let [vx, vy, vz, roll_rate, pitch_rate, yaw_rate]: [T; 6] = (*rates).into();
+        let [ax, ay, az, roll_acc, pitch_acc, yaw_acc]: [T; 6] = (*accelerations).into();
         let relative = Pose::from_rpy(Vector3::zeros(), roll, pitch, yaw).rotation;
         let rx = Rotation3::from_axis_angle(&Vector3::x_axis(), roll);
         let pitch_axis = rx * Vector3::y();
@@ -220,23 +221,20 @@ impl<T: Real> TrajectorySample<T> {
         let roll_part = Vector3::x() * roll_rate;
         let roll_pitch = roll_part + pitch_axis * pitch_rate;
         let omega = roll_pitch + yaw_axis * yaw_rate;
-        let omega_dot = Vector3::x() * accelerations[3]
-            + pitch_axis * accelerations[4]
-            + yaw_axis * accelerations[5]
+        let omega_dot = Vector3::x() * roll_acc
+            + pitch_axis * pitch_acc
+            + yaw_axis * yaw_acc
             + roll_part.cross(&(pitch_axis * pitch_rate))
             + roll_pitch.cross(&(yaw_axis * yaw_rate));
         let r0 = offset.rotation;
         Self {
-            pose: Pose::new(
-                offset.position_m + Vector3::new(c[0], c[1], c[2]),
-                r0 * relative,
-            ),
+            pose: Pose::new(offset.position_m + Vector3::new(x, y, z), r0 * relative),
             coordinates: *c,
             coordinate_rates: *rates,
             coordinate_accelerations: *accelerations,
-            velocity_m_s: Vector3::new(rates[0], rates[1], rates[2]),
+            velocity_m_s: Vector3::new(vx, vy, vz),
             angular_velocity_rad_s: r0 * omega,
-            acceleration_m_s2: Vector3::new(accelerations[0], accelerations[1], accelerations[2]),
+            acceleration_m_s2: Vector3::new(ax, ay, az),
             angular_acceleration_rad_s2: r0 * omega_dot,
         }
     }
