@@ -30,7 +30,6 @@ pub mod budget;
 pub mod calendar;
 pub mod calibration;
 pub mod config;
-pub mod consistency;
 pub mod feed;
 pub mod link;
 pub mod load;

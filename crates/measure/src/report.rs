@@ -79,7 +79,8 @@ pub struct ResidualRms {
     pub torque_nm: [f64; 3],
 }
 
-pub use crate::consistency::{consistency_of, Consistency, RawEstimate};
+mod consistency;
+pub use consistency::{consistency_of, Consistency, RawEstimate};
 
 /// The tare (empty fixture) subtracted from the loaded estimate.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

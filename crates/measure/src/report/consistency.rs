@@ -6,7 +6,7 @@
 use estimator::Estimate;
 use serde::{Deserialize, Serialize};
 
-use crate::report::{principal_of, quantities, Principal, Quantities};
+use super::{principal_of, quantities, Principal, Quantities};
 
 /// Physical-consistency verdict on the payload's fitted estimate, and its projection onto the
 /// consistent set when it fails ([`estimator::projection::nearest_consistent`]).
