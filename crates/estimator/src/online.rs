@@ -171,6 +171,40 @@ pub enum Outcome {
 /// of the nominal one (0.1 µs at 1 kHz) keep the nominal period.
 pub const DEFAULT_MAX_RATE_ERROR: f64 = 1e-4;
 
+/// x = (𝟙 − M)⁻¹ b as the Neumann series Σₖ Mᵏ b, `apply` giving M v: `None` when a term
+/// is more than half the one before or not finite (the series converges too slowly or not at
+/// all), or when [`NEUMANN_TERMS`] terms leave it unconverged. Converged means the last
+/// term's largest entry is within [`NEUMANN_TOLERANCE`] of the sum's.
+pub(crate) fn neumann_solve<const N: usize>(
+    apply: impl Fn(&SVector<f64, N>) -> SVector<f64, N>,
+    b: &SVector<f64, N>,
+) -> Option<SVector<f64, N>> {
+    let mut term = *b;
+    let mut sum = *b;
+    let mut previous = f64::INFINITY;
+    for _ in 0..NEUMANN_TERMS {
+        term = apply(&term);
+        let size = term.amax();
+        sum += term;
+        if !(size.is_finite() && size <= 0.5 * previous) {
+            return None;
+        }
+        if size <= NEUMANN_TOLERANCE * sum.amax() {
+            return Some(sum);
+        }
+        previous = size;
+    }
+    None
+}
+
+/// Most terms of the Neumann series behind [`OnlineEstimator::theta_quick`] before it gives
+/// way to an LU solve.
+const NEUMANN_TERMS: usize = 24;
+
+/// The series stops when a term's largest entry is below this share of the sum's largest:
+/// a few units of rounding, where further terms no longer change the sum.
+const NEUMANN_TOLERANCE: f64 = 4.0 * f64::EPSILON;
+
 /// How θ is taken from the solver ([`OnlineEstimator::theta`], [`OnlineEstimator::theta_quick`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Correction {
@@ -304,9 +338,15 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         self.corrected().0
     }
 
-    /// θ' = (𝟙 − nPC)⁻¹ θ by one LU solve, when the last block's full correction applied
-    /// (its definiteness check needs P' = (𝟙 − nPC)⁻¹ P, ten solves and a product more);
-    /// otherwise, or when the solve fails, [`Self::theta`].
+    /// θ' = (𝟙 − nPC)⁻¹ θ, when the last block's full correction applied (its definiteness
+    /// check needs P' = (𝟙 − nPC)⁻¹ P, ten solves and a product more); otherwise
+    /// [`Self::theta`].
+    ///
+    /// The correction is small beside θ (nPC is the noise's share of the information), so the
+    /// Neumann series θ' = Σₖ (nPC)ᵏ θ converges fast: each term is two matrix–vector
+    /// products through P's factors, and the sum stops when a term no longer changes it
+    /// ([`NEUMANN_TOLERANCE`]). A series that converges slowly (a term more than half the one
+    /// before) or not within [`NEUMANN_TERMS`] gives way to one LU solve of the same system.
     fn theta_quick(&self) -> SVector<f64, N>
     where
         Const<N>: DimMin<Const<N>, Output = Const<N>>,
@@ -314,9 +354,13 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         if self.correction_applied != Some(true) {
             return self.theta();
         }
-        let m = SMatrix::<f64, N, N>::identity()
-            - self.rls.covariance() * self.noise_moment * self.samples;
-        let mut t: SVector<f64, N> = *self.rls.theta();
+        let theta = *self.rls.theta();
+        let moment = self.noise_moment * self.samples;
+        if let Some(t) = neumann_solve(|v| self.rls.covariance_times(&(moment * v)), &theta) {
+            return t;
+        }
+        let m = SMatrix::<f64, N, N>::identity() - self.rls.covariance() * moment;
+        let mut t = theta;
         match m.lu().solve_mut(&mut t) {
             true if t.iter().all(|v| v.is_finite()) => t,
             _ => self.theta(),

@@ -106,6 +106,13 @@ impl<const N: usize> Rls<N> {
         p
     }
 
+    /// P v = U (D (Uᵀ v)) from the factors, without forming P (2N² products instead of
+    /// N³/2 for P itself).
+    pub fn covariance_times(&self, v: &SVector<f64, N>) -> SVector<f64, N> {
+        let f = self.u.tr_mul(v).component_mul(&self.d);
+        self.u * f
+    }
+
     /// Starts a new sample: P ← P / λ (no-op for λ = 1).
     pub fn begin_sample(&mut self) {
         if self.forgetting < 1.0 {

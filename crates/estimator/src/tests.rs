@@ -1,6 +1,8 @@
 //! Whole-estimator tests against an independent rigid-body model (`testkit`).
 
-use crate::online::{Correction, EstimatorConfig, OnlineEstimator, Outcome, ParameterSet, Sample};
+use crate::online::{
+    neumann_solve, Correction, EstimatorConfig, OnlineEstimator, Outcome, ParameterSet, Sample,
+};
 use crate::regressor::rigid_body;
 use crate::rls::{NormalEquations, Rls};
 use crate::testkit::{
@@ -442,7 +444,7 @@ fn long_run_with_forgetting() {
     long_run(0.999);
 }
 
-/// The per-sample history's θ (one LU solve on the last block's verdict) is the checked θ to
+/// The per-sample history's θ (a Neumann series on the last block's verdict) is the checked θ to
 /// rounding at every sample of a run whose regressor-noise correction applies, and it does
 /// take the correction (it differs from the plain least-squares θ).
 #[test]
@@ -837,4 +839,33 @@ fn both_parameter_sets() -> [ParameterSet; 2] {
             com_m: Vector3::new(0.1, -0.05, 0.4),
         },
     ]
+}
+
+/// The Neumann series solves (𝟙 − M) x = b as an LU solve does when M is small, and refuses
+/// (for the LU fallback) when it would converge slowly or diverge.
+#[test]
+fn neumann_series_matches_an_lu_solve_and_refuses_slow_series() {
+    let mut rng = StdRng::seed_from_u64(11);
+    for _ in 0..50 {
+        let scale: f64 = rng.gen_range(1e-6..0.04);
+        let m = SMatrix::<f64, 10, 10>::from_fn(|_, _| rng.gen_range(-scale..scale));
+        let b = SVector::<f64, 10>::from_fn(|_, _| rng.gen_range(-1e3..1e3));
+        let x = neumann_solve(|v| m * v, &b).expect("a small M converges");
+        let lu = (SMatrix::<f64, 10, 10>::identity() - m)
+            .lu()
+            .solve(&b)
+            .expect("regular");
+        assert!(
+            (x - lu).amax() <= 1e-13 * lu.amax(),
+            "scale {scale:e}: {:e}",
+            (x - lu).amax()
+        );
+    }
+    let b = SVector::<f64, 10>::repeat(1.0);
+    let slow = SMatrix::<f64, 10, 10>::identity() * 0.9;
+    assert_eq!(neumann_solve(|v| slow * v, &b), None);
+    let divergent = SMatrix::<f64, 10, 10>::identity() * 2.0;
+    assert_eq!(neumann_solve(|v| divergent * v, &b), None);
+    let nan = SMatrix::<f64, 10, 10>::from_element(f64::NAN);
+    assert_eq!(neumann_solve(|v| nan * v, &b), None);
 }

@@ -110,7 +110,7 @@ impl<T: Real> Geometry<T> {
             if iteration == options.max_iterations {
                 break;
             }
-            let j = self.jacobian(&pose);
+            let j = self.jacobian_of_legs(&pose, &legs);
             let Some(step) = j.lu().solve(&-r) else {
                 return Err(KinematicsError::SingularPose {
                     inverse_condition: 0.0,

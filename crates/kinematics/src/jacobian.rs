@@ -1,7 +1,7 @@
 //! The Jacobian, the leg-force → wrench map and the conditioning measure.
 
 use crate::real::{self, Real};
-use crate::{Geometry, Pose, LEG_COUNT};
+use crate::{Geometry, Legs, Pose, LEG_COUNT};
 use nalgebra::{Matrix6, Vector3, Vector6};
 
 /// A force and a torque acting on the plate. Which point and which axes is said by the
@@ -29,7 +29,13 @@ impl<T: Real> Geometry<T> {
     ///
     /// By virtual work the same matrix maps leg forces to the plate wrench: w = Jᵀ f.
     pub fn jacobian(&self, pose: &Pose<T>) -> Matrix6<T> {
-        let legs = self.legs(pose);
+        self.jacobian_of_legs(pose, &self.legs(pose))
+    }
+
+    /// [`Geometry::jacobian`] from `legs`, the legs of `pose` ([`Geometry::legs`]) already at
+    /// hand: forward kinematics has them from its residual, and computing them again would
+    /// cost as much as the Jacobian's own rows.
+    pub fn jacobian_of_legs(&self, pose: &Pose<T>, legs: &Legs<T>) -> Matrix6<T> {
         let mut rows = [[T::zero(); 6]; LEG_COUNT];
         for ((row, plate_joint), u) in rows.iter_mut().zip(self.plate_joints_m()).zip(&legs.units) {
             let m = (pose.rotation * plate_joint).cross(u);

@@ -285,6 +285,7 @@ pub fn analyse(
         rest_gravity_m_s2: (exact.accel_offset_measured && config.local_gravity_m_s2 > 0.0)
             .then_some(config.local_gravity_m_s2),
         joint_baseline: Default::default(),
+        leg_maps: Default::default(),
     };
     let rows = rigid::subset(&fit);
     // Each elementary error is a fit of its own on shared, read-only data: they run in

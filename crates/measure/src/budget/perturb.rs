@@ -10,7 +10,7 @@
 use std::sync::OnceLock;
 
 use kinematics::{Geometry, Pose};
-use nalgebra::{Matrix3, Rotation3, Vector3, Vector6};
+use nalgebra::{Matrix3, Matrix6, Rotation3, Vector3, Vector6, LU, U6};
 
 use estimator::legs::PlateMotion;
 
@@ -301,15 +301,49 @@ pub struct Context<'a> {
     /// ([`estimator::hold`]): that measurement takes up the static part of an accelerometer
     /// error along z as well, so the error's effect is what is left of it in motion.
     pub rest_gravity_m_s2: Option<f64>,
-    /// The described geometry's leg lengths and leg wrench at each interior entry, which
-    /// every joint coordinate's perturbation compares against: computed once, by the first
-    /// that needs them.
-    pub joint_baseline: OnceLock<Vec<(Vector6<f64>, Vector6<f64>)>>,
+    /// The described geometry's leg lengths, leg wrench and factored Jacobian at each
+    /// interior entry, which every joint coordinate's perturbation compares against and
+    /// solves with: computed once, by the first that needs them.
+    pub joint_baseline: OnceLock<Vec<JointBaseline>>,
+    /// The leg-force → wrench map (wrench about the P origin in P axes per newton of each
+    /// leg, one column per leg) at each interior entry, which every load-cell error's
+    /// wrench is a multiple of: computed once, by the first that needs it.
+    pub leg_maps: OnceLock<Vec<Matrix6<f64>>>,
+}
+
+/// The described geometry at one interior entry of the record ([`Context::joint_baseline`]).
+#[derive(Clone, Debug)]
+pub struct JointBaseline {
+    /// Leg lengths at the recorded pose, m.
+    lengths_m: Vector6<f64>,
+    /// The leg forces' wrench at the recorded pose ([`leg_wrench`]).
+    wrench: Vector6<f64>,
+    /// The Jacobian at the recorded pose, factored: a joint a fraction of a millimetre off
+    /// changes it by as little, so its Newton step solves with this one (the step is first
+    /// order in the joint's error either way).
+    jacobian: LU<f64, U6, U6>,
 }
 
 impl Context<'_> {
-    /// The described geometry's (leg lengths, leg wrench) at each interior entry.
-    fn joint_baseline(&self) -> &[(Vector6<f64>, Vector6<f64>)] {
+    /// [`Context::leg_maps`]: column j is [`leg_wrench`] of a unit force on leg j.
+    fn leg_maps(&self) -> &[Matrix6<f64>] {
+        self.leg_maps.get_or_init(|| {
+            let g = &self.data.model.geometry;
+            self.fit
+                .idx
+                .iter()
+                .map(|&i| {
+                    let pose = &self.data.poses[i];
+                    let columns: [Vector6<f64>; 6] =
+                        core::array::from_fn(|leg| leg_wrench(g, pose, &Vector6::ith(leg, 1.0)));
+                    Matrix6::from_columns(&columns)
+                })
+                .collect()
+        })
+    }
+
+    /// [`Context::joint_baseline`]: the described geometry at each interior entry.
+    fn joint_baseline(&self) -> &[JointBaseline] {
         self.joint_baseline.get_or_init(|| {
             let g = &self.data.model.geometry;
             self.fit
@@ -318,7 +352,11 @@ impl Context<'_> {
                 .map(|&i| {
                     let pose = self.data.poses[i];
                     let f = self.data.entries[i].leg_forces_n;
-                    (g.leg_lengths(&pose), leg_wrench(g, &pose, &f))
+                    JointBaseline {
+                        lengths_m: g.leg_lengths(&pose),
+                        wrench: leg_wrench(g, &pose, &f),
+                        jacobian: g.jacobian(&pose).lu(),
+                    }
                 })
                 .collect()
         })
@@ -383,13 +421,17 @@ impl Scalar {
         let wrench_only = |dy: &dyn Fn(usize) -> Vector6<f64>| -> Vec<Vector6<f64>> {
             fit.idx.iter().map(|&i| model.map_wrench(&dy(i))).collect()
         };
-        let leg_force = |leg: usize, df: &dyn Fn(usize) -> f64| {
-            wrench_only(&|i| {
-                let mut f = Vector6::zeros();
-                f[leg] = df(i);
-                leg_wrench(&model.geometry, &base.poses[i], &f)
-            })
+        // The wrench is linear in the leg forces: a load-cell error's is its force change
+        // through the entry's leg map.
+        let through_legs = |df: &dyn Fn(usize) -> Vector6<f64>| -> Vec<Vector6<f64>> {
+            fit.idx
+                .iter()
+                .zip(ctx.leg_maps())
+                .map(|(&i, map)| model.map_wrench(&(map * df(i))))
+                .collect()
         };
+        let leg_force =
+            |leg: usize, df: &dyn Fn(usize) -> f64| through_legs(&|i| Vector6::ith(leg, df(i)));
         let with_data = |change: &dyn Fn(&mut Data)| {
             let mut d = base.clone();
             change(&mut d);
@@ -403,10 +445,7 @@ impl Scalar {
                 let Some((_, dir)) = ctx.load_cells.and_then(|c| c.modes.get(k)) else {
                     return vec![Vector6::zeros(); fit.idx.len()];
                 };
-                wrench_only(&|i| {
-                    let df = base.entries[i].leg_forces_n.component_mul(dir) * sigma;
-                    leg_wrench(&model.geometry, &base.poses[i], &df)
-                })
+                through_legs(&|i| base.entries[i].leg_forces_n.component_mul(dir) * sigma)
             }
             Scalar::Crosstalk(leg, dir) => {
                 leg_force(leg, &|i| sigma * ctx.legs.transverse[i][leg][dir])
@@ -514,10 +553,10 @@ fn joint_change(
         .idx
         .iter()
         .zip(ctx.joint_baseline())
-        .map(|(&i, (lengths, wrench))| {
+        .map(|(&i, described)| {
             let pose = base.poses[i];
-            let dl = lengths - built.leg_lengths(&pose);
-            let Some(dx) = built.jacobian(&pose).lu().solve(&dl) else {
+            let dl = described.lengths_m - built.leg_lengths(&pose);
+            let Some(dx) = described.jacobian.solve(&dl) else {
                 return Vector6::zeros();
             };
             let moved = Pose::new(
@@ -525,7 +564,7 @@ fn joint_change(
                 Rotation3::new(Vector3::new(dx[3], dx[4], dx[5])) * pose.rotation,
             );
             let f = base.entries[i].leg_forces_n;
-            model.map_wrench(&(leg_wrench(&built, &moved, &f) - wrench))
+            model.map_wrench(&(leg_wrench(&built, &moved, &f) - described.wrench))
         })
         .collect()
 }

@@ -52,6 +52,7 @@ fn effect(
         load_cells: None,
         rest_gravity_m_s2: None,
         joint_baseline: Default::default(),
+        leg_maps: Default::default(),
     };
     fit.effect(&scalar.residual_change(&ctx, sigma))
 }
@@ -328,6 +329,7 @@ fn the_fits_bias_effect_matches_the_estimators_sensitivity() {
         load_cells: None,
         rest_gravity_m_s2: None,
         joint_baseline: Default::default(),
+        leg_maps: Default::default(),
     };
     for axis in 0..3 {
         let got = fit.effect(&Scalar::AccelBias(axis).residual_change(&ctx, 0.01));
