@@ -847,9 +847,9 @@ fn both_parameter_sets() -> [ParameterSet; 2] {
 fn neumann_series_matches_an_lu_solve_and_refuses_slow_series() {
     let mut rng = StdRng::seed_from_u64(11);
     for _ in 0..50 {
-        let scale: f64 = rng.gen_range(1e-6..0.04);
-        let m = SMatrix::<f64, 10, 10>::from_fn(|_, _| rng.gen_range(-scale..scale));
-        let b = SVector::<f64, 10>::from_fn(|_, _| rng.gen_range(-1e3..1e3));
+        let scale: f64 = rng.random_range(1e-6..0.04);
+        let m = SMatrix::<f64, 10, 10>::from_fn(|_, _| rng.random_range(-scale..scale));
+        let b = SVector::<f64, 10>::from_fn(|_, _| rng.random_range(-1e3..1e3));
         let x = neumann_solve(|v| m * v, &b).expect("a small M converges");
         let lu = (SMatrix::<f64, 10, 10>::identity() - m)
             .lu()
