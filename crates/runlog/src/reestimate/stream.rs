@@ -186,6 +186,27 @@ impl Stream<'_> {
         Ok(())
     }
 
+    /// Takes `meta` as the log's metadata and starts the replays whose settings are known.
+    fn adopt(&mut self, meta: RunMetadata) -> Result<()> {
+        self.rig = Some(rig_description_of(&meta, self.rig_arg)?);
+        self.meta = Some(meta);
+        for run in self.wanted.clone() {
+            self.start(run)?;
+        }
+        Ok(())
+    }
+
+    /// The run's frames or settings come and no copy of `/run/metadata` (written before
+    /// anything else of the run) was read: every copy was lost. With a rig description given
+    /// (`--rig FILE`) the run is read with its platform ([`RunMetadata::of_rig`]); without,
+    /// the frames wait and the end says what is missing.
+    fn metadata_lost(&mut self) -> Result<()> {
+        if let Some(rig) = self.rig_arg {
+            self.adopt(RunMetadata::of_rig(rig)?)?;
+        }
+        Ok(())
+    }
+
     /// A `/sensors` block, decoded into a reused message.
     fn sensor(&mut self, m: &Message<'_>) -> Result<Option<String>> {
         let frames = match crate::read::sensor_block(m, &mut self.scratch)? {
@@ -234,18 +255,20 @@ impl Visitor for Stream<'_> {
     fn message(&mut self, m: &Message<'_>) -> Result<Option<String>> {
         self.sequences = None;
         let data = m.data;
-        match m.channel.topic.as_str() {
+        let topic = m.channel.topic.as_str();
+        if self.meta.is_none() && (topic == topics::SENSORS || topic == topics::ESTIMATOR_SETTINGS)
+        {
+            self.metadata_lost()?;
+        }
+        match topic {
             topics::SENSORS => return self.sensor(m),
+            // The first copy that decodes (a log holds two, see `RunLog::write_metadata`).
             topics::METADATA if self.meta.is_none() => {
                 let meta: RunMetadata = match decode(data) {
                     Ok(v) => v,
                     Err(e) => return Ok(Some(e)),
                 };
-                self.rig = Some(rig_description_of(&meta, self.rig_arg)?);
-                self.meta = Some(meta);
-                for run in self.wanted.clone() {
-                    self.start(run)?;
-                }
+                self.adopt(meta)?;
             }
             topics::ESTIMATOR_SETTINGS => {
                 let s: EstimatorSettings = match decode(data) {
