@@ -225,3 +225,73 @@ fn estimate_into_a_closed_pipe_ends_quietly() {
     assert_eq!(out.status.code(), Some(0), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+/// (offset, length) of every chunk record holding a `/run/metadata` message, from the
+/// summary's chunk index (the chunks' message indexes by channel).
+fn metadata_chunks(bytes: &[u8]) -> Vec<(usize, usize)> {
+    let summary = mcap::Summary::read(bytes).unwrap().expect("a summary");
+    let id = summary
+        .channels
+        .values()
+        .find(|c| c.topic == runlog::messages::METADATA)
+        .expect("the metadata channel")
+        .id;
+    summary
+        .chunk_indexes
+        .iter()
+        .filter(|c| c.message_index_offsets.contains_key(&id))
+        .map(|c| (c.chunk_start_offset as usize, c.chunk_length as usize))
+        .collect()
+}
+
+/// `/run/metadata` is written once per run and every frame needs it: one damaged chunk
+/// refused a log whose frames were all intact. A second copy in a chunk of its own makes that
+/// damage cost nothing but its report; with both copies lost the error names `--rig FILE`,
+/// which then reads the log as it reads the whole one.
+#[test]
+fn a_damaged_metadata_chunk_costs_nothing_but_its_report() {
+    let (run, bytes) = run();
+    let chunks = metadata_chunks(bytes);
+    assert_eq!(chunks.len(), 2, "{chunks:?}");
+    let flip = |d: &mut Vec<u8>, (at, len): (usize, usize)| {
+        // Mid-chunk: inside its compressed records.
+        for b in &mut d[at + len / 2..at + len / 2 + 4] {
+            *b ^= 0x5a;
+        }
+    };
+    let mut one = bytes.clone();
+    flip(&mut one, chunks[0]);
+    let path = write("metadata_damaged.mcap", &one);
+    let clean = estimate(&args(&run.log)).unwrap().report;
+    let damaged = estimate(&args(&path)).unwrap().report;
+    assert_eq!(damaged.estimate, clean.estimate);
+    assert_eq!(damaged.sigma, clean.sigma);
+    assert_eq!(damaged.samples, clean.samples);
+    assert_eq!(damaged.data.damaged.len(), 1, "{:?}", damaged.data.damaged);
+    let lost = &damaged.data.damaged[0];
+    assert!(lost.reason.contains("damaged chunk"), "{}", lost.reason);
+    assert_eq!(lost.sensor_frames, Some(0));
+
+    let mut both = one.clone();
+    flip(&mut both, chunks[1]);
+    let path = write("metadata_lost.mcap", &both);
+    let err = format!("{:#}", estimate(&args(&path)).unwrap_err());
+    assert!(
+        err.contains("/run/metadata") && err.contains("--rig FILE"),
+        "{err}"
+    );
+    let with_rig = |log: &Path| EstimateArgs {
+        rig: Some(run.dir.path().join("scenario.toml")),
+        ..args(log)
+    };
+    let rig_clean = estimate(&with_rig(&run.log)).unwrap().report;
+    let rig_lost = estimate(&with_rig(&path)).unwrap().report;
+    assert_eq!(rig_lost.estimate, rig_clean.estimate);
+    assert_eq!(rig_lost.sigma, rig_clean.sigma);
+    assert_eq!(
+        rig_lost.data.damaged.len(),
+        1,
+        "{:?}",
+        rig_lost.data.damaged
+    );
+}

@@ -9,7 +9,8 @@ use serde::{Deserialize, Serialize};
 use measure::calibration::CalibrationDocument;
 use measure::schema::{array, int, nullable, num, numbers, object, string, Schema};
 
-/// `stewart.RunMetadata` on `/run/metadata`, written once at the start.
+/// `stewart.RunMetadata` on `/run/metadata`, written at the start, twice
+/// ([`crate::run_log::RunLog::write_metadata`]).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RunMetadata {
