@@ -50,6 +50,9 @@ type Finished = std::result::Result<ReplayOutcome, ReplayError>;
 /// Once its input is closed ([`Worker::close`]: the next measurement began) the thread also
 /// finishes the replay, error budget included, while the next measurement is read.
 struct Worker {
+    /// The frames as they came, put back in sequence order before the feed
+    /// ([`measure::reorder`], as [`Replay::push`] does).
+    reorder: measure::reorder::Reorder,
     feed: measure::feed::Feed,
     batch: Vec<Fed>,
     frames: u64,
@@ -76,6 +79,7 @@ impl Worker {
             })
             .context("cannot start the replay thread")?;
         Ok(Self {
+            reorder: measure::reorder::Reorder::default(),
             feed,
             batch: Vec::with_capacity(BATCH_FRAMES),
             frames: 0,
@@ -91,7 +95,13 @@ impl Worker {
             return;
         }
         self.frames += 1;
-        let sample = self.feed.next(&frame);
+        let mut reorder = std::mem::take(&mut self.reorder);
+        reorder.push(frame, &mut |f| self.push_in_order(&f));
+        self.reorder = reorder;
+    }
+
+    fn push_in_order(&mut self, frame: &SensorFrame) {
+        let sample = self.feed.next(frame);
         self.batch.push((frame.time_s, sample));
         if self.batch.len() >= BATCH_FRAMES {
             self.send();
@@ -109,6 +119,9 @@ impl Worker {
     /// No more frames: the thread finishes the replay.
     fn close(&mut self) {
         if self.queue.is_some() {
+            let mut reorder = std::mem::take(&mut self.reorder);
+            reorder.flush(&mut |f| self.push_in_order(&f));
+            self.reorder = reorder;
             self.send();
             self.queue = None;
         }
@@ -116,10 +129,15 @@ impl Worker {
 
     fn finish(mut self) -> Result<Finished> {
         self.close();
+        let counts = self.reorder.counts();
         let finished = self
             .thread
             .join()
-            .map_err(|_| anyhow!("the replay thread panicked"))?;
+            .map_err(|_| anyhow!("the replay thread panicked"))?
+            .map(|mut outcome| {
+                outcome.reordered = counts;
+                outcome
+            });
         if self.late > 0 {
             bail!(
                 "{} of its {} frames came after the next measurement's began: the log \
