@@ -314,7 +314,7 @@ fn reordered_and_duplicated_frames_are_put_back_in_order() {
             state ^= state >> 7;
             state ^= state << 17;
             // About 1 % of the frames in swapped pairs: a pair starts at 1 frame in 200.
-            if state % 200 == 0 {
+            if state.is_multiple_of(200) {
                 frames.swap(k, k + 1);
                 swapped += 2;
                 k += 2;
