@@ -225,3 +225,197 @@ fn estimate_into_a_closed_pipe_ends_quietly() {
     assert_eq!(out.status.code(), Some(0), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+/// (offset, length) of every chunk record holding a `/run/metadata` message, from the
+/// summary's chunk index (the chunks' message indexes by channel).
+fn metadata_chunks(bytes: &[u8]) -> Vec<(usize, usize)> {
+    let summary = mcap::Summary::read(bytes).unwrap().expect("a summary");
+    let id = summary
+        .channels
+        .values()
+        .find(|c| c.topic == runlog::messages::METADATA)
+        .expect("the metadata channel")
+        .id;
+    summary
+        .chunk_indexes
+        .iter()
+        .filter(|c| c.message_index_offsets.contains_key(&id))
+        .map(|c| (c.chunk_start_offset as usize, c.chunk_length as usize))
+        .collect()
+}
+
+/// `/run/metadata` is written once per run and every frame needs it: one damaged chunk
+/// refused a log whose frames were all intact. A second copy in a chunk of its own makes that
+/// damage cost nothing but its report; with both copies lost the error names `--rig FILE`,
+/// which then reads the log as it reads the whole one.
+#[test]
+fn a_damaged_metadata_chunk_costs_nothing_but_its_report() {
+    let (run, bytes) = run();
+    let chunks = metadata_chunks(bytes);
+    assert_eq!(chunks.len(), 2, "{chunks:?}");
+    let flip = |d: &mut Vec<u8>, (at, len): (usize, usize)| {
+        // Mid-chunk: inside its compressed records.
+        for b in &mut d[at + len / 2..at + len / 2 + 4] {
+            *b ^= 0x5a;
+        }
+    };
+    let mut one = bytes.clone();
+    flip(&mut one, chunks[0]);
+    let path = write("metadata_damaged.mcap", &one);
+    let clean = estimate(&args(&run.log)).unwrap().report;
+    let damaged = estimate(&args(&path)).unwrap().report;
+    assert_eq!(damaged.estimate, clean.estimate);
+    assert_eq!(damaged.sigma, clean.sigma);
+    assert_eq!(damaged.samples, clean.samples);
+    assert_eq!(damaged.data.damaged.len(), 1, "{:?}", damaged.data.damaged);
+    let lost = &damaged.data.damaged[0];
+    assert!(lost.reason.contains("damaged chunk"), "{}", lost.reason);
+    assert_eq!(lost.sensor_frames, Some(0));
+
+    let mut both = one.clone();
+    flip(&mut both, chunks[1]);
+    let path = write("metadata_lost.mcap", &both);
+    let err = format!("{:#}", estimate(&args(&path)).unwrap_err());
+    assert!(
+        err.contains("/run/metadata") && err.contains("--rig FILE"),
+        "{err}"
+    );
+    let with_rig = |log: &Path| EstimateArgs {
+        rig: Some(run.dir.path().join("scenario.toml")),
+        ..args(log)
+    };
+    let rig_clean = estimate(&with_rig(&run.log)).unwrap().report;
+    let rig_lost = estimate(&with_rig(&path)).unwrap().report;
+    assert_eq!(rig_lost.estimate, rig_clean.estimate);
+    assert_eq!(rig_lost.sigma, rig_clean.sigma);
+    assert_eq!(
+        rig_lost.data.damaged.len(),
+        1,
+        "{:?}",
+        rig_lost.data.damaged
+    );
+}
+
+/// A link that reorders datagrams delivers (and a host logs) frame 101 before frame 100; the
+/// conditioning refused the late one as a time that does not increase. With adjacent frames
+/// swapped in 1 % of the log and a few frames delivered twice, `estimate` puts them back in
+/// order: nothing rejected, nothing lost, the duplicates counted, the estimate the in-order
+/// log's.
+#[test]
+fn reordered_and_duplicated_frames_are_put_back_in_order() {
+    let (run, _) = run();
+    let path = run.dir.path().join("reordered.mcap");
+    let mut state = 0x9e37_79b9_7f4a_7c15u64;
+    let (mut swapped, mut doubled) = (0, 0);
+    support::rewrite_sensor_frames(&run.log, &path, |mut frames| {
+        let mut k = 0;
+        while k + 1 < frames.len() {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            // About 1 % of the frames in swapped pairs: a pair starts at 1 frame in 200.
+            if state.is_multiple_of(200) {
+                frames.swap(k, k + 1);
+                swapped += 2;
+                k += 2;
+            } else {
+                k += 1;
+            }
+        }
+        if state % 200 == 1 {
+            let again = frames[0];
+            frames.insert(2, again);
+            doubled += 1;
+        }
+        frames
+    });
+    assert!(
+        swapped > 100 && doubled > 3,
+        "{swapped} swapped, {doubled} doubled"
+    );
+    let clean = estimate(&args(&run.log)).unwrap().report;
+    let reordered = estimate(&args(&path)).unwrap().report;
+    let d = &reordered.data;
+    assert_eq!(reordered.rejected_samples, clean.rejected_samples);
+    assert_eq!(reordered.samples, clean.samples);
+    assert_eq!(d.frames_lost, clean.data.frames_lost);
+    assert_eq!(d.frames_late, 0);
+    assert!(
+        (1..=doubled).contains(&d.frames_duplicate),
+        "{} duplicates of {doubled}",
+        d.frames_duplicate
+    );
+    let flat = |q: &measure::report::Quantities| {
+        let mut v = vec![q.mass];
+        v.extend(q.com);
+        v.extend(q.inertia_com.iter().flatten());
+        v
+    };
+    let (a, b, s) = (
+        flat(&clean.estimate),
+        flat(&reordered.estimate),
+        flat(&clean.sigma),
+    );
+    for ((a, b), s) in a.iter().zip(&b).zip(&s) {
+        assert!((a - b).abs() <= 0.1 * s, "{a} vs {b} ± {s}");
+    }
+}
+
+/// A lost chunk (about a second of frames) is a gap too long to bridge: it restarts the
+/// conditioning, whose stencil (three samples) and low-pass warm-up are withheld again, and
+/// nothing else. The RLS state carries across the gap, so the estimate loses the gap's and
+/// the warm-up's samples only: its sigmas grow by a few per cent (an RLS restarted after the
+/// gap would have lost everything before it), and it moves by a fraction of a sigma.
+#[test]
+fn a_lost_chunk_restarts_the_filters_and_keeps_the_fit() {
+    let (run, bytes) = run();
+    let c = chunks(bytes);
+    let (at, len) = c[c.len() * 13 / 16];
+    let mut d = bytes.clone();
+    for b in &mut d[at + 9 + len / 2..at + 9 + len / 2 + 4] {
+        *b ^= 0x5a;
+    }
+    let path = write("lost_chunk.mcap", &d);
+    let outcome = estimate(&args(&path)).unwrap();
+    let clean = estimate(&args(&run.log)).unwrap().report;
+    let damaged = &outcome.report;
+    assert_eq!(damaged.data.damaged.len(), 1, "{:?}", damaged.data.damaged);
+    assert_eq!(damaged.data.restarts, clean.data.restarts + 1);
+    let gap = damaged.data.frames_lost - clean.data.frames_lost;
+    let config = &outcome.loaded.replay.config;
+    let warmup = estimator::Conditioner::new(estimator::ConditioningConfig {
+        sample_period_s: config.sample_period_s,
+        lowpass_cutoff_hz: config.lowpass_cutoff_hz,
+        accelerometer_position_m: config.accelerometer_position_m,
+        max_gap_s: config.max_gap_s,
+        max_rate_error: config.max_rate_error,
+        gyro_noise_rad_s: config.gyro_noise_rad_s,
+    })
+    .unwrap()
+    .warmup_samples() as u64;
+    let lost = clean.samples - damaged.samples;
+    // The gap's frames, the stencil's first three samples and the low-pass's warm-up (a frame
+    // the clean log itself lost next to the gap moves the count by one or two).
+    let stencil = estimator::conditioning::STENCIL as u64 - 1;
+    assert!(
+        lost <= gap + warmup + stencil && lost + 2 >= gap + warmup + stencil,
+        "{lost} samples lost for a gap of {gap} frames and a warm-up of {warmup}"
+    );
+    let flat = |q: &measure::report::Quantities| {
+        let mut v = vec![q.mass];
+        v.extend(q.com);
+        v.extend(q.inertia_com.iter().flatten());
+        v
+    };
+    let (a, b) = (flat(&clean.estimate), flat(&damaged.estimate));
+    let (sa, sb) = (flat(&clean.sigma), flat(&damaged.sigma));
+    for k in 0..a.len() {
+        let growth = sb[k] / sa[k] - 1.0;
+        let shift = (b[k] - a[k]) / sa[k];
+        assert!(
+            growth < 0.2 && shift.abs() < 0.5,
+            "entry {k}: sigma {:+.1} %, shift {shift:+.2} sigma",
+            100.0 * growth
+        );
+    }
+}

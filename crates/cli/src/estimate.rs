@@ -66,7 +66,8 @@ pub struct EstimateArgs {
     #[arg(long, value_name = "DIR")]
     pub plot: Option<PathBuf>,
     /// Take the datasheet figures (sensor noise, biases, IMU mounting, the legs the estimator
-    /// compensates) from this rig description instead of the one the log recorded.
+    /// compensates) from this rig description instead of the one the log recorded; and the
+    /// platform too when the log's metadata was lost to damage.
     #[arg(long, value_name = "FILE")]
     pub rig: Option<PathBuf>,
     /// Also print the error budget: one row per error source with its one sigma of the
@@ -212,7 +213,8 @@ pub fn estimate(args: &EstimateArgs) -> Result<EstimateOutcome> {
         }
         if let Some(dir) = &args.plot {
             // The figures draw the 1 kHz channels too: the log read whole.
-            let log = LogContents::read(&args.log)?;
+            let mut log = LogContents::read(&args.log)?;
+            log.or_metadata_of(rig.as_ref())?;
             let f = crate::plot::figures_from_reestimate(&log, &loaded.run, &loaded.replay, &tare)?;
             figures = crate::plot::write_figures(dir, &f)?;
             if !args.quiet {

@@ -32,7 +32,6 @@ use measure::session::{self, SessionPlan, TarePlan};
 use measure::setup;
 use rig::{RigBackend, RigOptions};
 use runlog::mcap_log::Delivery;
-use runlog::messages as topics;
 use runlog::metadata::RunMetadata;
 use runlog::{LogObserver, RunLog};
 
@@ -406,33 +405,30 @@ pub fn rig_with_abort(
         measure::measurement::expected_samples(config, c.trajectory())
     });
     let stroke = geometry.stroke();
-    let header = log.write_now(
-        topics::METADATA,
-        &RunMetadata {
-            tool_version: env!("CARGO_PKG_VERSION").into(),
-            command: "rig".into(),
-            backend: "rig".into(),
-            config_source: loaded.source.clone(),
-            config_text: loaded.text.clone(),
-            config_toml: loaded.effective_toml(),
-            seed: 0,
-            noise: outcome::NOISE.into(),
-            params: config.estimator.params.into(),
-            sample_period_s: rig_link.lock().rig.sample_period_s(),
-            start_unix_ns: log.start_unix_ns(),
-            runs,
-            tare_file: common.run.tare.as_ref().map(|p| p.display().to_string()),
-            base_joints_m: base_joints,
-            plate_joints_m: plate_joints,
-            stroke_m: [stroke.min_length_m, stroke.max_length_m],
-            imu_calibration_toml: config.calibration.imu_file.as_ref().map(|f| f.to_toml()),
-            load_cell_calibration_toml: config
-                .calibration
-                .load_cells_file
-                .as_ref()
-                .map(|f| f.to_toml()),
-        },
-    );
+    let header = log.write_metadata(&RunMetadata {
+        tool_version: env!("CARGO_PKG_VERSION").into(),
+        command: "rig".into(),
+        backend: "rig".into(),
+        config_source: loaded.source.clone(),
+        config_text: loaded.text.clone(),
+        config_toml: loaded.effective_toml(),
+        seed: 0,
+        noise: outcome::NOISE.into(),
+        params: config.estimator.params.into(),
+        sample_period_s: rig_link.lock().rig.sample_period_s(),
+        start_unix_ns: log.start_unix_ns(),
+        runs,
+        tare_file: common.run.tare.as_ref().map(|p| p.display().to_string()),
+        base_joints_m: base_joints,
+        plate_joints_m: plate_joints,
+        stroke_m: [stroke.min_length_m, stroke.max_length_m],
+        imu_calibration_toml: config.calibration.imu_file.as_ref().map(|f| f.to_toml()),
+        load_cell_calibration_toml: config
+            .calibration
+            .load_cells_file
+            .as_ref()
+            .map(|f| f.to_toml()),
+    });
     let save_tare = match &plan {
         Plan::TareOnly(out) => Some(out.as_path()),
         Plan::CalibrateImu(_) => None,

@@ -308,39 +308,36 @@ pub fn simulate(
         runs.push("loaded".to_string());
     }
     let header = log
-        .write_now(
-            topics::METADATA,
-            &RunMetadata {
-                tool_version: env!("CARGO_PKG_VERSION").into(),
-                command: if calibrating {
-                    "simulate --calibrate-imu".into()
-                } else if calibrating_cells {
-                    "simulate --calibrate-load-cells".into()
-                } else {
-                    "simulate".into()
-                },
-                backend: "sim".into(),
-                config_source: loaded.source.clone(),
-                config_text: loaded.text.clone(),
-                config_toml: loaded.effective_toml(),
-                seed: scenario.world.seed,
-                noise: scenario.noise.name().into(),
-                params: config.estimator.params.into(),
-                sample_period_s: 1.0 / config.sensors.sample_rate_hz,
-                start_unix_ns: log.start_unix_ns(),
-                runs,
-                tare_file: args.measure.tare.as_ref().map(|p| p.display().to_string()),
-                base_joints_m: base_joints,
-                plate_joints_m: plate_joints,
-                stroke_m: [stroke.min_length_m, stroke.max_length_m],
-                imu_calibration_toml: config.calibration.imu_file.as_ref().map(|f| f.to_toml()),
-                load_cell_calibration_toml: config
-                    .calibration
-                    .load_cells_file
-                    .as_ref()
-                    .map(|f| f.to_toml()),
+        .write_metadata(&RunMetadata {
+            tool_version: env!("CARGO_PKG_VERSION").into(),
+            command: if calibrating {
+                "simulate --calibrate-imu".into()
+            } else if calibrating_cells {
+                "simulate --calibrate-load-cells".into()
+            } else {
+                "simulate".into()
             },
-        )
+            backend: "sim".into(),
+            config_source: loaded.source.clone(),
+            config_text: loaded.text.clone(),
+            config_toml: loaded.effective_toml(),
+            seed: scenario.world.seed,
+            noise: scenario.noise.name().into(),
+            params: config.estimator.params.into(),
+            sample_period_s: 1.0 / config.sensors.sample_rate_hz,
+            start_unix_ns: log.start_unix_ns(),
+            runs,
+            tare_file: args.measure.tare.as_ref().map(|p| p.display().to_string()),
+            base_joints_m: base_joints,
+            plate_joints_m: plate_joints,
+            stroke_m: [stroke.min_length_m, stroke.max_length_m],
+            imu_calibration_toml: config.calibration.imu_file.as_ref().map(|f| f.to_toml()),
+            load_cell_calibration_toml: config
+                .calibration
+                .load_cells_file
+                .as_ref()
+                .map(|f| f.to_toml()),
+        })
         .and_then(|()| {
             log.write_now(
                 topics::TRUTH,

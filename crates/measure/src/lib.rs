@@ -39,6 +39,7 @@ pub mod plan;
 pub mod quality;
 pub mod record;
 pub mod reference_mass;
+pub mod reorder;
 pub mod replay;
 pub mod report;
 pub mod schema;

@@ -1,6 +1,8 @@
 //! The estimator re-run offline on a measurement's recorded sensor frames, by the same
 //! frame-to-sample rule ([`crate::feed`]) and with the same feeding as the online run
-//! ([`crate::tick`]): every frame of the measurement in order, from the home pose's warm start;
+//! ([`crate::tick`]): every frame of the measurement in sequence order (put back in order
+//! first, [`crate::reorder`]: a log holds frames as the link delivered them), from the home
+//! pose's warm start;
 //! frames before the window only warm the conditioning; frames after it are not fed. With the
 //! recorded settings the result is the online estimate, to rounding.
 
@@ -10,6 +12,7 @@ use kinematics::FkOptions;
 
 use crate::config::ImuMounting;
 use crate::feed::Feed;
+use crate::reorder::{Reorder, ReorderCounts};
 use crate::report::ThetaHistory;
 
 /// One estimate along the way.
@@ -41,6 +44,9 @@ pub struct ReplayOutcome {
     pub fk_failures: u64,
     /// Frames of the measurement given.
     pub frames: u64,
+    /// Frames the reordering dropped: later than its window, or duplicates
+    /// ([`crate::reorder`]).
+    pub reordered: ReorderCounts,
     /// Change of θ from one sigma of accelerometer bias along x, y, z (rows), when a bias
     /// figure is known.
     pub accel_bias_effect: Option<[[f64; 10]; 3]>,
@@ -95,6 +101,8 @@ pub struct Replay {
     trace_index: Vec<u64>,
     fk_failures: u64,
     frames: u64,
+    /// The frames given to [`Self::push`], put back in sequence order.
+    reorder: Reorder,
     start_s: f64,
     last_used_s: f64,
     last_time_s: f64,
@@ -123,6 +131,7 @@ impl Replay {
             trace_index: Vec::new(),
             fk_failures: 0,
             frames: 0,
+            reorder: Reorder::default(),
             start_s: f64::NAN,
             last_used_s: f64::NAN,
             last_time_s: f64::NAN,
@@ -156,8 +165,15 @@ impl Replay {
         self
     }
 
-    /// The next frame of the measurement.
+    /// The next frame of the measurement as it came: put back in sequence order
+    /// ([`crate::reorder`]), then turned into its sample.
     pub fn push(&mut self, frame: &SensorFrame) {
+        let mut reorder = std::mem::take(&mut self.reorder);
+        reorder.push(*frame, &mut |f| self.push_in_order(&f));
+        self.reorder = reorder;
+    }
+
+    fn push_in_order(&mut self, frame: &SensorFrame) {
         let sample = self.feed.next(frame);
         self.push_fed(frame.time_s, sample);
     }
@@ -165,8 +181,9 @@ impl Replay {
     /// The frame-to-sample stage ([`Feed`]) in its current state, to run on another thread:
     /// a reader that turns each frame into its sample there and hands it to
     /// [`Self::push_fed`] splits the per-frame work (forward kinematics on one side, the
-    /// estimator on the other) with the same result as [`Self::push`]. Use one or the other
-    /// for a whole measurement.
+    /// estimator on the other) with the same result as [`Self::push`] when the frames come in
+    /// sequence order ([`crate::reorder`] puts them so). Use one or the other for a whole
+    /// measurement.
     pub fn feed(&self) -> Feed {
         self.feed
     }
@@ -225,8 +242,11 @@ impl Replay {
         self.frames
     }
 
-    /// The outcome. Errors: no frame reached the window.
-    pub fn finish(self) -> Result<ReplayOutcome, ReplayError> {
+    /// The outcome, the frames still held for reordering fed first. Errors: no frame
+    /// reached the window.
+    pub fn finish(mut self) -> Result<ReplayOutcome, ReplayError> {
+        let mut reorder = std::mem::take(&mut self.reorder);
+        reorder.flush(&mut |f| self.push_in_order(&f));
         let config = self.config;
         if self.start_s.is_nan() {
             return Err(ReplayError::NoFramesInWindow {
@@ -265,6 +285,7 @@ impl Replay {
             },
             fk_failures: self.fk_failures,
             frames: self.frames,
+            reordered: reorder.counts(),
             accel_bias_effect: exact.accel,
             load_cell_bias_effect: exact.load_cell,
             budget,

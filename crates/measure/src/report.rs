@@ -180,6 +180,14 @@ pub struct DataLoss {
     /// Of those, the ones bridged by interpolation (short gaps); the rest fell in gaps that
     /// restarted the conditioning.
     pub frames_bridged: u64,
+    /// Frames of the loaded run that came after a frame with a higher counter had been used
+    /// (more than `measure::reorder::REORDER_WINDOW` frames late), dropped; frames less late
+    /// are put back in sequence order.
+    #[serde(default)]
+    pub frames_late: u64,
+    /// Frames of the loaded run whose counter had already come, dropped.
+    #[serde(default)]
+    pub frames_duplicate: u64,
     /// Gaps that restarted the conditioning.
     pub restarts: u64,
     /// What placed the samples in time: `"sequence"` (counter × period) or `"timestamps"`.

@@ -6,9 +6,11 @@ use anyhow::{bail, Result};
 use nalgebra::{Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
+use measure::calibration::CalibrationDocument;
 use measure::schema::{array, int, nullable, num, numbers, object, string, Schema};
 
-/// `stewart.RunMetadata` on `/run/metadata`, written once at the start.
+/// `stewart.RunMetadata` on `/run/metadata`, written at the start, twice
+/// ([`crate::run_log::RunLog::write_metadata`]).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct RunMetadata {
@@ -53,6 +55,48 @@ pub struct RunMetadata {
     #[serde(default)]
     pub load_cell_calibration_toml: Option<String>,
 }
+
+impl RunMetadata {
+    /// What a log whose `/run/metadata` was lost to damage is read with: the platform and
+    /// the sample period of the rig description `rig` (`stewart estimate --rig FILE`), the
+    /// run's own facts unknown (`command`, `backend` and `noise` say `unknown`; no seed, no
+    /// start time). `runs` lists both measurements: which ones ran is read from the frames.
+    /// Errors: `rig`'s platform is refused.
+    pub fn of_rig(rig: &measure::LoadedConfig) -> Result<Self> {
+        let geometry = measure::setup::geometry(rig)
+            .map_err(|e| anyhow::anyhow!("the rig description's platform is refused: {e}"))?;
+        let (base_joints_m, plate_joints_m) = measure::session::joints(&geometry);
+        let stroke = geometry.stroke();
+        let config = &rig.config;
+        Ok(Self {
+            tool_version: env!("CARGO_PKG_VERSION").into(),
+            command: UNKNOWN.into(),
+            backend: UNKNOWN.into(),
+            config_source: rig.source.clone(),
+            config_text: rig.text.clone(),
+            config_toml: rig.effective_toml(),
+            seed: 0,
+            noise: UNKNOWN.into(),
+            params: config.estimator.params.into(),
+            sample_period_s: 1.0 / config.sensors.sample_rate_hz,
+            start_unix_ns: 0,
+            runs: vec!["tare".into(), "loaded".into()],
+            tare_file: None,
+            base_joints_m,
+            plate_joints_m,
+            stroke_m: [stroke.min_length_m, stroke.max_length_m],
+            imu_calibration_toml: config.calibration.imu_file.as_ref().map(|f| f.to_toml()),
+            load_cell_calibration_toml: config
+                .calibration
+                .load_cells_file
+                .as_ref()
+                .map(|f| f.to_toml()),
+        })
+    }
+}
+
+/// What [`RunMetadata::of_rig`] says of a fact the lost metadata held.
+pub const UNKNOWN: &str = "unknown";
 
 fn joints(d: &'static str) -> Schema {
     array(numbers(3, ""), Some(6), d)

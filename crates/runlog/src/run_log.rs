@@ -26,6 +26,9 @@ pub mod rates {
     pub const SUPERVISOR_HZ: f64 = 10.0;
 }
 
+/// Copies of `/run/metadata` a log holds, each in a chunk of its own ([`RunLog::write_metadata`]).
+pub const METADATA_COPIES: usize = 2;
+
 /// An open run log.
 pub struct RunLog {
     log: McapLog,
@@ -232,6 +235,20 @@ impl RunLog {
     pub fn write_now<T: Serialize>(&mut self, topic: &str, message: &T) -> Result<()> {
         let ns = self.last_ns;
         self.log.write(topic, ns, message)
+    }
+
+    /// Writes the run's metadata (`/run/metadata`) twice, each copy in a chunk of its own:
+    /// it is written once per run and `stewart estimate` needs it (the platform's design, the
+    /// rig description as run), so one damaged chunk must not take it. The second copy
+    /// follows the first rather than ending the log, so that a log cut short (a crash, the
+    /// commonest damage) still holds both; the reader takes the first copy that decodes
+    /// (docs/log-schema.md, "Damaged and cut logs"). Written before anything else of the run.
+    pub fn write_metadata(&mut self, meta: &crate::metadata::RunMetadata) -> Result<()> {
+        for _ in 0..METADATA_COPIES {
+            self.write_now(topics::METADATA, meta)?;
+            self.flush()?;
+        }
+        Ok(())
     }
 
     /// Writes the blocks being filled and flushes the current chunk to the file.

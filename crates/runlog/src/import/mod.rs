@@ -236,7 +236,7 @@ pub fn import(plan: &ImportPlan<'_>) -> Result<Imported> {
     let mut log = RunLog::create(plan.out, start_ns)?;
     let mut meta = metadata(plan, &geometry, &runs);
     meta.start_unix_ns = start_ns;
-    log.write_now(topics::METADATA, &meta)?;
+    log.write_metadata(&meta)?;
     if let Some(t) = &tare {
         log.write_now(topics::TARE, t)?;
     }

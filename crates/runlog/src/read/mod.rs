@@ -410,6 +410,8 @@ impl Visitor for Collect<'_> {
             topics::ESTIMATE => keep(&mut log.estimates, data),
             topics::LEGS => keep_record(&mut log.legs, m),
             topics::POSE => keep_record(&mut log.poses, m),
+            // The first copy that decodes (a log holds two, see `RunLog::write_metadata`).
+            topics::METADATA if log.metadata.is_some() => None,
             topics::METADATA => set(&mut log.metadata, data),
             topics::ESTIMATOR_SETTINGS => keep(&mut log.settings, data),
             topics::TARE => set(&mut log.tare, data),
@@ -458,6 +460,15 @@ impl LogContents {
     /// The run metadata, or an error naming its channel.
     pub fn require_metadata(&self) -> Result<&RunMetadata> {
         self.metadata.as_ref().ok_or_else(no_metadata)
+    }
+
+    /// Takes the metadata from the rig description `rig` when every copy of the log's was lost
+    /// ([`RunMetadata::of_rig`]); a log whose metadata was read keeps it.
+    pub fn or_metadata_of(&mut self, rig: Option<&measure::LoadedConfig>) -> Result<()> {
+        if let (None, Some(rig)) = (&self.metadata, rig) {
+            self.metadata = Some(RunMetadata::of_rig(rig)?);
+        }
+        Ok(())
     }
 
     /// Refuses the log when `topic` has no message, naming the channel and what it is for.
@@ -510,11 +521,12 @@ pub fn geometry_of(m: &RunMetadata) -> Result<kinematics::Geometry> {
     .map_err(|e| anyhow::anyhow!("the log's platform design is refused: {e}"))
 }
 
-/// The message that says a log lacks its metadata.
+/// The message that says a log lacks its metadata, and the way out.
 pub fn no_metadata() -> anyhow::Error {
     anyhow::anyhow!(
-        "the log has no stewart.RunMetadata message (channel {} missing): it does not say what \
-         was run",
+        "the log has no readable stewart.RunMetadata message (channel {}: every copy missing or \
+         damaged), so it does not say which platform was run; give its rig description with \
+         --rig FILE",
         topics::METADATA
     )
 }

@@ -327,6 +327,8 @@ pub fn build_report(
             calibrations: rig.config.calibration.applied(),
         },
     });
+    report.data.frames_late = r.reordered.late;
+    report.data.frames_duplicate = r.reordered.duplicates;
     report.data.truncated = log.damage.truncated.clone();
     report.data.damaged = log.damage.lost_spans();
     Ok(report)

@@ -50,6 +50,9 @@ type Finished = std::result::Result<ReplayOutcome, ReplayError>;
 /// Once its input is closed ([`Worker::close`]: the next measurement began) the thread also
 /// finishes the replay, error budget included, while the next measurement is read.
 struct Worker {
+    /// The frames as they came, put back in sequence order before the feed
+    /// ([`measure::reorder`], as [`Replay::push`] does).
+    reorder: measure::reorder::Reorder,
     feed: measure::feed::Feed,
     batch: Vec<Fed>,
     frames: u64,
@@ -76,6 +79,7 @@ impl Worker {
             })
             .context("cannot start the replay thread")?;
         Ok(Self {
+            reorder: measure::reorder::Reorder::default(),
             feed,
             batch: Vec::with_capacity(BATCH_FRAMES),
             frames: 0,
@@ -91,7 +95,13 @@ impl Worker {
             return;
         }
         self.frames += 1;
-        let sample = self.feed.next(&frame);
+        let mut reorder = std::mem::take(&mut self.reorder);
+        reorder.push(frame, &mut |f| self.push_in_order(&f));
+        self.reorder = reorder;
+    }
+
+    fn push_in_order(&mut self, frame: &SensorFrame) {
+        let sample = self.feed.next(frame);
         self.batch.push((frame.time_s, sample));
         if self.batch.len() >= BATCH_FRAMES {
             self.send();
@@ -109,6 +119,9 @@ impl Worker {
     /// No more frames: the thread finishes the replay.
     fn close(&mut self) {
         if self.queue.is_some() {
+            let mut reorder = std::mem::take(&mut self.reorder);
+            reorder.flush(&mut |f| self.push_in_order(&f));
+            self.reorder = reorder;
             self.send();
             self.queue = None;
         }
@@ -116,10 +129,15 @@ impl Worker {
 
     fn finish(mut self) -> Result<Finished> {
         self.close();
+        let counts = self.reorder.counts();
         let finished = self
             .thread
             .join()
-            .map_err(|_| anyhow!("the replay thread panicked"))?;
+            .map_err(|_| anyhow!("the replay thread panicked"))?
+            .map(|mut outcome| {
+                outcome.reordered = counts;
+                outcome
+            });
         if self.late > 0 {
             bail!(
                 "{} of its {} frames came after the next measurement's began: the log \
@@ -186,6 +204,27 @@ impl Stream<'_> {
         Ok(())
     }
 
+    /// Takes `meta` as the log's metadata and starts the replays whose settings are known.
+    fn adopt(&mut self, meta: RunMetadata) -> Result<()> {
+        self.rig = Some(rig_description_of(&meta, self.rig_arg)?);
+        self.meta = Some(meta);
+        for run in self.wanted.clone() {
+            self.start(run)?;
+        }
+        Ok(())
+    }
+
+    /// The run's frames or settings come and no copy of `/run/metadata` (written before
+    /// anything else of the run) was read: every copy was lost. With a rig description given
+    /// (`--rig FILE`) the run is read with its platform ([`RunMetadata::of_rig`]); without,
+    /// the frames wait and the end says what is missing.
+    fn metadata_lost(&mut self) -> Result<()> {
+        if let Some(rig) = self.rig_arg {
+            self.adopt(RunMetadata::of_rig(rig)?)?;
+        }
+        Ok(())
+    }
+
     /// A `/sensors` block, decoded into a reused message.
     fn sensor(&mut self, m: &Message<'_>) -> Result<Option<String>> {
         let frames = match crate::read::sensor_block(m, &mut self.scratch)? {
@@ -234,18 +273,20 @@ impl Visitor for Stream<'_> {
     fn message(&mut self, m: &Message<'_>) -> Result<Option<String>> {
         self.sequences = None;
         let data = m.data;
-        match m.channel.topic.as_str() {
+        let topic = m.channel.topic.as_str();
+        if self.meta.is_none() && (topic == topics::SENSORS || topic == topics::ESTIMATOR_SETTINGS)
+        {
+            self.metadata_lost()?;
+        }
+        match topic {
             topics::SENSORS => return self.sensor(m),
+            // The first copy that decodes (a log holds two, see `RunLog::write_metadata`).
             topics::METADATA if self.meta.is_none() => {
                 let meta: RunMetadata = match decode(data) {
                     Ok(v) => v,
                     Err(e) => return Ok(Some(e)),
                 };
-                self.rig = Some(rig_description_of(&meta, self.rig_arg)?);
-                self.meta = Some(meta);
-                for run in self.wanted.clone() {
-                    self.start(run)?;
-                }
+                self.adopt(meta)?;
             }
             topics::ESTIMATOR_SETTINGS => {
                 let s: EstimatorSettings = match decode(data) {
