@@ -28,6 +28,8 @@ pub mod rigid;
 pub mod statistical;
 
 #[cfg(test)]
+mod joint_gain_tests;
+#[cfg(test)]
 pub(crate) mod testkit;
 #[cfg(test)]
 mod tests;

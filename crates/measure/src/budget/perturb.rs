@@ -53,7 +53,9 @@ pub enum Scalar {
     /// One principal direction of a calibrated accelerometer position's covariance.
     LeverArmMode(usize),
     /// A joint coordinate off the drawing: plate joint (else base), leg, coordinate;
-    /// `joint_position_tolerance_m`.
+    /// `joint_position_tolerance_m`. With calibrated gains that give their joints'
+    /// sensitivity, the applied gains move with the joint
+    /// ([`CalibratedGains::joint_change`]).
     Joint(bool, usize, usize),
     /// The legs' mass and inertia, the whole predicted effect: the error when the estimator
     /// does not compensate the legs.
@@ -258,16 +260,29 @@ impl CalibratedImu {
 /// of their 6 × 6 covariance, each with its sigma (√ of the eigenvalue). The gains' errors
 /// are correlated (their mean is fixed by the reference mass, their differences by the
 /// motion), so the modes, not six independent sigmas, carry what the calibration left.
+///
+/// The calibration's gains are blurred by the same built joints the `geometry` line moves in
+/// the measurement. When the file gives each joint coordinate's change of the gains s_k
+/// ([`crate::calibration::LoadCellGains::joint_sensitivity`]), the modes are those of the
+/// covariance without the joints' part, and the `geometry` line's joint k moves the applied
+/// gains by s_k with the joint ([`Scalar::Joint`]): one correlated effect per joint.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CalibratedGains {
     /// Unit δg along each eigenvector, and its sigma.
     pub modes: Vec<(f64, Vector6<f64>)>,
+    /// s_k per metre of joint coordinate k ([`crate::reference_mass::joint_index`] order);
+    /// empty when the file does not give them (the joints then count in the modes).
+    pub joint_per_m: Vec<Vector6<f64>>,
 }
 
 impl CalibratedGains {
-    /// The modes of `gains`' covariance.
+    /// The modes of `gains`' covariance, without the joints' part when the file gives it.
     pub fn of(gains: &crate::calibration::LoadCellGains) -> Self {
-        let eig = gains.covariance_matrix().symmetric_eigen();
+        let (cov, joint_per_m) = match gains.joint_share() {
+            Some((without, per_m)) => (without, per_m),
+            None => (gains.covariance_matrix(), Vec::new()),
+        };
+        let eig = cov.symmetric_eigen();
         let modes = (0..6)
             .map(|k| {
                 let v = eig.eigenvectors.column(k);
@@ -277,7 +292,21 @@ impl CalibratedGains {
                 )
             })
             .collect();
-        Self { modes }
+        Self { modes, joint_per_m }
+    }
+
+    /// The applied gains' change when joint coordinate (`plate`, `leg`, `coord`) is off by
+    /// `offset_m` (zero when the file gives no sensitivities).
+    pub fn joint_change(
+        &self,
+        plate: bool,
+        leg: usize,
+        coord: usize,
+        offset_m: f64,
+    ) -> Vector6<f64> {
+        self.joint_per_m
+            .get(crate::reference_mass::joint_index(plate, leg, coord))
+            .map_or_else(Vector6::zeros, |s| s * offset_m)
     }
 }
 
@@ -486,6 +515,13 @@ fn skew(d: &mut Data, h: f64, s: f64) {
 /// A joint coordinate off by `sigma`: the same leg lengths give another pose (one Newton step
 /// of forward kinematics from the described pose, J' Δx = l − l'(pose)) and other leg
 /// directions; the wrench changes by L'(pose') f − L(pose) f.
+///
+/// With calibrated gains, the calibration's fit made on the rig with this joint moved would
+/// have given gains s (its [`CalibratedGains::joint_change`]) more: both changes are "the
+/// built rig in place of the drawing", one for the calibration, one for the measurement.
+/// The cells' readings, divided by the applied gains, then read s_i f_i less, so the wrench
+/// changes by L'(pose') f − L(pose) f − Σ_i s_i f_i L_i(pose) (the gains' part to first
+/// order).
 fn joint_change(
     ctx: &Context<'_>,
     plate: bool,
@@ -510,6 +546,9 @@ fn joint_change(
     let Ok(built) = Geometry::from_points(b, p, g.stroke()) else {
         return zero;
     };
+    let gain_change = ctx
+        .load_cells
+        .map_or_else(Vector6::zeros, |c| c.joint_change(plate, leg, coord, sigma));
     ctx.fit
         .idx
         .iter()
@@ -525,7 +564,8 @@ fn joint_change(
                 Rotation3::new(Vector3::new(dx[3], dx[4], dx[5])) * pose.rotation,
             );
             let f = base.entries[i].leg_forces_n;
-            model.map_wrench(&(leg_wrench(&built, &moved, &f) - wrench))
+            let gains = leg_wrench(g, &pose, &f.component_mul(&gain_change));
+            model.map_wrench(&(leg_wrench(&built, &moved, &f) - wrench - gains))
         })
         .collect()
 }
