@@ -79,6 +79,10 @@ pub struct SimulateArgs {
     /// applies is left out of these runs; its IMU calibration is applied as in a measurement.
     #[arg(long, value_name = "FILE", conflicts_with_all = ["runs", "tare", "calibrate_imu"])]
     pub calibrate_load_cells: Option<PathBuf>,
+    /// An IMU calibration to apply in place of the rig description's (the file's path and
+    /// contents): the load-cell calibration pass takes the IMU pass's.
+    #[arg(skip)]
+    pub apply_imu: Option<(PathBuf, Box<measure::calibration::CalibrationFile>)>,
 }
 
 /// The parser of `--only`: the error sources' ids (listed in `--help`, and by clap when a
@@ -151,10 +155,10 @@ fn body_truth(b: &sim::scenario::BodyConfig) -> BodyTruth {
     }
 }
 
-/// What the calibration pass of `[calibration] measure_imu` gave.
-enum Pass {
+/// What a calibration pass (`[calibration] measure_imu`, `measure_load_cells`) gave.
+enum Pass<F> {
     /// The calibration file written, and its contents.
-    Calibrated(PathBuf, Box<measure::calibration::CalibrationFile>),
+    Calibrated(PathBuf, Box<F>),
     /// It could not be fitted (said on standard error): the measurement goes on with the IMU
     /// as described.
     Skipped,
@@ -171,6 +175,15 @@ pub fn calibration_pass_paths(log: &std::path::Path) -> (PathBuf, PathBuf) {
     )
 }
 
+/// The log and calibration file of the load-cell calibration pass beside the measurement's log
+/// `log`: `NAME.cells.mcap` and `NAME.cells.toml`.
+pub fn load_cell_pass_paths(log: &std::path::Path) -> (PathBuf, PathBuf) {
+    (
+        log.with_extension("cells.mcap"),
+        log.with_extension("cells.toml"),
+    )
+}
+
 /// `[calibration] measure_imu`: before the measurement, the empty fixture moves once through
 /// the tare run's excitation and the IMU's alignment is fitted ([`simulate`] with
 /// `--calibrate-imu`), on the same simulated world; its log and file go beside the
@@ -179,7 +192,7 @@ fn calibration_pass(
     args: &SimulateArgs,
     log: &std::path::Path,
     interrupt: &AtomicBool,
-) -> Result<Pass, CommandError> {
+) -> Result<Pass<measure::calibration::CalibrationFile>, CommandError> {
     let (pass_log, file) = calibration_pass_paths(log);
     let pass_args = SimulateArgs {
         calibrate_imu: Some(file.clone()),
@@ -226,6 +239,65 @@ fn calibration_pass(
     }
 }
 
+/// `[calibration] measure_load_cells`: before the measurement, a tare run and a run with the
+/// world's reference body, and the cells' gains fitted ([`simulate`] with
+/// `--calibrate-load-cells`), on the same simulated world with the IMU calibration `imu` the
+/// measurement applies; its log and file go beside the measurement's log.
+fn load_cell_pass(
+    args: &SimulateArgs,
+    log: &std::path::Path,
+    imu: Option<(PathBuf, Box<measure::calibration::CalibrationFile>)>,
+    interrupt: &AtomicBool,
+) -> Result<Pass<measure::calibration::LoadCellFile>, CommandError> {
+    let (pass_log, file) = load_cell_pass_paths(log);
+    let pass_args = SimulateArgs {
+        calibrate_imu: None,
+        calibrate_load_cells: Some(file.clone()),
+        apply_imu: imu,
+        measure: MeasureArgs {
+            shared: crate::common::SharedArgs {
+                log: Some(pass_log),
+                quiet: true,
+                live: None,
+                plot: None,
+                ..args.measure.shared.clone()
+            },
+            tare: None,
+            save_tare: None,
+            report: None,
+            html: None,
+            budget: false,
+            ..args.measure.clone()
+        },
+        ..args.clone()
+    };
+    if !args.measure.shared.quiet {
+        println!(
+            "load-cell calibration with the reference weight (calibration.measure_load_cells) …"
+        );
+    }
+    match simulate(&pass_args, interrupt) {
+        Ok(outcome) => match (outcome.end.clone(), outcome.load_cell_calibration.clone()) {
+            (End::Completed, Some(c)) => {
+                if !args.measure.shared.quiet {
+                    crate::calibrate::print_load_cell_calibration(&c, &file, false);
+                }
+                Ok(Pass::Calibrated(file, Box::new(c)))
+            }
+            (End::Completed, None) => Ok(Pass::Skipped),
+            _ => Ok(Pass::Ended(Box::new(outcome))),
+        },
+        Err(CommandError::Run(e)) => {
+            eprintln!(
+                "warning: the load-cell calibration pass failed ({e:#}); measuring with the \
+                 cells as [sensors.load_cell] describes them"
+            );
+            Ok(Pass::Skipped)
+        }
+        Err(e) => Err(e),
+    }
+}
+
 /// Runs `stewart simulate` with `args`. `interrupt` is the Ctrl-C flag: when it is set the
 /// platform parks, the log is finished and the outcome says [`End::Interrupted`].
 pub fn simulate(
@@ -234,6 +306,11 @@ pub fn simulate(
 ) -> Result<SimulateOutcome, CommandError> {
     // Everything that can refuse the run, before the first sample.
     let mut scenario = args.scenario()?;
+    if let Some((path, file)) = &args.apply_imu {
+        let c = &mut scenario.loaded.config.calibration;
+        c.imu = Some(path.display().to_string());
+        c.imu_file = Some((**file).clone());
+    }
     if args.calibrate_imu.is_some() {
         // The calibration fits the raw readings: nothing of an older calibration applied.
         scenario.loaded.config.calibration.imu = None;
@@ -265,6 +342,35 @@ pub fn simulate(
                 let c = &mut scenario.loaded.config.calibration;
                 c.imu = Some(path.display().to_string());
                 c.imu_file = Some(*file);
+            }
+            Pass::Skipped => {}
+            Pass::Ended(outcome) => return Ok(*outcome),
+        }
+    }
+    if args.calibrate_imu.is_none()
+        && !calibrating_cells
+        && scenario
+            .loaded
+            .config
+            .calibration
+            .calibrates_load_cells_each_run()
+    {
+        let log = log_path
+            .clone()
+            .unwrap_or_else(|| common::log_path(&args.measure, runlog::run_log::unix_now_ns()));
+        let c = &scenario.loaded.config.calibration;
+        let imu = c
+            .imu
+            .clone()
+            .zip(c.imu_file.clone())
+            .map(|(p, f)| (PathBuf::from(p), Box::new(f)));
+        let pass = load_cell_pass(args, &log, imu, interrupt)?;
+        log_path = Some(log);
+        match pass {
+            Pass::Calibrated(path, file) => {
+                let c = &mut scenario.loaded.config.calibration;
+                c.load_cells = Some(path.display().to_string());
+                c.load_cells_file = Some(*file);
             }
             Pass::Skipped => {}
             Pass::Ended(outcome) => return Ok(*outcome),
