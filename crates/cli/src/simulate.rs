@@ -629,6 +629,38 @@ mod tests {
         assert_eq!([p.x, p.y, p.z], r);
     }
 
+    /// `[calibration] measure_load_cells`: the calibration pass runs before the measurement,
+    /// its file and log beside the run's, and the measurement applies its gains (the report
+    /// names it, the log carries it, the budget counts its joints once).
+    #[test]
+    fn measure_load_cells_calibrates_before_the_measurement_and_applies_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let outcome = short_run(
+            dir.path(),
+            "cells",
+            "[calibration]\nmeasure_imu = false\nmeasure_load_cells = true\n",
+        );
+        let (pass_log, pass_file) = load_cell_pass_paths(&outcome.log_path);
+        assert!(pass_log.exists());
+        let file = measure::calibration::LoadCellFile::read(&pass_file).unwrap();
+        assert_eq!(file.load_cells.joint_sensitivity.len(), 36);
+        let report = outcome.report.unwrap();
+        let applied: Vec<&str> = report
+            .run
+            .calibrations
+            .iter()
+            .map(|c| c.kind.as_str())
+            .collect();
+        assert_eq!(applied, ["load_cells"]);
+        let log = runlog::LogContents::read(&outcome.log_path).unwrap();
+        assert_eq!(
+            log.metadata
+                .as_ref()
+                .and_then(|m| m.load_cell_calibration_toml.as_deref()),
+            Some(file.to_toml().as_str())
+        );
+    }
+
     /// The estimator's assumptions and the budget come from the rig description's datasheet:
     /// a worse accelerometer bias figure widens its line of the budget and the reported
     /// sigma, and the logged
