@@ -382,6 +382,17 @@ pub fn rig_with_abort(
              \"FILE\" (the budget counts the IMU's datasheet figures until then)"
         );
     }
+    if !calibrating_cells
+        && loaded.config.calibration.calibrates_load_cells_each_run()
+        && !common.run.shared.quiet
+    {
+        eprintln!(
+            "note: calibration.measure_load_cells calibrates the load cells in `stewart \
+             simulate` only; on a rig, run `stewart rig calibrate-load-cells --out FILE` with the \
+             reference weight and set calibration.load_cells = \"FILE\" (the budget counts the \
+             cells' datasheet gains until then)"
+        );
+    }
     let loaded = loaded;
     let config = &loaded.config;
     crate::common::warn_old_calibrations(config);
