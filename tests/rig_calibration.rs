@@ -176,3 +176,48 @@ fn rig_calibrate_load_cells_agrees_with_the_simulated_calibration_of_the_same_wo
         Some(&rig.load_cells)
     );
 }
+
+/// A load-cell calibration that the link ends: the fault is named, the rig's last command from
+/// the host brakes, and no calibration file is written.
+#[test]
+fn a_load_cell_calibration_cut_short_brakes_and_writes_nothing() {
+    let _lock = real_time();
+    let scratch = Scratch::new(&quick());
+    let emulator = start(&EmulateArgs {
+        reference: true,
+        stop_after: Some(1000),
+        ..emulate_args(&scratch)
+    });
+    let file = scratch.path("cells.toml");
+    let args = rig_args(&[
+        "calibrate-load-cells",
+        "--out",
+        file.to_str().unwrap(),
+        "--config",
+        scratch.config_str(),
+        "--connect",
+        emulator.address(),
+        "--link-silence-ms",
+        "50",
+        "--no-prompt",
+        "--log",
+        scratch.path("rig.mcap").to_str().unwrap(),
+        "--quiet",
+    ]);
+    let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));
+    // Give the safe stop time to arrive before the emulator is stopped.
+    std::thread::sleep(std::time::Duration::from_millis(50));
+    let stopped = emulator.stop().unwrap();
+    let End::Fault(cause) = &outcome.end else {
+        panic!("expected a fault, got {:?}", outcome.end)
+    };
+    assert!(cause.contains("link silent"), "{cause}");
+    assert_eq!(
+        stewart_cli::rig::finish(&args, &outcome),
+        stewart_cli::EXIT_FAULT
+    );
+    let last = stopped.last_command().expect("commands were sent");
+    assert!(!last.enable, "{last:?}");
+    assert!(outcome.load_cell_calibration.is_none());
+    assert!(!file.exists(), "no calibration from a failed run");
+}

@@ -356,6 +356,19 @@ fn a_written_file_reads_back_exactly_and_a_damaged_one_is_refused() {
     assert_eq!(back, file);
     assert_eq!(back.provenance.calibrated_utc, "2026-11-18T11:06:40Z");
     let text = std::fs::read_to_string(&path).unwrap();
+    // A file without the joints' share reads, and counts its whole covariance.
+    let older: String = text
+        .lines()
+        .filter(|l| {
+            !l.starts_with("covariance_without_joints") && !l.starts_with("joint_sensitivity")
+        })
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert_ne!(older, text);
+    std::fs::write(&path, &older).unwrap();
+    let read = LoadCellFile::read(&path).unwrap();
+    assert_eq!(read, file);
+    assert!(read.load_cells.joint_share().is_none());
     for (bad, why) in [
         (text.replace("[load_cells]", "[imu]"), "unknown field"),
         (text.replace("0.0004,", "nan,"), "finite"),
