@@ -201,6 +201,9 @@ fn one_run(
     let (pass_log, pass_file) = simulate::calibration_pass_paths(&log);
     let _ = std::fs::remove_file(pass_log);
     let _ = std::fs::remove_file(pass_file);
+    let (pass_log, pass_file) = simulate::load_cell_pass_paths(&log);
+    let _ = std::fs::remove_file(pass_log);
+    let _ = std::fs::remove_file(pass_file);
     let outcome = outcome.map_err(|e| e.to_string())?;
     match (outcome.end, outcome.report) {
         // The rules a single run's table obeys: a run that measured nothing trustworthy is a
@@ -378,6 +381,7 @@ mod tests {
             only: None,
             calibrate_imu: None,
             calibrate_load_cells: None,
+            apply_imu: None,
         };
         let c = run(&args, &AtomicBool::new(false)).unwrap();
         assert_eq!((c.completed, c.runs, c.jobs, c.first_seed), (2, 2, 2, 40));

@@ -12,7 +12,9 @@
 //! for every later one, which is what `stewart rig` (tare session, then loaded session) and
 //! `rig tare` followed by `rig measure` need; `on` and `off` fix it for every session (use
 //! `on` for a `rig measure --tare FILE` against a fresh emulator). Loading happens while the
-//! platform is braked between sessions: the brakes take the new static load.
+//! platform is braked between sessions: the brakes take the new static load. `--reference`
+//! puts the world's reference weight (`[world.reference]`) on instead of the payload, as the
+//! rig's owner does for `rig calibrate-load-cells`.
 //!
 //! Fault injection for tests: `--drop F`, `--corrupt F` (fractions of sensor frames),
 //! `--delay-ms N` (with `--delay-fraction F`, default all frames), `--stop-after N` (stop
@@ -83,6 +85,10 @@ pub struct EmulateArgs {
     /// When the payload is on the fixture (see `stewart emulate --help`).
     #[arg(long, value_enum, default_value_t = PayloadMode::TareFirst)]
     pub payload: PayloadMode,
+    /// The body put on is the world's reference weight (`[world.reference]`), not its payload:
+    /// the emulated rig for `rig calibrate-load-cells`.
+    #[arg(long)]
+    pub reference: bool,
     /// Shared-key file (hex), instead of rig.key_file and the user's key file
     /// ($XDG_CONFIG_HOME/stewart/rig.key, else ~/.config/stewart/rig.key, written when
     /// missing).
@@ -132,6 +138,7 @@ impl Default for EmulateArgs {
             seed: None,
             noise: None,
             payload: PayloadMode::TareFirst,
+            reference: false,
             key: None,
             insecure: false,
             no_realtime: false,
@@ -176,11 +183,17 @@ fn refused(e: impl std::fmt::Display) -> CommandError {
 
 /// Loads the configuration, builds the simulator and binds the emulator (nothing runs yet).
 pub fn prepare(args: &EmulateArgs) -> Result<Prepared, CommandError> {
-    let scenario = Scenario::new(
+    let mut scenario = Scenario::new(
         measure::load::load(args.config.as_deref())?,
         args.seed,
         args.noise,
     )?;
+    if args.reference {
+        // The rig's owner's calibrated weight in the payload's place: one rigid body.
+        scenario.world.payload = scenario.world.reference;
+        scenario.world.suspension.enabled = false;
+    }
+    let scenario = scenario;
     if scenario.noise != NoisePreset::Realistic && !args.quiet {
         eprintln!(
             "note: the emulated sensors are `{}` (the rig description's datasheet × {}); give \

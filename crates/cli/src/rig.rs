@@ -4,7 +4,9 @@
 //!
 //! Modes: `rig` (tare run, the operator puts the payload on, loaded run), `rig tare --out FILE`
 //! (tare only) and `rig measure --tare FILE` (loaded run with a saved tare; `rig --tare FILE`
-//! is the same). Each measurement is one session of the protocol: the tare's session ends
+//! is the same); the calibrations `rig calibrate-imu --out FILE` (the empty fixture's run) and
+//! `rig calibrate-load-cells --out FILE` (tare run, the operator puts the reference weight on,
+//! loaded run; docs/calibration.md). Each measurement is one session of the protocol: the tare's session ends
 //! braked, and the loaded run opens a new one once the operator confirms the payload is on.
 //!
 //! Before anything moves: the configuration, the trajectories, the tare file and the key are
@@ -105,6 +107,14 @@ pub enum RigMode {
     /// position, the delay) is fitted and written with its uncertainty to `--out FILE`, which
     /// `[calibration] imu = "FILE"` in the rig description then applies (docs/calibration.md).
     CalibrateImu(RigTareArgs),
+    /// Calibrate the load cells' gains: a tare run of the empty fixture, then the operator puts
+    /// the reference weight on (`calibration.reference_mass_kg`, its certificate's sigma
+    /// `reference_mass_tolerance_kg`) and confirms (`--no-prompt`: at once), then the loaded
+    /// run; the gains are fitted with their covariance and written to `--out FILE`, which
+    /// `[calibration] load_cells = "FILE"` in the rig description then applies
+    /// (docs/calibration.md). A load-cell file the rig description names is left out of these
+    /// runs; its IMU calibration is applied as in a measurement.
+    CalibrateLoadCells(RigTareArgs),
 }
 
 /// `stewart rig tare`: only the flags that act on a tare run.
@@ -169,6 +179,9 @@ pub enum Plan {
     TareOnly(PathBuf),
     /// The empty fixture's run, fitted as the IMU calibration written to the path.
     CalibrateImu(PathBuf),
+    /// Tare run, reference weight on, loaded run, fitted as the load-cell calibration written
+    /// to the path.
+    CalibrateLoadCells(PathBuf),
     /// Loaded run with the saved tare of `--tare`.
     MeasureOnly,
 }
@@ -188,8 +201,11 @@ pub fn resolve(args: &RigArgs) -> Result<(Plan, RigRunArgs), CommandError> {
                 },
             },
         ),
-        Some(RigMode::CalibrateImu(t)) => (
-            Plan::CalibrateImu(t.out.clone()),
+        Some(RigMode::CalibrateImu(t) | RigMode::CalibrateLoadCells(t)) => (
+            match &args.mode {
+                Some(RigMode::CalibrateImu(_)) => Plan::CalibrateImu(t.out.clone()),
+                _ => Plan::CalibrateLoadCells(t.out.clone()),
+            },
             RigRunArgs {
                 link: t.link.clone(),
                 run: MeasureArgs {
@@ -348,15 +364,32 @@ pub fn rig_with_abort(
     let common = &common;
     let mut loaded = common.run.load_config()?;
     let calibrating = matches!(plan, Plan::CalibrateImu(_));
+    let calibrating_cells = matches!(plan, Plan::CalibrateLoadCells(_));
     if calibrating {
         // The calibration fits the raw readings: nothing of an older calibration applied.
         loaded.config.calibration.imu = None;
         loaded.config.calibration.imu_file = None;
+    } else if calibrating_cells {
+        // The gains are fitted on the raw readings, against the reference's known mass.
+        crate::calibrate::reference_mass_kg(&loaded)?;
+        loaded.config.calibration.load_cells = None;
+        loaded.config.calibration.load_cells_file = None;
     } else if loaded.config.calibration.calibrates_imu_each_run() && !common.run.shared.quiet {
         eprintln!(
             "note: calibration.measure_imu calibrates the IMU in `stewart simulate` only; on a \
              rig, run `stewart rig calibrate-imu --out FILE` once and set calibration.imu = \
              \"FILE\" (the budget counts the IMU's datasheet figures until then)"
+        );
+    }
+    if !calibrating_cells
+        && loaded.config.calibration.calibrates_load_cells_each_run()
+        && !common.run.shared.quiet
+    {
+        eprintln!(
+            "note: calibration.measure_load_cells calibrates the load cells in `stewart \
+             simulate` only; on a rig, run `stewart rig calibrate-load-cells --out FILE` with the \
+             reference weight and set calibration.load_cells = \"FILE\" (the budget counts the \
+             cells' datasheet gains until then)"
         );
     }
     let loaded = loaded;
@@ -366,7 +399,8 @@ pub fn rig_with_abort(
     let geometry = setup::geometry(&loaded)?;
     // The controllers are built (and their trajectories checked) here, before the rig is even
     // contacted: nothing slow remains between samples once a session runs.
-    let loaded_controller = if plan == Plan::MeasureOnly || plan == Plan::Both {
+    let loaded_controller = if plan == Plan::MeasureOnly || plan == Plan::Both || calibrating_cells
+    {
         let t = setup::trajectory(&loaded, &geometry, config.run.duration_s)?;
         Some(setup::controller(&loaded, &geometry, t)?)
     } else {
@@ -407,7 +441,11 @@ pub fn rig_with_abort(
     let stroke = geometry.stroke();
     let header = log.write_metadata(&RunMetadata {
         tool_version: env!("CARGO_PKG_VERSION").into(),
-        command: "rig".into(),
+        command: if calibrating_cells {
+            "rig calibrate-load-cells".into()
+        } else {
+            "rig".into()
+        },
         backend: "rig".into(),
         config_source: loaded.source.clone(),
         config_text: loaded.text.clone(),
@@ -431,7 +469,7 @@ pub fn rig_with_abort(
     });
     let save_tare = match &plan {
         Plan::TareOnly(out) => Some(out.as_path()),
-        Plan::CalibrateImu(_) => None,
+        Plan::CalibrateImu(_) | Plan::CalibrateLoadCells(_) => None,
         _ => common.run.save_tare.as_deref(),
     };
     let mut progress = Progress::new(total, common.run.shared.quiet);
@@ -439,7 +477,14 @@ pub fn rig_with_abort(
         &rig_link,
         &loaded,
         progress.handle(),
-        common.link.no_prompt,
+        (
+            if calibrating_cells {
+                "the reference weight (calibration.reference_mass_kg)"
+            } else {
+                "the payload"
+            },
+            common.link.no_prompt,
+        ),
         abort,
     );
     let result = header.and_then(|()| {
@@ -473,10 +518,14 @@ pub fn rig_with_abort(
              than stall the control loop (the gaps show in the MCAP sequence numbers)"
         );
     }
+    // The rig is braked and the link closed before anything else can fail: the fits below
+    // are the host's work alone.
+    let (info, link_total) = rig_link.close();
     let outcome = result.map_err(CommandError::Run)?;
     finished.map_err(CommandError::Run)?;
+    let completed = outcome.end == measure::End::Completed;
     let calibration = match &plan {
-        Plan::CalibrateImu(path) if outcome.end == measure::End::Completed => {
+        Plan::CalibrateImu(path) if completed => {
             let file =
                 crate::calibrate::imu_calibration(&outcome, &loaded, "rig", start_ns, &log_path)
                     .map_err(CommandError::Run)?;
@@ -485,21 +534,34 @@ pub fn rig_with_abort(
         }
         _ => None,
     };
-    let (info, link_total) = rig_link.close();
-    let report = outcome.report(
-        config,
-        RunInfo {
-            config: loaded.source.clone(),
-            seed: 0,
-            noise: outcome::NOISE.into(),
-            params: config.estimator.params.into(),
-            log: Some(log_path.display().to_string()),
-            backend: "rig".into(),
-            tool: measure::calibration::tool(),
-            calibrations: config.calibration.applied(),
-        },
-        None,
-    );
+    let load_cell_calibration = match &plan {
+        Plan::CalibrateLoadCells(path) if completed => {
+            let file = crate::calibrate::load_cell_calibration(
+                &outcome, &loaded, "rig", start_ns, &log_path,
+            )
+            .map_err(CommandError::Run)?;
+            file.write(path).map_err(CommandError::Run)?;
+            Some(file)
+        }
+        _ => None,
+    };
+    // A calibration measures no payload: the reference's run is in the log, not reported.
+    let report = outcome
+        .report(
+            config,
+            RunInfo {
+                config: loaded.source.clone(),
+                seed: 0,
+                noise: outcome::NOISE.into(),
+                params: config.estimator.params.into(),
+                log: Some(log_path.display().to_string()),
+                backend: "rig".into(),
+                tool: measure::calibration::tool(),
+                calibrations: config.calibration.applied(),
+            },
+            None,
+        )
+        .filter(|_| !calibrating_cells);
     Ok(RigOutcome {
         report,
         log_path,
@@ -510,6 +572,7 @@ pub fn rig_with_abort(
         rig: info,
         link_total,
         calibration,
+        load_cell_calibration,
     })
 }
 
@@ -580,6 +643,15 @@ mod tests {
         assert_eq!(resolve(&a).unwrap().0, Plan::MeasureOnly);
         let a = parse(&["--tare", "t.json"]).unwrap();
         assert_eq!(resolve(&a).unwrap().0, Plan::MeasureOnly);
+        let a = parse(&["calibrate-load-cells", "--out", "c.toml", "--no-prompt"]).unwrap();
+        let (plan, c) = resolve(&a).unwrap();
+        assert_eq!(plan, Plan::CalibrateLoadCells(PathBuf::from("c.toml")));
+        assert!(c.link.no_prompt);
+        assert!(
+            parse(&["calibrate-load-cells"]).is_err(),
+            "--out is required"
+        );
+        assert!(parse(&["calibrate-load-cells", "--out", "c", "--tare", "t"]).is_err());
     }
 
     #[test]

@@ -23,6 +23,11 @@ use runlog::messages as topics;
 use runlog::metadata::{BodyTruth, RunMetadata, TruthMsg};
 use runlog::{LogObserver, RunLog};
 
+mod passes;
+
+use passes::{calibration_pass, load_cell_pass, Pass};
+pub use passes::{calibration_pass_paths, load_cell_pass_paths};
+
 #[cfg(test)]
 use crate::common::SharedArgs;
 use crate::common::{self, CommandError, MeasureArgs};
@@ -79,6 +84,10 @@ pub struct SimulateArgs {
     /// applies is left out of these runs; its IMU calibration is applied as in a measurement.
     #[arg(long, value_name = "FILE", conflicts_with_all = ["runs", "tare", "calibrate_imu"])]
     pub calibrate_load_cells: Option<PathBuf>,
+    /// An IMU calibration to apply in place of the rig description's (the file's path and
+    /// contents): the load-cell calibration pass takes the IMU pass's.
+    #[arg(skip)]
+    pub apply_imu: Option<(PathBuf, Box<measure::calibration::CalibrationFile>)>,
 }
 
 /// The parser of `--only`: the error sources' ids (listed in `--help`, and by clap when a
@@ -151,81 +160,6 @@ fn body_truth(b: &sim::scenario::BodyConfig) -> BodyTruth {
     }
 }
 
-/// What the calibration pass of `[calibration] measure_imu` gave.
-enum Pass {
-    /// The calibration file written, and its contents.
-    Calibrated(PathBuf, Box<measure::calibration::CalibrationFile>),
-    /// It could not be fitted (said on standard error): the measurement goes on with the IMU
-    /// as described.
-    Skipped,
-    /// It was interrupted or faulted: the command ends with this outcome.
-    Ended(Box<SimulateOutcome>),
-}
-
-/// The log and calibration file of the calibration pass beside the measurement's log `log`:
-/// `NAME.imu.mcap` and `NAME.imu.toml`.
-pub fn calibration_pass_paths(log: &std::path::Path) -> (PathBuf, PathBuf) {
-    (
-        log.with_extension("imu.mcap"),
-        log.with_extension("imu.toml"),
-    )
-}
-
-/// `[calibration] measure_imu`: before the measurement, the empty fixture moves once through
-/// the tare run's excitation and the IMU's alignment is fitted ([`simulate`] with
-/// `--calibrate-imu`), on the same simulated world; its log and file go beside the
-/// measurement's log.
-fn calibration_pass(
-    args: &SimulateArgs,
-    log: &std::path::Path,
-    interrupt: &AtomicBool,
-) -> Result<Pass, CommandError> {
-    let (pass_log, file) = calibration_pass_paths(log);
-    let pass_args = SimulateArgs {
-        calibrate_imu: Some(file.clone()),
-        calibrate_load_cells: None,
-        measure: MeasureArgs {
-            shared: crate::common::SharedArgs {
-                log: Some(pass_log),
-                quiet: true,
-                live: None,
-                plot: None,
-                ..args.measure.shared.clone()
-            },
-            tare: None,
-            save_tare: None,
-            report: None,
-            html: None,
-            budget: false,
-            ..args.measure.clone()
-        },
-        ..args.clone()
-    };
-    if !args.measure.shared.quiet {
-        println!("IMU calibration on the empty fixture (calibration.measure_imu) …");
-    }
-    match simulate(&pass_args, interrupt) {
-        Ok(outcome) => match (outcome.end.clone(), outcome.calibration.clone()) {
-            (End::Completed, Some(c)) => {
-                if !args.measure.shared.quiet {
-                    crate::calibrate::print_imu_calibration(&c, &file, false);
-                }
-                Ok(Pass::Calibrated(file, Box::new(c)))
-            }
-            (End::Completed, None) => Ok(Pass::Skipped),
-            _ => Ok(Pass::Ended(Box::new(outcome))),
-        },
-        Err(CommandError::Run(e)) => {
-            eprintln!(
-                "warning: the IMU calibration pass failed ({e:#}); measuring with the IMU as \
-                 [sensors.imu] describes it"
-            );
-            Ok(Pass::Skipped)
-        }
-        Err(e) => Err(e),
-    }
-}
-
 /// Runs `stewart simulate` with `args`. `interrupt` is the Ctrl-C flag: when it is set the
 /// platform parks, the log is finished and the outcome says [`End::Interrupted`].
 pub fn simulate(
@@ -234,6 +168,11 @@ pub fn simulate(
 ) -> Result<SimulateOutcome, CommandError> {
     // Everything that can refuse the run, before the first sample.
     let mut scenario = args.scenario()?;
+    if let Some((path, file)) = &args.apply_imu {
+        let c = &mut scenario.loaded.config.calibration;
+        c.imu = Some(path.display().to_string());
+        c.imu_file = Some((**file).clone());
+    }
     if args.calibrate_imu.is_some() {
         // The calibration fits the raw readings: nothing of an older calibration applied.
         scenario.loaded.config.calibration.imu = None;
@@ -265,6 +204,35 @@ pub fn simulate(
                 let c = &mut scenario.loaded.config.calibration;
                 c.imu = Some(path.display().to_string());
                 c.imu_file = Some(*file);
+            }
+            Pass::Skipped => {}
+            Pass::Ended(outcome) => return Ok(*outcome),
+        }
+    }
+    if args.calibrate_imu.is_none()
+        && !calibrating_cells
+        && scenario
+            .loaded
+            .config
+            .calibration
+            .calibrates_load_cells_each_run()
+    {
+        let log = log_path
+            .clone()
+            .unwrap_or_else(|| common::log_path(&args.measure, runlog::run_log::unix_now_ns()));
+        let c = &scenario.loaded.config.calibration;
+        let imu = c
+            .imu
+            .clone()
+            .zip(c.imu_file.clone())
+            .map(|(p, f)| (PathBuf::from(p), Box::new(f)));
+        let pass = load_cell_pass(args, &log, imu, interrupt)?;
+        log_path = Some(log);
+        match pass {
+            Pass::Calibrated(path, file) => {
+                let c = &mut scenario.loaded.config.calibration;
+                c.load_cells = Some(path.display().to_string());
+                c.load_cells_file = Some(*file);
             }
             Pass::Skipped => {}
             Pass::Ended(outcome) => return Ok(*outcome),
@@ -518,6 +486,38 @@ mod tests {
         let loaded = measure::load::load(Some(&rig)).unwrap();
         let p = measure::setup::accelerometer_position(&loaded.config);
         assert_eq!([p.x, p.y, p.z], r);
+    }
+
+    /// `[calibration] measure_load_cells`: the calibration pass runs before the measurement,
+    /// its file and log beside the run's, and the measurement applies its gains (the report
+    /// names it, the log carries it, the budget counts its joints once).
+    #[test]
+    fn measure_load_cells_calibrates_before_the_measurement_and_applies_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let outcome = short_run(
+            dir.path(),
+            "cells",
+            "[calibration]\nmeasure_imu = false\nmeasure_load_cells = true\n",
+        );
+        let (pass_log, pass_file) = load_cell_pass_paths(&outcome.log_path);
+        assert!(pass_log.exists());
+        let file = measure::calibration::LoadCellFile::read(&pass_file).unwrap();
+        assert_eq!(file.load_cells.joint_sensitivity.len(), 36);
+        let report = outcome.report.unwrap();
+        let applied: Vec<&str> = report
+            .run
+            .calibrations
+            .iter()
+            .map(|c| c.kind.as_str())
+            .collect();
+        assert_eq!(applied, ["load_cells"]);
+        let log = runlog::LogContents::read(&outcome.log_path).unwrap();
+        assert_eq!(
+            log.metadata
+                .as_ref()
+                .and_then(|m| m.load_cell_calibration_toml.as_deref()),
+            Some(file.to_toml().as_str())
+        );
     }
 
     /// The estimator's assumptions and the budget come from the rig description's datasheet:

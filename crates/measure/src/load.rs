@@ -320,6 +320,7 @@ pub fn load_recorded(
                 c.remove("imu");
                 c.remove("measure_imu");
                 c.remove("load_cells");
+                c.remove("measure_load_cells");
             }
             toml::to_string(&table).unwrap_or_else(|_| text.to_string())
         }

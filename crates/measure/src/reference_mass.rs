@@ -38,6 +38,14 @@
 //! datasheet rate (a ramp from the tare run's start, which the shared offsets do not take
 //! up), and the reference's mass moved by its tolerance.
 //!
+//! **The joints, counted once.** The joints that blur the gains are the rig's own, and the
+//! error budget's `geometry` line moves the same joints in the measurement. So the fit keeps,
+//! beside the covariance, each joint coordinate's change of the applied gains
+//! s_k = (I − K) δĝ_k (K the prior's gain below) and the applied gains' covariance without
+//! the joints' part, T (C − Σ δĝ_k δĝ_kᵀ) Tᵀ + σ_d² K Kᵀ with T = I − K. The budget then moves
+//! the gains by s_k whenever it moves joint k ([`crate::budget::perturb::CalibratedGains`]):
+//! one correlated effect per joint instead of two independent ones.
+//!
 //! **The datasheet's prior.** The joints' tolerance makes the gains' differences nearly
 //! interchangeable with the joints' positions (a joint 0.2 mm off changes a leg's share of a
 //! load as a gain of a few 1e-4 does): the fit alone gives each gain to about 9e-4 with a
@@ -314,6 +322,9 @@ pub fn fit(
     let g0 = gains_of(&x);
     let noise = DMatrix::from_fn(6, 6, |i, j| noise_full[(i, j)]);
     let mut joints = DMatrix::zeros(6, 6);
+    // The fit's change for each joint coordinate (base joints, then plate joints; x, y, z of
+    // each leg's): zero where the moved rig could not be built.
+    let mut deltas = vec![Vector6::zeros(); JOINT_COORDINATES];
     if setup.joint_tolerance_m > 0.0 {
         for plate in [false, true] {
             for leg in 0..kinematics::LEG_COUNT {
@@ -341,7 +352,9 @@ pub fn fit(
                     if let Some((xm, _, _)) =
                         solve(both, setup, &Change::Joint(Box::new(built), [p0, p1]))
                     {
-                        joints += outer(&(gains_of(&xm) - g0));
+                        let d = gains_of(&xm) - g0;
+                        joints += outer(&d);
+                        deltas[joint_index(plate, leg, coord)] = d;
                     }
                 }
             }
@@ -387,7 +400,16 @@ pub fn fit(
         }
     }
     let total = &noise + &joints + &legs_cov + &drift_cov + &mass_cov;
-    let (gains, covariance) = with_prior(&g0, &total, setup.prior_gain_sigma);
+    let prior = with_prior(&g0, &total, setup.prior_gain_sigma);
+    let (gains, covariance) = (prior.gains, &prior.covariance);
+    let joint_sensitivity: Vec<[f64; 6]> = deltas
+        .iter()
+        .map(|d| {
+            let s = &prior.transfer * nalgebra::DVector::from_iterator(6, d.iter().copied());
+            core::array::from_fn(|i| s[i])
+        })
+        .collect();
+    let without = prior.without(&(&total - &joints));
     let h = Vector3::new(x[16], x[17], x[18]);
     let nested = |m: &DMatrix<f64>| -> Vec<Vec<f64>> {
         (0..6)
@@ -396,7 +418,9 @@ pub fn fit(
     };
     Ok(LoadCellGains {
         gains: gains.into(),
-        covariance: nested(&covariance),
+        covariance: nested(covariance),
+        covariance_without_joints: nested(&without),
+        joint_sensitivity,
         fitted_gains: g0.into(),
         fitted_covariance: nested(&total),
         prior_sigma: if setup.prior_gain_sigma.is_finite() {
@@ -419,11 +443,51 @@ pub fn fit(
     })
 }
 
+/// Number of joint coordinates: 6 base joints and 6 plate joints, 3 coordinates each.
+pub const JOINT_COORDINATES: usize = 36;
+
+/// Index of a joint coordinate in [`LoadCellGains::joint_sensitivity`]: the base joints'
+/// coordinates first (leg-major, x y z), then the plate joints', the error budget's
+/// `geometry` order ([`crate::budget::perturb::scalars`]).
+pub fn joint_index(plate: bool, leg: usize, coord: usize) -> usize {
+    usize::from(plate) * 18 + leg * 3 + coord
+}
+
+/// The applied gains from the fit: ĝ' = T ĝ and C' = C − K C with K = C (C + σ² I)⁻¹ and the
+/// transfer T = I − K.
+struct Posterior {
+    gains: Vector6<f64>,
+    covariance: DMatrix<f64>,
+    /// T: how an error of the fit's gains reaches the applied gains.
+    transfer: DMatrix<f64>,
+    /// K (zero without a prior).
+    gain: DMatrix<f64>,
+    /// σ², the prior's variance of each gain (0: none).
+    prior_variance: f64,
+}
+
+impl Posterior {
+    /// The applied gains' covariance from a part `part` of the fit's covariance:
+    /// T part Tᵀ + σ² K Kᵀ (with the whole of C in place of `part` this is C', since
+    /// K (C + σ² I) = C).
+    fn without(&self, part: &DMatrix<f64>) -> DMatrix<f64> {
+        let t = &self.transfer;
+        let c = t * part * t.transpose() + &self.gain * self.gain.transpose() * self.prior_variance;
+        (&c + c.transpose()) * 0.5
+    }
+}
+
 /// The fit `g` with covariance `c` combined with the prior N(0, σ² I): ĝ' = g − C (C + σ² I)⁻¹ g,
 /// C' = C − C (C + σ² I)⁻¹ C. Without a prior (σ zero or not finite), or when C + σ² I cannot
 /// be inverted, the fit as it is.
-fn with_prior(g: &Vector6<f64>, c: &DMatrix<f64>, sigma: f64) -> (Vector6<f64>, DMatrix<f64>) {
-    let fit = || (*g, c.clone());
+fn with_prior(g: &Vector6<f64>, c: &DMatrix<f64>, sigma: f64) -> Posterior {
+    let fit = || Posterior {
+        gains: *g,
+        covariance: c.clone(),
+        transfer: DMatrix::identity(6, 6),
+        gain: DMatrix::zeros(6, 6),
+        prior_variance: 0.0,
+    };
     if !(sigma.is_finite() && sigma > 0.0) {
         return fit();
     }
@@ -436,7 +500,13 @@ fn with_prior(g: &Vector6<f64>, c: &DMatrix<f64>, sigma: f64) -> (Vector6<f64>, 
     let cov = c - &k * c;
     // Symmetric to rounding.
     let cov = (&cov + cov.transpose()) * 0.5;
-    (Vector6::from_iterator(post.iter().copied()), cov)
+    Posterior {
+        gains: Vector6::from_iterator(post.iter().copied()),
+        covariance: cov,
+        transfer: DMatrix::identity(6, 6) - &k,
+        gain: k,
+        prior_variance: sigma * sigma,
+    }
 }
 
 #[cfg(test)]

@@ -24,6 +24,8 @@ pub(crate) fn gains_with(gains: [f64; 6]) -> LoadCellGains {
         covariance: (0..6)
             .map(|i| (0..6).map(|j| if i == j { 1e-8 } else { 0.0 }).collect())
             .collect(),
+        covariance_without_joints: Vec::new(),
+        joint_sensitivity: Vec::new(),
         fitted_gains: gains,
         fitted_covariance: Vec::new(),
         prior_sigma: 0.0,
@@ -259,6 +261,52 @@ fn the_tolerances_widen_the_sigmas() {
     }
 }
 
+/// The joints' share is kept apart, counted once: the applied covariance is the covariance
+/// without the joints plus Σ s_k s_kᵀ, with the datasheet's prior and without it; without the
+/// prior, Σ s_k² of each gain is the joints' own variance.
+#[test]
+fn the_joints_share_and_the_rest_add_up_to_the_covariance() {
+    let noise = [4.0 / 10f64.sqrt(), 1.6e-4, 1.3e-3];
+    let tol = 2e-4;
+    for prior in [0.0, 5e-4] {
+        let f = fitted(
+            noise,
+            3,
+            &Setup {
+                prior_gain_sigma: prior,
+                ..setup(tol)
+            },
+        );
+        let (without, per_m) = f.joint_share().expect("the joints' share");
+        assert_eq!(per_m.len(), JOINT_COORDINATES);
+        let mut sum = without.clone();
+        for s in &per_m {
+            let s = s * tol;
+            sum += DMatrix::from_fn(6, 6, |i, j| s[i] * s[j]);
+        }
+        let whole = f.covariance_matrix();
+        let scale = whole.diagonal().max();
+        assert!(
+            (&sum - &whole).abs().max() < 1e-9 * scale,
+            "prior {prior}: {sum} against {whole}"
+        );
+        let joints: f64 = per_m.iter().map(|s| (s * tol).norm_squared()).sum();
+        assert!(
+            joints > 0.1 * whole.trace(),
+            "prior {prior}: the joints matter"
+        );
+        if prior == 0.0 {
+            for i in 0..6 {
+                let v: f64 = per_m.iter().map(|s| (s[i] * tol).powi(2)).sum();
+                assert!((v.sqrt() - f.joints_sigma[i]).abs() < 1e-9 * f.joints_sigma[i]);
+            }
+        }
+    }
+    // No tolerance: no joints' share to count apart.
+    let none = fitted(noise, 3, &setup(0.0));
+    assert!(none.joint_share().is_none());
+}
+
 #[test]
 fn a_plate_at_rest_or_a_short_run_is_refused() {
     let g = testkit::geometry();
@@ -308,6 +356,19 @@ fn a_written_file_reads_back_exactly_and_a_damaged_one_is_refused() {
     assert_eq!(back, file);
     assert_eq!(back.provenance.calibrated_utc, "2026-11-18T11:06:40Z");
     let text = std::fs::read_to_string(&path).unwrap();
+    // A file without the joints' share reads, and counts its whole covariance.
+    let older: String = text
+        .lines()
+        .filter(|l| {
+            !l.starts_with("covariance_without_joints") && !l.starts_with("joint_sensitivity")
+        })
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert_ne!(older, text);
+    std::fs::write(&path, &older).unwrap();
+    let read = LoadCellFile::read(&path).unwrap();
+    assert_eq!(read, file);
+    assert!(read.load_cells.joint_share().is_none());
     for (bad, why) in [
         (text.replace("[load_cells]", "[imu]"), "unknown field"),
         (text.replace("0.0004,", "nan,"), "finite"),

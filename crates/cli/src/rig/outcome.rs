@@ -48,6 +48,8 @@ pub struct RigOutcome {
     pub link_total: rig::LinkStats,
     /// The IMU calibration written (`rig calibrate-imu`).
     pub calibration: Option<measure::calibration::CalibrationFile>,
+    /// The load-cell calibration written (`rig calibrate-load-cells`).
+    pub load_cell_calibration: Option<measure::calibration::LoadCellFile>,
 }
 
 impl RigOutcome {
@@ -125,6 +127,12 @@ pub fn finish(args: &RigArgs, outcome: &RigOutcome) -> u8 {
     let code = crate::common::end_code(&outcome.end, &noticed);
     if let (super::Plan::CalibrateImu(path), Some(file)) = (&plan, &outcome.calibration) {
         crate::calibrate::print_imu_calibration(file, path, run_args.shared.quiet);
+        return code;
+    }
+    if let (super::Plan::CalibrateLoadCells(path), Some(file)) =
+        (&plan, &outcome.load_cell_calibration)
+    {
+        crate::calibrate::print_load_cell_calibration(file, path, run_args.shared.quiet);
         return code;
     }
     if let Some(tare) = &outcome.tare {

@@ -22,6 +22,7 @@ pub struct RigStation<'a> {
     loaded: &'a LoadedConfig,
     progress: indicatif::ProgressBar,
     no_prompt: bool,
+    body: &'static str,
     abort: &'a AtomicBool,
     reports: Vec<LinkReport>,
     failure: Option<Failure>,
@@ -29,13 +30,14 @@ pub struct RigStation<'a> {
 
 impl<'a> RigStation<'a> {
     /// The station on `link` for the rig `loaded` describes; `progress` leaves the screen while
-    /// the operator is asked; `no_prompt` goes on without asking; `abort` (a second Ctrl-C)
-    /// brakes at once and ends the measurement as interrupted, without the park ramp.
+    /// the operator is asked to put `body` on; `no_prompt` goes on without asking; `abort` (a
+    /// second Ctrl-C) brakes at once and ends the measurement as interrupted, without the park
+    /// ramp.
     pub fn new(
         link: &'a Link,
         loaded: &'a LoadedConfig,
         progress: indicatif::ProgressBar,
-        no_prompt: bool,
+        (body, no_prompt): (&'static str, bool),
         abort: &'a AtomicBool,
     ) -> Self {
         Self {
@@ -43,6 +45,7 @@ impl<'a> RigStation<'a> {
             loaded,
             progress,
             no_prompt,
+            body,
             abort,
             reports: Vec::new(),
             failure: None,
@@ -167,11 +170,12 @@ impl Station for RigStation<'_> {
     }
 
     fn load_payload<O: Observer>(&mut self, _: &mut O, stop: &AtomicBool) -> anyhow::Result<bool> {
-        // The tare's session ends braked; the payload goes on; a new session begins.
+        // The tare's session ends braked; the payload (or the reference) goes on; a new
+        // session begins.
         self.link.lock().safe_stop()?;
         let confirmed = self
             .progress
-            .suspend(|| crate::prompt::operator_loads_payload(self.no_prompt, stop))?;
+            .suspend(|| crate::prompt::operator_loads_payload(self.body, self.no_prompt, stop))?;
         if !confirmed {
             return Ok(false);
         }

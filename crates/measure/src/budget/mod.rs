@@ -12,6 +12,7 @@
 //!   bias and the load cells' zero offsets use the estimator's own exact sensitivities instead
 //!   when the run has them ([`crate::systematic`]; they include its conditioning), the
 //!   budget's fit giving the rest (the cells' drift among them).
+//! - [`calibrated`]: applied calibrations' uncertainties as the budget counts them.
 //! - [`legs`]: the legs' mass and the joints' friction as the estimator misses them, and the
 //!   transverse force through each cell (its crosstalk).
 //! - [`statistical`]: the estimator's covariance split into noise, frame loss and timestamp
@@ -20,6 +21,7 @@
 //! - [`combine`]: the payload's share (loaded − tare, the same physical error in both runs)
 //!   and each source's covariance.
 
+pub mod calibrated;
 pub mod combine;
 pub mod fit;
 pub mod legs;
@@ -27,6 +29,8 @@ pub mod perturb;
 pub mod rigid;
 pub mod statistical;
 
+#[cfg(test)]
+mod joint_gain_tests;
 #[cfg(test)]
 pub(crate) mod testkit;
 #[cfg(test)]

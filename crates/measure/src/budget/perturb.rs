@@ -14,6 +14,7 @@ use nalgebra::{Matrix3, Matrix6, Rotation3, Vector3, Vector6, LU, U6};
 
 use estimator::legs::PlateMotion;
 
+pub use super::calibrated::{CalibratedGains, CalibratedImu};
 use super::fit::{Data, Fit};
 use super::legs::{self as leg_model, LegEffects};
 use super::Figures;
@@ -53,7 +54,9 @@ pub enum Scalar {
     /// One principal direction of a calibrated accelerometer position's covariance.
     LeverArmMode(usize),
     /// A joint coordinate off the drawing: plate joint (else base), leg, coordinate;
-    /// `joint_position_tolerance_m`.
+    /// `joint_position_tolerance_m`. With calibrated gains that give their joints'
+    /// sensitivity, the applied gains move with the joint
+    /// ([`CalibratedGains::joint_change`]).
     Joint(bool, usize, usize),
     /// The legs' mass and inertia, the whole predicted effect: the error when the estimator
     /// does not compensate the legs.
@@ -205,79 +208,6 @@ pub fn scalars(source: ErrorSource, figures: &super::Figures) -> Vec<Scalar> {
             Scalar::LegFigure(7),
         ],
         _ => Vec::new(),
-    }
-}
-
-/// A calibrated IMU's uncertainty as the budget applies it: the principal directions of its
-/// covariances, each with its sigma (√ of the eigenvalue).
-#[derive(Clone, Debug, PartialEq)]
-pub struct CalibratedImu {
-    /// δG of unit size (Frobenius) along each eigenvector of G's 9 × 9 covariance, and its
-    /// sigma.
-    pub gyro_modes: Vec<(f64, Matrix3<f64>)>,
-    /// Unit δr along each eigenvector of r's covariance, and its sigma (m).
-    pub lever_modes: Vec<(f64, Vector3<f64>)>,
-    /// One sigma of the calibrated delay, s.
-    pub delay_sigma_s: f64,
-}
-
-impl CalibratedImu {
-    /// The modes of `alignment`'s covariances.
-    pub fn of(alignment: &crate::calibration::ImuAlignment) -> Self {
-        let gyro = alignment.gyro_covariance_matrix();
-        let g9 = gyro.view((0, 0), (9, 9)).into_owned();
-        let eig = g9.symmetric_eigen();
-        let gyro_modes = (0..9)
-            .map(|k| {
-                let v = eig.eigenvectors.column(k);
-                (
-                    eig.eigenvalues[k].max(0.0).sqrt(),
-                    Matrix3::from_fn(|i, j| v[3 * i + j]),
-                )
-            })
-            .collect();
-        let eig = alignment.position_covariance_matrix().symmetric_eigen();
-        let lever_modes = (0..3)
-            .map(|k| {
-                let v = eig.eigenvectors.column(k);
-                (
-                    eig.eigenvalues[k].max(0.0).sqrt(),
-                    Vector3::new(v[0], v[1], v[2]),
-                )
-            })
-            .collect();
-        Self {
-            gyro_modes,
-            lever_modes,
-            delay_sigma_s: alignment.gyro_sigma(9),
-        }
-    }
-}
-
-/// Calibrated load-cell gains' uncertainty as the budget applies it: the principal directions
-/// of their 6 × 6 covariance, each with its sigma (√ of the eigenvalue). The gains' errors
-/// are correlated (their mean is fixed by the reference mass, their differences by the
-/// motion), so the modes, not six independent sigmas, carry what the calibration left.
-#[derive(Clone, Debug, PartialEq)]
-pub struct CalibratedGains {
-    /// Unit δg along each eigenvector, and its sigma.
-    pub modes: Vec<(f64, Vector6<f64>)>,
-}
-
-impl CalibratedGains {
-    /// The modes of `gains`' covariance.
-    pub fn of(gains: &crate::calibration::LoadCellGains) -> Self {
-        let eig = gains.covariance_matrix().symmetric_eigen();
-        let modes = (0..6)
-            .map(|k| {
-                let v = eig.eigenvectors.column(k);
-                (
-                    eig.eigenvalues[k].max(0.0).sqrt(),
-                    Vector6::from_fn(|i, _| v[i]),
-                )
-            })
-            .collect();
-        Self { modes }
     }
 }
 
@@ -525,6 +455,13 @@ fn skew(d: &mut Data, h: f64, s: f64) {
 /// A joint coordinate off by `sigma`: the same leg lengths give another pose (one Newton step
 /// of forward kinematics from the described pose, J' Δx = l − l'(pose)) and other leg
 /// directions; the wrench changes by L'(pose') f − L(pose) f.
+///
+/// With calibrated gains, the calibration's fit made on the rig with this joint moved would
+/// have given gains s (its [`CalibratedGains::joint_change`]) more: both changes are "the
+/// built rig in place of the drawing", one for the calibration, one for the measurement.
+/// The cells' readings, divided by the applied gains, then read s_i f_i less, so the wrench
+/// changes by L'(pose') f − L(pose) f − Σ_i s_i f_i L_i(pose) (the gains' part to first
+/// order).
 fn joint_change(
     ctx: &Context<'_>,
     plate: bool,
@@ -549,6 +486,9 @@ fn joint_change(
     let Ok(built) = Geometry::from_points(b, p, g.stroke()) else {
         return zero;
     };
+    let gain_change = ctx
+        .load_cells
+        .map_or_else(Vector6::zeros, |c| c.joint_change(plate, leg, coord, sigma));
     ctx.fit
         .idx
         .iter()
@@ -564,7 +504,8 @@ fn joint_change(
                 Rotation3::new(Vector3::new(dx[3], dx[4], dx[5])) * pose.rotation,
             );
             let f = base.entries[i].leg_forces_n;
-            model.map_wrench(&(leg_wrench(&built, &moved, &f) - described.wrench))
+            let gains = leg_wrench(g, &pose, &f.component_mul(&gain_change));
+            model.map_wrench(&(leg_wrench(&built, &moved, &f) - described.wrench - gains))
         })
         .collect()
 }

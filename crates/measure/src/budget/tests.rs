@@ -358,7 +358,7 @@ fn the_fits_bias_effect_matches_the_estimators_sensitivity() {
     }
 }
 
-fn figures() -> Figures {
+pub(super) fn figures() -> Figures {
     Figures::of(&crate::load::load(None).unwrap().config)
 }
 
@@ -379,10 +379,27 @@ fn noisy(f: &Figures) -> Synth {
     }
 }
 
-fn run_budget(g: &Geometry, synth: &Synth, samples: &[Sample], f: &Figures) -> RunBudget {
+pub(super) fn run_budget(
+    g: &Geometry,
+    synth: &Synth,
+    samples: &[Sample],
+    f: &Figures,
+) -> RunBudget {
+    run_budget_with(g, synth, samples, f, |_| {})
+}
+
+/// [`run_budget`] with the estimator's settings changed by `settings`.
+pub(super) fn run_budget_with(
+    g: &Geometry,
+    synth: &Synth,
+    samples: &[Sample],
+    f: &Figures,
+    settings: impl FnOnce(&mut EstimatorConfig),
+) -> RunBudget {
     let mut c = EstimatorConfig::new(*g, 1.0 / synth.rate_hz);
     c.accelerometer_position_m = synth.lever_m;
     c.equation_sigma = Vector6::new(5.0, 5.0, 5.0, 2.0, 2.0, 2.0);
+    settings(&mut c);
     let mut e = estimator::Estimate::from_parameters(
         synth.body,
         estimator::ParameterCovariance::identity(),

@@ -21,6 +21,12 @@ pub struct CalibrationConfig {
     /// them.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub load_cells: Option<String>,
+    /// Without a `load_cells` file: calibrate the load cells before every measurement of
+    /// `stewart simulate` on the same simulated world (a tare run, then the world's reference
+    /// body, [`reference_mass_kg`](Self::reference_mass_kg)), and apply the gains. On a rig it
+    /// only says to calibrate with `stewart rig calibrate-load-cells` and name the file.
+    #[serde(default)]
+    pub measure_load_cells: bool,
     /// The reference body's mass the load-cell calibration takes as known (a calibrated weight
     /// of the rig's owner), kg; needed only to calibrate.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -49,6 +55,7 @@ impl Default for CalibrationConfig {
             imu: None,
             measure_imu: false,
             load_cells: None,
+            measure_load_cells: false,
             reference_mass_kg: None,
             reference_mass_tolerance_kg: 0.0,
             max_age_days: default_max_age_days(),
@@ -76,7 +83,8 @@ impl CalibrationConfig {
             out.push(("imu", source, &f.provenance, again));
         }
         if let (Some(source), Some(f)) = (&self.load_cells, &self.load_cells_file) {
-            let again = "`stewart simulate --calibrate-load-cells FILE`";
+            let again = "`stewart simulate --calibrate-load-cells FILE` or `stewart rig \
+                         calibrate-load-cells --out FILE`";
             out.push(("load_cells", source, &f.provenance, again));
         }
         out
@@ -102,6 +110,12 @@ impl CalibrationConfig {
     /// `imu` file).
     pub fn calibrates_imu_each_run(&self) -> bool {
         self.measure_imu && self.imu.is_none()
+    }
+
+    /// Whether the load cells are calibrated before every measurement (`measure_load_cells`
+    /// and no `load_cells` file).
+    pub fn calibrates_load_cells_each_run(&self) -> bool {
+        self.measure_load_cells && self.load_cells.is_none()
     }
 
     /// The IMU alignment applied, if any.

@@ -42,16 +42,30 @@ impl CalibrationDocument for LoadCellFile {
         &self.provenance
     }
 
-    /// Six finite gains above −50 % and a 6 × 6 finite covariance.
+    /// Six finite gains above −50 %, a 6 × 6 finite covariance, and when given, a 6 × 6
+    /// covariance without the joints and 36 finite joint sensitivities.
     fn problem(&self) -> Option<String> {
         let c = &self.load_cells;
         if c.covariance.len() != 6 || c.covariance.iter().any(|r| r.len() != 6) {
             return Some("covariance of the wrong size".into());
         }
+        let without = &c.covariance_without_joints;
+        if !without.is_empty() && (without.len() != 6 || without.iter().any(|r| r.len() != 6)) {
+            return Some("covariance_without_joints of the wrong size".into());
+        }
+        let n = c.joint_sensitivity.len();
+        if n != 0 && n != crate::reference_mass::JOINT_COORDINATES {
+            return Some(format!(
+                "joint_sensitivity has {n} rows, not one per joint coordinate ({})",
+                crate::reference_mass::JOINT_COORDINATES
+            ));
+        }
         let finite = c
             .gains
             .iter()
             .chain(c.covariance.iter().flatten())
+            .chain(without.iter().flatten())
+            .chain(c.joint_sensitivity.iter().flatten())
             .all(|v| v.is_finite());
         if !finite {
             return Some("a value is not a finite number".into());

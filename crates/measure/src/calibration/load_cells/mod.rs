@@ -17,6 +17,17 @@ pub struct LoadCellGains {
     pub gains: [f64; 6],
     /// Covariance of ĝ (with the prior).
     pub covariance: Vec<Vec<f64>>,
+    /// Covariance of ĝ without the joints' part: what the budget's `load_cell_scale` line
+    /// counts when [`joint_sensitivity`](Self::joint_sensitivity) is given (the joints then
+    /// count in its `geometry` line). Empty in files without it.
+    #[serde(default)]
+    pub covariance_without_joints: Vec<Vec<f64>>,
+    /// s_k: the change of ĝ when joint coordinate k is off the drawing by
+    /// [`joint_tolerance_m`](Self::joint_tolerance_m), k = 0..36 (the base joints' x, y, z leg
+    /// after leg, then the plate joints': [`crate::reference_mass::joint_index`]). Empty in
+    /// files without it: the budget then counts the whole covariance in `load_cell_scale`.
+    #[serde(default)]
+    pub joint_sensitivity: Vec<[f64; 6]>,
     /// The fit's own gains, before the prior.
     #[serde(default)]
     pub fitted_gains: [f64; 6],
@@ -64,6 +75,27 @@ impl LoadCellGains {
                 .copied()
                 .unwrap_or(0.0)
         })
+    }
+
+    /// The joints' share, when the file carries it: the covariance without the joints' part
+    /// and each joint coordinate's sensitivity per metre, s_k / tolerance.
+    pub fn joint_share(&self) -> Option<(DMatrix<f64>, Vec<nalgebra::Vector6<f64>>)> {
+        let t = self.joint_tolerance_m;
+        let complete = self.joint_sensitivity.len() == crate::reference_mass::JOINT_COORDINATES
+            && self.covariance_without_joints.len() == 6
+            && self.covariance_without_joints.iter().all(|r| r.len() == 6)
+            && t.is_finite()
+            && t > 0.0;
+        if !complete {
+            return None;
+        }
+        let cov = DMatrix::from_fn(6, 6, |i, j| self.covariance_without_joints[i][j]);
+        let per_m = self
+            .joint_sensitivity
+            .iter()
+            .map(|s| nalgebra::Vector6::from_column_slice(s) / t)
+            .collect();
+        Some((cov, per_m))
     }
 
     /// One sigma of gain `leg`.
