@@ -1,0 +1,92 @@
+//! The report's `static_weighing` section: the brake holds' static weighing of the payload
+//! (loaded run less tare, [`crate::weigh::payload`]) and of the tare, and its check against
+//! the dynamic fit.
+
+use serde::{Deserialize, Serialize};
+
+use crate::weigh::{payload, StaticWeighing, Weighed};
+
+/// Differences between the dynamic fit and the static weighing beyond this many combined
+/// sigmas are warned about.
+pub const CHECK_LIMIT_SIGMA: f64 = 4.0;
+
+/// The dynamic fit against the static weighing.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct WeighingCheck {
+    /// (dynamic − static) / √(σ_dynamic² + σ_static²) of mass, c_x, c_y. The two share the
+    /// load cells' gains, so the combined sigma, which ignores that correlation, is the larger
+    /// bound.
+    pub z: [f64; 3],
+    /// The largest |z|.
+    pub largest_abs_z: f64,
+    /// [`CHECK_LIMIT_SIGMA`].
+    pub limit_sigma: f64,
+    /// Every |z| within the limit.
+    pub agrees: bool,
+}
+
+/// The report's static weighing.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct StaticWeighingReport {
+    /// The payload: the loaded run's hold less the tare's.
+    pub payload: Weighed,
+    /// The tare (fixture and plate) alone.
+    pub tare: Weighed,
+    /// The dynamic fit's payload against `payload`.
+    pub check: WeighingCheck,
+}
+
+/// The section of the loaded run's weighing `loaded` and the tare's `tare`, with the dynamic
+/// fit's total θ `loaded_theta` and tare θ `tare_theta` (their h_z/m give each run's centre of
+/// mass height, which one level pose cannot, see [`crate::weigh`]), checked against the
+/// dynamic payload's mass and c_x, c_y `dynamic` with their sigmas `dynamic_sigma`.
+pub fn section(
+    loaded: &StaticWeighing,
+    tare: &StaticWeighing,
+    loaded_theta: &[f64; 10],
+    tare_theta: &[f64; 10],
+    dynamic: [f64; 3],
+    dynamic_sigma: [f64; 3],
+) -> StaticWeighingReport {
+    let height = |t: &[f64; 10]| if t[0] > 0.0 { t[3] / t[0] } else { 0.0 };
+    let p = payload(loaded, height(loaded_theta), tare, height(tare_theta));
+    let weighed = [p.mass_kg, p.com_xy_m[0], p.com_xy_m[1]];
+    let sigma = [p.sigma_mass_kg, p.sigma_com_xy_m[0], p.sigma_com_xy_m[1]];
+    let z: [f64; 3] = core::array::from_fn(|k| {
+        (dynamic[k] - weighed[k]) / dynamic_sigma[k].hypot(sigma[k])
+    });
+    let largest_abs_z = z.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    StaticWeighingReport {
+        payload: p,
+        tare: tare.weighed(height(tare_theta)),
+        check: WeighingCheck {
+            z,
+            largest_abs_z,
+            limit_sigma: CHECK_LIMIT_SIGMA,
+            agrees: z.iter().all(|v| v.abs() <= CHECK_LIMIT_SIGMA),
+        },
+    }
+}
+
+impl StaticWeighingReport {
+    /// The warning when the dynamic fit and the static weighing disagree beyond
+    /// [`CHECK_LIMIT_SIGMA`]; `None` when they agree.
+    pub fn warning(&self) -> Option<String> {
+        if self.check.agrees {
+            return None;
+        }
+        let [m, x, y] = self.check.z;
+        Some(format!(
+            "the dynamic fit and the static weighing of the brake holds disagree: mass {m:+.1} σ, \
+             c_x {x:+.1} σ, c_y {y:+.1} σ (limit {:.0} σ); static mass {:.3} ± {:.3} kg, c_x \
+             {:.2} ± {:.2} mm, c_y {:.2} ± {:.2} mm",
+            self.check.limit_sigma,
+            self.payload.mass_kg,
+            self.payload.sigma_mass_kg,
+            self.payload.com_xy_m[0] * 1e3,
+            self.payload.sigma_com_xy_m[0] * 1e3,
+            self.payload.com_xy_m[1] * 1e3,
+            self.payload.sigma_com_xy_m[1] * 1e3,
+        ))
+    }
+}
