@@ -205,33 +205,38 @@ where
     let mut interrupted_at = None;
     // The hold's static weighing ([`crate::weigh`]), reserved before the first frame.
     let mut weigher = crate::weigh::Weigher::of(config, setup.geometry);
-    let hold = brake_hold(backend, &mut tick, config, |frame, command, sample, tick| {
-        *last_sensor_sequence = frame.sequence;
-        match sample {
-            Some(s) => weigher.push(s.time_s, &s.pose, &s.leg_forces_n),
-            None => fk_failures += 1,
-        }
-        let posed = sample.is_some();
-        let pose = tick.feed.pose_guess();
-        let interrupted = stop.load(Ordering::SeqCst);
-        observer.tick(&TickEvent {
-            measurement,
-            index,
-            frame,
-            command,
-            phase: Phase::Idle,
-            control: None,
-            pose: posed.then_some(&pose),
-            estimator: None,
-            tare: setup.tare,
-            interrupted,
-        })?;
-        index += 1;
-        if interrupted {
-            interrupted_at = Some(frame.time_s);
-        }
-        Ok(interrupted)
-    })?;
+    let hold = brake_hold(
+        backend,
+        &mut tick,
+        config,
+        |frame, command, sample, tick| {
+            *last_sensor_sequence = frame.sequence;
+            match sample {
+                Some(s) => weigher.push(s.time_s, &s.pose, &s.leg_forces_n),
+                None => fk_failures += 1,
+            }
+            let posed = sample.is_some();
+            let pose = tick.feed.pose_guess();
+            let interrupted = stop.load(Ordering::SeqCst);
+            observer.tick(&TickEvent {
+                measurement,
+                index,
+                frame,
+                command,
+                phase: Phase::Idle,
+                control: None,
+                pose: posed.then_some(&pose),
+                estimator: None,
+                tare: setup.tare,
+                interrupted,
+            })?;
+            index += 1;
+            if interrupted {
+                interrupted_at = Some(frame.time_s);
+            }
+            Ok(interrupted)
+        },
+    )?;
     let static_weighing = weigher.finish(&crate::budget::Figures::of(config));
     let Some(feedforward) = hold else {
         observer.measurement_ended(&MeasurementEnded {

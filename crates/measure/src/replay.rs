@@ -139,12 +139,12 @@ impl Replay {
     /// Also weighs the load statically over the measurement's first frames, its brake hold
     /// (`run.brake_hold_s` of `config`), as the online measurement does ([`crate::weigh`]).
     pub fn with_weighing(mut self, config: &crate::Config) -> Self {
-        let hold = ((config.run.brake_hold_s * config.sensors.sample_rate_hz).round() as u64).max(1);
+        let hold =
+            ((config.run.brake_hold_s * config.sensors.sample_rate_hz).round() as u64).max(1);
         let weigher = crate::weigh::Weigher::new(
             self.config.geometry,
             self.config.legs,
             crate::weigh::gravity_of(config),
-            hold,
         );
         self.weighing = Some((weigher, hold, crate::budget::Figures::of(config)));
         self

@@ -551,10 +551,8 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
             tare_blocks: i.tare.covariance_blocks,
             block_s: i.loaded.counts.covariance_block_samples as f64 * i.loaded.timing.period_s,
         },
-        static_weighing: i
-            .loaded_weighing
-            .zip(i.tare.static_weighing.as_ref())
-            .map(|(loaded, tare)| {
+        static_weighing: i.loaded_weighing.zip(i.tare.static_weighing.as_ref()).map(
+            |(loaded, tare)| {
                 let (q, s) = (quantities(&reported), sigmas(&payload));
                 static_weighing_section(
                     loaded,
@@ -564,7 +562,8 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
                     [q.mass, q.com[0], q.com[1]],
                     [s.mass, s.com[0], s.com[1]],
                 )
-            }),
+            },
+        ),
     }
 }
 

@@ -333,6 +333,7 @@ mod tests {
             load_cell_offset_sensitivity: None,
             budget: None,
             covariance_blocks: Some(40),
+            static_weighing: None,
         }
     }
 

@@ -52,9 +52,8 @@ pub fn section(
     let p = payload(loaded, height(loaded_theta), tare, height(tare_theta));
     let weighed = [p.mass_kg, p.com_xy_m[0], p.com_xy_m[1]];
     let sigma = [p.sigma_mass_kg, p.sigma_com_xy_m[0], p.sigma_com_xy_m[1]];
-    let z: [f64; 3] = core::array::from_fn(|k| {
-        (dynamic[k] - weighed[k]) / dynamic_sigma[k].hypot(sigma[k])
-    });
+    let z: [f64; 3] =
+        core::array::from_fn(|k| (dynamic[k] - weighed[k]) / dynamic_sigma[k].hypot(sigma[k]));
     let largest_abs_z = z.iter().fold(0.0f64, |a, v| a.max(v.abs()));
     StaticWeighingReport {
         payload: p,

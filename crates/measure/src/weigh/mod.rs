@@ -24,9 +24,15 @@
 //! at a level pose the slope is zero and c_x, c_y follow alone; the report takes h_z from the
 //! dynamic fit, whose share is tilt × h_z.
 //!
-//! **Uncertainty.** The noise of the mean is the block standard error over
-//! [`BLOCKS`] blocks of the hold (the sample-to-sample correlation of the readings stays
-//! within a block). The rig's errors each give one change of (m, h_x, h_y) per elementary error
+//! **Why the whole hold.** The hold may start with the plate settling under a load just put on
+//! (the brake sags by the load's change over its stiffness): the legs then push more or less
+//! than the weight, but over a hold that starts and ends at rest the momentum's change is zero,
+//! ∫ (W + m g) dt = 0, so the mean over the whole hold is the static wrench however it settled.
+//!
+//! **Uncertainty.** The noise of the mean is σ²/n per wrench component, σ² from the second
+//! differences of the samples, E[(x_{k+1} − 2x_k + x_{k−1})²] = 6σ² for white noise: a
+//! settling transient, slow beside the sample period, hardly enters them, where it would
+//! dominate the scatter of block means (and so would inflate the sigma a hundredfold). The rig's errors each give one change of (m, h_x, h_y) per elementary error
 //! at one sigma, by the budget's rule ([`crate::budget::perturb`]): each cell's zero offset
 //! (`zero_offset_n`) and gain (`gain_error`, or the applied calibration's principal errors),
 //! each of the 36 joint coordinates off by `joint_position_tolerance_m` (the pose the same leg
@@ -38,7 +44,7 @@
 
 use estimator::legs::{unseen, LegModel, PlateMotion};
 use estimator::wrench::to_vector;
-use kinematics::{FkOptions, Geometry, Pose, Vector3, Vector6};
+use kinematics::{FkOptions, Geometry, Matrix6, Pose, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 use stewart_types::{GRAVITY_B_M_S2, STANDARD_GRAVITY_M_S2};
 
@@ -51,11 +57,8 @@ mod tests;
 
 pub use payload::{payload, Weighed};
 
-/// Blocks of the hold behind the noise's standard error.
-pub const BLOCKS: usize = 20;
-
-/// Fewest hold samples a weighing needs (two per block).
-pub const MIN_SAMPLES: u64 = 2 * BLOCKS as u64;
+/// Fewest hold samples a weighing needs.
+pub const MIN_SAMPLES: u64 = 20;
 
 /// The change of (m, h_x, h_y) from one sigma of each elementary error of one source.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -102,17 +105,35 @@ impl StaticWeighing {
                 ("time_s", num("backend time of the hold's middle, s")),
                 ("gravity_m_s2", num("gravity used, m/s^2")),
                 ("up_in_p", numbers(3, "up in P axes at the hold's pose")),
-                ("wrench", numbers(6, "mean static wrench Fx Fy Fz (N) tx ty tz (N m), P origin, P axes")),
+                (
+                    "wrench",
+                    numbers(
+                        6,
+                        "mean static wrench Fx Fy Fz (N) tx ty tz (N m), P origin, P axes",
+                    ),
+                ),
                 ("values", numbers(3, "m (kg), h_x, h_y (kg m) for h_z = 0")),
                 ("tilt", numbers(2, "d(h_x, h_y)/d h_z")),
-                ("noise_covariance", array(numbers(3, ""), Some(3), "covariance of values from the noise")),
+                (
+                    "noise_covariance",
+                    array(
+                        numbers(3, ""),
+                        Some(3),
+                        "covariance of values from the noise",
+                    ),
+                ),
                 (
                     "effects",
                     array(
                         object(
                             vec![
                                 ("source", string("error source id")),
-                                ("effects", triples("change of values from one sigma of each elementary error")),
+                                (
+                                    "effects",
+                                    triples(
+                                        "change of values from one sigma of each elementary error",
+                                    ),
+                                ),
                             ],
                             "one source's effects",
                         ),
@@ -120,7 +141,10 @@ impl StaticWeighing {
                         "the rig's shared errors",
                     ),
                 ),
-                ("drift_per_s", triples("change of values per second of one sigma of each cell's zero drift")),
+                (
+                    "drift_per_s",
+                    triples("change of values per second of one sigma of each cell's zero drift"),
+                ),
             ],
             "The brake hold's static weighing of everything on the plate",
         )
@@ -176,55 +200,46 @@ pub struct Weigher {
     geometry: Geometry,
     legs: Option<LegModel>,
     gravity_m_s2: f64,
-    block: u64,
     n: u64,
     sum_w: Vector6<f64>,
     sum_f: Vector6<f64>,
     sum_len: Vector6<f64>,
-    block_w: Vector6<f64>,
-    block_n: u64,
-    blocks: Vec<Vector6<f64>>,
+    /// The last two wrenches, for the second differences.
+    previous: [Option<Vector6<f64>>; 2],
+    /// Σ d dᵀ of the second differences d, and their count.
+    second: Matrix6<f64>,
+    second_n: u64,
     last_pose: Option<Pose>,
     first_s: f64,
     last_s: f64,
 }
 
 impl Weigher {
-    /// A weigher for a hold of about `hold_samples` samples on `geometry`, the legs compensated
-    /// as `legs`, at gravity `gravity_m_s2`.
-    pub fn new(
-        geometry: Geometry,
-        legs: Option<LegModel>,
-        gravity_m_s2: f64,
-        hold_samples: u64,
-    ) -> Self {
+    /// A weigher on `geometry`, the legs compensated as `legs`, at gravity `gravity_m_s2`.
+    pub fn new(geometry: Geometry, legs: Option<LegModel>, gravity_m_s2: f64) -> Self {
         Self {
             geometry,
             legs,
             gravity_m_s2,
-            block: (hold_samples / BLOCKS as u64).max(1),
             n: 0,
             sum_w: Vector6::zeros(),
             sum_f: Vector6::zeros(),
             sum_len: Vector6::zeros(),
-            block_w: Vector6::zeros(),
-            block_n: 0,
-            blocks: Vec::with_capacity(BLOCKS + 2),
+            previous: [None; 2],
+            second: Matrix6::zeros(),
+            second_n: 0,
             last_pose: None,
             first_s: f64::NAN,
             last_s: f64::NAN,
         }
     }
 
-    /// The weigher of `config`'s rig for its brake hold.
+    /// The weigher of `config`'s rig.
     pub fn of(config: &crate::Config, geometry: Geometry) -> Self {
-        let hold =
-            ((config.run.brake_hold_s * config.sensors.sample_rate_hz).round() as u64).max(1);
         Self::new(
             geometry,
             crate::setup::leg_model(config),
             gravity_of(config),
-            hold,
         )
     }
 
@@ -244,15 +259,12 @@ impl Weigher {
         self.sum_f += leg_forces_n;
         self.sum_len += self.geometry.leg_lengths(pose);
         self.last_pose = Some(*pose);
-        self.block_w += w;
-        self.block_n += 1;
-        if self.block_n == self.block {
-            if self.blocks.len() < self.blocks.capacity() {
-                self.blocks.push(self.block_w / self.block_n as f64);
-            }
-            self.block_w = Vector6::zeros();
-            self.block_n = 0;
+        if let [Some(a), Some(b)] = self.previous {
+            let d = w - b * 2.0 + a;
+            self.second += d * d.transpose();
+            self.second_n += 1;
         }
+        self.previous = [self.previous[1], Some(w)];
     }
 
     /// Samples pushed.
@@ -263,7 +275,7 @@ impl Weigher {
     /// The weighing with the rig description's `figures`; `None` with fewer than
     /// [`MIN_SAMPLES`] samples or a plate not carried upright (u_z ≤ 0.5).
     pub fn finish(&self, figures: &Figures) -> Option<StaticWeighing> {
-        if self.n < MIN_SAMPLES || self.blocks.len() < 2 {
+        if self.n < MIN_SAMPLES || self.second_n == 0 {
             return None;
         }
         let n = self.n as f64;
@@ -283,14 +295,14 @@ impl Weigher {
         let forces = self.sum_f / n;
         let at = |w: &Vector6<f64>| Vector3::from(mass_and_moments(w, &up, g, 0.0));
         let values = at(&w);
-        let means: Vec<Vector3<f64>> = self.blocks.iter().map(at).collect();
-        let k = means.len() as f64;
-        let mean = means.iter().sum::<Vector3<f64>>() / k;
-        let scatter = means
-            .iter()
-            .map(|v| (v - mean) * (v - mean).transpose())
-            .sum::<nalgebra::Matrix3<f64>>();
-        let noise = scatter / (k * (k - 1.0));
+        // Cov W̄ = Σ / n with Σ = E[d dᵀ] / 6, mapped through the (linear) wrench → values.
+        let cov_w = self.second / (6.0 * self.second_n as f64 * n);
+        let map = nalgebra::Matrix3x6::from_fn(|r, c| {
+            let mut e = Vector6::zeros();
+            e[c] = 1.0;
+            at(&e)[r]
+        });
+        let noise = map * cov_w * map.transpose();
         let effects = self.effects(figures, &pose, &forces, &w, &up, &values);
         let drift_per_s = (0..6)
             .map(|i| {

@@ -37,10 +37,18 @@ fn tilted() -> Pose {
 }
 
 fn weigh(pose: &Pose, forces: &Vector6<f64>, noise: f64) -> StaticWeighing {
-    let mut w = Weigher::new(geometry(), None, STANDARD_GRAVITY_M_S2, 400);
+    weigh_swinging(pose, forces, noise, 0.0)
+}
+
+/// As [`weigh`], the legs also pushing `swing` N more and less over one period of the hold
+/// (a plate that settles and comes back to rest: no momentum change over the hold).
+fn weigh_swinging(pose: &Pose, forces: &Vector6<f64>, noise: f64, swing: f64) -> StaticWeighing {
+    let mut w = Weigher::new(geometry(), None, STANDARD_GRAVITY_M_S2);
     let mut state = 12345u64;
     for k in 0..400 {
+        let phase = (2.0 * std::f64::consts::PI * k as f64 / 400.0).sin();
         let f = forces.map(|f| {
+            let f = f + swing * phase;
             state = state
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
@@ -88,9 +96,8 @@ fn the_tare_subtracted_leaves_the_payload() {
     assert!((p.com_z_used_m - cp.z).abs() < 1e-9, "{p:?}");
 }
 
-/// The noise's sigma of the mean: white noise of σ per cell over n samples gives the mass a
-/// sigma of σ |Σ uᵢ·û|-weighted / √n; checked against the scatter of the mean over seeds is
-/// too slow, so against its closed form: Var m = σ²/n Σᵢ (Lᵢ·(û, 0)/g)².
+/// The noise's sigma of the mean: white noise of σ per cell over n samples gives the mass the
+/// variance Var m = σ²/n Σᵢ (Lᵢ·(û, 0)/g)² (Lᵢ's force part along up, over g).
 #[test]
 fn the_noise_sigma_matches_white_noise() {
     let pose = geometry().home_pose();
@@ -108,14 +115,19 @@ fn the_noise_sigma_matches_white_noise() {
         * 40.0f64.powi(2)
         / 400.0;
     let got = s.noise_covariance[0][0];
-    // 20 blocks: the variance's own relative sigma is √(2/19) ≈ 0.32.
+    // 398 second differences: the variance's own relative sigma is about 0.1.
     assert!(
-        got > 0.3 * expected && got < 2.5 * expected,
+        got > 0.7 * expected && got < 1.4 * expected,
         "{got} vs {expected}"
     );
     // Without noise, none.
     let quiet = weigh(&pose, &forces, 0.0);
     assert!(quiet.noise_covariance[0][0] < 1e-20);
+    // A slow swing of the load over the hold leaves the mean and hardly touches the sigma.
+    let swung = weigh_swinging(&pose, &forces, 40.0, 500.0);
+    assert!((swung.values[0] - s.values[0]).abs() < 1e-6, "{swung:?}");
+    let ratio = swung.noise_covariance[0][0] / got;
+    assert!(ratio > 0.99 && ratio < 1.05, "{ratio}");
 }
 
 /// A rig's shared error cancels in the payload as far as the two runs' loads agree: the
