@@ -250,6 +250,7 @@ impl Weigher {
         if !(w.iter().all(|v| v.is_finite()) && time_s.is_finite()) {
             return;
         }
+
         if self.n == 0 {
             self.first_s = time_s;
         }
