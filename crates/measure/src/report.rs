@@ -82,7 +82,10 @@ pub struct ResidualRms {
 mod consistency;
 pub use consistency::{consistency_of, Consistency, RawEstimate};
 mod weighing;
-pub use weighing::{section as static_weighing_section, StaticWeighingReport, WeighingCheck};
+pub use weighing::{
+    apply_prior, section as static_weighing_section, static_weighing_of, PriorError,
+    StaticWeighingReport, WeighingCheck,
+};
 
 /// The tare (empty fixture) subtracted from the loaded estimate.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]

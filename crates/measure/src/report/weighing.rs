@@ -89,3 +89,39 @@ impl StaticWeighingReport {
         ))
     }
 }
+
+/// Why a report gives no static prior.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum PriorError {
+    /// Not one measurement's report.
+    #[error(transparent)]
+    Text(#[from] super::ReportTextError),
+    /// Its `static_weighing` section is missing or unreadable.
+    #[error("the report has no static_weighing section to take the prior from{0}")]
+    NoWeighing(String),
+}
+
+/// The `static_weighing` section of a report file's `text`.
+pub fn static_weighing_of(text: &str) -> Result<StaticWeighingReport, PriorError> {
+    let value = super::one_measurement(text)?;
+    let section = value
+        .get("static_weighing")
+        .ok_or_else(|| PriorError::NoWeighing(String::new()))?;
+    serde_json::from_value(section.clone()).map_err(|e| PriorError::NoWeighing(format!(": {e}")))
+}
+
+/// Lays a static weighing over the plan's prior (`[plan.payload]`, `[plan.fixture]`): their
+/// masses and c_x, c_y become the weighed ones; c_z and the inertia stay the described prior's
+/// (one level pose does not see them).
+pub fn apply_prior(plan: &mut crate::config::PlanConfig, w: &StaticWeighingReport) {
+    let set = |body: &mut crate::config::BodyPrior, weighed: &Weighed| {
+        if weighed.mass_kg.is_finite() && weighed.mass_kg > 0.0 {
+            body.mass_kg = weighed.mass_kg;
+            body.com_m[0] = weighed.com_xy_m[0];
+            body.com_m[1] = weighed.com_xy_m[1];
+        }
+    };
+    set(&mut plan.payload, &w.payload);
+    set(&mut plan.fixture, &w.tare);
+}
