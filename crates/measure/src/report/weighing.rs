@@ -125,3 +125,81 @@ pub fn apply_prior(plan: &mut crate::config::PlanConfig, w: &StaticWeighingRepor
     set(&mut plan.payload, &w.payload);
     set(&mut plan.fixture, &w.tare);
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::report::Report;
+
+    fn weighing(m: f64, hx: f64, hy: f64, noise: f64) -> StaticWeighing {
+        StaticWeighing {
+            samples: 500,
+            time_s: 0.25,
+            gravity_m_s2: 9.80665,
+            up_in_p: [0.0, 0.0, 1.0],
+            values: [m, hx, hy],
+            noise_covariance: [[noise, 0.0, 0.0], [0.0, noise, 0.0], [0.0, 0.0, noise]],
+            ..StaticWeighing::default()
+        }
+    }
+
+    /// A report written without the section reads, and one with it round-trips.
+    #[test]
+    fn reports_with_and_without_the_section_read() {
+        let plain = Report::default();
+        let text = plain.to_json();
+        assert!(!text.contains("static_weighing"));
+        let back: Report = serde_json::from_str(&text).expect("reads");
+        assert_eq!(back.static_weighing, None);
+        let mut with = Report::default();
+        let (l, t) = (
+            weighing(1900.0, 225.0, -120.0, 0.01),
+            weighing(400.0, 0.0, 0.0, 0.01),
+        );
+        let theta = |m: f64| [m, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0];
+        with.static_weighing = Some(section(
+            &l,
+            &t,
+            &theta(1900.0),
+            &theta(400.0),
+            [1500.0, 0.15, -0.08],
+            [0.3, 2e-4, 2e-4],
+        ));
+        let back: Report = serde_json::from_str(&with.to_json()).expect("reads");
+        assert_eq!(back.static_weighing, with.static_weighing);
+        let s = back.static_weighing.expect("section");
+        assert!((s.payload.mass_kg - 1500.0).abs() < 1e-9);
+        assert!((s.payload.com_xy_m[0] - 0.15).abs() < 1e-12);
+        assert!(s.check.agrees && s.warning().is_none());
+        let prior = static_weighing_of(&with.to_json()).expect("a prior");
+        let mut plan = crate::config::PlanConfig::default();
+        apply_prior(&mut plan, &prior);
+        assert_eq!(plan.payload.mass_kg, s.payload.mass_kg);
+        assert_eq!(plan.fixture.mass_kg, 400.0);
+        assert!(static_weighing_of(&Report::default().to_json()).is_err());
+    }
+
+    /// A dynamic fit 5 combined sigmas off the weighing is warned about, naming the quantity.
+    #[test]
+    fn a_disagreement_beyond_four_sigma_warns() {
+        let (l, t) = (
+            weighing(1900.0, 0.0, 0.0, 0.01),
+            weighing(400.0, 0.0, 0.0, 0.01),
+        );
+        let theta = |m: f64| [m, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0];
+        // σ_static of the mass: √0.02; σ_dynamic 0.1: combined √0.03.
+        let off = 5.0 * 0.03f64.sqrt();
+        let s = section(
+            &l,
+            &t,
+            &theta(1900.0),
+            &theta(400.0),
+            [1500.0 + off, 0.0, 0.0],
+            [0.1, 1e-4, 1e-4],
+        );
+        assert!((s.check.z[0] - 5.0).abs() < 1e-9, "{:?}", s.check);
+        assert!(!s.check.agrees);
+        let w = s.warning().expect("a warning");
+        assert!(w.contains("mass +5.0 σ"), "{w}");
+    }
+}
