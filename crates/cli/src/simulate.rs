@@ -639,8 +639,11 @@ mod tests {
         let outcome = simulate(&args, &AtomicBool::new(false)).unwrap();
         assert_eq!(outcome.end, End::Completed);
         let r = outcome.report.unwrap();
+        // Lost frames are counted over every frame the estimator was fed (hold, settle and
+        // excitation, about 8.5 s), the samples over the fit window alone (6 s less the lost):
+        // a 5 % loss gives a share near 425 / (425 + 5700) ≈ 0.07, ±0.004 by chance.
         let share = r.data.frames_lost as f64 / (r.samples + r.data.frames_lost) as f64;
-        assert!((0.03..0.07).contains(&share), "lost share {share}");
+        assert!((0.05..0.09).contains(&share), "lost share {share}");
         assert_eq!(r.data.restarts, 0);
         let t = r.truth.unwrap();
         assert!(
