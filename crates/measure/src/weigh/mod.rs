@@ -24,15 +24,16 @@
 //! at a level pose the slope is zero and c_x, c_y follow alone; the report takes h_z from the
 //! dynamic fit, whose share is tilt × h_z.
 //!
-//! **Why the whole hold.** The hold may start with the plate settling under a load just put on
-//! (the brake sags by the load's change over its stiffness): the legs then push more or less
-//! than the weight, but over a hold that starts and ends at rest the momentum's change is zero,
-//! ∫ (W + m g) dt = 0, so the mean over the whole hold is the static wrench however it settled.
+//! **Why the whole hold.** Over a hold the momentum changes by ∫ (W + m g) dt = Δp, so the
+//! mean over the whole hold is the static wrench when the plate is at rest at its start and
+//! its end, whatever small motion happens between. A plate still sagging onto its brakes under
+//! a load just put on is not at rest at the start: the load must have settled before the hold
+//! (a rig's operator loads it well before; the simulator's station waits two seconds).
 //!
 //! **Uncertainty.** The noise of the mean is σ²/n per wrench component, σ² from the second
-//! differences of the samples, E[(x_{k+1} − 2x_k + x_{k−1})²] = 6σ² for white noise: a
-//! settling transient, slow beside the sample period, hardly enters them, where it would
-//! dominate the scatter of block means (and so would inflate the sigma a hundredfold). The rig's errors each give one change of (m, h_x, h_y) per elementary error
+//! differences of the samples, E[(x_{k+1} − 2x_k + x_{k−1})²] = 6σ² for white noise: a slow
+//! drift or swing of the load hardly enters them, where it would dominate the scatter of block
+//! means. The rig's errors each give one change of (m, h_x, h_y) per elementary error
 //! at one sigma, by the budget's rule ([`crate::budget::perturb`]): each cell's zero offset
 //! (`zero_offset_n`) and gain (`gain_error`, or the applied calibration's principal errors),
 //! each of the 36 joint coordinates off by `joint_position_tolerance_m` (the pose the same leg
