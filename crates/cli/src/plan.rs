@@ -34,6 +34,10 @@ pub struct PlanArgs {
     /// No progress bar.
     #[arg(long)]
     pub quiet: bool,
+    /// Take the payload's and the fixture's mass and c_x, c_y from this report's
+    /// `static_weighing` section (the brake holds' weighing) instead of `[plan]`'s prior.
+    #[arg(long, value_name = "REPORT.json")]
+    pub prior: Option<PathBuf>,
 }
 
 /// What `--json` prints.
@@ -72,10 +76,18 @@ pub fn main(args: &PlanArgs) -> u8 {
 }
 
 fn run(args: &PlanArgs) -> Result<(), CommandError> {
-    let loaded = measure::load::load(args.config.as_deref())?.with_overrides(&Overrides {
+    let mut loaded = measure::load::load(args.config.as_deref())?.with_overrides(&Overrides {
         duration_s: args.duration,
         params: None,
     })?;
+    if let Some(path) = &args.prior {
+        let text = std::fs::read_to_string(path).map_err(|e| {
+            CommandError::Run(anyhow::anyhow!("cannot read {}: {e}", path.display()))
+        })?;
+        let weighing = measure::report::static_weighing_of(&text)
+            .map_err(|e| refuse(format!("{}: {e}", path.display())))?;
+        measure::report::apply_prior(&mut loaded.config.plan, &weighing);
+    }
     let config = &loaded.config;
     let planner = Planner::new(&loaded)?;
     let duration_s = config.run.duration_s;

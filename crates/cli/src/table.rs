@@ -154,6 +154,24 @@ pub fn render(report: &Report) -> String {
     if let Some(line) = projection_line(&report.consistency) {
         let _ = writeln!(out, "{line}");
     }
+    if let Some(w) = &report.static_weighing {
+        let p = &w.payload;
+        let [m, x, y] = w.check.z;
+        let _ = writeln!(
+            out,
+            "static weighing (brake holds): mass {:.3} ± {:.3} kg, c_x {:.2} ± {:.2} mm, c_y \
+             {:.2} ± {:.2} mm; dynamic − static: {m:+.1}, {x:+.1}, {y:+.1} σ",
+            p.mass_kg,
+            p.sigma_mass_kg,
+            p.com_xy_m[0] * 1e3,
+            p.sigma_com_xy_m[0] * 1e3,
+            p.com_xy_m[1] * 1e3,
+            p.sigma_com_xy_m[1] * 1e3,
+        );
+        if let Some(warning) = w.warning() {
+            let _ = writeln!(out, "warning: {warning}");
+        }
+    }
     out
 }
 

@@ -52,6 +52,7 @@ pub mod tare;
 pub(crate) mod testkit;
 pub mod tick;
 pub mod validate;
+pub mod weigh;
 
 pub use config::Config;
 pub use load::{ConfigError, ConfigIssue, LoadedConfig};

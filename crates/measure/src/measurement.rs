@@ -24,7 +24,7 @@ use control::controller::Controller;
 use control::io::{Backend, CommandFrame, SensorFrame};
 use control::supervisor::Phase;
 use control::trajectory::Trajectory;
-use estimator::{Estimate, EstimatorConfig, Outcome};
+use estimator::{Estimate, EstimatorConfig, Outcome, Sample};
 use kinematics::Geometry;
 
 use crate::config::Config;
@@ -92,6 +92,9 @@ pub struct MeasureOutcome {
     /// every sample the estimator fitted ([`estimator::hold`]), P axes, m/s²; `None` when none
     /// was measured. The record holds the readings before it is subtracted.
     pub accel_offset_m_s2: Option<[f64; 3]>,
+    /// The brake hold's static weighing of everything on the plate ([`crate::weigh`]); `None`
+    /// when the hold was too short or stopped.
+    pub static_weighing: Option<crate::weigh::StaticWeighing>,
     /// How it ended.
     pub end: End,
 }
@@ -110,6 +113,7 @@ impl MeasureOutcome {
             budget: None,
             record: None,
             accel_offset_m_s2: None,
+            static_weighing: None,
             end,
         }
     }
@@ -199,31 +203,41 @@ where
     // 1. Brake hold: read the static load.
     let mut index = 0u64;
     let mut interrupted_at = None;
-    let hold = brake_hold(backend, &mut tick, config, |frame, command, posed, tick| {
-        *last_sensor_sequence = frame.sequence;
-        if !posed {
-            fk_failures += 1;
-        }
-        let pose = tick.feed.pose_guess();
-        let interrupted = stop.load(Ordering::SeqCst);
-        observer.tick(&TickEvent {
-            measurement,
-            index,
-            frame,
-            command,
-            phase: Phase::Idle,
-            control: None,
-            pose: posed.then_some(&pose),
-            estimator: None,
-            tare: setup.tare,
-            interrupted,
-        })?;
-        index += 1;
-        if interrupted {
-            interrupted_at = Some(frame.time_s);
-        }
-        Ok(interrupted)
-    })?;
+    // The hold's static weighing ([`crate::weigh`]), reserved before the first frame.
+    let mut weigher = crate::weigh::Weigher::of(config, setup.geometry);
+    let hold = brake_hold(
+        backend,
+        &mut tick,
+        config,
+        |frame, command, sample, tick| {
+            *last_sensor_sequence = frame.sequence;
+            match sample {
+                Some(s) => weigher.push(s.time_s, &s.pose, &s.leg_forces_n),
+                None => fk_failures += 1,
+            }
+            let posed = sample.is_some();
+            let pose = tick.feed.pose_guess();
+            let interrupted = stop.load(Ordering::SeqCst);
+            observer.tick(&TickEvent {
+                measurement,
+                index,
+                frame,
+                command,
+                phase: Phase::Idle,
+                control: None,
+                pose: posed.then_some(&pose),
+                estimator: None,
+                tare: setup.tare,
+                interrupted,
+            })?;
+            index += 1;
+            if interrupted {
+                interrupted_at = Some(frame.time_s);
+            }
+            Ok(interrupted)
+        },
+    )?;
+    let static_weighing = weigher.finish(&crate::budget::Figures::of(config));
     let Some(feedforward) = hold else {
         observer.measurement_ended(&MeasurementEnded {
             measurement,
@@ -299,7 +313,10 @@ where
                 tare: setup.tare,
             })?;
             let Some((start_s, _)) = tick.window else {
-                return Ok(MeasureOutcome::ended_early(end, fk_failures));
+                return Ok(MeasureOutcome {
+                    static_weighing,
+                    ..MeasureOutcome::ended_early(end, fk_failures)
+                });
             };
             let estimator = &tick.estimator;
             let exact = crate::budget::EstimatorEffects {
@@ -333,6 +350,7 @@ where
                 accel_offset_m_s2: estimator
                     .accelerometer_offset()
                     .map(|o| o.offset_m_s2.into()),
+                static_weighing,
                 end,
             });
         }
@@ -349,14 +367,14 @@ where
 
 /// The brake hold (`run.brake_hold_s`): safe stops while the braked platform carries its load,
 /// each frame fed to the tick's estimator conditioning. `each` sees every frame, its command,
-/// whether the frame had a pose, and the tick, and returns `true` to stop there. Gives the mean
+/// its sample (`None`: the frame had no pose), and the tick, and returns `true` to stop there. Gives the mean
 /// leg forces of the last 0.1 s (the PID feed-forward: what the load cells read is what the
 /// legs must push), or `None` when stopped.
 pub fn brake_hold<B: Backend>(
     backend: &mut B,
     tick: &mut Tick,
     config: &Config,
-    mut each: impl FnMut(&SensorFrame, &CommandFrame, bool, &Tick) -> Result<bool>,
+    mut each: impl FnMut(&SensorFrame, &CommandFrame, Option<&Sample>, &Tick) -> Result<bool>,
 ) -> Result<Option<[f64; 6]>>
 where
     B::Error: std::fmt::Display,
@@ -367,7 +385,7 @@ where
     let mut force_sum = [0.0; 6];
     for i in 0..hold_samples {
         let frame = read(backend)?;
-        let posed = tick.hold(&frame).is_some();
+        let sample = tick.hold(&frame);
         let command = CommandFrame::safe_stop(i, frame.sequence);
         write(backend, &command)?;
         if i >= hold_samples - average_samples {
@@ -375,7 +393,7 @@ where
                 *s += f;
             }
         }
-        if each(&frame, &command, posed, tick)? {
+        if each(&frame, &command, sample.as_ref(), tick)? {
             return Ok(None);
         }
     }

@@ -56,6 +56,9 @@ pub struct ReplayOutcome {
     /// The run's error-budget inputs ([`crate::budget`]), when the replay was given the rig
     /// description's figures ([`Replay::with_budget`]).
     pub budget: Option<crate::budget::RunBudget>,
+    /// The brake hold's static weighing ([`crate::weigh`]), when the replay was asked for it
+    /// ([`Replay::with_weighing`]) and the hold's frames were given.
+    pub static_weighing: Option<crate::weigh::StaticWeighing>,
 }
 
 /// Why a replay gave nothing.
@@ -108,6 +111,8 @@ pub struct Replay {
     last_time_s: f64,
     /// The budget's record and figures, when asked for.
     budget: Option<(crate::record::RunRecord, crate::budget::Figures)>,
+    /// The static weighing of the first frames (the brake hold's), with the figures it counts.
+    weighing: Option<(crate::weigh::Weigher, u64, crate::budget::Figures)>,
 }
 
 impl Replay {
@@ -136,7 +141,22 @@ impl Replay {
             last_used_s: f64::NAN,
             last_time_s: f64::NAN,
             budget: None,
+            weighing: None,
         })
+    }
+
+    /// Also weighs the load statically over the measurement's first frames, its brake hold
+    /// (`run.brake_hold_s` of `config`), as the online measurement does ([`crate::weigh`]).
+    pub fn with_weighing(mut self, config: &crate::Config) -> Self {
+        let hold =
+            ((config.run.brake_hold_s * config.sensors.sample_rate_hz).round() as u64).max(1);
+        let weigher = crate::weigh::Weigher::new(
+            self.config.geometry,
+            self.config.legs,
+            crate::weigh::gravity_of(config),
+        );
+        self.weighing = Some((weigher, hold, crate::budget::Figures::of(config)));
+        self
     }
 
     /// Applies a fitted IMU alignment ([`Feed::aligned`]), as the online measurement does
@@ -196,6 +216,11 @@ impl Replay {
         let config = &self.config;
         if self.start_s.is_nan() && time_s >= config.window_start_s {
             self.start_s = time_s;
+        }
+        if let (Some((weigher, hold, _)), Some(s)) = (&mut self.weighing, &sample) {
+            if index < *hold {
+                weigher.push(s.time_s, &s.pose, &s.leg_forces_n);
+            }
         }
         match sample {
             Some(s) if time_s <= config.window_end_s => {
@@ -289,6 +314,10 @@ impl Replay {
             accel_bias_effect: exact.accel,
             load_cell_bias_effect: exact.load_cell,
             budget,
+            static_weighing: self
+                .weighing
+                .as_ref()
+                .and_then(|(w, _, figures)| w.finish(figures)),
         })
     }
 }

@@ -81,6 +81,11 @@ pub struct ResidualRms {
 
 mod consistency;
 pub use consistency::{consistency_of, Consistency, RawEstimate};
+mod weighing;
+pub use weighing::{
+    apply_prior, section as static_weighing_section, static_weighing_of, PriorError,
+    StaticWeighingReport, WeighingCheck,
+};
 
 /// The tare (empty fixture) subtracted from the loaded estimate.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -263,6 +268,11 @@ pub struct Report {
     /// report with too few residual blocks).
     #[serde(default)]
     pub covariance_basis: CovarianceBasis,
+    /// The brake holds' static weighing of the payload and the tare, checked against the
+    /// dynamic fit ([`crate::weigh`]); absent when a run had no weighing (a tare file without
+    /// one, a log without its hold).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub static_weighing: Option<StaticWeighingReport>,
 }
 
 impl Report {
@@ -391,6 +401,8 @@ pub struct ReportInputs<'a> {
     pub truth: Option<Quantities>,
     /// How the run was made.
     pub run: RunInfo,
+    /// The loaded run's static weighing ([`crate::weigh`]), when it has one.
+    pub loaded_weighing: Option<&'a crate::weigh::StaticWeighing>,
 }
 
 /// The tare's budget inputs when the session gave none: the tare file's own, else a partial
@@ -550,6 +562,19 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
             tare_blocks: i.tare.covariance_blocks,
             block_s: i.loaded.counts.covariance_block_samples as f64 * i.loaded.timing.period_s,
         },
+        static_weighing: i.loaded_weighing.zip(i.tare.static_weighing.as_ref()).map(
+            |(loaded, tare)| {
+                let (q, s) = (quantities(&reported), sigmas(&payload));
+                static_weighing_section(
+                    loaded,
+                    tare,
+                    &i.loaded.parameters.to_vector().into(),
+                    &i.tare.theta,
+                    [q.mass, q.com[0], q.com[1]],
+                    [s.mass, s.com[0], s.com[1]],
+                )
+            },
+        ),
     }
 }
 
@@ -775,6 +800,7 @@ mod tests {
             params: ParamCount::Ten,
             truth: None,
             run: RunInfo::default(),
+            loaded_weighing: None,
         });
         assert!((r.estimate.mass - 1500.0).abs() < 1e-9);
         assert!((r.estimate.com[2] - 0.5).abs() < 1e-12);
@@ -857,6 +883,7 @@ mod tests {
                 params: ParamCount::Ten,
                 truth: None,
                 run: RunInfo::default(),
+                loaded_weighing: None,
             })
             .systematic
             .sigma
@@ -951,6 +978,7 @@ mod tests {
             params: ParamCount::Ten,
             truth: None,
             run: RunInfo::default(),
+            loaded_weighing: None,
         });
         assert!(r.budget_notes.is_empty(), "{:?}", r.budget_notes);
         assert!(r

@@ -177,6 +177,7 @@ impl SessionOutcome {
             params: config.estimator.params,
             truth,
             run,
+            loaded_weighing: loaded.static_weighing.as_ref(),
         }))
     }
 }
@@ -248,7 +249,8 @@ pub fn run<S: Station, O: Observer>(
                         effects.load_cell.as_ref(),
                         setup::load_cell_bias_sigma(config),
                     )
-                    .with_budget(effects.budget.clone());
+                    .with_budget(effects.budget.clone())
+                    .with_static_weighing(outcome.static_weighing.clone());
             observer.tare(&file)?;
             if let Some(path) = plan.save_tare {
                 file.save(path)?;

@@ -55,6 +55,10 @@ pub struct TareFile {
     /// [`crate::quality::check_covariance`] checks; `null` in a file written without it.
     #[serde(default)]
     pub covariance_blocks: Option<u64>,
+    /// The tare run's brake-hold static weighing ([`crate::weigh`]), subtracted from a loaded
+    /// run's for the payload's; `null` in a file written without it.
+    #[serde(default)]
+    pub static_weighing: Option<crate::weigh::StaticWeighing>,
 }
 
 impl TareFile {
@@ -94,6 +98,10 @@ impl TareFile {
                 (
                     "covariance_blocks",
                     nullable(int("residual blocks behind the covariance")),
+                ),
+                (
+                    "static_weighing",
+                    nullable(crate::weigh::StaticWeighing::schema()),
                 ),
             ],
             "The empty fixture's inertial parameters, subtracted from loaded runs",
@@ -219,7 +227,14 @@ impl TareFile {
             load_cell_offset_sensitivity: None,
             budget: None,
             covariance_blocks: Some(estimate.counts.covariance_blocks),
+            static_weighing: None,
         }
+    }
+
+    /// Keeps the tare run's static weighing.
+    pub fn with_static_weighing(mut self, weighing: Option<crate::weigh::StaticWeighing>) -> Self {
+        self.static_weighing = weighing;
+        self
     }
 
     /// Keeps the tare run's error-budget inputs.
@@ -318,6 +333,7 @@ mod tests {
             load_cell_offset_sensitivity: None,
             budget: None,
             covariance_blocks: Some(40),
+            static_weighing: None,
         }
     }
 

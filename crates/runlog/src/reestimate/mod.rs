@@ -205,6 +205,7 @@ fn start_replay(config: EstimatorConfig, fk: FkOptions, rig: &LoadedConfig) -> R
             r.with_alignment(rig.config.calibration.imu_alignment())
                 .with_load_cell_gains(rig.config.calibration.load_cell_gains())
                 .with_budget(measure::budget::Figures::of(&rig.config))
+                .with_weighing(&rig.config)
         })
         .map_err(|e| anyhow!("{e}"))
 }
@@ -326,6 +327,7 @@ pub fn build_report(
             tool: measure::calibration::tool(),
             calibrations: rig.config.calibration.applied(),
         },
+        loaded_weighing: r.static_weighing.as_ref(),
     });
     report.data.frames_late = r.reordered.late;
     report.data.frames_duplicate = r.reordered.duplicates;
@@ -354,7 +356,8 @@ fn measured_tare(r: RunEstimate, meta: &RunMetadata) -> (TareFile, TareOrigin) {
         &meta.plate_joints_m,
         &meta.config_source,
         &meta.backend,
-    );
+    )
+    .with_static_weighing(r.replay.static_weighing.clone());
     (t, TareOrigin::Measured(Box::new(r)))
 }
 
@@ -377,6 +380,7 @@ pub fn saved_tare(r: &RunEstimate, meta: &RunMetadata, rig: &LoadedConfig) -> Ta
         setup::load_cell_bias_sigma(&rig.config),
     )
     .with_budget(replay.budget.clone())
+    .with_static_weighing(replay.static_weighing.clone())
 }
 
 /// A tare file given on the command line, checked against the log's design.
