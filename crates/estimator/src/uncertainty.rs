@@ -165,8 +165,11 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             let mut upper = self.block_a;
             upper.fill_lower_triangle_with_upper_triangle();
             let a = upper - noise_moment * self.block_n;
-            let g = self.block_b - a * theta;
-            let d = self.block_s - a * (p * self.total_s);
+            // The fit after the block has absorbed part of the block's own noise:
+            // (𝟙 − A_k P)^(-1/2) restores the score's variance (see the type's docs).
+            let t = own_fit_correction(&a, p);
+            let g = t * (self.block_b - a * theta);
+            let d = t * (self.block_s - a * (p * self.total_s));
             let eta = g + self.last_g * age;
             let e = d + self.last_d * age;
             let decay = self.block_decay;
@@ -310,6 +313,53 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         let m = self.score_sum(&self.offset(theta, p));
         let c = p * m * p * small_sample_factor(self.blocks, n, fitted);
         (c + c.transpose()) * 0.5
+    }
+}
+
+/// (𝟙 − A P)^(-1/2) for a block's information A (the block's rows' Σ φ φᵀ) and the fit's P
+/// after the block (P⁻¹ ⊇ A): the score g = b − A θ at the fit after the block has
+/// Var g = V − A P V − V P A + A Cov(θ) A, i.e. (𝟙 − A P) V for white equation errors (V = A,
+/// Cov θ = P), so (𝟙 − A P)^(-1/2) g has the variance of the errors' own score, A, again:
+/// the blocks' counterpart of the HC2 leverage correction, whose leverage is the block's share
+/// A P of the information so far (1/k for the k-th of equal blocks; near 1 in a direction
+/// the block is the first to determine). Evaluated on the unit-diagonal scaling of P
+/// (D = diag P^½: 𝟙 − A P = D⁻¹ (𝟙 − Ã P̃) D with P̃ = D⁻¹ P D⁻¹, Ã = D A D) as
+/// P̃^(-½) (𝟙 − H)^(-½) P̃^½ with H = P̃^½ Ã P̃^½ symmetric, its eigenvalues clamped to
+/// [0, 1 − 1e-9]. The identity when P is not positive definite or the result not finite.
+pub fn own_fit_correction<const N: usize>(
+    a: &SMatrix<f64, N, N>,
+    p: &SMatrix<f64, N, N>,
+) -> SMatrix<f64, N, N> {
+    let identity = SMatrix::<f64, N, N>::identity();
+    let d = p.diagonal();
+    if !d.iter().all(|v| v.is_finite() && *v > 0.0) {
+        return identity;
+    }
+    let d = d.map(libm::sqrt);
+    let scaled_p = SMatrix::<f64, N, N>::from_fn(|i, j| p[(i, j)] / (d[i] * d[j]));
+    let scaled_a = SMatrix::<f64, N, N>::from_fn(|i, j| a[(i, j)] * d[i] * d[j]);
+    let (values, vectors) = jacobi_eigen((scaled_p + scaled_p.transpose()) * 0.5);
+    let smallest = values.iter().copied().fold(f64::INFINITY, f64::min);
+    if !(smallest > 0.0) {
+        return identity;
+    }
+    let root = |power: f64| {
+        let diag = SVector::<f64, N>::from_fn(|i, _| libm::pow(values[i], power));
+        vectors * SMatrix::<f64, N, N>::from_diagonal(&diag) * vectors.transpose()
+    };
+    let (half, inverse_half) = (root(0.5), root(-0.5));
+    let h = half * scaled_a * half;
+    let (h_values, h_vectors) = jacobi_eigen((h + h.transpose()) * 0.5);
+    let factors = SVector::<f64, N>::from_fn(|i, _| {
+        1.0 / libm::sqrt(1.0 - h_values[i].clamp(0.0, 1.0 - 1e-9))
+    });
+    let middle = h_vectors * SMatrix::<f64, N, N>::from_diagonal(&factors) * h_vectors.transpose();
+    let t = inverse_half * middle * half;
+    let t = SMatrix::<f64, N, N>::from_fn(|i, j| t[(i, j)] * d[j] / d[i]);
+    if t.iter().all(|v| v.is_finite()) {
+        t
+    } else {
+        identity
     }
 }
 
