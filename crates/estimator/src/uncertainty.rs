@@ -355,27 +355,24 @@ pub fn own_fit_correction<const N: usize>(
     if !d.iter().all(|v| v.is_finite() && *v > 0.0) {
         return identity;
     }
-    let d = d.map(libm::sqrt);
-    let scaled_p = SMatrix::<f64, N, N>::from_fn(|i, j| p[(i, j)] / (d[i] * d[j]));
-    let scaled_a = SMatrix::<f64, N, N>::from_fn(|i, j| a[(i, j)] * d[i] * d[j]);
+    let d = SMatrix::<f64, N, N>::from_diagonal(&d.map(libm::sqrt));
+    let d_inverse = SMatrix::<f64, N, N>::from_diagonal(&p.diagonal().map(|v| 1.0 / libm::sqrt(v)));
+    let scaled_p = d_inverse * p * d_inverse;
+    let scaled_a = d * a * d;
     let (values, vectors) = jacobi_eigen((scaled_p + scaled_p.transpose()) * 0.5);
-    let smallest = values.iter().copied().fold(f64::INFINITY, f64::min);
-    if !(smallest > 0.0) {
+    if !values.iter().all(|v| *v > 0.0) {
         return identity;
     }
     let root = |power: f64| {
-        let diag = SVector::<f64, N>::from_fn(|i, _| libm::pow(values[i], power));
+        let diag = values.map(|v| libm::pow(v, power));
         vectors * SMatrix::<f64, N, N>::from_diagonal(&diag) * vectors.transpose()
     };
     let (half, inverse_half) = (root(0.5), root(-0.5));
     let h = half * scaled_a * half;
     let (h_values, h_vectors) = jacobi_eigen((h + h.transpose()) * 0.5);
-    let factors = SVector::<f64, N>::from_fn(|i, _| {
-        1.0 / libm::sqrt(1.0 - h_values[i].clamp(0.0, MAX_LEVERAGE))
-    });
+    let factors = h_values.map(|v| 1.0 / libm::sqrt(1.0 - v.clamp(0.0, MAX_LEVERAGE)));
     let middle = h_vectors * SMatrix::<f64, N, N>::from_diagonal(&factors) * h_vectors.transpose();
-    let t = inverse_half * middle * half;
-    let t = SMatrix::<f64, N, N>::from_fn(|i, j| t[(i, j)] * d[j] / d[i]);
+    let t = d_inverse * inverse_half * middle * half * d;
     if t.iter().all(|v| v.is_finite()) {
         t
     } else {
