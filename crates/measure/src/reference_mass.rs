@@ -443,15 +443,7 @@ pub fn fit(
     })
 }
 
-/// Number of joint coordinates: 6 base joints and 6 plate joints, 3 coordinates each.
-pub const JOINT_COORDINATES: usize = 36;
-
-/// Index of a joint coordinate in [`LoadCellGains::joint_sensitivity`]: the base joints'
-/// coordinates first (leg-major, x y z), then the plate joints', the error budget's
-/// `geometry` order ([`crate::budget::perturb::scalars`]).
-pub fn joint_index(plate: bool, leg: usize, coord: usize) -> usize {
-    usize::from(plate) * 18 + leg * 3 + coord
-}
+pub use crate::calibration::load_cells::{joint_index, JOINT_COORDINATES};
 
 /// The applied gains from the fit: ĝ' = T ĝ and C' = C − K C with K = C (C + σ² I)⁻¹ and the
 /// transfer T = I − K.

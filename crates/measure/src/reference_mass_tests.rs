@@ -4,6 +4,7 @@
 //! made with known gains and zero offsets.
 
 use super::*;
+use crate::calibration::load_cells::gains_with;
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal as Gauss};
@@ -16,33 +17,6 @@ const H: f64 = 0.01;
 const TRUE_GAINS: [f64; 6] = [4e-4, -6e-4, 2e-4, 8e-4, -3e-4, -5e-4];
 const OFFSETS_N: [f64; 6] = [3.0, -4.0, 2.0, -1.0, 5.0, 0.5];
 const REFERENCE_KG: f64 = 1000.0;
-
-/// A gains table with these gains and a small diagonal covariance (other modules' tests).
-pub(crate) fn gains_with(gains: [f64; 6]) -> LoadCellGains {
-    LoadCellGains {
-        gains,
-        covariance: (0..6)
-            .map(|i| (0..6).map(|j| if i == j { 1e-8 } else { 0.0 }).collect())
-            .collect(),
-        covariance_without_joints: Vec::new(),
-        joint_sensitivity: Vec::new(),
-        fitted_gains: gains,
-        fitted_covariance: Vec::new(),
-        prior_sigma: 0.0,
-        noise_sigma: [1e-4; 6],
-        joints_sigma: [0.0; 6],
-        legs_sigma: [0.0; 6],
-        drift_sigma: [0.0; 6],
-        mass_sigma: [0.0; 6],
-        reference_mass_kg: REFERENCE_KG,
-        reference_mass_tolerance_kg: 0.05,
-        reference_com_m: [0.0, 0.0, 0.3],
-        fixture_mass_kg: 400.0,
-        joint_tolerance_m: 2e-4,
-        residual_rms: 1.0,
-        entries: 4000,
-    }
-}
 
 struct Body {
     m: f64,

@@ -64,7 +64,7 @@ impl CalibratedImu {
 pub struct CalibratedGains {
     /// Unit δg along each eigenvector, and its sigma.
     pub modes: Vec<(f64, Vector6<f64>)>,
-    /// s_k per metre of joint coordinate k ([`crate::reference_mass::joint_index`] order);
+    /// s_k per metre of joint coordinate k ([`crate::calibration::load_cells::joint_index`] order);
     /// empty when the file does not give them (the joints then count in the modes).
     pub joint_per_m: Vec<Vector6<f64>>,
 }
@@ -99,7 +99,9 @@ impl CalibratedGains {
         offset_m: f64,
     ) -> Vector6<f64> {
         self.joint_per_m
-            .get(crate::reference_mass::joint_index(plate, leg, coord))
+            .get(crate::calibration::load_cells::joint_index(
+                plate, leg, coord,
+            ))
             .map_or_else(Vector6::zeros, |s| s * offset_m)
     }
 }

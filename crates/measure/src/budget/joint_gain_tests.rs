@@ -84,7 +84,7 @@ fn gains_that_take_up_each_joint_exactly_leave_no_geometry_line() {
 /// `load_cell_scale`, the joints alone in `geometry`.
 #[test]
 fn a_file_without_sensitivities_counts_its_whole_covariance() {
-    let mut gains = crate::reference_mass::tests::gains_with([1e-4; 6]);
+    let mut gains = crate::calibration::load_cells::gains_with([1e-4; 6]);
     let c = CalibratedGains::of(&gains);
     assert!(c.joint_per_m.is_empty());
     let sigma = |c: &CalibratedGains| c.modes.iter().map(|m| m.0 * m.0).sum::<f64>();
@@ -97,7 +97,7 @@ fn a_file_without_sensitivities_counts_its_whole_covariance() {
     gains.joint_sensitivity = (0..36).map(|k| [k as f64 * 1e-6; 6]).collect();
     let c = CalibratedGains::of(&gains);
     assert!((sigma(&c) - 2.4e-8).abs() < 1e-20);
-    let k = crate::reference_mass::joint_index(true, 2, 1);
+    let k = crate::calibration::load_cells::joint_index(true, 2, 1);
     let want = k as f64 * 1e-6 / gains.joint_tolerance_m * 1e-3;
     assert!((c.joint_change(true, 2, 1, 1e-3)[0] - want).abs() < 1e-15);
 }

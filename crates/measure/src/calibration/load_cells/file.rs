@@ -54,10 +54,10 @@ impl CalibrationDocument for LoadCellFile {
             return Some("covariance_without_joints of the wrong size".into());
         }
         let n = c.joint_sensitivity.len();
-        if n != 0 && n != crate::reference_mass::JOINT_COORDINATES {
+        if n != 0 && n != crate::calibration::load_cells::JOINT_COORDINATES {
             return Some(format!(
                 "joint_sensitivity has {n} rows, not one per joint coordinate ({})",
-                crate::reference_mass::JOINT_COORDINATES
+                crate::calibration::load_cells::JOINT_COORDINATES
             ));
         }
         let finite = c
