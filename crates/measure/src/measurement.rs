@@ -203,7 +203,7 @@ where
     // 1. Brake hold: read the static load.
     let mut index = 0u64;
     let mut interrupted_at = None;
-    // The hold's static weighing ([`crate::weigh`]), reserved before the first frame.
+    // The hold's static weighing ([`crate::weigh`]): sums only while the loop runs.
     let mut weigher = crate::weigh::Weigher::of(config, setup.geometry);
     let hold = brake_hold(
         backend,
@@ -237,7 +237,6 @@ where
             Ok(interrupted)
         },
     )?;
-    let static_weighing = weigher.finish(&crate::budget::Figures::of(config));
     let Some(feedforward) = hold else {
         observer.measurement_ended(&MeasurementEnded {
             measurement,
@@ -300,6 +299,9 @@ where
         index += 1;
 
         if matches!(step.control.phase, Phase::Done | Phase::Fault) {
+            // Finished here, not after the hold: its error budget allocates, and the loop
+            // must not.
+            let static_weighing = weigher.finish(&crate::budget::Figures::of(config));
             let end = match step.control.fault {
                 Some(f) => End::Fault(f.to_string()),
                 None if park_requested => End::Interrupted,
