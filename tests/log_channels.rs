@@ -130,8 +130,13 @@ fn a_simulate_log_reads_back_as_documented() {
     let rate_hz = 1.0 / meta.sample_period_s;
     assert_eq!(log.runs(), meta.runs);
     // Per channel, the fewest and the most messages the runs allow: derived channels start
-    // after the brake hold (at most 1 s), the estimate with the excitation, and each run may
-    // add one final estimate and a message at either end.
+    // after the brake hold (with half a second in hand), the estimate with the excitation,
+    // and each run may add one final estimate and a message at either end.
+    let hold_s = runlog::reestimate::rig_description_of(meta, None)
+        .unwrap()
+        .config
+        .run
+        .brake_hold_s;
     let mut bounds = BTreeMap::<&str, (f64, f64)>::new();
     for run_name in log.runs() {
         let frames: Vec<_> = log.sensors_of(&run_name).collect();
@@ -155,10 +160,10 @@ fn a_simulate_log_reads_back_as_documented() {
         let settings = log.settings_of(&run_name).unwrap();
         let excite = settings.window_end_s.unwrap() - settings.window_start_s.unwrap();
         for (topic, hz, from_s) in [
-            ("/pose", rates::DERIVED_HZ, 1.0),
-            ("/legs", rates::DERIVED_HZ, 1.0),
-            ("/control/pid", rates::DERIVED_HZ, 1.0),
-            ("/tf", rates::TF_HZ, 1.0),
+            ("/pose", rates::DERIVED_HZ, hold_s + 0.5),
+            ("/legs", rates::DERIVED_HZ, hold_s + 0.5),
+            ("/control/pid", rates::DERIVED_HZ, hold_s + 0.5),
+            ("/tf", rates::TF_HZ, hold_s + 0.5),
             ("/scene", rates::SCENE_HZ, 0.0),
             ("/estimate", rates::ESTIMATE_HZ, span - excite),
         ] {

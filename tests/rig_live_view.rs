@@ -20,7 +20,7 @@ fn a_foxglove_client_watches_a_rig_run_live() {
     // The link tests' short run, with the shortest holds: the view is under test, not the
     // estimate.
     let scenario = quick()
-        .replace("brake_hold_s = 0.5", "brake_hold_s = 0.2")
+        .replace("brake_hold_s = 2.0", "brake_hold_s = 0.2")
         .replace("settle_s = 0.5", "settle_s = 0.2")
         .replace("park_s = 1.0", "park_s = 0.5");
     let scratch = Scratch::new(&scenario);

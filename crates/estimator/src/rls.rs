@@ -170,9 +170,10 @@ impl<const N: usize> Rls<N> {
 
     /// True when θ and both factors are finite.
     pub fn is_finite(&self) -> bool {
-        self.theta.iter().all(|v| v.is_finite())
-            && self.d.iter().all(|v| v.is_finite())
-            && self.u.iter().all(|v| v.is_finite())
+        // v · 0 is 0 for a finite v and NaN otherwise, so the sum is 0 exactly when every
+        // entry is finite: one pass without a branch per entry (checked every sample).
+        let poison = |s: &[f64]| s.iter().fold(0.0, |acc, v| acc + v * 0.0);
+        poison(self.theta.as_slice()) + poison(self.d.as_slice()) + poison(self.u.as_slice()) == 0.0
     }
 }
 
@@ -276,6 +277,29 @@ impl<const N: usize> NormalEquations<N> {
 mod tests {
     use super::*;
     use rand::{rngs::StdRng, Rng, SeedableRng};
+
+    /// One non-finite entry anywhere (θ, D or U; NaN or either infinity) makes the state
+    /// non-finite, and huge finite entries do not.
+    #[test]
+    fn is_finite_finds_any_non_finite_entry() {
+        let fresh = Rls::<4>::new(SVector::zeros(), SVector::from_element(1e300), 1.0).unwrap();
+        assert!(fresh.is_finite());
+        for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY] {
+            for k in 0..4 {
+                let mut r = fresh;
+                r.theta[k] = bad;
+                assert!(!r.is_finite(), "θ[{k}] = {bad}");
+                let mut r = fresh;
+                r.d[k] = bad;
+                assert!(!r.is_finite(), "d[{k}] = {bad}");
+            }
+            for k in 0..16 {
+                let mut r = fresh;
+                r.u[k] = bad;
+                assert!(!r.is_finite(), "u[{k}] = {bad}");
+            }
+        }
+    }
 
     fn random_rows(rng: &mut StdRng) -> SMatrix<f64, 6, 10> {
         SMatrix::from_fn(|_, _| rng.random_range(-1.0..1.0))

@@ -497,18 +497,21 @@ mod tests {
             measurement: Measurement::Tare,
             tare: None,
         };
-        // 500 brake-hold ticks, then the controller drives the legs.
+        // The brake hold's ticks, then the controller drives the legs for 100.
+        let run = &loaded.config.run;
+        let hold = (run.brake_hold_s * loaded.config.sensors.sample_rate_hz).round() as u64;
         let err = measure(
             &mut backend,
             &setup,
             controller,
-            &mut FailsAt(600),
+            &mut FailsAt(hold + 100),
             &AtomicBool::new(false),
         )
         .unwrap_err();
         assert!(err.to_string().contains("disk full"), "{err}");
-        let n = backend.commands.len();
-        assert_eq!(n, 601, "600 ticks and the safe stop");
+        let n = backend.commands.len() as u64;
+        assert_eq!(n, hold + 101, "the hold, 100 ticks and the safe stop");
+        let n = n as usize;
         assert!(backend.commands[n - 2].enable, "the legs were driven");
         assert!(!backend.commands[n - 1].enable, "then braked");
         assert_eq!(backend.commands[n - 1].leg_forces_n, [0.0; 6]);
