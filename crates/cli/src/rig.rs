@@ -406,7 +406,6 @@ pub fn rig_with_abort(
     } else {
         None
     };
-    let (base_joints, plate_joints) = session::joints(&geometry);
     let tare = common::tare_plan(&loaded, &geometry, common.run.tare.as_deref())?;
 
     // The handshake: refusals end here, before the log and before any command.
@@ -438,34 +437,18 @@ pub fn rig_with_abort(
     } + loaded_controller.as_ref().map_or(0, |c| {
         measure::measurement::expected_samples(config, c.trajectory())
     });
-    let stroke = geometry.stroke();
+    let command = if calibrating_cells {
+        "rig calibrate-load-cells"
+    } else {
+        "rig"
+    };
     let header = log.write_metadata(&RunMetadata {
-        tool_version: env!("CARGO_PKG_VERSION").into(),
-        command: if calibrating_cells {
-            "rig calibrate-load-cells".into()
-        } else {
-            "rig".into()
-        },
-        backend: "rig".into(),
-        config_source: loaded.source.clone(),
-        config_text: loaded.text.clone(),
-        config_toml: loaded.effective_toml(),
-        seed: 0,
         noise: outcome::NOISE.into(),
-        params: config.estimator.params.into(),
         sample_period_s: rig_link.lock().rig.sample_period_s(),
         start_unix_ns: log.start_unix_ns(),
         runs,
         tare_file: common.run.tare.as_ref().map(|p| p.display().to_string()),
-        base_joints_m: base_joints,
-        plate_joints_m: plate_joints,
-        stroke_m: [stroke.min_length_m, stroke.max_length_m],
-        imu_calibration_toml: config.calibration.imu_file.as_ref().map(|f| f.to_toml()),
-        load_cell_calibration_toml: config
-            .calibration
-            .load_cells_file
-            .as_ref()
-            .map(|f| f.to_toml()),
+        ..RunMetadata::describing(&loaded, &geometry, command, "rig")
     });
     let save_tare = match &plan {
         Plan::TareOnly(out) => Some(out.as_path()),

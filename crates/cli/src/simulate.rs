@@ -263,7 +263,6 @@ pub fn simulate(
     // The controllers checked here are the ones that run.
     let trajectory = setup::trajectory(loaded, &geometry, config.run.duration_s)?;
     let loaded_controller = setup::controller(loaded, &geometry, trajectory)?;
-    let (base_joints, plate_joints) = session::joints(&geometry);
     let tare = common::tare_plan(loaded, &geometry, args.measure.tare.as_deref())?;
     let tare_run = matches!(tare, TarePlan::Measure(_));
     // The loaded world must be accepted too, before the tare run moves anything.
@@ -283,7 +282,6 @@ pub fn simulate(
     let mut log = RunLog::create_live(&log_path, start_ns, Delivery::Lossless, live)
         .map_err(CommandError::Run)?;
     common::announce_live(&log, args.measure.shared.quiet);
-    let stroke = geometry.stroke();
     let mut runs = Vec::new();
     if tare_run {
         runs.push("tare".to_string());
@@ -294,34 +292,23 @@ pub fn simulate(
     }
     let header = log
         .write_metadata(&RunMetadata {
-            tool_version: env!("CARGO_PKG_VERSION").into(),
-            command: if calibrating {
-                "simulate --calibrate-imu".into()
-            } else if calibrating_cells {
-                "simulate --calibrate-load-cells".into()
-            } else {
-                "simulate".into()
-            },
-            backend: "sim".into(),
-            config_source: loaded.source.clone(),
-            config_text: loaded.text.clone(),
-            config_toml: loaded.effective_toml(),
             seed: scenario.world.seed,
             noise: scenario.noise.name().into(),
-            params: config.estimator.params.into(),
-            sample_period_s: 1.0 / config.sensors.sample_rate_hz,
             start_unix_ns: log.start_unix_ns(),
             runs,
             tare_file: args.measure.tare.as_ref().map(|p| p.display().to_string()),
-            base_joints_m: base_joints,
-            plate_joints_m: plate_joints,
-            stroke_m: [stroke.min_length_m, stroke.max_length_m],
-            imu_calibration_toml: config.calibration.imu_file.as_ref().map(|f| f.to_toml()),
-            load_cell_calibration_toml: config
-                .calibration
-                .load_cells_file
-                .as_ref()
-                .map(|f| f.to_toml()),
+            ..RunMetadata::describing(
+                loaded,
+                &geometry,
+                if calibrating {
+                    "simulate --calibrate-imu"
+                } else if calibrating_cells {
+                    "simulate --calibrate-load-cells"
+                } else {
+                    "simulate"
+                },
+                "sim",
+            )
         })
         .and_then(|()| {
             log.write_now(

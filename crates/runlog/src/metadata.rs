@@ -57,21 +57,24 @@ pub struct RunMetadata {
 }
 
 impl RunMetadata {
-    /// What a log whose `/run/metadata` was lost to damage is read with: the platform and
-    /// the sample period of the rig description `rig` (`stewart estimate --rig FILE`), the
-    /// run's own facts unknown (`command`, `backend` and `noise` say `unknown`; no seed, no
-    /// start time). `runs` lists both measurements: which ones ran is read from the frames.
-    /// Errors: `rig`'s platform is refused.
-    pub fn of_rig(rig: &measure::LoadedConfig) -> Result<Self> {
-        let geometry = measure::setup::geometry(rig)
-            .map_err(|e| anyhow::anyhow!("the rig description's platform is refused: {e}"))?;
-        let (base_joints_m, plate_joints_m) = measure::session::joints(&geometry);
+    /// The metadata of a run of `command` on `backend` with the rig description `rig` and its
+    /// platform `geometry`: the description (as given and as run), the parameter count, the
+    /// joints and stroke, the calibrations applied, and the sample period the description
+    /// gives. The run's own facts start empty (seed 0, `noise` [`UNKNOWN`], start time 0, no
+    /// runs, no tare file): the caller sets what it knows.
+    pub fn describing(
+        rig: &measure::LoadedConfig,
+        geometry: &kinematics::Geometry,
+        command: &str,
+        backend: &str,
+    ) -> Self {
+        let (base_joints_m, plate_joints_m) = measure::session::joints(geometry);
         let stroke = geometry.stroke();
         let config = &rig.config;
-        Ok(Self {
+        Self {
             tool_version: env!("CARGO_PKG_VERSION").into(),
-            command: UNKNOWN.into(),
-            backend: UNKNOWN.into(),
+            command: command.into(),
+            backend: backend.into(),
             config_source: rig.source.clone(),
             config_text: rig.text.clone(),
             config_toml: rig.effective_toml(),
@@ -80,7 +83,7 @@ impl RunMetadata {
             params: config.estimator.params.into(),
             sample_period_s: 1.0 / config.sensors.sample_rate_hz,
             start_unix_ns: 0,
-            runs: vec!["tare".into(), "loaded".into()],
+            runs: Vec::new(),
             tare_file: None,
             base_joints_m,
             plate_joints_m,
@@ -91,6 +94,20 @@ impl RunMetadata {
                 .load_cells_file
                 .as_ref()
                 .map(|f| f.to_toml()),
+        }
+    }
+
+    /// What a log whose `/run/metadata` was lost to damage is read with: the platform and
+    /// the sample period of the rig description `rig` (`stewart estimate --rig FILE`), the
+    /// run's own facts unknown (`command`, `backend` and `noise` say `unknown`; no seed, no
+    /// start time). `runs` lists both measurements: which ones ran is read from the frames.
+    /// Errors: `rig`'s platform is refused.
+    pub fn of_rig(rig: &measure::LoadedConfig) -> Result<Self> {
+        let geometry = measure::setup::geometry(rig)
+            .map_err(|e| anyhow::anyhow!("the rig description's platform is refused: {e}"))?;
+        Ok(Self {
+            runs: vec!["tare".into(), "loaded".into()],
+            ..Self::describing(rig, &geometry, UNKNOWN, UNKNOWN)
         })
     }
 }

@@ -22,7 +22,6 @@ pub mod table;
 #[cfg(test)]
 mod tests;
 
-use measure::calibration::CalibrationDocument;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
@@ -177,32 +176,11 @@ fn metadata(
     geometry: &kinematics::Geometry,
     runs: &[RunSummary],
 ) -> RunMetadata {
-    let config = &plan.rig.config;
-    let (base_joints_m, plate_joints_m) = measure::session::joints(geometry);
-    let stroke = geometry.stroke();
     RunMetadata {
-        tool_version: env!("CARGO_PKG_VERSION").into(),
-        command: "import".into(),
-        backend: "rig".into(),
-        config_source: plan.rig.source.clone(),
-        config_text: plan.rig.text.clone(),
-        config_toml: plan.rig.effective_toml(),
-        seed: 0,
         noise: "rig".into(),
-        params: config.estimator.params.into(),
-        sample_period_s: 1.0 / config.sensors.sample_rate_hz,
-        start_unix_ns: 0,
         runs: runs.iter().map(|r| r.run.name().to_string()).collect(),
         tare_file: plan.tare.map(|p| p.display().to_string()),
-        base_joints_m,
-        plate_joints_m,
-        stroke_m: [stroke.min_length_m, stroke.max_length_m],
-        imu_calibration_toml: config.calibration.imu_file.as_ref().map(|f| f.to_toml()),
-        load_cell_calibration_toml: config
-            .calibration
-            .load_cells_file
-            .as_ref()
-            .map(|f| f.to_toml()),
+        ..RunMetadata::describing(plan.rig, geometry, "import", "rig")
     }
 }
 
