@@ -52,21 +52,7 @@ pub(super) fn calibration_pass(
     let pass_args = SimulateArgs {
         calibrate_imu: Some(file.clone()),
         calibrate_load_cells: None,
-        measure: MeasureArgs {
-            shared: crate::common::SharedArgs {
-                log: Some(pass_log),
-                quiet: true,
-                live: None,
-                plot: None,
-                ..args.measure.shared.clone()
-            },
-            tare: None,
-            save_tare: None,
-            report: None,
-            html: None,
-            budget: false,
-            ..args.measure.clone()
-        },
+        measure: pass_measure_args(args, pass_log),
         ..args.clone()
     };
     if !args.measure.shared.quiet {
@@ -94,6 +80,26 @@ pub(super) fn calibration_pass(
     }
 }
 
+/// A calibration pass's measurement options: `args`' own, quiet, logging to `pass_log`, with
+/// no tare, report, live view, figures or budget of its own.
+fn pass_measure_args(args: &SimulateArgs, pass_log: PathBuf) -> MeasureArgs {
+    MeasureArgs {
+        shared: crate::common::SharedArgs {
+            log: Some(pass_log),
+            quiet: true,
+            live: None,
+            plot: None,
+            ..args.measure.shared.clone()
+        },
+        tare: None,
+        save_tare: None,
+        report: None,
+        html: None,
+        budget: false,
+        ..args.measure.clone()
+    }
+}
+
 /// `[calibration] measure_load_cells`: before the measurement, a tare run and a run with the
 /// world's reference body, and the cells' gains fitted ([`simulate`] with
 /// `--calibrate-load-cells`), on the same simulated world with the IMU calibration `imu` the
@@ -109,21 +115,7 @@ pub(super) fn load_cell_pass(
         calibrate_imu: None,
         calibrate_load_cells: Some(file.clone()),
         apply_imu: imu,
-        measure: MeasureArgs {
-            shared: crate::common::SharedArgs {
-                log: Some(pass_log),
-                quiet: true,
-                live: None,
-                plot: None,
-                ..args.measure.shared.clone()
-            },
-            tare: None,
-            save_tare: None,
-            report: None,
-            html: None,
-            budget: false,
-            ..args.measure.clone()
-        },
+        measure: pass_measure_args(args, pass_log),
         ..args.clone()
     };
     if !args.measure.shared.quiet {
