@@ -1,8 +1,8 @@
 //! Sensor frames put back in sequence order before they are turned into samples: a link that
 //! reorders datagrams (UDP) hands a host, and its log, frame 101 before frame 100, and the
 //! conditioning places samples by their counter and refuses one whose counter does not advance
-//! (`estimator::timebase`), so a frame that came a period late was rejected although nothing
-//! was wrong with it.
+//! (`estimator::timebase`), so without this a frame that comes a period late would be refused
+//! although nothing is wrong with it.
 //!
 //! [`Reorder`] holds the last [`REORDER_WINDOW`] frames, sorted by sequence, in a fixed array
 //! (no heap, plain `Copy` data): a frame is handed on once [`REORDER_WINDOW`] frames with a
