@@ -377,12 +377,15 @@ pub fn event_line(event: &EmulatorEvent) -> String {
 }
 
 /// What an operator does between sessions: the payload goes on (or off) the braked platform,
-/// whose brakes take the new static load (as `simulate` does between its runs).
+/// whose brakes take the new static load, and the plate settles for
+/// [`crate::simulate::PAYLOAD_SETTLE_S`] before the session's brake hold (as `simulate` does
+/// between its runs): a hold that begins on a plate still sagging onto its brakes takes the
+/// sag into the accelerometer's offset it measures, and so into the payload's mass.
 fn put_payload(
     sim: &mut sim::Simulator,
     payload: Option<sim::BodyProperties>,
 ) -> Result<(), sim::SimError> {
-    sim.set_payload(payload)
+    sim.change_payload_and_settle(payload, crate::simulate::PAYLOAD_SETTLE_S)
 }
 
 fn backend_failed(e: RigError) -> CommandError {

@@ -150,20 +150,9 @@ impl Station for SimStation {
     /// rig waits for the operator: the loaded run's brake hold then weighs a plate at rest
     /// ([`measure::weigh`]), not one still sagging onto its brakes.
     fn load_payload<O: Observer>(&mut self, _: &mut O, _: &AtomicBool) -> anyhow::Result<bool> {
-        use control::io::{Backend, CommandFrame};
         self.sim
-            .set_payload(Some(self.payload))
-            .map_err(|e| anyhow!("the simulator refused the payload: {e}"))?;
-        let frames = (PAYLOAD_SETTLE_S / self.sim.sample_period_s()).ceil() as u64;
-        for i in 0..frames {
-            let frame = self
-                .sim
-                .read()
-                .map_err(|e| anyhow!("the simulator failed while the payload settled: {e}"))?;
-            self.sim
-                .write(&CommandFrame::safe_stop(i, frame.sequence))
-                .map_err(|e| anyhow!("the simulator failed while the payload settled: {e}"))?;
-        }
+            .change_payload_and_settle(Some(self.payload), PAYLOAD_SETTLE_S)
+            .map_err(|e| anyhow!("the simulator failed while the payload was put on: {e}"))?;
         Ok(true)
     }
 }

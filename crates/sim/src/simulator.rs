@@ -418,6 +418,29 @@ impl Simulator {
         self.refresh()
     }
 
+    /// What an operator does between a rig's runs: puts `payload` on the braked plate (or takes
+    /// it off) and waits `settle_s` with the brakes on (safe stops) before the next run, which
+    /// then starts from a plate at rest rather than one still sagging onto its brakes (the
+    /// next brake hold weighs it, and measures the accelerometer's offset as its mean).
+    pub fn change_payload_and_settle(
+        &mut self,
+        payload: Option<BodyProperties>,
+        settle_s: f64,
+    ) -> Result<(), SimError> {
+        self.set_payload(payload)?;
+        let frames = (settle_s / self.sample_period_s()).ceil();
+        let frames = if frames.is_finite() && frames > 0.0 {
+            frames as u64
+        } else {
+            0
+        };
+        for i in 0..frames {
+            let sequence = self.frame.sequence;
+            self.write(&CommandFrame::safe_stop(i, sequence))?;
+        }
+        Ok(())
+    }
+
     /// Puts a payload on the plate or takes it off (`None`: the tare world), keeping the
     /// current motion and actuator state (a sprung body is put on resting, moving with the
     /// plate). Also re-checks brake and friction stability, which is worst for the lightest
