@@ -127,8 +127,10 @@ fn rig_calibrate_load_cells_agrees_with_the_simulated_calibration_of_the_same_wo
     sim_args.calibrate_load_cells = Some(sim_file.clone());
     stewart_cli::simulate::simulate(&sim_args, &std::sync::atomic::AtomicBool::new(false)).unwrap();
     let sim = LoadCellFile::read(&sim_file).unwrap();
-    // Same world, same motions: the two fits differ by the noise of two pairs of runs (4 sigmas,
-    // as the IMU's check: the rig's gains scatter from run to run with the host's timing).
+    // Same world, same motions: the two fits differ by the noise of two pairs of runs, within
+    // two combined sigmas (the joints' share of each sigma is the same world's on both sides,
+    // so they agree far closer: 2e-4 at most per gain). An emulator that put the reference on
+    // without letting the plate settle scattered the rig's gains by up to 2e-3.
     let (a, b) = (&rig.load_cells, &sim.load_cells);
     for l in stewart_cli::rig::link_lines(&outcome.link) {
         println!("{l}");
@@ -145,11 +147,10 @@ fn rig_calibrate_load_cells_agrees_with_the_simulated_calibration_of_the_same_wo
             "cell {i}: rig {:+.3e} sim {:+.3e} ± {s:.1e}",
             a.gains[i], b.gains[i]
         );
-        assert!(d.abs() < 4.0 * s, "gain {i}: {d:e} against {s:e}");
+        assert!(d.abs() < 2.0 * s, "gain {i}: {d:e} against {s:e}");
     }
-    // The gains' mean (what a mass reads) is printed, not checked: the two differ by 7–9e-4,
-    // as the payload's mass does between `rig` and `simulate` on this world
-    // (tests/rig_measurement.rs), several of the mean's reported sigmas (docs/calibration.md).
+    // The gains' mean (what a mass reads) within two combined sigmas of the mean: it differed by
+    // 7–9e-4 (six sigmas) with the unsettled plate.
     let mean = |g: &[f64; 6]| g.iter().sum::<f64>() / 6.0;
     let ones = nalgebra::DVector::from_element(6, 1.0 / 6.0);
     let mean_sigma = |c: &measure::calibration::LoadCellGains| {
@@ -162,6 +163,11 @@ fn rig_calibrate_load_cells_agrees_with_the_simulated_calibration_of_the_same_wo
         mean(&b.gains),
         mean_sigma(b)
     );
+    let (d, s) = (
+        mean(&a.gains) - mean(&b.gains),
+        mean_sigma(a).hypot(mean_sigma(b)),
+    );
+    assert!(d.abs() < 2.0 * s, "mean gain: {d:e} against {s:e}");
 
     // A rig description naming the file applies it.
     let described = scratch.path("with-cells.toml");
