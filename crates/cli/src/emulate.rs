@@ -12,7 +12,8 @@
 //! for every later one, which is what `stewart rig` (tare session, then loaded session) and
 //! `rig tare` followed by `rig measure` need; `on` and `off` fix it for every session (use
 //! `on` for a `rig measure --tare FILE` against a fresh emulator). Loading happens while the
-//! platform is braked between sessions: the brakes take the new static load. `--reference`
+//! platform is braked between sessions: the brakes take the new static load and the plate
+//! settles for 2 s before the session's first frame. `--reference`
 //! puts the world's reference weight (`[world.reference]`) on instead of the payload, as the
 //! rig's owner does for `rig calibrate-load-cells`.
 //!
