@@ -81,7 +81,10 @@ impl Scenario {
         let feedforward =
             measure::measurement::brake_hold(&mut sim, &mut tick, config, |_, _, _, _| Ok(false))?
                 .context("the brake hold stopped")?;
-        tick.start_control(feedforward)?;
+        tick.start_control(
+            feedforward,
+            setup::feedforward_load(config, Measurement::Loaded, None),
+        )?;
         Ok(Self {
             sim,
             tick,

@@ -2,7 +2,8 @@
 //!
 //! ```text
 //! sensors ─► supervisor watchdog ─► FK (warm start: last pose) ─► phase ─► desired pose
-//!         ─► IK ─► six PIDs (+ constant and rate feed-forward) ─► supervisor gate ─► CommandFrame
+//!         ─► IK ─► six PIDs (+ static, rate and inverse-dynamics feed-forward) ─► supervisor gate
+//!         ─► CommandFrame
 //! ```
 //!
 //! The procedure: [`Phase::Idle`] until the first good frame; [`Phase::Settle`]: a quintic ramp
@@ -17,9 +18,12 @@
 //! `Result`: a caller cannot skip writing the safe stop by propagating an error. Use
 //! [`TickOutput::result`] where an error is wanted.
 
-use kinematics::{FkOptions, Geometry, KinematicsError, Pose, Vector3, Vector6};
+use kinematics::{FkOptions, Geometry, Pose, Vector3, Vector6};
+
+use stewart_types::InertialParameters;
 
 use crate::error::ControlError;
+use crate::inverse_dynamics::load_leg_forces;
 use crate::io::{CommandFrame, SensorFrame, LEG_COUNT};
 use crate::pid::{PidBank, PidConfig, PidOutput};
 use crate::supervisor::{Fault, Phase, Supervisor, SupervisorConfig};
@@ -218,6 +222,16 @@ pub struct Controller {
     last_pose: Pose,
     last_desired: TrajectorySample,
     park_requested: bool,
+    /// The inverse-dynamics feed-forward's load, when one is set ([`Controller::set_load`]).
+    load: Option<LoadFeedforward>,
+}
+
+/// The load of [`Controller::set_load`] and the part of the static feed-forward it accounts
+/// for: its weight's leg forces at the pose where the static load was read.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct LoadFeedforward {
+    load: InertialParameters,
+    at_hold_n: [f64; LEG_COUNT],
 }
 
 impl Controller {
@@ -246,6 +260,7 @@ impl Controller {
             last_pose: home,
             last_desired: rest_at(&home),
             park_requested: false,
+            load: None,
         })
     }
 
@@ -305,6 +320,35 @@ impl Controller {
             });
         }
         self.config = config;
+        Ok(())
+    }
+
+    /// Adds the inverse-dynamics feed-forward of `load`, the plate with everything it carries as
+    /// its owner knows it (a CAD model, a weighing): each tick's feed-forward becomes
+    ///
+    /// ```text
+    /// f_ff(t) = f_static + J⁻ᵀ(p_d) W(θ, s_d(t)) − J⁻ᵀ(p_hold) W(θ, rest at p_hold)
+    /// ```
+    ///
+    /// with W the Newton–Euler wrench of [`crate::inverse_dynamics::load_wrench`], s_d the
+    /// set-point and p_hold the FK warm start when this is called (the pose where the static
+    /// feed-forward [`ControllerConfig::feedforward_n`] was read, so call it after
+    /// [`Controller::set_pose_guess`]). The static load stays the measured one; the model adds
+    /// only how the load's wrench changes with the motion: the leg loops then follow the
+    /// set-point without first building the inertial force up from a tracking error, which
+    /// under a heavy payload lets the plate translate and turn where it was not commanded. An
+    /// error in θ is left to the loops, as all of the inertial force is without this. Refused,
+    /// leaving the controller unchanged, when `load` is not finite, its mass not positive, or
+    /// the warm-start pose singular.
+    pub fn set_load(&mut self, load: InertialParameters) -> Result<(), ControlError> {
+        if !(load.is_finite() && load.mass_kg > 0.0) {
+            return Err(ControlError::InvalidConfig {
+                parameter: "controller.load",
+                reason: "mass must be finite and > 0, every parameter finite",
+            });
+        }
+        let at_hold_n = load_leg_forces(&self.geometry, &load, &rest_at(&self.last_pose))?;
+        self.load = Some(LoadFeedforward { load, at_hold_n });
         Ok(())
     }
 
@@ -414,6 +458,15 @@ impl Controller {
                 if self.config.rate_feedforward {
                     for (f, speed) in feedforward.iter_mut().zip(out.desired_leg_speeds_m_s) {
                         *f += self.config.pid.kd * speed;
+                    }
+                }
+                if let Some(l) = &self.load {
+                    // A set-point that passed the feasibility check is not singular; should
+                    // the solve fail anyway, the non-finite feed-forward trips the fault below.
+                    let dynamic = load_leg_forces(&self.geometry, &l.load, &desired)
+                        .unwrap_or([f64::NAN; LEG_COUNT]);
+                    for ((f, d), h) in feedforward.iter_mut().zip(dynamic).zip(l.at_hold_n) {
+                        *f += d - h;
                     }
                 }
                 match self.pids.update(
@@ -657,18 +710,8 @@ pub fn gravity_feedforward(
             index: 0,
         });
     }
-    let force = Vector3::new(0.0, 0.0, mass_kg * GRAVITY_M_S2);
-    let torque = (pose.rotation * com_in_p_m).cross(&force);
-    let wrench = Vector6::new(force.x, force.y, force.z, torque.x, torque.y, torque.z);
-    let jt = geometry.jacobian(pose).transpose();
-    let singular = ControlError::Kinematics(KinematicsError::SingularPose {
-        inverse_condition: geometry.inverse_condition_number(pose),
-    });
-    let forces = jt.lu().solve(&wrench).ok_or(singular)?;
-    if !forces.iter().all(|f| f.is_finite()) {
-        return Err(singular);
-    }
-    Ok(forces.into())
+    let body = InertialParameters::point_mass(mass_kg, *com_in_p_m);
+    load_leg_forces(geometry, &body, &rest_at(pose))
 }
 
 #[cfg(test)]

@@ -32,6 +32,7 @@ mod error;
 #[cfg(test)]
 mod f32_tests;
 mod fault;
+pub mod inverse_dynamics;
 pub mod io;
 pub mod pid;
 pub mod stability;

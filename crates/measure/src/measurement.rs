@@ -247,9 +247,10 @@ where
         return Ok(MeasureOutcome::ended_early(End::Interrupted, fk_failures));
     };
 
-    // 2. The controller, with the static load as feed-forward and the hold's pose as its
-    //    forward kinematics' warm start.
-    tick.start_control(feedforward)?;
+    // 2. The controller, with the static load as feed-forward, the hold's pose as its forward
+    //    kinematics' warm start, and the inverse dynamics of the load as the owner knows it.
+    let load = crate::setup::feedforward_load(config, measurement, setup.tare.map(|(t, _)| t));
+    tick.start_control(feedforward, load)?;
 
     let budget = expected_samples(config, &trajectory) + (120.0 * rate_hz) as u64;
     let mut park_requested = false;

@@ -341,6 +341,31 @@ impl Measurement {
     }
 }
 
+/// The load of the leg loops' inverse-dynamics feed-forward ([`control::Controller::set_load`])
+/// for one `measurement`, from what the rig's owner knows: the tare run's is the plate with the
+/// empty fixture (`[plan.fixture]`); a loaded run's is the fixture as the tare measured it
+/// (`tare`, when there is one: the owner's own data) or as `[plan.fixture]` gives it, plus
+/// `[plan.payload]`. `None` when `control.inertial_feedforward` is off, or the sum is not a
+/// body with positive mass.
+pub fn feedforward_load(
+    config: &Config,
+    measurement: Measurement,
+    tare: Option<&estimator::InertialParameters>,
+) -> Option<estimator::InertialParameters> {
+    if !config.control.inertial_feedforward {
+        return None;
+    }
+    let fixture = tare
+        .filter(|t| t.is_finite() && t.mass_kg > 0.0)
+        .copied()
+        .unwrap_or_else(|| config.plan.fixture.parameters());
+    let load = match measurement {
+        Measurement::Tare => config.plan.fixture.parameters(),
+        Measurement::Loaded => fixture + config.plan.payload.parameters(),
+    };
+    (load.is_finite() && load.mass_kg > 0.0).then_some(load)
+}
+
 /// The legs the estimator compensates: the rig description's `[legs]` when
 /// `estimator.compensate_legs` is set and the legs have mass or friction.
 pub fn leg_model(config: &Config) -> Option<estimator::LegModel> {

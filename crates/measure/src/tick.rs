@@ -78,13 +78,24 @@ impl Tick {
         Some(sample)
     }
 
-    /// After the brake hold: the static load `feedforward_n` as the PIDs' feed-forward and the
-    /// hold's last pose as the controller's forward-kinematics warm start.
-    pub fn start_control(&mut self, feedforward_n: [f64; 6]) -> anyhow::Result<()> {
+    /// After the brake hold: the static load `feedforward_n` as the PIDs' feed-forward, the
+    /// hold's last pose as the controller's forward-kinematics warm start, and the inverse
+    /// dynamics of `load` (the plate with what it carries, as its owner knows it; see
+    /// [`crate::setup::feedforward_load`]) on top, when given.
+    pub fn start_control(
+        &mut self,
+        feedforward_n: [f64; 6],
+        load: Option<estimator::InertialParameters>,
+    ) -> anyhow::Result<()> {
         self.controller.set_pose_guess(self.feed.pose_guess());
         self.controller
             .set_feedforward(feedforward_n)
             .map_err(|e| anyhow::anyhow!("refused before motion: {e}"))?;
+        if let Some(load) = load {
+            self.controller.set_load(load).map_err(|e| {
+                anyhow::anyhow!("refused before motion: the feed-forward's load: {e}")
+            })?;
+        }
         Ok(())
     }
 

@@ -8,7 +8,7 @@
 use super::*;
 use crate::io::Status;
 use crate::trajectory::{Axis, SineComponent};
-use kinematics::StrokeLimits;
+use kinematics::{KinematicsError, Matrix3, StrokeLimits};
 
 const DT: f64 = 1e-3;
 const LEG_MASS_KG: f64 = 250.0;
@@ -557,5 +557,59 @@ fn invalid_configs_are_refused() {
             what: "controller.feedforward_n",
             index: 3
         }
+    );
+}
+
+/// `set_load`: each tick's feed-forward is the static load, the rate term and the load's
+/// inverse dynamics at the set-point less its weight's share at the warm-start pose (so at
+/// rest there, nothing changes); a load that is not a body is refused and changes nothing.
+#[test]
+fn the_loads_feedforward_adds_its_dynamics_less_its_weight_at_the_hold_pose() {
+    use crate::inverse_dynamics::load_leg_forces;
+    let g = geometry();
+    let mut controller = Controller::new(g, eq8(6.0), config()).unwrap();
+    let before = controller;
+    let mut not_a_body = InertialParameters::point_mass(1900.0, Vector3::new(0.0, 0.0, 0.4));
+    not_a_body.mass_kg = 0.0;
+    assert!(controller.set_load(not_a_body).is_err());
+    not_a_body.mass_kg = f64::NAN;
+    assert!(controller.set_load(not_a_body).is_err());
+    assert_eq!(controller, before);
+
+    let load = InertialParameters::from_com(
+        1900.0,
+        Vector3::new(0.1, -0.05, 0.4),
+        Matrix3::from_diagonal(&Vector3::new(800.0, 2500.0, 2900.0)),
+    );
+    let home = g.home_pose();
+    controller.set_pose_guess(home);
+    controller.set_load(load).unwrap();
+    let at_hold = load_leg_forces(&g, &load, &rest_at(&home)).unwrap();
+    let mut legs = Legs::at(&home);
+    let (mut at_rest, mut moving) = (0, 0);
+    for _ in 0..5000 {
+        let out = controller.tick(&legs.frame());
+        if out.phase.is_active() {
+            let dynamic = load_leg_forces(&g, &load, &out.desired).unwrap();
+            for leg in 0..LEG_COUNT {
+                let rate = controller.config().pid.kd * out.desired_leg_speeds_m_s[leg];
+                let expected = LOAD_N + rate + dynamic[leg] - at_hold[leg];
+                assert!((out.pid[leg].feedforward - expected).abs() < 1e-6);
+            }
+            if out.desired.twist().norm() == 0.0 && out.desired.pose == home {
+                at_rest += 1;
+                for leg in 0..LEG_COUNT {
+                    assert!((out.pid[leg].feedforward - LOAD_N).abs() < 1e-6);
+                }
+            }
+            if (dynamic[0] - at_hold[0]).abs() > 100.0 {
+                moving += 1;
+            }
+        }
+        legs.step(&out.command);
+    }
+    assert!(
+        at_rest > 100 && moving > 100,
+        "at rest {at_rest}, moving {moving}"
     );
 }

@@ -499,6 +499,13 @@ pub struct ControlConfig {
     pub settle_ramp_s: f64,
     /// Hold at home after the park ramp before braking, s.
     pub park_hold_s: f64,
+    /// Add the inverse-dynamics feed-forward of the plate's load to the leg loops
+    /// ([`control::Controller::set_load`]): the tare run's load is `[plan.fixture]`, a loaded
+    /// run's the tare's estimate (or `[plan.fixture]`) plus `[plan.payload]`. Without it the
+    /// loops find the load's inertial forces from their tracking error, and under a heavy
+    /// payload the plate translates and turns where it was not commanded (docs/plan.md).
+    #[serde(default = "default_true")]
+    pub inertial_feedforward: bool,
 }
 
 /// Which excitation to run.
