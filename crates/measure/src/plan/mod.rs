@@ -154,6 +154,19 @@ pub struct Usage {
     pub stroke: f64,
 }
 
+/// One sigma of the accelerometer's vertical offset as a run measures it: its per-sample noise
+/// `per_sample_m_s2` over √n, n the samples at rest before the excitation (the brake hold, the
+/// settle ramp from the resting pose, about `control.settle_ramp_s` long, and the settle hold;
+/// [`estimator::AccelerometerOffset`]). 0 without a known gravity, against which alone the
+/// offset is measured.
+fn accel_offset_sigma(config: &Config, per_sample_m_s2: f64) -> f64 {
+    if config.estimator.local_gravity_m_s2.is_none_or(|g| g <= 0.0) {
+        return 0.0;
+    }
+    let rest_s = config.run.brake_hold_s + config.control.settle_ramp_s + config.run.settle_s;
+    per_sample_m_s2 / (rest_s * config.sensors.sample_rate_hz).max(1.0).sqrt()
+}
+
 impl Planner {
     /// The planner of a loaded rig description. Errors: a geometry that cannot be built, or
     /// `estimator.params = 6` (the plan predicts the ten-parameter fit).
@@ -206,6 +219,7 @@ impl Planner {
                 load_cell_n: cell.noise_n.hypot(cell.resolution_n / 12f64.sqrt()),
                 gyro_rad_s: estimator.gyro_noise_rad_s,
                 accel_m_s2: estimator.accel_noise_m_s2,
+                accel_offset_m_s2: accel_offset_sigma(config, estimator.accel_noise_m_s2),
             },
             // The limits the controller checks every trajectory against before it moves, the
             // leg speed's at the plan's share of it.

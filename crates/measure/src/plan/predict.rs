@@ -20,6 +20,13 @@
 //! arm enters ω̇'s sensitivity (f_O = f_r − ω̇ × r − ω × (ω × r)); its centripetal part, second
 //! order in ω, is left out, as are the gyro bias and quantisation (constant, or far below the
 //! noise at the default datasheet).
+//!
+//! The accelerometer's vertical offset, measured as the mean reading at rest before the
+//! excitation, carries that mean's noise δ into every sample alike: a constant channel, whose
+//! score Σₜ uₜ δ passes the conditioning unchanged (the stencil's value weights and the
+//! low-pass both have unit gain at zero frequency), adding `A⁻¹ (σ_δ² s sᵀ) A⁻¹` with
+//! s = Σₜ Φₜᵀ W ∂(Φθ)/∂f_z (P's z: the vertical of a plate that tilts a degree or two). Near
+//! rest f ≈ g, so δ moves the mass by m δ/g.
 
 use estimator::conditioning::stencil_weights;
 use estimator::filter::{Biquad, LowPass};
@@ -39,6 +46,12 @@ pub struct ChannelNoise {
     pub gyro_rad_s: f64,
     /// Each accelerometer axis, m/s².
     pub accel_m_s2: f64,
+    /// The accelerometer's offset along gravity as the rest before the excitation measures it,
+    /// m/s² ([`estimator::AccelerometerOffset`]): the mean vertical reading less gravity,
+    /// subtracted from every later sample, so its noise (the per-sample noise over √(the
+    /// samples at rest)) is one constant error over the whole run. 0 when the offset is not
+    /// measured.
+    pub accel_offset_m_s2: f64,
 }
 
 /// What the estimator does with the samples.
@@ -122,6 +135,14 @@ pub fn covariance(
             })
         };
         channel(noise.gyro_rad_s.powi(2), &products, Some(gw));
+    }
+    if noise.accel_offset_m_s2 > 0.0 {
+        let vertical = sens(RegressorSignals {
+            specific_force_m_s2: Vector3::z(),
+            ..RegressorSignals::default()
+        });
+        let score: SVector<f64, 10> = phis.iter().map(|phi| phi.transpose() * w * vertical).sum();
+        b += score * score.transpose() * noise.accel_offset_m_s2.powi(2);
     }
     let cov = a_inv * b * a_inv;
     cov.iter().all(|v| v.is_finite()).then_some(cov)

@@ -30,6 +30,44 @@ fn brisk(planner: &Planner, duration_s: f64) -> Trajectory {
     .expect("trajectory")
 }
 
+/// The accelerometer's vertical offset alone: a constant error δ in the specific force, which
+/// the equations F = m f + … read as a mass error m δ/g near rest (f ≈ g), and the datasheet
+/// planner's figure of it: the noise over √(the samples at rest before the excitation).
+#[test]
+fn the_accelerometer_offset_moves_the_mass_by_m_delta_over_g() {
+    let (loaded, planner) = default_planner();
+    let trajectory = brisk(&planner, 6.0);
+    let theta = planner.payload + planner.fixture;
+    let offset = 2e-4;
+    let noise = ChannelNoise {
+        load_cell_n: 0.0,
+        gyro_rad_s: 0.0,
+        accel_m_s2: 0.0,
+        accel_offset_m_s2: offset,
+    };
+    let points = motion::sample(&trajectory, planner.conditioning.period_s);
+    let cov = predict::covariance(
+        &points,
+        &theta,
+        &planner.geometry,
+        &planner.conditioning,
+        &noise,
+    )
+    .expect("determined");
+    let expected = theta[0] * offset / stewart_types::STANDARD_GRAVITY_M_S2;
+    let mass_sigma = cov[(0, 0)].sqrt();
+    assert!(
+        (mass_sigma / expected - 1.0).abs() < 0.02,
+        "{mass_sigma} kg against m δ/g = {expected} kg"
+    );
+    let c = &loaded.config;
+    let samples =
+        (c.run.brake_hold_s + c.control.settle_ramp_s + c.run.settle_s) * c.sensors.sample_rate_hz;
+    let per_sample = planner.noise.accel_m_s2;
+    assert!((planner.noise.accel_offset_m_s2 - per_sample / samples.sqrt()).abs() < 1e-15);
+    assert!(planner.noise.accel_offset_m_s2 > 0.0);
+}
+
 /// The predicted covariance against the estimator itself, written apart from the prediction:
 /// the spread of its estimates over noise drawn at random must match the predicted sigma of
 /// every parameter (within the sampling spread of 40 draws, about ±11 % one sigma, and the
@@ -45,6 +83,7 @@ fn the_predicted_covariance_matches_the_estimators_spread_over_random_noise() {
         load_cell_n: 10.0 * planner.noise.load_cell_n,
         gyro_rad_s: 10.0 * planner.noise.gyro_rad_s,
         accel_m_s2: 10.0 * planner.noise.accel_m_s2,
+        accel_offset_m_s2: 0.0,
     };
     let period = planner.conditioning.period_s;
     let points = motion::sample(&trajectory, period);
