@@ -200,8 +200,16 @@ pub fn simulate(
     };
     // The calibration pass's log and file are named after the measurement's log.
     let mut log_path = None;
-    if args.calibrate_imu.is_none() && scenario.loaded.config.calibration.calibrates_imu_each_run()
-    {
+    let calibrates_imu = scenario.loaded.config.calibration.calibrates_imu_each_run();
+    let imu_uncertain = scenario.loaded.config.sensors.imu_alignment_uncertain();
+    if calibrates_imu && !imu_uncertain && !args.measure.shared.quiet {
+        eprintln!(
+            "note: calibration.measure_imu: the rig description gives the IMU's alignment \
+             exactly (sensors.imu misalignment_deg and position_tolerance_m, sensors.gyro \
+             scale_error and sensors.timing imu_skew_s all 0), so there is nothing to calibrate"
+        );
+    }
+    if args.calibrate_imu.is_none() && calibrates_imu && imu_uncertain {
         let log = common::log_path(&args.measure, runlog::run_log::unix_now_ns());
         let pass = calibration_pass(args, &log, interrupt)?;
         log_path = Some(log);
