@@ -204,8 +204,9 @@ pub fn unseen(
     gravity_b_m_s2: &Vector3<f64>,
 ) -> Unseen {
     let mut out = Unseen::zero();
+    let frame = MotionFrame::of(motion);
     for (leg, transverse) in out.transverse_n.iter_mut().enumerate() {
-        let one = leg_terms(geometry, leg, legs, motion, gravity_b_m_s2);
+        let one = leg_terms(geometry, leg, legs, motion, &frame, gravity_b_m_s2, true);
         out.dynamics.force_n += one.dynamics.force_n;
         out.dynamics.torque_nm += one.dynamics.torque_nm;
         out.friction.force_n += one.friction.force_n;
@@ -213,6 +214,50 @@ pub fn unseen(
         *transverse = one.transverse_n;
     }
     out
+}
+
+/// [`unseen`]'s [`Unseen::total`] alone, bit for bit: the same sums without the transverse
+/// forces (two axes a leg, [`transverse_axes`]), which compensating a wrench does not need.
+pub fn unseen_total(
+    geometry: &Geometry,
+    legs: &LegModel,
+    motion: &PlateMotion,
+    gravity_b_m_s2: &Vector3<f64>,
+) -> Wrench {
+    let (mut dynamics, mut friction) = (zero_wrench(), zero_wrench());
+    let frame = MotionFrame::of(motion);
+    for leg in 0..LEG_COUNT {
+        let one = leg_terms(geometry, leg, legs, motion, &frame, gravity_b_m_s2, false);
+        dynamics.force_n += one.dynamics.force_n;
+        dynamics.torque_nm += one.dynamics.torque_nm;
+        friction.force_n += one.friction.force_n;
+        friction.torque_nm += one.friction.torque_nm;
+    }
+    Unseen {
+        dynamics,
+        friction,
+        transverse_n: [[0.0; 2]; LEG_COUNT],
+    }
+    .total()
+}
+
+/// What every leg's terms share at one instant: the plate's rotation R (P → B), its inverse,
+/// and the angular velocity and acceleration in B, ω_B = R ω_P and ω̇_B = R ω̇_P.
+struct MotionFrame {
+    to_p: nalgebra::Rotation3<f64>,
+    w_b: Vector3<f64>,
+    wd_b: Vector3<f64>,
+}
+
+impl MotionFrame {
+    fn of(motion: &PlateMotion) -> Self {
+        let rot = motion.pose.rotation;
+        Self {
+            to_p: rot.inverse(),
+            w_b: rot * motion.angular_velocity_rad_s,
+            wd_b: rot * motion.angular_acceleration_rad_s2,
+        }
+    }
 }
 
 /// [`unseen`] of leg `leg` alone (its transverse force in `transverse_n[leg]`, the others
@@ -224,7 +269,8 @@ pub fn unseen_of_leg(
     motion: &PlateMotion,
     gravity_b_m_s2: &Vector3<f64>,
 ) -> Unseen {
-    let one = leg_terms(geometry, leg, legs, motion, gravity_b_m_s2);
+    let frame = MotionFrame::of(motion);
+    let one = leg_terms(geometry, leg, legs, motion, &frame, gravity_b_m_s2, true);
     let mut out = Unseen::zero();
     out.dynamics = one.dynamics;
     out.friction = one.friction;
@@ -241,13 +287,16 @@ struct LegTerms {
     transverse_n: [f64; 2],
 }
 
-/// [`unseen_of_leg`]'s terms; all zero for a leg of zero length or an index beyond the sixth.
+/// [`unseen_of_leg`]'s terms at the plate's `motion` (its `frame`); all zero for a leg of zero
+/// length or an index beyond the sixth; the transverse force only when `transverse`.
 fn leg_terms(
     geometry: &Geometry,
     leg: usize,
     legs: &LegModel,
     motion: &PlateMotion,
+    frame: &MotionFrame,
     gravity_b_m_s2: &Vector3<f64>,
+    transverse: bool,
 ) -> LegTerms {
     let mut out = LegTerms {
         dynamics: zero_wrench(),
@@ -261,9 +310,9 @@ fn leg_terms(
         return out;
     };
     let rot = motion.pose.rotation;
-    let to_p = rot.inverse();
-    let w_p = rot * motion.angular_velocity_rad_s;
-    let wd_p = rot * motion.angular_acceleration_rad_s2;
+    let to_p = frame.to_p;
+    let w_p = frame.w_b;
+    let wd_p = frame.wd_b;
     let g = *gravity_b_m_s2;
     let (m1, c1, m2, c2) = (
         legs.cylinder_mass_kg,
@@ -310,8 +359,10 @@ fn leg_terms(
     };
     out.dynamics = wrench(unseen_dyn, Vector3::zeros());
     out.friction = wrench(f_fric, t_plate);
-    let [e1, e2] = transverse_axes(&u);
-    out.transverse_n = [through_cell.dot(&e1), through_cell.dot(&e2)];
+    if transverse {
+        let [e1, e2] = transverse_axes(&u);
+        out.transverse_n = [through_cell.dot(&e1), through_cell.dot(&e2)];
+    }
     out
 }
 

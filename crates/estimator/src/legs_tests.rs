@@ -188,3 +188,26 @@ fn unseen_sums_the_legs() {
     let none = unseen_of_leg(&g, LEG_COUNT, &l, &m, &GRAVITY_B_M_S2).total();
     assert_eq!(none.force_n.norm() + none.torque_nm.norm(), 0.0);
 }
+
+/// The estimator's per-sample compensation, [`unseen_total`], is [`unseen`]'s total bit for
+/// bit, with the cells at either end and friction on, at several instants of a moving plate.
+#[test]
+fn the_total_alone_is_the_full_sums_total_bit_for_bit() {
+    let g = test_geometry();
+    for cell_end in [CellEnd::Plate, CellEnd::Base] {
+        let l = LegModel {
+            cell_end,
+            joint_coulomb_torque_nm: 1.0,
+            joint_viscous_nm_s_per_rad: 5.0,
+            ..legs()
+        };
+        for t in [0.1, 0.5, 1.7, 3.2] {
+            let m = motion_at(&g, t, 1e-4);
+            let full = unseen(&g, &l, &m, &GRAVITY_B_M_S2).total();
+            let total = unseen_total(&g, &l, &m, &GRAVITY_B_M_S2);
+            assert_eq!(total.force_n, full.force_n, "{cell_end:?} at {t} s");
+            assert_eq!(total.torque_nm, full.torque_nm, "{cell_end:?} at {t} s");
+            assert!(total.force_n.norm() > 0.0);
+        }
+    }
+}

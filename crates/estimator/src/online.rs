@@ -5,7 +5,7 @@ use crate::conditioning::{Conditioned, Conditioner, ConditioningConfig, Step, MA
 use crate::error::EstimatorError;
 use crate::estimate::{Counts, Estimate, ParameterCovariance};
 use crate::hold::{AccelerometerOffset, HoldAverage};
-use crate::legs::{unseen, LegModel};
+use crate::legs::{unseen_total, LegModel};
 use crate::regressor::{from_signals, inertia_columns, RegressorSignals};
 use crate::rls::Rls;
 use crate::timebase::Timing;
@@ -820,7 +820,7 @@ impl OnlineEstimator {
             }
         }
         if let (Some(legs), Some(motion)) = (&self.config.legs, &c.motion) {
-            let u = unseen(&self.config.geometry, legs, motion, &GRAVITY_B_M_S2).total();
+            let u = unseen_total(&self.config.geometry, legs, motion, &GRAVITY_B_M_S2);
             c.wrench.force_n += u.force_n;
             c.wrench.torque_nm += u.torque_nm;
         }

@@ -8,7 +8,7 @@
 //! the description: each `[legs]` figure moved by its tolerance ([`tolerance`], [`moved`]).
 //! Otherwise the legs' whole effect is the error.
 
-use estimator::legs::{unseen, PlateMotion};
+use estimator::legs::{unseen, unseen_total, PlateMotion};
 use estimator::wrench::to_vector;
 use nalgebra::{Vector3, Vector6};
 use stewart_types::GRAVITY_B_M_S2;
@@ -63,6 +63,29 @@ pub fn effects(data: &Data, motions: &[Option<PlateMotion>], legs: &LegsConfig) 
         out.transverse[i] = u.transverse_n;
     }
     out
+}
+
+/// The sum of [`effects`]' dynamics and friction at each entry, bit for bit, without the
+/// transverse forces ([`estimator::legs::unseen_total`]): what a moved `[legs]` figure changes
+/// in the wrench.
+pub fn totals(
+    data: &Data,
+    motions: &[Option<PlateMotion>],
+    legs: &LegsConfig,
+) -> Vec<Vector6<f64>> {
+    let model = legs.model();
+    motions
+        .iter()
+        .map(|m| match m {
+            Some(m) => to_vector(&unseen_total(
+                &data.model.geometry,
+                &model,
+                m,
+                &GRAVITY_B_M_S2,
+            )),
+            None => Vector6::zeros(),
+        })
+        .collect()
 }
 
 /// The `[legs]` figures the budget moves, in order: cylinder mass, cylinder centre, cylinder
@@ -145,6 +168,23 @@ mod tests {
             .iter()
             .chain(&none.friction)
             .all(|w| w.norm() == 0.0));
+    }
+
+    /// A moved figure's wrench change takes the totals alone: the effects' dynamics plus
+    /// friction bit for bit, zero where the record has no motion.
+    #[test]
+    fn the_totals_are_the_effects_sum_bit_for_bit() {
+        let data = still_data();
+        let idx: Vec<usize> = (2..data.entries.len() - 2).collect();
+        let m = motions(&data, &idx, 0.01);
+        let legs = moved(&testkit::default_legs(), 6, 0.3);
+        let fx = effects(&data, &m, &legs);
+        let totals = totals(&data, &m, &legs);
+        assert_eq!(totals.len(), fx.dynamics.len());
+        for (i, t) in totals.iter().enumerate() {
+            assert_eq!(*t, fx.dynamics[i] + fx.friction[i], "entry {i}");
+        }
+        assert!(totals[10].norm() > 1.0);
     }
 
     /// Each perturbation moves its own figure, by its tolerance, and nothing else.

@@ -302,20 +302,32 @@ pub fn analyse(
                 .map(move |s| (source, s))
         })
         .collect();
-    let done: Vec<(Effect, Option<Mode>)> = work
-        .par_iter()
-        .map(|(_, s)| {
-            let sigma = s.sigma(figures);
-            if !(sigma.is_finite() && sigma != 0.0) {
-                return ([0.0; 10], None);
-            }
-            let dr = s.residual_change(&ctx, sigma);
-            let mode = s
-                .is_smooth()
-                .then(|| rows.iter().map(|&k| dr[k]).collect::<Vec<Vector6<f64>>>());
-            (fit.effect(&dr).into(), mode)
-        })
-        .collect();
+    let six = matches!(data.model.mode, fit::Mode::Six { .. });
+    // The noise's prediction and the residual's spectrum need none of the errors' fits: they
+    // run beside them, so that the end of a run's budget is not one thread's serial tail.
+    let ((done, prediction), peak_hz) = rayon::join(
+        || {
+            rayon::join(
+                || {
+                    work.par_iter()
+                        .map(|(_, s)| {
+                            let sigma = s.sigma(figures);
+                            if !(sigma.is_finite() && sigma != 0.0) {
+                                return ([0.0; 10], None);
+                            }
+                            let dr = s.residual_change(&ctx, sigma);
+                            let mode = s.is_smooth().then(|| {
+                                rows.iter().map(|&k| dr[k]).collect::<Vec<Vector6<f64>>>()
+                            });
+                            (fit.effect(&dr).into(), mode)
+                        })
+                        .collect::<Vec<(Effect, Option<Mode>)>>()
+                },
+                || statistical::predict(&data, &fit, figures),
+            )
+        },
+        || rigid::residual_peak(&fit, &rows, &times, six),
+    );
     let mut modes = Vec::new();
     let mut done = work.iter().zip(done).peekable();
     for source in ErrorSource::ALL {
@@ -328,15 +340,14 @@ pub fn analyse(
             budget.effects.push(with_exact(source, effects, exact));
         }
     }
-    let prediction = statistical::predict(&data, &fit, figures);
     budget.jitter_share = prediction.jitter_share;
     budget.rigid_body = rigid::check(
         &fit,
         &rows,
         &modes,
         &prediction.noise_variance,
-        &times,
-        matches!(data.model.mode, fit::Mode::Six { .. }),
+        peak_hz,
+        six,
     );
     budget
 }

@@ -385,10 +385,8 @@ impl Scalar {
             Scalar::LegFigure(k) => {
                 // The built legs carry the figure off by σ; the compensation the described one.
                 let off = leg_model::moved(ctx.described, k, sigma);
-                let e = leg_model::effects(base, ctx.motions, &off);
-                wrench_only(&|i| {
-                    e.dynamics[i] + e.friction[i] - ctx.legs.dynamics[i] - ctx.legs.friction[i]
-                })
+                let e = leg_model::totals(base, ctx.motions, &off);
+                wrench_only(&|i| e[i] - ctx.legs.dynamics[i] - ctx.legs.friction[i])
             }
             Scalar::Joint(plate, leg, coord) => joint_change(ctx, plate, leg, coord, sigma),
             Scalar::AccelBias(axis) => with_data(&|d| {

@@ -47,39 +47,66 @@ pub fn subset(fit: &Fit) -> Vec<usize> {
     (0..n).step_by(step).collect()
 }
 
+/// The checked rows of a residual: the force rows, or with six parameters the torque rows
+/// about the centre of mass.
+fn checked_rows(six: bool) -> core::ops::Range<usize> {
+    if six {
+        3..6
+    } else {
+        0..3
+    }
+}
+
+/// `peak_hz` of the check on `fit`'s residual at the entries `rows` (from [`subset`]) at the
+/// entries' `times`: [`spectrum_peak`] of the checked rows. It needs neither the modelled
+/// errors nor the noise, so it runs beside them ([`super::analyse`]).
+pub fn residual_peak(fit: &Fit, rows: &[usize], times: &[f64], six: bool) -> f64 {
+    if rows.len() < 10 {
+        return f64::NAN;
+    }
+    let eq = checked_rows(six);
+    let series: Vec<[f64; 3]> = rows
+        .iter()
+        .map(|&row| {
+            let mut e = [0.0; 3];
+            for (j, r) in eq.clone().enumerate() {
+                e[j] = fit.r0[row][r];
+            }
+            e
+        })
+        .collect();
+    let t: Vec<f64> = rows.iter().map(|&k| times[fit.idx[k]]).collect();
+    spectrum_peak(&t, &series)
+}
+
 /// The check on `fit`'s residual at the entries `rows` (from [`subset`]), with the modelled
 /// errors' residual changes `modes` (each at those entries), the noise's predicted variance
-/// per entry `noise` (at every interior entry) and the entries' `times`.
+/// per entry `noise` (at every interior entry) and the residual spectrum's peak `peak_hz`
+/// (from [`residual_peak`]).
 pub fn check(
     fit: &Fit,
     rows: &[usize],
     modes: &[Vec<Vector6<f64>>],
     noise: &[Vector6<f64>],
-    times: &[f64],
+    peak_hz: f64,
     six: bool,
 ) -> Option<RigidBody> {
-    let eq = if six { 3..6 } else { 0..3 };
+    let eq = checked_rows(six);
     if rows.len() < 10 {
         return None;
     }
     let (mut sum_r, mut sum_v, mut sum_y) = (0.0, 0.0, 0.0);
-    let mut series = Vec::with_capacity(rows.len());
     for (k, &row) in rows.iter().enumerate() {
         let y = fit.r0[row] + fit.phi[row] * fit.theta;
-        let mut e = [0.0; 3];
-        for (j, r) in eq.clone().enumerate() {
+        for r in eq.clone() {
             let v = fit.r0[row][r];
-            e[j] = v;
             sum_r += v * v;
             sum_v += noise[row][r] + modes.iter().map(|m| m[k][r] * m[k][r]).sum::<f64>();
             sum_y += y[r] * y[r];
         }
-        series.push(e);
     }
     let floor = 1e-8 * sum_y;
     let ratio = (sum_r / (sum_v + floor)).sqrt();
-    let t: Vec<f64> = rows.iter().map(|&k| times[fit.idx[k]]).collect();
-    let peak_hz = spectrum_peak(&t, &series);
     Some(RigidBody {
         ok: ratio.is_finite() && ratio < RATIO_LIMIT,
         residual_ratio: ratio,

@@ -38,6 +38,14 @@ enum RunState {
 /// Frames handed to a replay's thread at a time.
 const BATCH_FRAMES: usize = 512;
 
+/// Batches a replay's thread may have waiting: 32 768 frames (33 s at 1 kHz, about 7 MB),
+/// whatever the log's length. Deep enough that the reader runs through a tare run (its
+/// estimator takes about 1.6 times the CPU of decoding and forward kinematics per frame)
+/// and starts the loaded run's replay while the tare's catches up on the other core: with a
+/// shallow queue the reader waits for the tare's estimator, and the loaded run's replay,
+/// the longest chain of work, starts only once the tare's frames are all in.
+const QUEUE_BATCHES: usize = 64;
+
 /// A frame's backend time and its sample (`None`: forward kinematics failed).
 type Fed = (f64, Option<estimator::Sample>);
 
@@ -65,8 +73,8 @@ struct Worker {
 impl Worker {
     fn start(mut replay: Replay) -> Result<Self> {
         let feed = replay.feed();
-        // A few batches in flight bound the memory whichever side is faster.
-        let (queue, batches) = std::sync::mpsc::sync_channel::<Vec<Fed>>(8);
+        // A bounded queue bounds the memory whichever side is faster.
+        let (queue, batches) = std::sync::mpsc::sync_channel::<Vec<Fed>>(QUEUE_BATCHES);
         let thread = std::thread::Builder::new()
             .name("replay".into())
             .spawn(move || {
