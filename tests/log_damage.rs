@@ -382,17 +382,9 @@ fn a_lost_chunk_restarts_the_filters_and_keeps_the_fit() {
     assert_eq!(damaged.data.damaged.len(), 1, "{:?}", damaged.data.damaged);
     assert_eq!(damaged.data.restarts, clean.data.restarts + 1);
     let gap = damaged.data.frames_lost - clean.data.frames_lost;
-    let config = &outcome.loaded.replay.config;
-    let warmup = estimator::Conditioner::new(estimator::ConditioningConfig {
-        sample_period_s: config.sample_period_s,
-        lowpass_cutoff_hz: config.lowpass_cutoff_hz,
-        accelerometer_position_m: config.accelerometer_position_m,
-        max_gap_s: config.max_gap_s,
-        max_rate_error: config.max_rate_error,
-        gyro_noise_rad_s: config.gyro_noise_rad_s,
-    })
-    .unwrap()
-    .warmup_samples() as u64;
+    let warmup = estimator::Conditioner::new(outcome.loaded.replay.config.conditioning())
+        .unwrap()
+        .warmup_samples() as u64;
     let lost = clean.samples - damaged.samples;
     // The gap's frames, the stencil's first three samples and the low-pass's warm-up (a frame
     // the clean log itself lost next to the gap moves the count by one or two).
