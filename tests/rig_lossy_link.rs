@@ -186,7 +186,7 @@ fn random_datagrams_at_both_sockets_are_counted_and_harmless() {
     assert_eq!(c.corrupt, 0);
     // The emulator decodes before it looks at the sender (it must answer strangers' Hellos),
     // so the stranger's junk shows there as corrupt, foreign or another version.
-    let e = stopped.stats();
+    let e = stopped.stats().core;
     assert!(
         e.foreign_sender + e.corrupt + e.version_mismatch > sent / 2,
         "{e:?}"

@@ -145,10 +145,10 @@ fn a_rig_that_does_not_fit_the_scenario_is_refused_before_any_motion() {
     );
     assert_eq!(error.exit_code(), 2);
     let stopped = emulator.stop().unwrap();
-    assert_eq!(stopped.stats().sessions, 2);
+    assert_eq!(stopped.stats().core.sessions, 2);
     // At most the safe stop of the host that got as far as checking the limits.
     assert!(
-        stopped.stats().commands_accepted <= 1,
+        stopped.stats().core.commands_accepted <= 1,
         "{:?}",
         stopped.stats()
     );
@@ -207,7 +207,7 @@ fn a_second_sender_cannot_move_the_platform_during_a_session() {
     let stopped = emulator.stop().unwrap();
     assert_eq!(outcome.end, End::Completed, "{:?}", outcome.failure);
     assert!(stopped.faults().is_empty(), "{:?}", stopped.faults());
-    let stats = stopped.stats();
+    let stats = stopped.stats().core;
     assert!(stats.foreign_sender >= 1000, "{stats:?}");
     // Every command the rig accepted came from the session's host, and every one the host
     // sent reached it (or is a sequence gap the rig counted). The host's count is over the
@@ -310,7 +310,7 @@ fn with_a_key_only_correctly_keyed_frames_count() {
     let stopped = emulator.stop().unwrap();
     assert_eq!(outcome.end, End::Completed, "{:?}", outcome.failure);
     assert_eq!(outcome.link[0].counters.auth_failed, 0);
-    let stats = stopped.stats();
+    let stats = stopped.stats().core;
     // Two refused Hellos and three bad commands.
     assert!(stats.auth_failed >= 5, "{stats:?}");
     // The hand-made session's only applied command was the keyed one: its watchdog then
