@@ -382,17 +382,9 @@ fn a_lost_chunk_restarts_the_filters_and_keeps_the_fit() {
     assert_eq!(damaged.data.damaged.len(), 1, "{:?}", damaged.data.damaged);
     assert_eq!(damaged.data.restarts, clean.data.restarts + 1);
     let gap = damaged.data.frames_lost - clean.data.frames_lost;
-    let config = &outcome.loaded.replay.config;
-    let warmup = estimator::Conditioner::new(estimator::ConditioningConfig {
-        sample_period_s: config.sample_period_s,
-        lowpass_cutoff_hz: config.lowpass_cutoff_hz,
-        accelerometer_position_m: config.accelerometer_position_m,
-        max_gap_s: config.max_gap_s,
-        max_rate_error: config.max_rate_error,
-        gyro_noise_rad_s: config.gyro_noise_rad_s,
-    })
-    .unwrap()
-    .warmup_samples() as u64;
+    let warmup = estimator::Conditioner::new(outcome.loaded.replay.config.conditioning())
+        .unwrap()
+        .warmup_samples() as u64;
     let lost = clean.samples - damaged.samples;
     // The gap's frames, the stencil's first three samples and the low-pass's warm-up (a frame
     // the clean log itself lost next to the gap moves the count by one or two).
@@ -418,4 +410,73 @@ fn a_lost_chunk_restarts_the_filters_and_keeps_the_fit() {
             100.0 * growth
         );
     }
+}
+
+/// Copies the log at `from` to `to` without its `/run/metadata` and without every message of
+/// its loaded run (`/sensors` blocks and `/run/estimator` settings): a tare-only log whose
+/// metadata was lost.
+fn tare_only_without_metadata(from: &Path, to: &Path) {
+    use prost::Message as _;
+    let bytes = std::fs::read(from).unwrap();
+    let file = std::io::BufWriter::new(std::fs::File::create(to).unwrap());
+    let mut out = mcap::Writer::new(file).unwrap();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        let run = match m.channel.topic.as_str() {
+            runlog::messages::METADATA => continue,
+            runlog::messages::SENSORS => runlog::proto::SensorBlock::decode(&m.data[..])
+                .unwrap()
+                .run
+                .clone(),
+            runlog::messages::ESTIMATOR_SETTINGS => {
+                serde_json::from_slice::<runlog::metadata::EstimatorSettings>(&m.data)
+                    .unwrap()
+                    .run
+            }
+            _ => String::new(),
+        };
+        if run != "loaded" {
+            out.write(&m).unwrap();
+        }
+    }
+    out.finish().unwrap();
+}
+
+/// With `/run/metadata` lost, `estimate --rig FILE` lists the measurements the log's frames
+/// hold, not both: `--save-tare` on a tare-only log saves the tare and ends there (exit 0)
+/// instead of going on to a loaded run the log does not hold, and a log holding both still
+/// goes on to it.
+#[test]
+fn with_the_metadata_lost_the_runs_listed_are_the_ones_the_frames_hold() {
+    let (run, _) = run();
+    let rig = run.dir.path().join("scenario.toml");
+    let rig_config = measure::load::load(Some(&rig)).unwrap();
+    let tare_only = run.dir.path().join("tare_only.mcap");
+    tare_only_without_metadata(&run.log, &tare_only);
+    let whole = run.dir.path().join("no_metadata.mcap");
+    support::copy_without(&run.log, &whole, runlog::messages::METADATA);
+
+    for (log, runs) in [(&tare_only, vec!["tare"]), (&whole, vec!["tare", "loaded"])] {
+        let mut contents = runlog::LogContents::read(log).unwrap();
+        assert!(contents.metadata.is_none());
+        contents.or_metadata_of(Some(&rig_config)).unwrap();
+        assert_eq!(contents.require_metadata().unwrap().runs, runs, "{log:?}");
+        let saved = stewart_cli::estimate::save_tare(&EstimateArgs {
+            rig: Some(rig.clone()),
+            save_tare: Some(run.dir.path().join("saved_tare.json")),
+            ..args(log)
+        })
+        .unwrap()
+        .expect("a tare saved");
+        assert_eq!(saved.has_loaded, runs.contains(&"loaded"), "{log:?}");
+    }
+
+    let tare = run.dir.path().join("tare_only.json");
+    let a = EstimateArgs {
+        rig: Some(rig),
+        save_tare: Some(tare.clone()),
+        ..args(&tare_only)
+    };
+    assert_eq!(stewart_cli::estimate::main(&a), 0);
+    assert!(tare.exists());
 }

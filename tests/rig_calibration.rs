@@ -16,19 +16,12 @@ fn rig_calibrate_imu_agrees_with_the_simulated_calibration_of_the_same_world() {
     let scratch = Scratch::new(RIG_SHORT);
     let emulator = start(&emulate_args(&scratch));
     let file = scratch.path("rig-imu.toml");
-    let args = rig_args(&[
-        "calibrate-imu",
-        "--out",
-        file.to_str().unwrap(),
-        "--config",
-        scratch.config_str(),
-        "--connect",
+    let args = rig_against(
+        &scratch.config,
         emulator.address(),
-        "--no-prompt",
-        "--log",
-        scratch.path("rig.mcap").to_str().unwrap(),
-        "--quiet",
-    ]);
+        &scratch.path("rig.mcap"),
+        &["calibrate-imu", "--out", file.to_str().unwrap()],
+    );
     let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));
     let sessions = emulator.sessions();
     let stopped = emulator.stop().unwrap();
@@ -88,19 +81,12 @@ fn rig_calibrate_load_cells_agrees_with_the_simulated_calibration_of_the_same_wo
     });
     let file = scratch.path("rig-cells.toml");
     let log = scratch.path("rig.mcap");
-    let args = rig_args(&[
-        "calibrate-load-cells",
-        "--out",
-        file.to_str().unwrap(),
-        "--config",
-        scratch.config_str(),
-        "--connect",
+    let args = rig_against(
+        &scratch.config,
         emulator.address(),
-        "--no-prompt",
-        "--log",
-        log.to_str().unwrap(),
-        "--quiet",
-    ]);
+        &log,
+        &["calibrate-load-cells", "--out", file.to_str().unwrap()],
+    );
     let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));
     let sessions = emulator.sessions();
     let stopped = emulator.stop().unwrap();
@@ -195,21 +181,18 @@ fn a_load_cell_calibration_cut_short_brakes_and_writes_nothing() {
         ..emulate_args(&scratch)
     });
     let file = scratch.path("cells.toml");
-    let args = rig_args(&[
-        "calibrate-load-cells",
-        "--out",
-        file.to_str().unwrap(),
-        "--config",
-        scratch.config_str(),
-        "--connect",
+    let args = rig_against(
+        &scratch.config,
         emulator.address(),
-        "--link-silence-ms",
-        "50",
-        "--no-prompt",
-        "--log",
-        scratch.path("rig.mcap").to_str().unwrap(),
-        "--quiet",
-    ]);
+        &scratch.path("rig.mcap"),
+        &[
+            "calibrate-load-cells",
+            "--out",
+            file.to_str().unwrap(),
+            "--link-silence-ms",
+            "50",
+        ],
+    );
     let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));
     // Give the safe stop time to arrive before the emulator is stopped.
     std::thread::sleep(std::time::Duration::from_millis(50));

@@ -16,18 +16,12 @@ fn tare_args(
     log: &std::path::Path,
     out: &std::path::Path,
 ) -> stewart_cli::rig::RigArgs {
-    rig_args(&[
-        "tare",
-        "--out",
-        out.to_str().unwrap(),
-        "--config",
-        scratch.config_str(),
-        "--connect",
+    rig_against(
+        &scratch.config,
         address,
-        "--log",
-        log.to_str().unwrap(),
-        "--quiet",
-    ])
+        log,
+        &["tare", "--out", out.to_str().unwrap()],
+    )
 }
 
 /// Waits (at most 10 s) until the host has opened a session with the emulator.

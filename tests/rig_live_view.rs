@@ -27,18 +27,12 @@ fn a_foxglove_client_watches_a_rig_run_live() {
     let emulator = start(&emulate_args(&scratch));
     let log = scratch.path("rig.mcap");
     let addr = free_port();
-    let args = rig_args(&[
-        "--config",
-        scratch.config_str(),
-        "--connect",
+    let args = rig_against(
+        &scratch.config,
         emulator.address(),
-        "--no-prompt",
-        "--log",
-        log.to_str().unwrap(),
-        "--quiet",
-        "--live",
-        &addr.to_string(),
-    ]);
+        &log,
+        &["--live", &addr.to_string()],
+    );
     let started = Instant::now();
     let run = std::thread::spawn(move || run_rig(&args).map_err(|e| e.to_string()));
 

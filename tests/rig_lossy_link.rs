@@ -85,18 +85,7 @@ fn dropped_and_corrupted_frames_are_counted_and_the_run_completes() {
         corrupt: 0.01,
         ..emulate_args(&scratch)
     });
-    let args = rig_args(&[
-        "tare",
-        "--out",
-        scratch.path("tare.json").to_str().unwrap(),
-        "--config",
-        scratch.config_str(),
-        "--connect",
-        emulator.address(),
-        "--log",
-        scratch.path("rig.mcap").to_str().unwrap(),
-        "--quiet",
-    ]);
+    let args = rig_tare(&scratch, emulator.address(), &[]);
     let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));
     let stopped = emulator.stop().unwrap();
     assert_eq!(outcome.end, End::Completed, "{:?}", outcome.failure);
@@ -151,18 +140,7 @@ fn random_datagrams_at_both_sockets_are_counted_and_harmless() {
     let scratch = Scratch::new(&quick());
     let emulator = start(&emulate_args(&scratch));
     let rig_addr = socket_of(emulator.address());
-    let args = rig_args(&[
-        "tare",
-        "--out",
-        scratch.path("tare.json").to_str().unwrap(),
-        "--config",
-        scratch.config_str(),
-        "--connect",
-        emulator.address(),
-        "--log",
-        scratch.path("rig.mcap").to_str().unwrap(),
-        "--quiet",
-    ]);
+    let args = rig_tare(&scratch, emulator.address(), &[]);
     let host = std::thread::spawn({
         let args = args.clone();
         move || run_rig(&args)
@@ -208,7 +186,7 @@ fn random_datagrams_at_both_sockets_are_counted_and_harmless() {
     assert_eq!(c.corrupt, 0);
     // The emulator decodes before it looks at the sender (it must answer strangers' Hellos),
     // so the stranger's junk shows there as corrupt, foreign or another version.
-    let e = stopped.stats();
+    let e = stopped.stats().core;
     assert!(
         e.foreign_sender + e.corrupt + e.version_mismatch > sent / 2,
         "{e:?}"

@@ -62,20 +62,17 @@ fn a_rig_measurement_agrees_with_truth_as_well_as_simulate() {
     let emulator = start(&emulate_args(&scratch));
     let log = scratch.path("rig.mcap");
     let report_path = scratch.path("rig.json");
-    let args = rig_args(&[
-        "--config",
-        scratch.config_str(),
-        "--connect",
+    let args = rig_against(
+        &scratch.config,
         emulator.address(),
-        "--no-prompt",
-        "--log",
-        log.to_str().unwrap(),
-        "--report",
-        report_path.to_str().unwrap(),
-        "--plot",
-        scratch.path("figures").to_str().unwrap(),
-        "--quiet",
-    ]);
+        &log,
+        &[
+            "--report",
+            report_path.to_str().unwrap(),
+            "--plot",
+            scratch.path("figures").to_str().unwrap(),
+        ],
+    );
     let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));
     let sessions = emulator.sessions();
     let stopped = emulator.stop().unwrap();

@@ -64,25 +64,6 @@ fn command(sequence: u64, force_n: f64) -> Message {
     })
 }
 
-fn tare_args(scratch: &Scratch, address: &str, extra: &[&str]) -> stewart_cli::rig::RigArgs {
-    let out = scratch.path("tare.json");
-    let log = scratch.path("rig.mcap");
-    let mut args = vec![
-        "tare",
-        "--out",
-        out.to_str().unwrap(),
-        "--config",
-        scratch.config_str(),
-        "--connect",
-        address,
-        "--log",
-        log.to_str().unwrap(),
-        "--quiet",
-    ];
-    args.extend_from_slice(extra);
-    rig_args(&args)
-}
-
 #[test]
 fn a_protocol_version_mismatch_is_refused_before_any_motion() {
     let scratch = Scratch::new(&quick());
@@ -115,7 +96,7 @@ fn a_protocol_version_mismatch_is_refused_before_any_motion() {
         }
         kinds
     });
-    let args = tare_args(&scratch, &address, &[]);
+    let args = rig_tare(&scratch, &address, &[]);
     let error = run_rig(&args).expect_err("refused");
     let heard = rig.join().unwrap();
     let message = error.to_string();
@@ -144,7 +125,7 @@ fn a_rig_that_does_not_fit_the_scenario_is_refused_before_any_motion() {
         "{}\n[platform]\nmax_leg_length_m = 2.35\n",
         quick()
     ));
-    let error = run_rig(&tare_args(&longer, emulator.address(), &[]))
+    let error = run_rig(&rig_tare(&longer, emulator.address(), &[]))
         .err()
         .unwrap();
     assert!(error.to_string().contains("stroke"), "{error}");
@@ -155,7 +136,7 @@ fn a_rig_that_does_not_fit_the_scenario_is_refused_before_any_motion() {
     assert_eq!(error.exit_code(), 2);
     let faster =
         Scratch::new(&quick().replace("sample_rate_hz = 500.0", "sample_rate_hz = 1000.0"));
-    let error = run_rig(&tare_args(&faster, emulator.address(), &[]))
+    let error = run_rig(&rig_tare(&faster, emulator.address(), &[]))
         .err()
         .unwrap();
     assert!(
@@ -164,10 +145,10 @@ fn a_rig_that_does_not_fit_the_scenario_is_refused_before_any_motion() {
     );
     assert_eq!(error.exit_code(), 2);
     let stopped = emulator.stop().unwrap();
-    assert_eq!(stopped.stats().sessions, 2);
+    assert_eq!(stopped.stats().core.sessions, 2);
     // At most the safe stop of the host that got as far as checking the limits.
     assert!(
-        stopped.stats().commands_accepted <= 1,
+        stopped.stats().core.commands_accepted <= 1,
         "{:?}",
         stopped.stats()
     );
@@ -180,7 +161,7 @@ fn a_second_sender_cannot_move_the_platform_during_a_session() {
     let scratch = Scratch::new(&quick());
     let emulator = start(&emulate_args(&scratch));
     let rig_addr = socket_of(emulator.address());
-    let args = tare_args(&scratch, emulator.address(), &[]);
+    let args = rig_tare(&scratch, emulator.address(), &[]);
     let host = std::thread::spawn({
         let args = args.clone();
         move || run_rig(&args)
@@ -226,7 +207,7 @@ fn a_second_sender_cannot_move_the_platform_during_a_session() {
     let stopped = emulator.stop().unwrap();
     assert_eq!(outcome.end, End::Completed, "{:?}", outcome.failure);
     assert!(stopped.faults().is_empty(), "{:?}", stopped.faults());
-    let stats = stopped.stats();
+    let stats = stopped.stats().core;
     assert!(stats.foreign_sender >= 1000, "{stats:?}");
     // Every command the rig accepted came from the session's host, and every one the host
     // sent reached it (or is a sequence gap the rig counted). The host's count is over the
@@ -253,7 +234,7 @@ fn with_a_key_only_correctly_keyed_frames_count() {
 
     // No key (--insecure), or the wrong one: refused by name, saying how to pair.
     let plain = Scratch::new(&quick().replace("key_file = \"rig.key\"\n", ""));
-    let error = run_rig(&tare_args(&plain, emulator.address(), &["--insecure"]))
+    let error = run_rig(&rig_tare(&plain, emulator.address(), &["--insecure"]))
         .err()
         .unwrap();
     assert!(
@@ -266,7 +247,7 @@ fn with_a_key_only_correctly_keyed_frames_count() {
     );
     assert_eq!(error.exit_code(), 2);
     let wrong = scratch.path("wrong.key");
-    let error = run_rig(&tare_args(
+    let error = run_rig(&rig_tare(
         &plain,
         emulator.address(),
         &["--key", wrong.to_str().unwrap()],
@@ -324,12 +305,12 @@ fn with_a_key_only_correctly_keyed_frames_count() {
     std::thread::sleep(Duration::from_millis(1200));
 
     // The CLI with the scenario's key: a whole run.
-    let outcome = run_rig(&tare_args(&scratch, emulator.address(), &[]))
+    let outcome = run_rig(&rig_tare(&scratch, emulator.address(), &[]))
         .unwrap_or_else(|e| panic!("rig: {e}"));
     let stopped = emulator.stop().unwrap();
     assert_eq!(outcome.end, End::Completed, "{:?}", outcome.failure);
     assert_eq!(outcome.link[0].counters.auth_failed, 0);
-    let stats = stopped.stats();
+    let stats = stopped.stats().core;
     // Two refused Hellos and three bad commands.
     assert!(stats.auth_failed >= 5, "{stats:?}");
     // The hand-made session's only applied command was the keyed one: its watchdog then

@@ -23,20 +23,7 @@ fn the_emulator_going_silent_is_a_fault_within_100_ms() {
         ..emulate_args(&scratch)
     });
     let log = scratch.path("rig.mcap");
-    let args = rig_args(&[
-        "tare",
-        "--out",
-        scratch.path("tare.json").to_str().unwrap(),
-        "--config",
-        scratch.config_str(),
-        "--connect",
-        emulator.address(),
-        "--link-silence-ms",
-        "50",
-        "--log",
-        log.to_str().unwrap(),
-        "--quiet",
-    ]);
+    let args = rig_tare(&scratch, emulator.address(), &["--link-silence-ms", "50"]);
     let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));
     let sessions = emulator.sessions();
     // Give the safe stop time to arrive before the emulator is stopped.

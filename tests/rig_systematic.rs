@@ -10,6 +10,7 @@ use measure::End;
 use measure::TareFile;
 use runlog::reestimate::{reestimate, SettingsOverride};
 use runlog::LogContents;
+use std::path::Path;
 use support::*;
 
 fn numbers(q: &Quantities) -> Vec<f64> {
@@ -27,11 +28,11 @@ fn budget_numbers(r: &Report) -> Vec<f64> {
         .collect()
 }
 
-/// Runs `rig ARGS` (with `--log LOG --quiet` added) to completion and returns its report.
-fn rig_report(args: &[&str], log: &std::path::Path) -> Report {
-    let mut all = args.to_vec();
-    all.extend(["--no-prompt", "--log", log.to_str().unwrap(), "--quiet"]);
-    let outcome = run_rig(&rig_args(&all)).unwrap_or_else(|e| panic!("rig: {e}"));
+/// Runs `rig OWN…` against the rig at `address` with the scenario `config`, logged to `log`
+/// ([`rig_against`]), to completion and returns its report.
+fn rig_report(config: &Path, address: &str, log: &Path, own: &[&str]) -> Report {
+    let outcome =
+        run_rig(&rig_against(config, address, log, own)).unwrap_or_else(|e| panic!("rig: {e}"));
     assert_eq!(outcome.end, End::Completed, "{:?}", outcome.failure);
     outcome
         .report
@@ -39,7 +40,7 @@ fn rig_report(args: &[&str], log: &std::path::Path) -> Report {
 }
 
 /// The rig's systematic sigma (and so its sigma) equals `estimate`'s on the same log.
-fn assert_systematic_as_estimate(rig: &Report, log: &std::path::Path) {
+fn assert_systematic_as_estimate(rig: &Report, log: &Path) {
     let log = LogContents::read(log).unwrap();
     let (offline, ..) = reestimate(&log, &SettingsOverride::default(), None, None).unwrap();
     eprintln!(
@@ -91,15 +92,10 @@ fn the_rig_reports_the_systematic_part_estimate_computes() {
     // Tare session, payload on, loaded session; the tare saved on the way.
     let log = scratch.path("rig.mcap");
     let report = rig_report(
-        &[
-            "--config",
-            scratch.config_str(),
-            "--connect",
-            emulator.address(),
-            "--save-tare",
-            tare_path.to_str().unwrap(),
-        ],
+        &scratch.config,
+        emulator.address(),
         &log,
+        &["--save-tare", tare_path.to_str().unwrap()],
     );
     assert!(report.systematic.load_cell_bias_sigma_n > 0.0);
     assert!(report.systematic.accel_bias_sigma_m_s2 > 0.0);
@@ -119,16 +115,10 @@ fn the_rig_reports_the_systematic_part_estimate_computes() {
     // third session: the payload stays on).
     let log = scratch.path("measure.mcap");
     let with_file = rig_report(
-        &[
-            "measure",
-            "--config",
-            scratch.config_str(),
-            "--connect",
-            emulator.address(),
-            "--tare",
-            tare_path.to_str().unwrap(),
-        ],
+        &scratch.config,
+        emulator.address(),
         &log,
+        &["measure", "--tare", tare_path.to_str().unwrap()],
     );
     assert_eq!(with_file.tare.source, "file");
     assert_systematic_as_estimate(&with_file, &log);
@@ -178,14 +168,11 @@ fn a_datasheet_figure_in_the_rig_description_reaches_the_rig_report() {
     )
     .unwrap();
     let mut reports = Vec::new();
-    for (name, config) in [
-        ("base", scratch.config_str()),
-        ("worse", worse.to_str().unwrap()),
-    ] {
+    for (name, config) in [("base", &scratch.config), ("worse", &worse)] {
         // A fresh emulator each: its first session is the empty fixture, the second loaded.
         let emulator = start(&emulate_args(&scratch));
         let log = scratch.path(&format!("{name}.mcap"));
-        let report = rig_report(&["--config", config, "--connect", emulator.address()], &log);
+        let report = rig_report(config, emulator.address(), &log, &[]);
         let settings = LogContents::read(&log).unwrap();
         let gyro = settings.settings_of("loaded").unwrap().gyro_noise_rad_s;
         reports.push((report, gyro));

@@ -223,6 +223,35 @@ pub fn rig_args(args: &[&str]) -> RigArgs {
     rig::parse(args).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// `stewart rig` against the rig at `address` as every end-to-end rig test starts it: the
+/// scenario `config` (a [`Scratch`]'s, which names the shared key [`TEST_KEY_HEX`]), logged to
+/// `log`, quiet, and never waiting for an operator (`--no-prompt`: the payload change between
+/// a tare and a loaded run goes on at once; a single-run mode has none). `own` is the test's
+/// own part: the mode (a subcommand first, or nothing for the two-run mode) and its flags.
+pub fn rig_against(config: &Path, address: &str, log: &Path, own: &[&str]) -> RigArgs {
+    let mut args = own.to_vec();
+    args.extend([
+        "--config",
+        config.to_str().unwrap(),
+        "--connect",
+        address,
+        "--log",
+        log.to_str().unwrap(),
+        "--no-prompt",
+        "--quiet",
+    ]);
+    rig_args(&args)
+}
+
+/// `stewart rig tare --out tare.json OWN…` against the rig at `address`, logged to `rig.mcap`,
+/// both in `scratch` ([`rig_against`]).
+pub fn rig_tare(scratch: &Scratch, address: &str, own: &[&str]) -> RigArgs {
+    let out = scratch.path("tare.json");
+    let mut args = vec!["tare", "--out", out.to_str().unwrap()];
+    args.extend_from_slice(own);
+    rig_against(&scratch.config, address, &scratch.path("rig.mcap"), &args)
+}
+
 /// Runs `stewart rig` through the library.
 pub fn run_rig(args: &RigArgs) -> Result<RigOutcome, CommandError> {
     static NEVER: AtomicBool = AtomicBool::new(false);

@@ -444,20 +444,20 @@ pub fn summary(s: &EmulatorStats) -> String {
          sequence), {} foreign, {} auth failed, {} corrupt, {} faults reported",
         s.ticks,
         s.overruns,
-        s.sessions,
+        s.core.sessions,
         s.sent,
         s.dropped_injected,
         s.corrupted_injected,
         s.delayed_injected,
         s.send_failed,
-        s.commands_accepted,
-        s.commands_lost,
-        s.duplicate,
-        s.out_of_sequence,
-        s.foreign_sender,
-        s.auth_failed,
-        s.corrupt,
-        s.faults_sent
+        s.core.commands_accepted,
+        s.core.commands_lost,
+        s.core.duplicate,
+        s.core.out_of_sequence,
+        s.core.foreign_sender,
+        s.core.auth_failed,
+        s.core.corrupt,
+        s.core.faults_sent
     )
 }
 

@@ -134,6 +134,20 @@ impl EstimatorConfig {
             local_gravity_m_s2: 0.0,
         }
     }
+
+    /// The conditioning stage's settings, as the estimator builds its conditioning
+    /// ([`Conditioner`]): the sample period, the low-pass, the accelerometer's position, the
+    /// gap and rate limits and the gyro's noise, each this configuration's own.
+    pub fn conditioning(&self) -> ConditioningConfig {
+        ConditioningConfig {
+            sample_period_s: self.sample_period_s,
+            lowpass_cutoff_hz: self.lowpass_cutoff_hz,
+            accelerometer_position_m: self.accelerometer_position_m,
+            max_gap_s: self.max_gap_s,
+            max_rate_error: self.max_rate_error,
+            gyro_noise_rad_s: self.gyro_noise_rad_s,
+        }
+    }
 }
 
 /// One sensor sample; every channel describes the same instant.
@@ -558,14 +572,7 @@ impl OnlineEstimator {
                 "local_gravity_m_s2 must be 0 (off) or a site's gravity, 9.7 to 9.9 m/s²",
             ));
         }
-        let conditioner = Conditioner::new(ConditioningConfig {
-            sample_period_s: config.sample_period_s,
-            lowpass_cutoff_hz: config.lowpass_cutoff_hz,
-            accelerometer_position_m: config.accelerometer_position_m,
-            max_gap_s: config.max_gap_s,
-            max_rate_error: config.max_rate_error,
-            gyro_noise_rad_s: config.gyro_noise_rad_s,
-        })?;
+        let conditioner = Conditioner::new(config.conditioning())?;
         if !(config.accel_noise_m_s2.is_finite() && config.accel_noise_m_s2 >= 0.0) {
             return Err(EstimatorError::InvalidConfig(
                 "accel_noise_m_s2 must be finite and not negative",

@@ -556,6 +556,58 @@ fn deterministic_and_windowed() {
     assert_eq!(counts.rejected, 0);
 }
 
+/// `EstimatorConfig::conditioning` carries each of the configuration's conditioning settings,
+/// and the estimator conditions with exactly those: the samples it withholds at the start are
+/// the stencil's three and the warm-up of a conditioner built from them, for cut-offs whose
+/// warm-ups differ.
+#[test]
+fn the_estimator_conditions_as_its_configuration_says() {
+    let mut c = config(Some(7.5), 2e-3);
+    c.accelerometer_position_m = Vector3::new(0.1, -0.2, 0.3);
+    c.max_gap_s = 0.05;
+    c.max_rate_error = 3e-4;
+    c.gyro_noise_rad_s = 2e-3;
+    assert_eq!(
+        c.conditioning(),
+        crate::conditioning::ConditioningConfig {
+            sample_period_s: 2e-3,
+            lowpass_cutoff_hz: Some(7.5),
+            accelerometer_position_m: Vector3::new(0.1, -0.2, 0.3),
+            max_gap_s: 0.05,
+            max_rate_error: 3e-4,
+            gyro_noise_rad_s: 2e-3,
+        }
+    );
+    let body = PointBody::vehicle_like();
+    let g = test_geometry();
+    let mut rng = StdRng::seed_from_u64(5);
+    let mut warmups = Vec::new();
+    for cutoff in [Some(5.0), Some(40.0)] {
+        let c = config(cutoff, 1e-3);
+        let warmup = crate::conditioning::Conditioner::new(c.conditioning())
+            .unwrap()
+            .warmup_samples() as u64;
+        let mut e = OnlineEstimator::new(c).unwrap();
+        for k in 0..1000 {
+            let s = synthetic_sample(
+                &g,
+                &body,
+                &Motion::rich(),
+                k as f64 * 1e-3,
+                &Vector3::zeros(),
+                &SensorNoise::default(),
+                &mut rng,
+            );
+            e.update(&s).unwrap();
+        }
+        let counts = e.counts();
+        assert_eq!(counts.conditioning, 3 + warmup, "cut-off {cutoff:?}");
+        assert_eq!(counts.used, 1000 - 3 - warmup, "cut-off {cutoff:?}");
+        warmups.push(warmup);
+    }
+    assert!(warmups[0] > warmups[1], "{warmups:?}");
+}
+
 mod robustness {
     use super::*;
     use crate::error::ErrorKind;

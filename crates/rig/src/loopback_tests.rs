@@ -220,9 +220,9 @@ fn host_and_emulator_run_a_session() {
     );
     assert_eq!(stats.corrupt + stats.foreign_sender + stats.auth_failed, 0);
     assert!(emulator.faults().is_empty(), "{:?}", emulator.faults());
-    assert_eq!(emulator.stats().sessions, 1);
+    assert_eq!(emulator.stats().core.sessions, 1);
     // 300 commands and the safe stop sent on drop (a few may still be in flight under load).
-    let accepted = emulator.stats().commands_accepted;
+    let accepted = emulator.stats().core.commands_accepted;
     assert!((295..=301).contains(&accepted), "{accepted}");
     // Dropping the host sent a safe stop, and the emulator ends braked.
     assert!(!emulator.inner().applied.last().unwrap().enable);
@@ -389,11 +389,11 @@ fn a_second_sender_cannot_command_during_a_session() {
     let emulator = rig.finish();
     assert_eq!(emulator.inner().max_enabled_force(), 10.0);
     assert!(
-        emulator.stats().foreign_sender >= 5,
+        emulator.stats().core.foreign_sender >= 5,
         "{:?}",
         emulator.stats()
     );
-    assert_eq!(emulator.stats().sessions, 1);
+    assert_eq!(emulator.stats().core.sessions, 1);
 }
 
 fn stray_fault(code: FaultCode) -> Fault {
@@ -453,7 +453,7 @@ fn with_a_key_unkeyed_and_wrongly_keyed_frames_are_dropped() {
     assert!(matches!(message, Message::Sensor(_)));
     std::thread::sleep(Duration::from_millis(10));
     let emulator = rig.finish();
-    let stats = emulator.stats();
+    let stats = emulator.stats().core;
     assert_eq!(emulator.inner().max_enabled_force(), 6.0);
     assert_eq!(stats.commands_accepted, 2);
     // Two refused hellos, three bad commands.
@@ -487,7 +487,7 @@ fn a_version_mismatch_is_refused_before_any_motion() {
     peer.send(rig_addr, &command(1, 100.0), None);
     std::thread::sleep(Duration::from_millis(5));
     let emulator = rig.finish();
-    assert_eq!(emulator.stats().sessions, 0);
+    assert_eq!(emulator.stats().core.sessions, 0);
     assert_eq!(emulator.inner().max_enabled_force(), 0.0);
 
     // The host refuses a rig that answers in another version, naming both.
@@ -927,7 +927,7 @@ fn random_datagrams_at_both_sockets_are_counted_and_harmless() {
     drop(host);
     let emulator = rig.finish();
     assert_eq!(stats.foreign_sender, 100, "{stats}");
-    assert!(emulator.stats().corrupt + emulator.stats().foreign_sender >= 100);
+    assert!(emulator.stats().core.corrupt + emulator.stats().core.foreign_sender >= 100);
     assert_eq!(emulator.inner().max_enabled_force(), 2.0);
 }
 
@@ -1054,7 +1054,7 @@ fn a_braking_command_with_garbage_forces_reaches_the_backend_as_zeros() {
     host.wait_until_applied(10.0);
     let emulator = rig.finish();
     assert!(emulator.faults().is_empty(), "{:?}", emulator.faults());
-    assert_eq!(emulator.stats().commands_accepted, 3);
+    assert_eq!(emulator.stats().core.commands_accepted, 3);
     assert_eq!(emulator.inner().max_enabled_force(), 10.0);
     assert!(emulator
         .inner()

@@ -100,15 +100,14 @@ impl RunMetadata {
     /// What a log whose `/run/metadata` was lost to damage is read with: the platform and
     /// the sample period of the rig description `rig` (`stewart estimate --rig FILE`), the
     /// run's own facts unknown (`command`, `backend` and `noise` say `unknown`; no seed, no
-    /// start time). `runs` lists both measurements: which ones ran is read from the frames.
+    /// start time). `runs` is empty: what was planned is lost with the metadata, and the
+    /// reader lists the measurements whose frames the log holds
+    /// ([`crate::LogContents::or_metadata_of`], [`crate::reestimate::stream::tare_of_file`]).
     /// Errors: `rig`'s platform is refused.
     pub fn of_rig(rig: &measure::LoadedConfig) -> Result<Self> {
         let geometry = measure::setup::geometry(rig)
             .map_err(|e| anyhow::anyhow!("the rig description's platform is refused: {e}"))?;
-        Ok(Self {
-            runs: vec!["tare".into(), "loaded".into()],
-            ..Self::describing(rig, &geometry, UNKNOWN, UNKNOWN)
-        })
+        Ok(Self::describing(rig, &geometry, UNKNOWN, UNKNOWN))
     }
 }
 

@@ -4,6 +4,7 @@ use std::time::Duration;
 
 use control::io::LEG_COUNT;
 
+use crate::firmware::CoreStats;
 use crate::key::Key;
 use crate::transport::Peer;
 use crate::wire::{Fault, Limits, SensorLayout};
@@ -81,16 +82,16 @@ impl EmulatorConfig {
     }
 }
 
-/// What the emulator did and saw.
+/// What the emulator did and saw: its own counters (the clock, the link's injected damage)
+/// and the rig core's ([`CoreStats`]), said once there.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct EmulatorStats {
     /// Sample periods run.
     pub ticks: u64,
     /// Ticks that started more than one period late (the machine could not keep up).
     pub overruns: u64,
-    /// Sessions opened.
-    pub sessions: u64,
-    /// Sensor frames produced in sessions (including dropped ones).
+    /// Sensor frames offered to the link in sessions (including dropped ones; none once
+    /// `stop_after_frames` silenced the emulator, which the core still assembles and counts).
     pub sensor_frames: u64,
     /// Sensor frames put on the link.
     pub sent: u64,
@@ -100,33 +101,12 @@ pub struct EmulatorStats {
     pub corrupted_injected: u64,
     /// Sensor frames delayed by fault injection.
     pub delayed_injected: u64,
-    /// Frames received, of any kind and from anyone.
-    pub received: u64,
-    /// Commands accepted from the session's host.
-    pub commands_accepted: u64,
-    /// Gaps in the command sequence.
-    pub commands_lost: u64,
-    /// Commands repeating the last sequence.
-    pub duplicate: u64,
-    /// Commands older than the last accepted.
-    pub out_of_sequence: u64,
-    /// Frames from addresses other than the session's host.
-    pub foreign_sender: u64,
-    /// Frames whose tag was missing, unexpected or wrong.
-    pub auth_failed: u64,
-    /// Damaged frames.
-    pub corrupt: u64,
-    /// Frames of another protocol version or protocol.
-    pub version_mismatch: u64,
-    /// Valid frames of a kind the rig does not take (or commands outside a session).
-    pub unexpected: u64,
-    /// Fault reports sent.
-    pub faults_sent: u64,
-    /// Ticks in a session during which the brakes were applied.
-    pub braked_ticks: u64,
     /// Sensor frames the link would not take (a serial output buffer full because the host
     /// stopped reading, a UDP send refused): dropped, as rig firmware must, never waited for.
     pub send_failed: u64,
+    /// The rig core's counters: sessions, frames received and refused, commands, faults,
+    /// braked ticks.
+    pub core: CoreStats,
 }
 
 /// What a session hook learns when a host opens a session.

@@ -38,8 +38,7 @@ use rand::{Rng, SeedableRng};
 use crate::codec::MAX_FRAME_LEN;
 use crate::error::RigError;
 use crate::firmware::{
-    CoreConfig, CoreEvent, CoreKey, CoreStats, FrameKind, Outbox, RigCore, OUTBOX_EVENTS,
-    OUTBOX_FRAMES,
+    CoreConfig, CoreEvent, CoreKey, FrameKind, Outbox, RigCore, OUTBOX_EVENTS, OUTBOX_FRAMES,
 };
 use crate::transport::{self, Address, Peer, Recv, Transport};
 use crate::wire::{identity_from_str, Command, Fault};
@@ -399,36 +398,7 @@ where
 
     /// Copies the rig core's counters into the emulator's.
     fn sync_stats(&mut self) {
-        let CoreStats {
-            sessions,
-            received,
-            commands_accepted,
-            commands_lost,
-            duplicate,
-            out_of_sequence,
-            foreign_sender,
-            auth_failed,
-            corrupt,
-            version_mismatch,
-            unexpected,
-            faults_sent,
-            braked_ticks,
-            sensor_frames: _,
-        } = *self.core.stats();
-        let s = &mut self.stats;
-        s.sessions = sessions;
-        s.received = received;
-        s.commands_accepted = commands_accepted;
-        s.commands_lost = commands_lost;
-        s.duplicate = duplicate;
-        s.out_of_sequence = out_of_sequence;
-        s.foreign_sender = foreign_sender;
-        s.auth_failed = auth_failed;
-        s.corrupt = corrupt;
-        s.version_mismatch = version_mismatch;
-        s.unexpected = unexpected;
-        s.faults_sent = faults_sent;
-        s.braked_ticks = braked_ticks;
+        self.stats.core = *self.core.stats();
     }
 
     /// Puts a sensor frame of the rig core on the link through the injected damage.

@@ -165,6 +165,9 @@ struct Stream<'a> {
     /// The measurements replayed (`tare` only when no tare file is given).
     wanted: Vec<&'static str>,
     meta: Option<RunMetadata>,
+    /// `meta` is the rig description's ([`RunMetadata::of_rig`]): its `runs` are the
+    /// measurements whose frames are read.
+    meta_of_rig: bool,
     rig: Option<LoadedConfig>,
     settings: Vec<EstimatorSettings>,
     tare: Option<TareFile>,
@@ -229,6 +232,7 @@ impl Stream<'_> {
     fn metadata_lost(&mut self) -> Result<()> {
         if let Some(rig) = self.rig_arg {
             self.adopt(RunMetadata::of_rig(rig)?)?;
+            self.meta_of_rig = true;
         }
         Ok(())
     }
@@ -243,6 +247,11 @@ impl Stream<'_> {
             self.sequences = Some((a.sequence, b.sequence));
         }
         let run = std::mem::take(&mut self.scratch.run);
+        if let Some(meta) = self.meta.as_mut().filter(|_| self.meta_of_rig) {
+            if !frames.is_empty() && !meta.runs.contains(&run) {
+                meta.runs.push(run.clone());
+            }
+        }
         for f in frames {
             self.frame(&run, f);
         }
@@ -407,7 +416,8 @@ pub struct StreamedTare {
     pub tare: TareFile,
     /// The tare run's replay.
     pub run: RunEstimate,
-    /// The log plans a loaded run too (`/run/metadata`'s `runs`).
+    /// The log plans a loaded run too (`/run/metadata`'s `runs`; with that metadata lost,
+    /// the log holds frames of one).
     pub has_loaded: bool,
     /// What the log lost.
     pub damage: Damage,
@@ -457,6 +467,7 @@ impl<'a> Stream<'a> {
             rig_arg: rig,
             wanted,
             meta: None,
+            meta_of_rig: false,
             rig: None,
             settings: Vec::new(),
             tare: None,
