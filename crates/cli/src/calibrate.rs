@@ -24,6 +24,29 @@ pub fn reference_mass_kg(loaded: &LoadedConfig) -> Result<f64, ConfigError> {
     })
 }
 
+/// Readies `loaded` for the load-cell calibration's runs (a tare run, then the reference body
+/// in the payload's place): the reference's mass must be given ([`reference_mass_kg`]); no
+/// load-cell calibration is applied (the gains are fitted on the raw readings); and the loaded
+/// run's feed-forward ([`measure::setup::feedforward_load`]) takes the reference as its owner
+/// knows it instead of `[plan.payload]`: its certified mass, centred on the plate, with the
+/// inertia of a steel cube of that mass (its centre of mass and inertia need not be known; what
+/// the guess misses is left to the leg loops).
+pub fn prepare_reference_runs(loaded: &mut LoadedConfig) -> Result<(), ConfigError> {
+    let mass_kg = reference_mass_kg(loaded)?;
+    let c = &mut loaded.config;
+    c.calibration.load_cells = None;
+    c.calibration.load_cells_file = None;
+    const STEEL_KG_M3: f64 = 7850.0;
+    let side_m = (mass_kg / STEEL_KG_M3).cbrt();
+    let moment = mass_kg * side_m * side_m / 6.0;
+    c.plan.payload = measure::config::BodyPrior {
+        mass_kg,
+        com_m: [0.0, 0.0, side_m / 2.0],
+        inertia_com_kg_m2: [[moment, 0.0, 0.0], [0.0, moment, 0.0], [0.0, 0.0, moment]],
+    };
+    Ok(())
+}
+
 /// The gains fitted on `outcome` (a tare run, then the loaded run with the reference body), as
 /// the calibration file of `backend` with the rig description `loaded`, dated by `start_ns`.
 pub fn load_cell_calibration(
@@ -242,6 +265,34 @@ mod tests {
     use crate::simulate::{simulate, SimulateArgs};
     use measure::calibration::CalibrationDocument;
     use measure::sources::ErrorSource;
+
+    /// The reference runs' feed-forward load: the fixture plus a 1000 kg steel cube (side
+    /// 0.503 m, m s²/6 = 42.2 kg·m² about each axis) centred on the plate, a consistent body; a
+    /// description without the reference's mass is refused naming the key.
+    #[test]
+    fn the_reference_runs_feed_forward_a_steel_cube_of_the_certified_mass() {
+        let mut loaded = measure::load::load_str("", "default").unwrap();
+        super::prepare_reference_runs(&mut loaded).unwrap();
+        let c = &loaded.config;
+        let load = measure::setup::feedforward_load(c, measure::Measurement::Loaded, None)
+            .expect("a load");
+        let expected = c.plan.fixture.mass_kg + 1000.0;
+        assert!((load.mass_kg - expected).abs() < 1e-9, "{}", load.mass_kg);
+        let cube = c.plan.payload.parameters();
+        assert!(cube.consistency().is_consistent());
+        let moment = cube.inertia_com_kg_m2().expect("a body")[(0, 0)];
+        assert!((moment - 1000.0 * (1000.0f64 / 7850.0).cbrt().powi(2) / 6.0).abs() < 1e-9);
+        assert!((moment - 42.2).abs() < 0.1, "{moment}");
+        assert!(c.calibration.load_cells.is_none());
+
+        let mut without = measure::load::load_str("", "default").unwrap();
+        without.config.calibration.reference_mass_kg = None;
+        let err = super::prepare_reference_runs(&mut without).unwrap_err();
+        assert!(
+            err.to_string().contains("calibration.reference_mass_kg"),
+            "{err}"
+        );
+    }
 
     /// `simulate --calibrate-load-cells FILE --seed 7 --only load_cell_scale` recovers the
     /// gains the simulated rig drew: the fit alone to its truncation error (no other

@@ -187,9 +187,7 @@ pub fn simulate(
     let calibrating_cells = args.calibrate_load_cells.is_some();
     if calibrating_cells {
         // The gains are fitted on the raw readings, against a rigid reference body.
-        crate::calibrate::reference_mass_kg(&scenario.loaded)?;
-        scenario.loaded.config.calibration.load_cells = None;
-        scenario.loaded.config.calibration.load_cells_file = None;
+        crate::calibrate::prepare_reference_runs(&mut scenario.loaded)?;
         scenario.world.suspension.enabled = false;
     }
     // The body put on for the loaded run: the payload, or the reference.

@@ -27,10 +27,7 @@ pub(super) fn prepare(
         loaded.config.calibration.imu = None;
         loaded.config.calibration.imu_file = None;
     } else if calibrating_cells {
-        // The gains are fitted on the raw readings, against the reference's known mass.
-        crate::calibrate::reference_mass_kg(loaded)?;
-        loaded.config.calibration.load_cells = None;
-        loaded.config.calibration.load_cells_file = None;
+        crate::calibrate::prepare_reference_runs(loaded)?;
     } else if loaded.config.calibration.calibrates_imu_each_run() && !quiet {
         eprintln!(
             "note: calibration.measure_imu calibrates the IMU in `stewart simulate` only; on a \
