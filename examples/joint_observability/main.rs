@@ -2,7 +2,10 @@
 //! combinations of the 36 joint coordinates the IMU and the load cells observe, and what
 //! knowing them would do to the error budget's `geometry` line of the payload's estimate.
 //!
-//! `cargo run --release --example joint_observability [-- SEED]`
+//! `cargo run --release --example joint_observability [-- SEED [REPORT.json]]`, REPORT.json
+//! the default procedure's report of the same seed (`stewart simulate --duration 20 --seed
+//! SEED --report REPORT.json`, its IMU calibrated first): the payload's whole sigma with the
+//! joints' line replaced is then that report's.
 //!
 //! 1. One default session on the simulated rig (`--duration 20`: tare run, loaded run); the
 //!    budget's joint effects of both runs give the payload's sensitivity to each joint
@@ -103,6 +106,12 @@ fn main() -> anyhow::Result<()> {
         Some(s) => s.parse().context("the seed is a whole number")?,
         None => 1,
     };
+    // The default procedure's report of the same seed (its IMU calibrated before the runs,
+    // which this session leaves out): its whole sigma is what the joints' line is part of.
+    let default_report: Option<measure::Report> = match std::env::args().nth(2) {
+        Some(path) => Some(serde_json::from_str(&std::fs::read_to_string(&path)?)?),
+        None => None,
+    };
     let rig = measure::load::load(None)?.with_overrides(&Overrides {
         duration_s: Some(20.0),
         params: None,
@@ -110,7 +119,11 @@ fn main() -> anyhow::Result<()> {
     let g = setup::geometry(&rig)?;
     let world = sim::scenario::Scenario::new(rig.clone(), Some(seed), None)?;
     let tare = setup::controller(&rig, &g, setup::tare_trajectory(&rig, &g)?)?;
-    let loaded = setup::controller(&rig, &g, setup::trajectory(&rig, &g, rig.config.run.duration_s)?)?;
+    let loaded = setup::controller(
+        &rig,
+        &g,
+        setup::trajectory(&rig, &g, rig.config.run.duration_s)?,
+    )?;
     let plan = SessionPlan {
         config: &rig,
         geometry: g,
@@ -132,9 +145,18 @@ fn main() -> anyhow::Result<()> {
     let Some(TareSource::Measured(tare_file, effects)) = &outcome.tare else {
         anyhow::bail!("no measured tare");
     };
-    let lb = loaded.budget.as_ref().context("the loaded run has no budget")?;
-    let tb = effects.budget.as_ref().context("the tare run has no budget")?;
-    let record = effects.record.as_ref().context("the tare run has no record")?;
+    let lb = loaded
+        .budget
+        .as_ref()
+        .context("the loaded run has no budget")?;
+    let tb = effects
+        .budget
+        .as_ref()
+        .context("the tare run has no budget")?;
+    let record = effects
+        .record
+        .as_ref()
+        .context("the tare run has no record")?;
     let estimate = loaded.estimate.as_ref().context("no loaded estimate")?;
     let theta = estimate.parameters.to_vector() - tare_file.parameters().to_vector();
 
@@ -143,7 +165,10 @@ fn main() -> anyhow::Result<()> {
         lb.effects_of(ErrorSource::Geometry),
         tb.effects_of(ErrorSource::Geometry),
     );
-    anyhow::ensure!(lk.len() == JOINTS && tk.len() == JOINTS, "36 joint effects per run");
+    anyhow::ensure!(
+        lk.len() == JOINTS && tk.len() == JOINTS,
+        "36 joint effects per run"
+    );
     let s = Sensitivity::from_fn(|i, k| (lk[k][i] - tk[k][i]) / sigma);
 
     println!("sigma of the payload's estimate from the joints (the budget's `geometry` line)");
@@ -155,7 +180,10 @@ fn main() -> anyhow::Result<()> {
         line("report's geometry line", q);
     }
     let prior = DMatrix::identity(JOINTS, JOINTS) * sigma * sigma;
-    line("prior: σ = tolerance per coordinate", &geometry_line(&theta, &s, &prior));
+    line(
+        "prior: σ = tolerance per coordinate",
+        &geometry_line(&theta, &s, &prior),
+    );
 
     let sensors = &rig.config.sensors;
     let tare_q = measure::report::quantities(&Estimate::from_parameters(
@@ -182,38 +210,158 @@ fn main() -> anyhow::Result<()> {
     let poses = observe::static_poses(&g, 0.05, 5.0);
     let (hold_s, move_s) = (10.0, 5.0);
     let gauge = observe::gauge(&g);
+    println!(
+        "first-order pose step against full forward kinematics, joints moved by σ: largest \
+         relative difference {:.1e}",
+        observe::linearisation_error(&g, &built, &poses, sigma)
+    );
     let com = Vector3::from(tare_q.com);
 
     let cases: [(&str, bool, bool, bool, bool); 7] = [
         ("tare motion: gyro", true, false, false, false),
         ("tare motion: accelerometer", false, true, false, false),
-        ("tare motion: gyro + accelerometer", true, true, false, false),
+        (
+            "tare motion: gyro + accelerometer",
+            true,
+            true,
+            false,
+            false,
+        ),
         ("static tilts: accelerometer", false, false, true, false),
         ("tare motion + static tilts", true, true, true, false),
-        ("static cells, fixture and reference", false, false, false, true),
+        (
+            "static cells, fixture and reference",
+            false,
+            false,
+            false,
+            true,
+        ),
         ("all of the above", true, true, true, true),
     ];
     let mut notes = Vec::new();
+    let mut run =
+        |name: &str, d: &Datasheet, poses: &[kinematics::Pose], hold_s: f64, which: [bool; 4]| {
+            let [gyro, accel, tilts, cells] = which;
+            let mut info = Information::new(observe::priors(d));
+            if gyro || accel {
+                observe::add_motion(&mut info, &g, &built, &entries, d, Dynamic { gyro, accel });
+            }
+            if tilts {
+                observe::add_tilts(&mut info, &g, &built, poses, hold_s, d);
+            }
+            if cells {
+                observe::add_static_wrench(&mut info, &g, &built, poses, hold_s, move_s, com, d);
+            }
+            let p = info.joint_covariance();
+            let q = geometry_line(&theta, &s, &p);
+            line(name, &q);
+            notes.push(format!("{name:<44} {}", directions(&p, sigma, &gauge)));
+            q
+        };
+    let mut short = Quantities::default();
     for (name, gyro, accel, tilts, cells) in cases {
-        let mut info = Information::new(observe::priors(&d));
-        if gyro || accel {
-            observe::add_motion(&mut info, &g, &built, &entries, &d, Dynamic { gyro, accel });
-        }
-        if tilts {
-            observe::add_tilts(&mut info, &g, &built, &poses, hold_s, &d);
-        }
-        if cells {
-            observe::add_static_wrench(&mut info, &g, &built, &poses, hold_s, move_s, com, &d);
-        }
-        let p = info.joint_covariance();
-        line(name, &geometry_line(&theta, &s, &p));
-        notes.push(format!("{name:<44} {}", directions(&p, sigma, &gauge)));
+        short = run(name, &d, &poses, hold_s, [gyro, accel, tilts, cells]);
     }
+    // A longer procedure over the whole stroke, and the structural limit.
+    let wide = observe::static_poses(&g, 0.15, 12.0);
+    let name = format!("all, {} poses ±150 mm ±12°, 60 s holds", wide.len());
+    let long = run(&name, &d, &wide, 60.0, [true; 4]);
+    run(
+        "  the same: static tilts alone",
+        &d,
+        &wide,
+        60.0,
+        [false, false, true, false],
+    );
+    run(
+        "  the same: static cells alone",
+        &d,
+        &wide,
+        60.0,
+        [false, false, false, true],
+    );
+    let rough = Datasheet {
+        cell_floor_n: 0.3,
+        ..d
+    };
+    run(
+        "  the same, cells' floor 0.3 N",
+        &rough,
+        &wide,
+        60.0,
+        [true; 4],
+    );
+    let quiet = Datasheet {
+        gyro_density: d.gyro_density / 100.0,
+        accel_density: d.accel_density / 100.0,
+        cell_noise_n: d.cell_noise_n / 100.0,
+        cell_floor_n: d.cell_floor_n / 100.0,
+        ..d
+    };
+    run(
+        "all, every sensor's noise / 100",
+        &quiet,
+        &poses,
+        hold_s,
+        [true; 4],
+    );
+    for (i, n) in ["gyro", "accelerometer", "static tilts", "static cells"]
+        .iter()
+        .enumerate()
+    {
+        let mut w = [false; 4];
+        w[i] = true;
+        run(
+            &format!("  noise / 100: {n} alone"),
+            &quiet,
+            &poses,
+            hold_s,
+            w,
+        );
+    }
+    run(
+        "all, noise / 100, wide poses",
+        &quiet,
+        &wide,
+        60.0,
+        [true; 4],
+    );
     // The floor: every combination but the frames' rigid motions known exactly.
     let floor = &gauge * gauge.transpose() * sigma * sigma;
-    line("floor: only the frames' rigid motions left", &geometry_line(&theta, &s, &floor));
+    line(
+        "floor: only the frames' rigid motions left",
+        &geometry_line(&theta, &s, &floor),
+    );
     let rest = DMatrix::identity(JOINTS, JOINTS) * sigma * sigma - &floor;
-    line("the rest: all but the frames' rigid motions", &geometry_line(&theta, &s, &rest));
+    line(
+        "the rest: all but the frames' rigid motions",
+        &geometry_line(&theta, &s, &rest),
+    );
+    // The payload's whole sigma with the geometry line replaced (sources add in quadrature).
+    println!();
+    println!("the payload's whole sigma (every source)");
+    let prior_q = geometry_line(&theta, &s, &prior).flat();
+    let whole_report = default_report.as_ref().unwrap_or(&report);
+    if let Some(q) = default_report
+        .as_ref()
+        .and_then(|r| r.budget_line("geometry"))
+    {
+        line("the given report's geometry line", q);
+    }
+    let whole = whole_report.sigma.flat();
+    line("report", &whole_report.sigma);
+    for (name, q) in [
+        ("with the short procedure's geometry line", short),
+        ("with the long procedure's", long),
+    ] {
+        let q = q.flat();
+        let v: [f64; 10] = core::array::from_fn(|i| {
+            (whole[i].powi(2) - prior_q[i].powi(2) + q[i].powi(2))
+                .max(0.0)
+                .sqrt()
+        });
+        line(name, &Quantities::from_flat(&v));
+    }
     println!();
     println!(
         "{} static poses ({} s each, {} s between), {} record entries of the tare motion",

@@ -163,7 +163,10 @@ impl Information {
 }
 
 /// Central differences of a uniformly sampled series (interior points; the ends copy).
-fn derivative<const D: usize>(x: &[nalgebra::SVector<f64, D>], h: f64) -> Vec<nalgebra::SVector<f64, D>> {
+fn derivative<const D: usize>(
+    x: &[nalgebra::SVector<f64, D>],
+    h: f64,
+) -> Vec<nalgebra::SVector<f64, D>> {
     let n = x.len();
     (0..n)
         .map(|i| {
@@ -171,6 +174,21 @@ fn derivative<const D: usize>(x: &[nalgebra::SVector<f64, D>], h: f64) -> Vec<na
             (x[b] - x[a]) / ((b - a) as f64 * h)
         })
         .collect()
+}
+
+/// Three centred moving averages of five entries (50 ms at 100 Hz; the window shrinks at the
+/// ends): far above the excitation's frequencies.
+fn smooth<const D: usize>(x: &[nalgebra::SVector<f64, D>]) -> Vec<nalgebra::SVector<f64, D>> {
+    let n = x.len();
+    let mut y = x.to_vec();
+    for _ in 0..3 {
+        let z = y.clone();
+        for (i, v) in y.iter_mut().enumerate() {
+            let (a, b) = (i.saturating_sub(2), (i + 2).min(n - 1));
+            *v = z[a..=b].iter().sum::<nalgebra::SVector<f64, D>>() / (b - a + 1) as f64;
+        }
+    }
+    y
 }
 
 /// Which of the IMU's readings of the motion enter.
@@ -198,24 +216,66 @@ pub fn add_motion(
     let poses: Vec<Pose> = entries.iter().map(|e| e.pose()).collect();
     let changes: Vec<[Vector6<f64>; JOINTS]> =
         poses.iter().map(|p| pose_change(g, built, p)).collect();
-    let gyro: Vec<Vector3<f64>> = entries.iter().map(|e| e.gyro_rad_s).collect();
-    let accel: Vec<Vector3<f64>> = entries.iter().map(|e| e.accel_m_s2).collect();
+    // The motion's rate, acceleration and specific force from the kinematics, smoothed alike
+    // with the joints' changes: the regressors of the nuisances then carry neither the IMU's
+    // noise nor the encoders' (a noisy regressor would look independent of a smooth one and
+    // fake information).
+    let rot: Vec<Matrix3<f64>> = poses.iter().map(|p| *p.rotation.matrix()).collect();
+    let gyro = smooth(
+        &(0..n)
+            .map(|i| {
+                let (a, b) = (i.saturating_sub(1), (i + 1).min(n - 1));
+                let s = rot[i].transpose() * (rot[b] - rot[a]) / ((b - a) as f64 * h);
+                Vector3::new(
+                    s[(2, 1)] - s[(1, 2)],
+                    s[(0, 2)] - s[(2, 0)],
+                    s[(1, 0)] - s[(0, 1)],
+                ) * 0.5
+            })
+            .collect::<Vec<_>>(),
+    );
+    let position: Vec<Vector3<f64>> = poses.iter().map(|p| p.position_m).collect();
+    let acc = smooth(&derivative(&derivative(&smooth(&position), h), h));
+    let accel: Vec<Vector3<f64>> = (0..n)
+        .map(|i| rot[i].transpose() * (acc[i] - GRAVITY_B_M_S2))
+        .collect();
+    // The IMU's rotation and the accelerometer's position act as a rotation and a
+    // translation of the plate's frame: their columns go through the same differences and
+    // smoothing as the joints' (an IMU turned by ψ reads Rᵀ d(Rψ)/dt = ω × ψ; one moved by
+    // r, Rᵀ d²(R r)/dt² = (ω̇× + ω×ω×) r).
+    let mut turn = vec![Matrix3::zeros(); n];
+    let mut lever = vec![Matrix3::zeros(); n];
+    for c in 0..3 {
+        let e: Vec<Vector3<f64>> = rot.iter().map(|r| r.column(c).into()).collect();
+        let rate = smooth(&derivative(&e, h));
+        let acc = smooth(&derivative(&derivative(&smooth(&e), h), h));
+        for i in 0..n {
+            turn[i].set_column(c, &(rot[i].transpose() * rate[i]));
+            lever[i].set_column(c, &(rot[i].transpose() * acc[i]));
+        }
+    }
     let gyro_dot = derivative(&gyro, h);
     let accel_dot = derivative(&accel, h);
     // Per joint: δφ's rate and δp's acceleration along the record.
     let mut phi_rate = vec![[Vector3::zeros(); JOINTS]; n];
     let mut p_acc = vec![[Vector3::zeros(); JOINTS]; n];
     for k in 0..JOINTS {
-        let phi: Vec<Vector3<f64>> = changes.iter().map(|c| c[k].fixed_rows::<3>(3).into()).collect();
-        let p: Vec<Vector3<f64>> = changes.iter().map(|c| c[k].fixed_rows::<3>(0).into()).collect();
-        let rate = derivative(&phi, h);
-        let acc = derivative(&derivative(&p, h), h);
+        let phi: Vec<Vector3<f64>> = changes
+            .iter()
+            .map(|c| c[k].fixed_rows::<3>(3).into())
+            .collect();
+        let p: Vec<Vector3<f64>> = changes
+            .iter()
+            .map(|c| c[k].fixed_rows::<3>(0).into())
+            .collect();
+        let rate = smooth(&derivative(&phi, h));
+        let acc = smooth(&derivative(&derivative(&smooth(&p), h), h));
         for i in 0..n {
             phi_rate[i][k] = rate[i];
             p_acc[i][k] = acc[i];
         }
     }
-    for i in 2..n - 2 {
+    for i in 8..n - 8 {
         let e = &entries[i];
         let rt = poses[i].rotation.inverse();
         let samples = f64::from(e.samples.max(1));
@@ -229,9 +289,8 @@ pub fn add_motion(
                 for k in 0..JOINTS {
                     r[k] = (rt * phi_rate[i][k])[axis];
                 }
-                let s = skew(&w);
                 for c in 0..3 {
-                    r[PSI + c] = s[(axis, c)];
+                    r[PSI + c] = turn[i][(axis, c)];
                 }
                 let sym = [
                     [w.x, 0.0, 0.0, w.y, w.z, 0.0],
@@ -252,10 +311,9 @@ pub fn add_motion(
                     r[k] = (rt * (skew(&a_minus_g) * phi + p_acc[i][k]))[axis];
                 }
                 let s = skew(&f);
-                let lever = skew(&wd) + skew(&w) * skew(&w);
                 for c in 0..3 {
                     r[PSI + c] = s[(axis, c)];
-                    r[LEVER + c] = lever[(axis, c)];
+                    r[LEVER + c] = lever[i][(axis, c)];
                 }
                 r[ACCEL_SCALE + axis] = f[axis];
                 r[ACCEL_BIAS + axis] = 1.0;
@@ -392,18 +450,19 @@ pub fn add_static_wrench(
                 })
                 .collect();
             // The body's parameters through the drawing's map: ∂f/∂θ = −M⁻¹ ∂W/∂θ.
-            let body = |mass: f64, com: &Vector3<f64>, mi: usize, ci: usize, r: &mut [f64], leg: usize| {
-                let dm = lu.solve(&weight(pose, 1.0, com)).expect("regular");
-                r[mi] = -dm[leg];
-                for c in 0..3 {
-                    let mut e = Vector3::zeros();
-                    e[c] = 1.0;
-                    let fz = pose.rotation.inverse() * (-GRAVITY_B_M_S2) * mass;
-                    let dt = e.cross(&fz);
-                    let dw = Vector6::new(0.0, 0.0, 0.0, dt.x, dt.y, dt.z);
-                    r[ci + c] = -lu.solve(&dw).expect("regular")[leg];
-                }
-            };
+            let body =
+                |mass: f64, com: &Vector3<f64>, mi: usize, ci: usize, r: &mut [f64], leg: usize| {
+                    let dm = lu.solve(&weight(pose, 1.0, com)).expect("regular");
+                    r[mi] = -dm[leg];
+                    for c in 0..3 {
+                        let mut e = Vector3::zeros();
+                        e[c] = 1.0;
+                        let fz = pose.rotation.inverse() * (-GRAVITY_B_M_S2) * mass;
+                        let dt = e.cross(&fz);
+                        let dw = Vector6::new(0.0, 0.0, 0.0, dt.x, dt.y, dt.z);
+                        r[ci + c] = -lu.solve(&dw).expect("regular")[leg];
+                    }
+                };
             for leg in 0..6 {
                 let mut r = DVector::zeros(N);
                 for k in 0..JOINTS {
@@ -412,7 +471,14 @@ pub fn add_static_wrench(
                 r[GAIN + leg] = f[leg];
                 r[OFFSET[series] + leg] = 1.0;
                 r[DRIFT[series] + leg] = minutes;
-                body(d.fixture_kg, &fixture_com, FIXTURE_MASS, FIXTURE_COM, r.as_mut_slice(), leg);
+                body(
+                    d.fixture_kg,
+                    &fixture_com,
+                    FIXTURE_MASS,
+                    FIXTURE_COM,
+                    r.as_mut_slice(),
+                    leg,
+                );
                 if series == 1 {
                     body(
                         d.reference_kg,
@@ -433,7 +499,10 @@ pub fn add_static_wrench(
 /// moved by one small rigid motion (t + ψ × b_i), and all plate joints likewise.
 pub fn gauge(g: &Geometry) -> DMatrix<f64> {
     let mut m = DMatrix::zeros(JOINTS, 12);
-    for (frame, joints) in [g.base_joints_m(), g.plate_joints_m()].into_iter().enumerate() {
+    for (frame, joints) in [g.base_joints_m(), g.plate_joints_m()]
+        .into_iter()
+        .enumerate()
+    {
         for dof in 0..6 {
             let col = frame * 6 + dof;
             for (leg, j) in joints.iter().enumerate() {
@@ -449,4 +518,32 @@ pub fn gauge(g: &Geometry) -> DMatrix<f64> {
         }
     }
     m.qr().q()
+}
+
+/// The largest difference, over `poses` and every joint moved by `sigma`, between the pose
+/// full forward kinematics on the drawing gives for the built rig's leg lengths and the
+/// first-order step the information uses, relative to the step's size: a check of the
+/// linearisation against an independent solver.
+pub fn linearisation_error(g: &Geometry, built: &[Geometry], poses: &[Pose], sigma: f64) -> f64 {
+    let options = kinematics::FkOptions {
+        tolerance_m: 1e-13,
+        ..Default::default()
+    };
+    let mut worst: f64 = 0.0;
+    for pose in poses {
+        let changes = pose_change(g, built, pose);
+        for (k, change) in changes.iter().enumerate() {
+            let lengths = moved(g, k, sigma).leg_lengths(pose);
+            let Ok(fk) = g.forward_kinematics(&lengths, pose, &options) else {
+                return f64::INFINITY;
+            };
+            let dp = fk.pose.position_m - pose.position_m;
+            let dr = fk.pose.rotation * pose.rotation.inverse();
+            let v = dr.scaled_axis();
+            let exact = Vector6::new(dp.x, dp.y, dp.z, v.x, v.y, v.z);
+            let step = change * sigma;
+            worst = worst.max((exact - step).norm() / step.norm().max(1e-12));
+        }
+    }
+    worst
 }
