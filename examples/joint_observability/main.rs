@@ -204,6 +204,13 @@ fn main() -> anyhow::Result<()> {
         reference_kg: rig.config.calibration.reference_mass_kg.unwrap_or(1000.0),
         reference_tolerance_kg: rig.config.calibration.reference_mass_tolerance_kg,
         fixture_kg: tare_q.mass,
+        misalignment_rad: sensors.imu.misalignment_deg.to_radians(),
+        gyro_scale: sensors.gyro.scale_error,
+        gyro_bias: sensors.gyro.bias_rad_s,
+        accel_bias: sensors.accelerometer.bias_m_s2,
+        imu_position_m: sensors.imu.position_tolerance_m,
+        imu_skew_s: sensors.timing.imu_skew_s,
+        free: 10.0,
     };
     let built = observe::built_all(&g);
     let entries = record.entries();
@@ -262,6 +269,14 @@ fn main() -> anyhow::Result<()> {
     for (name, gyro, accel, tilts, cells) in cases {
         short = run(name, &d, &poses, hold_s, [gyro, accel, tilts, cells]);
     }
+    let tight = Datasheet { free: 1.0, ..d };
+    run(
+        "  the same, fitted parameters at datasheet",
+        &tight,
+        &poses,
+        hold_s,
+        [true; 4],
+    );
     // A longer procedure over the whole stroke, and the structural limit.
     let wide = observe::static_poses(&g, 0.15, 12.0);
     let name = format!("all, {} poses ±150 mm ±12°, 60 s holds", wide.len());
@@ -280,6 +295,14 @@ fn main() -> anyhow::Result<()> {
         60.0,
         [false, false, false, true],
     );
+    let tight = Datasheet { free: 1.0, ..d };
+    run(
+        "  the same, fitted parameters at datasheet",
+        &tight,
+        &wide,
+        60.0,
+        [true; 4],
+    );
     let rough = Datasheet {
         cell_floor_n: 0.3,
         ..d
@@ -289,6 +312,20 @@ fn main() -> anyhow::Result<()> {
         &rough,
         &wide,
         60.0,
+        [true; 4],
+    );
+    let tenth = Datasheet {
+        gyro_density: d.gyro_density / 10.0,
+        accel_density: d.accel_density / 10.0,
+        cell_noise_n: d.cell_noise_n / 10.0,
+        cell_floor_n: d.cell_floor_n / 10.0,
+        ..d
+    };
+    run(
+        "all, every sensor's noise / 10",
+        &tenth,
+        &poses,
+        hold_s,
         [true; 4],
     );
     let quiet = Datasheet {

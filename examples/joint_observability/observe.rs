@@ -60,11 +60,20 @@ pub struct Datasheet {
     pub reference_kg: f64,
     pub reference_tolerance_kg: f64,
     pub fixture_kg: f64,
+    pub misalignment_rad: f64,
+    pub gyro_scale: f64,
+    pub gyro_bias: f64,
+    pub accel_bias: f64,
+    pub imu_position_m: f64,
+    pub imu_skew_s: f64,
+    /// The prior of what the calibrations fit freely, in datasheet figures.
+    pub free: f64,
 }
 
 /// Prior sigma of every parameter: the joints' tolerance; the datasheet's figure for what no
-/// calibration fits (accelerometer scales, gains, drift, the reference's certificate); ten
-/// datasheet figures or a loose bound for what the fits take freely.
+/// calibration fits (accelerometer scales, gains, drift, the reference's certificate);
+/// `free` datasheet figures (the IMU's axes, scales, biases, position and delay, the cells'
+/// zero offsets) or a loose bound (the bodies) for what the fits take freely.
 pub fn priors(d: &Datasheet) -> DVector<f64> {
     let mut p = DVector::zeros(N);
     let mut set = |from: usize, n: usize, v: f64| {
@@ -73,15 +82,15 @@ pub fn priors(d: &Datasheet) -> DVector<f64> {
         }
     };
     set(0, JOINTS, d.joint_m);
-    set(PSI, 3, 0.5f64.to_radians());
-    set(GYRO_SYM, 6, 5e-3);
-    set(GYRO_BIAS, 3, 2e-4);
-    set(ACCEL_BIAS, 3, 1e-2);
+    set(PSI, 3, d.free * d.misalignment_rad);
+    set(GYRO_SYM, 6, d.free * d.gyro_scale);
+    set(GYRO_BIAS, 3, d.free * d.gyro_bias);
+    set(ACCEL_BIAS, 3, d.free * d.accel_bias);
     set(ACCEL_SCALE, 3, d.accel_scale);
-    set(LEVER, 3, 1e-2);
-    set(DELAY, 1, 1e-3);
+    set(LEVER, 3, d.free * d.imu_position_m);
+    set(DELAY, 1, d.free * d.imu_skew_s);
     set(GAIN, 6, d.gain);
-    set(OFFSET[0], 12, 10.0 * d.cell_offset_n);
+    set(OFFSET[0], 12, d.free * d.cell_offset_n);
     set(DRIFT[0], 12, d.drift_n_per_min);
     set(FIXTURE_MASS, 1, 100.0);
     set(FIXTURE_COM, 3, 0.1);
