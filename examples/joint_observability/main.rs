@@ -21,6 +21,7 @@
 //! The simulator's drawn joints are never read.
 
 mod observe;
+mod statics;
 
 use std::sync::atomic::AtomicBool;
 
@@ -214,7 +215,7 @@ fn main() -> anyhow::Result<()> {
     };
     let built = observe::built_all(&g);
     let entries = record.entries();
-    let poses = observe::static_poses(&g, 0.05, 5.0);
+    let poses = statics::static_poses(&g, 0.05, 5.0);
     let (hold_s, move_s) = (10.0, 5.0);
     let gauge = observe::gauge(&g);
     println!(
@@ -254,10 +255,10 @@ fn main() -> anyhow::Result<()> {
                 observe::add_motion(&mut info, &g, &built, &entries, d, Dynamic { gyro, accel });
             }
             if tilts {
-                observe::add_tilts(&mut info, &g, &built, poses, hold_s, d);
+                statics::add_tilts(&mut info, &g, &built, poses, hold_s, d);
             }
             if cells {
-                observe::add_static_wrench(&mut info, &g, &built, poses, hold_s, move_s, com, d);
+                statics::add_static_wrench(&mut info, &g, &built, poses, hold_s, move_s, com, d);
             }
             let p = info.joint_covariance();
             let q = geometry_line(&theta, &s, &p);
@@ -278,7 +279,7 @@ fn main() -> anyhow::Result<()> {
         [true; 4],
     );
     // A longer procedure over the whole stroke, and the structural limit.
-    let wide = observe::static_poses(&g, 0.15, 12.0);
+    let wide = statics::static_poses(&g, 0.15, 12.0);
     let name = format!("all, {} poses ±150 mm ±12°, 60 s holds", wide.len());
     let long = run(&name, &d, &wide, 60.0, [true; 4]);
     run(

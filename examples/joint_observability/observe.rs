@@ -16,55 +16,73 @@
 
 use kinematics::{Geometry, Pose};
 use measure::record::Entry;
-use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector3, Vector6};
 use stewart_types::GRAVITY_B_M_S2;
 
 /// Joint coordinates: base legs 0..6 × xyz, then plate legs 0..6 × xyz (the budget's order).
 pub const JOINTS: usize = 36;
 /// The IMU's rotation against P (gyro and accelerometer alike).
-const PSI: usize = 36;
+pub const PSI: usize = 36;
 /// The gyro's symmetric matrix error (scales, non-orthogonality): xx yy zz xy xz yz.
-const GYRO_SYM: usize = 39;
-const GYRO_BIAS: usize = 45;
-const ACCEL_BIAS: usize = 48;
-const ACCEL_SCALE: usize = 51;
-const LEVER: usize = 54;
-const DELAY: usize = 57;
-const GAIN: usize = 58;
+pub const GYRO_SYM: usize = 39;
+pub const GYRO_BIAS: usize = 45;
+pub const ACCEL_BIAS: usize = 48;
+pub const ACCEL_SCALE: usize = 51;
+pub const LEVER: usize = 54;
+pub const DELAY: usize = 57;
+pub const GAIN: usize = 58;
 /// Zero offsets of the cells, one set per static series (fixture alone, with the reference).
-const OFFSET: [usize; 2] = [64, 70];
+pub const OFFSET: [usize; 2] = [64, 70];
 /// Zero drift of the cells, one set per static series.
-const DRIFT: [usize; 2] = [76, 82];
-const FIXTURE_MASS: usize = 88;
-const FIXTURE_COM: usize = 89;
-const REFERENCE_MASS: usize = 92;
-const REFERENCE_COM: usize = 93;
+pub const DRIFT: [usize; 2] = [76, 82];
+pub const FIXTURE_MASS: usize = 88;
+pub const FIXTURE_COM: usize = 89;
+pub const REFERENCE_MASS: usize = 92;
+pub const REFERENCE_COM: usize = 93;
 /// Every parameter.
 pub const N: usize = 96;
 
 /// The figures the rows and priors read.
 #[derive(Clone, Copy, Debug)]
 pub struct Datasheet {
+    /// `platform.joint_position_tolerance_m`, m.
     pub joint_m: f64,
+    /// `sensors.sample_rate_hz`.
     pub rate_hz: f64,
+    /// Gyro noise density, rad/s/√Hz.
     pub gyro_density: f64,
+    /// Accelerometer noise density, m/s²/√Hz.
     pub accel_density: f64,
+    /// Accelerometer scale error (not fitted: its datasheet prior).
     pub accel_scale: f64,
+    /// Load-cell gain error (its datasheet prior).
     pub gain: f64,
+    /// Load-cell noise per sample, N.
     pub cell_noise_n: f64,
+    /// Load-cell zero offset, N.
     pub cell_offset_n: f64,
+    /// Load-cell zero drift, N/min.
     pub drift_n_per_min: f64,
     /// What a cell's static mean carries besides its noise (crosstalk, the legs' weight
     /// against their described figures), N.
     pub cell_floor_n: f64,
+    /// The reference weight, kg.
     pub reference_kg: f64,
+    /// Its certificate's sigma, kg.
     pub reference_tolerance_kg: f64,
+    /// The fixture's mass (the tare's estimate), kg.
     pub fixture_kg: f64,
+    /// The IMU's misalignment, rad.
     pub misalignment_rad: f64,
+    /// Gyro scale error.
     pub gyro_scale: f64,
+    /// Gyro bias, rad/s.
     pub gyro_bias: f64,
+    /// Accelerometer bias, m/s².
     pub accel_bias: f64,
+    /// The IMU's position tolerance, m.
     pub imu_position_m: f64,
+    /// The IMU's delay, s.
     pub imu_skew_s: f64,
     /// The prior of what the calibrations fit freely, in datasheet figures.
     pub free: f64,
@@ -112,10 +130,10 @@ pub fn moved(g: &Geometry, k: usize, h: f64) -> Geometry {
 }
 
 /// The step of finite differences, m.
-const H: f64 = 1e-5;
+pub const H: f64 = 1e-5;
 
 /// d x̂ / dδ_k at `pose` for every joint: column k = [δp; δφ] per metre.
-fn pose_change(g: &Geometry, built: &[Geometry], pose: &Pose) -> [Vector6<f64>; JOINTS] {
+pub fn pose_change(g: &Geometry, built: &[Geometry], pose: &Pose) -> [Vector6<f64>; JOINTS] {
     let lu = g.jacobian(pose).lu();
     let l0 = g.leg_lengths(pose);
     core::array::from_fn(|k| {
@@ -129,17 +147,20 @@ pub fn built_all(g: &Geometry) -> Vec<Geometry> {
     (0..JOINTS).map(|k| moved(g, k, H)).collect()
 }
 
-fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
+pub fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
     v.cross_matrix()
 }
 
 /// Information accumulated in whitened parameters.
 pub struct Information {
+    /// Every parameter's prior sigma ([`priors`]).
     prior: DVector<f64>,
-    pub lambda: DMatrix<f64>,
+    /// Λ = I + Σ h hᵀ / σ², whitened.
+    lambda: DMatrix<f64>,
 }
 
 impl Information {
+    /// The prior alone: Λ = I.
     pub fn new(prior: DVector<f64>) -> Self {
         Self {
             prior,
@@ -148,7 +169,7 @@ impl Information {
     }
 
     /// One row h (unwhitened: residual per unit parameter) with noise sigma.
-    fn row(&mut self, h: &DVector<f64>, sigma: f64) {
+    pub fn row(&mut self, h: &DVector<f64>, sigma: f64) {
         let w = h.component_mul(&self.prior) / sigma;
         self.lambda.ger(1.0, &w, &w, 1.0);
     }
@@ -328,177 +349,6 @@ pub fn add_motion(
                 r[ACCEL_BIAS + axis] = 1.0;
                 r[DELAY] = fd[axis];
                 info.row(&r, sa);
-            }
-        }
-    }
-}
-
-/// Static poses of the empty plate: home, each axis at ± its amplitude, the four roll–pitch
-/// corners; those the legs' stroke does not reach are left out.
-pub fn static_poses(g: &Geometry, metres: f64, degrees: f64) -> Vec<Pose> {
-    let home = g.home_pose();
-    let a = degrees.to_radians();
-    let mut out = vec![home];
-    for axis in 0..6 {
-        for s in [-1.0, 1.0] {
-            let mut t = [0.0; 6];
-            t[axis] = s * if axis < 3 { metres } else { a };
-            out.push(Pose::from_rpy(
-                home.position_m + Vector3::new(t[0], t[1], t[2]),
-                t[3],
-                t[4],
-                t[5],
-            ));
-        }
-    }
-    for (r, p) in [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)] {
-        out.push(Pose::from_rpy(home.position_m, r * a, p * a, 0.0));
-    }
-    let stroke = g.stroke();
-    out.retain(|p| {
-        g.leg_lengths(p)
-            .iter()
-            .all(|l| *l > stroke.min_length_m + 0.01 && *l < stroke.max_length_m - 0.01)
-    });
-    out
-}
-
-/// The accelerometer's mean over `hold_s` at each static pose: gravity's direction in P
-/// against the kinematics' tilt.
-pub fn add_tilts(
-    info: &mut Information,
-    g: &Geometry,
-    built: &[Geometry],
-    poses: &[Pose],
-    hold_s: f64,
-    d: &Datasheet,
-) {
-    let sigma = d.accel_density / hold_s.sqrt();
-    let up = -GRAVITY_B_M_S2;
-    for pose in poses {
-        let changes = pose_change(g, built, pose);
-        let rt = pose.rotation.inverse();
-        let f = rt * up;
-        for axis in 0..3 {
-            let mut r = DVector::zeros(N);
-            for k in 0..JOINTS {
-                let phi: Vector3<f64> = changes[k].fixed_rows::<3>(3).into();
-                r[k] = (rt * (skew(&up) * phi))[axis];
-            }
-            let s = skew(&f);
-            for c in 0..3 {
-                r[PSI + c] = s[(axis, c)];
-            }
-            r[ACCEL_SCALE + axis] = f[axis];
-            r[ACCEL_BIAS + axis] = 1.0;
-            info.row(&r, sigma);
-        }
-    }
-}
-
-/// The leg-force → wrench map (P axes, about the P origin) of `g` at `pose`.
-fn leg_map(g: &Geometry, pose: &Pose) -> Matrix6<f64> {
-    let columns: [Vector6<f64>; 6] = core::array::from_fn(|j| {
-        estimator::wrench::to_vector(&g.wrench_in_platform(pose, &Vector6::ith(j, 1.0)))
-    });
-    Matrix6::from_columns(&columns)
-}
-
-/// The wrench that holds `mass_kg` at `com` (in P) at rest at `pose`, P axes.
-fn weight(pose: &Pose, mass_kg: f64, com: &Vector3<f64>) -> Vector6<f64> {
-    let f = pose.rotation.inverse() * (-GRAVITY_B_M_S2) * mass_kg;
-    let t = com.cross(&f);
-    Vector6::new(f.x, f.y, f.z, t.x, t.y, t.z)
-}
-
-/// The cells' means over `hold_s` at each static pose, the fixture alone and then with the
-/// reference weight on (its mass known to its certificate, its centre of mass not), the
-/// poses `move_s` apart: gains, offsets and drift of each series beside the joints.
-#[allow(clippy::too_many_arguments)]
-pub fn add_static_wrench(
-    info: &mut Information,
-    g: &Geometry,
-    built: &[Geometry],
-    poses: &[Pose],
-    hold_s: f64,
-    move_s: f64,
-    fixture_com: Vector3<f64>,
-    d: &Datasheet,
-) {
-    let sigma = ((d.cell_noise_n.powi(2) / (hold_s * d.rate_hz)) + d.cell_floor_n.powi(2)).sqrt();
-    let reference_com = fixture_com + Vector3::new(0.0, 0.0, 0.25);
-    for series in 0..2 {
-        for (i, pose) in poses.iter().enumerate() {
-            let minutes = (i as f64) * (hold_s + move_s) / 60.0;
-            let changes = pose_change(g, built, pose);
-            let mut w = weight(pose, d.fixture_kg, &fixture_com);
-            if series == 1 {
-                w += weight(pose, d.reference_kg, &reference_com);
-            }
-            let map = leg_map(g, pose);
-            let lu = map.lu();
-            let f = lu.solve(&w).expect("a regular pose");
-            // Per joint: the forces the built legs carry minus those the drawing predicts at
-            // the pose forward kinematics gives.
-            let joint: Vec<Vector6<f64>> = (0..JOINTS)
-                .map(|k| {
-                    let carried = leg_map(&built[k], pose).lu().solve(&w).expect("regular");
-                    let x = changes[k] * H;
-                    let seen = Pose::new(
-                        pose.position_m + Vector3::new(x[0], x[1], x[2]),
-                        Rotation3::new(Vector3::new(x[3], x[4], x[5])) * pose.rotation,
-                    );
-                    // The drawing's prediction takes gravity's direction from the pose it
-                    // believes.
-                    let mut ws = weight(&seen, d.fixture_kg, &fixture_com);
-                    if series == 1 {
-                        ws += weight(&seen, d.reference_kg, &reference_com);
-                    }
-                    let predicted = leg_map(g, &seen).lu().solve(&ws).expect("regular");
-                    (carried - predicted) / H
-                })
-                .collect();
-            // The body's parameters through the drawing's map: ∂f/∂θ = −M⁻¹ ∂W/∂θ.
-            let body =
-                |mass: f64, com: &Vector3<f64>, mi: usize, ci: usize, r: &mut [f64], leg: usize| {
-                    let dm = lu.solve(&weight(pose, 1.0, com)).expect("regular");
-                    r[mi] = -dm[leg];
-                    for c in 0..3 {
-                        let mut e = Vector3::zeros();
-                        e[c] = 1.0;
-                        let fz = pose.rotation.inverse() * (-GRAVITY_B_M_S2) * mass;
-                        let dt = e.cross(&fz);
-                        let dw = Vector6::new(0.0, 0.0, 0.0, dt.x, dt.y, dt.z);
-                        r[ci + c] = -lu.solve(&dw).expect("regular")[leg];
-                    }
-                };
-            for leg in 0..6 {
-                let mut r = DVector::zeros(N);
-                for k in 0..JOINTS {
-                    r[k] = joint[k][leg];
-                }
-                r[GAIN + leg] = f[leg];
-                r[OFFSET[series] + leg] = 1.0;
-                r[DRIFT[series] + leg] = minutes;
-                body(
-                    d.fixture_kg,
-                    &fixture_com,
-                    FIXTURE_MASS,
-                    FIXTURE_COM,
-                    r.as_mut_slice(),
-                    leg,
-                );
-                if series == 1 {
-                    body(
-                        d.reference_kg,
-                        &reference_com,
-                        REFERENCE_MASS,
-                        REFERENCE_COM,
-                        r.as_mut_slice(),
-                        leg,
-                    );
-                }
-                info.row(&r, sigma);
             }
         }
     }
