@@ -88,14 +88,19 @@ fn geometry_line(theta: &ParameterVector, s: &Sensitivity, p: &DMatrix<f64>) -> 
 /// How many whitened posterior directions fell below a quarter and a hundredth of the prior's
 /// variance (sigma halved, sigma a tenth), and the mean variance ratio along the base's and
 /// the plate's rigid motions.
+/// The mean posterior/prior variance along the base's six rigid motions and the plate's.
+fn rigid_ratios(p: &DMatrix<f64>, sigma: f64, gauge: &DMatrix<f64>) -> (f64, f64) {
+    let g = gauge.transpose() * (p / (sigma * sigma)) * gauge;
+    let mean = |from: usize| (from..from + 6).map(|i| g[(i, i)]).sum::<f64>() / 6.0;
+    (mean(0), mean(6))
+}
+
 fn directions(p: &DMatrix<f64>, sigma: f64, gauge: &DMatrix<f64>) -> String {
     let w = p / (sigma * sigma);
     let e = SymmetricEigen::new(w.clone()).eigenvalues;
     let halved = e.iter().filter(|v| **v < 0.25).count();
     let tenth = e.iter().filter(|v| **v < 0.01).count();
-    let g = gauge.transpose() * &w * gauge;
-    let base: f64 = (0..6).map(|i| g[(i, i)]).sum::<f64>() / 6.0;
-    let plate: f64 = (6..12).map(|i| g[(i, i)]).sum::<f64>() / 6.0;
+    let (base, plate) = rigid_ratios(p, sigma, gauge);
     format!(
         "{halved:>2} of 36 directions below σ/2, {tenth:>2} below σ/10; rigid-motion variance \
          ratio base {base:.2}, plate {plate:.2}"
@@ -177,14 +182,17 @@ fn main() -> anyhow::Result<()> {
         "{:<44} {:>6} | {:>17} | {:>35}",
         "", "mass kg", "com x y z mm", "J_C xx yy zz xy xz yz kg·m²"
     );
+    let prior = DMatrix::identity(JOINTS, JOINTS) * sigma * sigma;
+    let prior_line = geometry_line(&theta, &s, &prior);
     if let Some(q) = report.budget_line("geometry") {
         line("report's geometry line", q);
+        let (a, b) = (q.flat(), prior_line.flat());
+        anyhow::ensure!(
+            (0..10).all(|i| (a[i] - b[i]).abs() <= 1e-9 * a[i].abs().max(1e-12)),
+            "S σ² Sᵀ is not the report's geometry line"
+        );
     }
-    let prior = DMatrix::identity(JOINTS, JOINTS) * sigma * sigma;
-    line(
-        "prior: σ = tolerance per coordinate",
-        &geometry_line(&theta, &s, &prior),
-    );
+    line("prior: σ = tolerance per coordinate", &prior_line);
 
     let sensors = &rig.config.sensors;
     let tare_q = measure::report::quantities(&Estimate::from_parameters(
@@ -218,11 +226,12 @@ fn main() -> anyhow::Result<()> {
     let poses = statics::static_poses(&g, 0.05, 5.0);
     let (hold_s, move_s) = (10.0, 5.0);
     let gauge = observe::gauge(&g);
+    let linear = observe::linearisation_error(&g, &built, &poses, sigma);
     println!(
         "first-order pose step against full forward kinematics, joints moved by σ: largest \
-         relative difference {:.1e}",
-        observe::linearisation_error(&g, &built, &poses, sigma)
+         relative difference {linear:.1e}"
     );
+    anyhow::ensure!(linear < 1e-2, "the first-order step is off the kinematics");
     let com = Vector3::from(tare_q.com);
 
     let cases: [(&str, bool, bool, bool, bool); 7] = [
@@ -247,6 +256,7 @@ fn main() -> anyhow::Result<()> {
         ("all of the above", true, true, true, true),
     ];
     let mut notes = Vec::new();
+    let mut rigid_checks = Vec::new();
     let mut run =
         |name: &str, d: &Datasheet, poses: &[kinematics::Pose], hold_s: f64, which: [bool; 4]| {
             let [gyro, accel, tilts, cells] = which;
@@ -264,6 +274,7 @@ fn main() -> anyhow::Result<()> {
             let q = geometry_line(&theta, &s, &p);
             line(name, &q);
             notes.push(format!("{name:<44} {}", directions(&p, sigma, &gauge)));
+            rigid_checks.push((name.to_string(), rigid_ratios(&p, sigma, &gauge).1));
             q
         };
     let mut short = Quantities::default();
@@ -364,6 +375,15 @@ fn main() -> anyhow::Result<()> {
         60.0,
         [true; 4],
     );
+    // The plate's rigid motions are the plate frame moved against the plate: no data of the
+    // rig's own can see them, which the rows must reproduce whatever the noise.
+    drop(run);
+    for (name, plate) in &rigid_checks {
+        anyhow::ensure!(
+            *plate > 0.98,
+            "{name}: the plate's rigid motions seen ({plate:.3})"
+        );
+    }
     // The floor: every combination but the frames' rigid motions known exactly.
     let floor = &gauge * gauge.transpose() * sigma * sigma;
     line(
