@@ -377,7 +377,6 @@ fn main() -> anyhow::Result<()> {
     );
     // The plate's rigid motions are the plate frame moved against the plate: no data of the
     // rig's own can see them, which the rows must reproduce whatever the noise.
-    drop(run);
     for (name, plate) in &rigid_checks {
         anyhow::ensure!(
             *plate > 0.98,
