@@ -2,7 +2,8 @@
 //! combinations of the 36 joint coordinates the IMU and the load cells observe, and what
 //! knowing them would do to the error budget's `geometry` line of the payload's estimate.
 //!
-//! `cargo run --release --example joint_observability [-- SEED [REPORT.json]]`, REPORT.json
+//! `cargo run --release --example joint_observability [-- SEED [REPORT.json [SCENARIO.toml]]]`
+//! (SCENARIO.toml laid over the default, as `--config`), REPORT.json
 //! the default procedure's report of the same seed (`stewart simulate --duration 20 --seed
 //! SEED --report REPORT.json`, its IMU calibrated first): the payload's whole sigma with the
 //! joints' line replaced is then that report's.
@@ -118,7 +119,9 @@ fn main() -> anyhow::Result<()> {
         Some(path) => Some(serde_json::from_str(&std::fs::read_to_string(&path)?)?),
         None => None,
     };
-    let rig = measure::load::load(None)?.with_overrides(&Overrides {
+    // A scenario laid over the default (another tare excitation, other sensors).
+    let scenario = std::env::args().nth(3).map(std::path::PathBuf::from);
+    let rig = measure::load::load(scenario.as_deref())?.with_overrides(&Overrides {
         duration_s: Some(20.0),
         params: None,
     })?;
