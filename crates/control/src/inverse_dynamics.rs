@@ -19,10 +19,10 @@
 use kinematics::{Geometry, KinematicsError, Vector3, Vector6};
 use stewart_types::InertialParameters;
 
-use crate::controller::GRAVITY_M_S2;
 use crate::error::ControlError;
 use crate::io::LEG_COUNT;
 use crate::trajectory::TrajectorySample;
+use stewart_types::STANDARD_GRAVITY_M_S2 as GRAVITY_M_S2;
 
 /// The wrench `[F; τ_O]` (N, N·m; in B axes, the torque about the P origin) that moves a rigid
 /// body of parameters `load` (about the P origin, P axes) along `sample` against gravity: the
