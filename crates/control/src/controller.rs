@@ -338,8 +338,11 @@ impl Controller {
     /// set-point without first building the inertial force up from a tracking error, which
     /// under a heavy payload lets the plate translate and turn where it was not commanded. An
     /// error in θ is left to the loops, as all of the inertial force is without this. Refused,
-    /// leaving the controller unchanged, when `load` is not finite, its mass not positive, or
-    /// the warm-start pose singular.
+    /// leaving the controller unchanged, when `load` is not finite, its mass not positive, the
+    /// warm-start pose singular, or the feed-forward (with the rate term) exceeds the command
+    /// limit anywhere along the excitation, checked every [`FeasibilityLimits::step_s`]
+    /// ([`ControlError::ForceViolation`]: the commands would saturate and the integrators'
+    /// anti-windup ring after it for seconds).
     pub fn set_load(&mut self, load: InertialParameters) -> Result<(), ControlError> {
         if !(load.is_finite() && load.mass_kg > 0.0) {
             return Err(ControlError::InvalidConfig {
@@ -348,7 +351,52 @@ impl Controller {
             });
         }
         let at_hold_n = load_leg_forces(&self.geometry, &load, &rest_at(&self.last_pose))?;
-        self.load = Some(LoadFeedforward { load, at_hold_n });
+        let feedforward = LoadFeedforward { load, at_hold_n };
+        self.check_load_forces(&feedforward)?;
+        self.load = Some(feedforward);
+        Ok(())
+    }
+
+    /// The largest feed-forward `load` would command along the excitation, refused beyond the
+    /// supervisor's command limit.
+    fn check_load_forces(&self, load: &LoadFeedforward) -> Result<(), ControlError> {
+        let limit_n = self.config.supervisor.max_command_force_n;
+        let step_s = self.config.feasibility.step_s.max(1e-4);
+        let duration_s = self.trajectory.duration_s();
+        let mut worst = (0.0f64, 0usize, 0.0f64);
+        let mut t = 0.0;
+        while t <= duration_s {
+            let s = self.trajectory.sample(t);
+            let dynamic = load_leg_forces(&self.geometry, &load.load, &s)?;
+            let speeds = self.geometry.jacobian(&s.pose) * s.twist();
+            let legs = self
+                .config
+                .feedforward_n
+                .iter()
+                .zip(speeds.iter())
+                .zip(dynamic.iter().zip(load.at_hold_n.iter()));
+            for (leg, ((static_n, speed), (dynamic_n, at_hold_n))) in legs.enumerate() {
+                let rate = if self.config.rate_feedforward {
+                    self.config.pid.kd * speed
+                } else {
+                    0.0
+                };
+                let f = static_n + rate + dynamic_n - at_hold_n;
+                if f.abs() > worst.0.abs() {
+                    worst = (f, leg, t);
+                }
+            }
+            t += step_s;
+        }
+        let (force_n, leg, time_s) = worst;
+        if force_n.abs() > limit_n {
+            return Err(ControlError::ForceViolation {
+                time_s,
+                leg,
+                force_n,
+                limit_n,
+            });
+        }
         Ok(())
     }
 

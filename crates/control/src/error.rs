@@ -76,6 +76,19 @@ pub enum ControlError {
         /// The largest integral gain that passes, N/(m·s).
         max_integral_gain: f64,
     },
+    /// The load's inverse-dynamics feed-forward ([`crate::Controller::set_load`]) asks a leg
+    /// for more than the command limit somewhere along the excitation: the commands would
+    /// saturate and the loops' anti-windup ring after it.
+    ForceViolation {
+        /// Excitation time of the largest demand, seconds.
+        time_s: f64,
+        /// Leg index, 0-based.
+        leg: usize,
+        /// The feed-forward there (static load, rate term and the load's dynamics), N.
+        force_n: f64,
+        /// The command limit, N.
+        limit_n: f64,
+    },
     /// A kinematics computation failed (e.g. a singular pose where a force had to be solved).
     Kinematics(KinematicsError),
     /// The supervisor latched a fault (see [`Fault`]).
@@ -106,7 +119,8 @@ impl ControlError {
             Self::StrokeViolation { .. }
             | Self::LegSpeedViolation { .. }
             | Self::ConditioningViolation { .. }
-            | Self::UnstableLoad { .. } => ErrorKind::Infeasible,
+            | Self::UnstableLoad { .. }
+            | Self::ForceViolation { .. } => ErrorKind::Infeasible,
             Self::Kinematics(_) => ErrorKind::Kinematics,
             Self::Faulted(_) => ErrorKind::Faulted,
         }
@@ -177,6 +191,19 @@ impl fmt::Display for ControlError {
                      (shorter legs, or a larger base against the plate)"
                 )
             }
+            Self::ForceViolation {
+                time_s,
+                leg,
+                force_n,
+                limit_n,
+            } => write!(
+                f,
+                "with the load as [plan] describes it, the excitation needs {force_n:.0} N of leg \
+                 {leg} at t = {time_s:.3} s (the load's feed-forward), beyond the command limit \
+                 {limit_n:.0} N (control.max_force_n): lower the amplitudes or frequencies, \
+                 lengthen excitation.fade_s, correct [plan.payload], or set \
+                 control.inertial_feedforward = false to let the loops lag instead"
+            ),
             Self::Kinematics(e) => write!(f, "kinematics: {e}"),
             Self::Faulted(fault) => write!(f, "supervisor fault: {fault}"),
         }

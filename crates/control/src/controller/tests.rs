@@ -613,3 +613,33 @@ fn the_loads_feedforward_adds_its_dynamics_less_its_weight_at_the_hold_pose() {
         "at rest {at_rest}, moving {moving}"
     );
 }
+
+/// A load whose inverse dynamics along the excitation exceed the command limit is refused
+/// before anything moves, naming the leg, the time and the force; the controller is unchanged.
+#[test]
+fn a_load_the_legs_cannot_drive_along_the_excitation_is_refused() {
+    let g = geometry();
+    let mut controller = Controller::new(g, eq8(6.0), config()).unwrap();
+    controller.set_pose_guess(g.home_pose());
+    let before = controller;
+    let heavy = InertialParameters::from_com(
+        1900.0,
+        Vector3::new(0.0, 0.0, 0.4),
+        Matrix3::from_diagonal(&Vector3::new(2.0e5, 2.0e5, 2.0e5)),
+    );
+    let Err(ControlError::ForceViolation {
+        force_n, limit_n, ..
+    }) = controller.set_load(heavy)
+    else {
+        panic!("not refused");
+    };
+    assert!(force_n.abs() > limit_n);
+    assert_eq!(limit_n, controller.config().supervisor.max_command_force_n);
+    assert_eq!(controller, before);
+    let car = InertialParameters::from_com(
+        1900.0,
+        Vector3::new(0.0, 0.0, 0.4),
+        Matrix3::from_diagonal(&Vector3::new(800.0, 2500.0, 2900.0)),
+    );
+    controller.set_load(car).unwrap();
+}
