@@ -18,12 +18,12 @@
 //! `Result`: a caller cannot skip writing the safe stop by propagating an error. Use
 //! [`TickOutput::result`] where an error is wanted.
 
-use kinematics::{FkOptions, Geometry, Pose, Vector3, Vector6};
+use kinematics::{FkOptions, Geometry, Matrix6, Pose, Vector3, Vector6};
 
 use stewart_types::InertialParameters;
 
 use crate::error::ControlError;
-use crate::inverse_dynamics::load_leg_forces;
+use crate::inverse_dynamics::{load_leg_forces, load_leg_forces_with};
 use crate::io::{CommandFrame, SensorFrame, LEG_COUNT};
 use crate::pid::{PidBank, PidConfig, PidOutput};
 use crate::supervisor::{Fault, Phase, Supervisor, SupervisorConfig};
@@ -357,6 +357,33 @@ impl Controller {
         Ok(())
     }
 
+    /// Each leg's feed-forward at the set-point `desired` (Jacobian `jacobian`, desired leg
+    /// speeds `speeds`): the static load, the rate term `kd·l̇_d` when
+    /// [`ControllerConfig::rate_feedforward`] is on, and `load`'s inverse dynamics less its
+    /// weight's share at the hold pose ([`Controller::set_load`]). The one sum the tick
+    /// commands and the pre-motion check bounds.
+    fn feedforward(
+        &self,
+        desired: &TrajectorySample,
+        jacobian: &Matrix6<f64>,
+        speeds: &Vector6<f64>,
+        load: Option<&LoadFeedforward>,
+    ) -> Result<[f64; LEG_COUNT], ControlError> {
+        let mut feedforward = self.config.feedforward_n;
+        if self.config.rate_feedforward {
+            for (f, speed) in feedforward.iter_mut().zip(speeds.iter()) {
+                *f += self.config.pid.kd * speed;
+            }
+        }
+        if let Some(l) = load {
+            let dynamic = load_leg_forces_with(&self.geometry, jacobian, &l.load, desired)?;
+            for ((f, d), h) in feedforward.iter_mut().zip(dynamic).zip(l.at_hold_n) {
+                *f += d - h;
+            }
+        }
+        Ok(feedforward)
+    }
+
     /// The largest feed-forward `load` would command along the excitation, refused beyond the
     /// supervisor's command limit.
     fn check_load_forces(&self, load: &LoadFeedforward) -> Result<(), ControlError> {
@@ -367,21 +394,10 @@ impl Controller {
         let mut t = 0.0;
         while t <= duration_s {
             let s = self.trajectory.sample(t);
-            let dynamic = load_leg_forces(&self.geometry, &load.load, &s)?;
-            let speeds = self.geometry.jacobian(&s.pose) * s.twist();
-            let legs = self
-                .config
-                .feedforward_n
-                .iter()
-                .zip(speeds.iter())
-                .zip(dynamic.iter().zip(load.at_hold_n.iter()));
-            for (leg, ((static_n, speed), (dynamic_n, at_hold_n))) in legs.enumerate() {
-                let rate = if self.config.rate_feedforward {
-                    self.config.pid.kd * speed
-                } else {
-                    0.0
-                };
-                let f = static_n + rate + dynamic_n - at_hold_n;
+            let jacobian = self.geometry.jacobian(&s.pose);
+            let speeds = jacobian * s.twist();
+            let forces = self.feedforward(&s, &jacobian, &speeds, Some(load))?;
+            for (leg, f) in forces.into_iter().enumerate() {
                 if f.abs() > worst.0.abs() {
                     worst = (f, leg, t);
                 }
@@ -496,27 +512,18 @@ impl Controller {
             self.last_desired = desired;
             out.desired = desired;
             let legs = self.geometry.legs(&desired.pose);
-            let speeds = self.geometry.jacobian(&desired.pose) * desired.twist();
+            let jacobian = self.geometry.jacobian_of_legs(&desired.pose, &legs);
+            let speeds = jacobian * desired.twist();
             out.desired_leg_lengths_m = legs.lengths_m.into();
             out.desired_leg_speeds_m_s = speeds.into();
             if let Err(fault) = self.check_desired(&out.desired_leg_lengths_m) {
                 self.supervisor.trip(fault);
             } else {
-                let mut feedforward = self.config.feedforward_n;
-                if self.config.rate_feedforward {
-                    for (f, speed) in feedforward.iter_mut().zip(out.desired_leg_speeds_m_s) {
-                        *f += self.config.pid.kd * speed;
-                    }
-                }
-                if let Some(l) = &self.load {
-                    // A set-point that passed the feasibility check is not singular; should
-                    // the solve fail anyway, the non-finite feed-forward trips the fault below.
-                    let dynamic = load_leg_forces(&self.geometry, &l.load, &desired)
-                        .unwrap_or([f64::NAN; LEG_COUNT]);
-                    for ((f, d), h) in feedforward.iter_mut().zip(dynamic).zip(l.at_hold_n) {
-                        *f += d - h;
-                    }
-                }
+                // A set-point that passed the feasibility check is not singular; should the
+                // load's solve fail anyway, the non-finite feed-forward trips the fault below.
+                let feedforward = self
+                    .feedforward(&desired, &jacobian, &speeds, self.load.as_ref())
+                    .unwrap_or([f64::NAN; LEG_COUNT]);
                 match self.pids.update(
                     &out.desired_leg_lengths_m,
                     &frame.leg_lengths_m,

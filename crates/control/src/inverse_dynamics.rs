@@ -16,7 +16,7 @@
 //! (docs/architecture.md, "Frames"): there the wrench is measured and θ fitted, here θ is the
 //! owner's prior and the wrench is what the leg loops should not have to find by error.
 
-use kinematics::{Geometry, KinematicsError, Vector3, Vector6};
+use kinematics::{Geometry, KinematicsError, Matrix6, Pose, Vector3, Vector6};
 use stewart_types::InertialParameters;
 
 use crate::error::ControlError;
@@ -41,15 +41,17 @@ pub fn load_wrench(load: &InertialParameters, sample: &TrajectorySample) -> Vect
     Vector6::new(force.x, force.y, force.z, torque.x, torque.y, torque.z)
 }
 
-/// The leg forces f that apply `wrench` to the plate at `sample`'s pose: the solution of
-/// `Jᵀ f = wrench` ([`Geometry::jacobian`]). A singular pose, or a wrench that is not finite,
-/// is an error.
+/// The leg forces f that apply `wrench` to the plate at `pose`: the solution of
+/// `Jᵀ f = wrench`, `jacobian` being [`Geometry::jacobian`] at `pose` (a caller that has it for
+/// the leg speeds passes it rather than building it twice). A singular pose, or a wrench that
+/// is not finite, is an error.
 pub fn leg_forces_for(
     geometry: &Geometry,
-    sample: &TrajectorySample,
+    pose: &Pose,
+    jacobian: &Matrix6<f64>,
     wrench: &Vector6<f64>,
 ) -> Result<[f64; LEG_COUNT], ControlError> {
-    if !wrench.iter().all(|v| v.is_finite()) || !sample.pose.is_finite() {
+    if !wrench.iter().all(|v| v.is_finite()) || !pose.is_finite() {
         return Err(ControlError::NonFinite {
             what: "inverse-dynamics wrench",
             index: 0,
@@ -57,11 +59,10 @@ pub fn leg_forces_for(
     }
     let singular = || {
         ControlError::Kinematics(KinematicsError::SingularPose {
-            inverse_condition: geometry.inverse_condition_number(&sample.pose),
+            inverse_condition: geometry.inverse_condition_number(pose),
         })
     };
-    let forces = geometry
-        .jacobian(&sample.pose)
+    let forces = jacobian
         .transpose()
         .lu()
         .solve(wrench)
@@ -72,9 +73,20 @@ pub fn leg_forces_for(
     Ok(forces.into())
 }
 
-/// The leg forces that move `load` along `sample`: [`leg_forces_for`] of [`load_wrench`].
+/// The leg forces that move `load` along `sample`: [`leg_forces_for`] of [`load_wrench`] with
+/// the Jacobian at `sample`'s pose.
 pub fn load_leg_forces(
     geometry: &Geometry,
+    load: &InertialParameters,
+    sample: &TrajectorySample,
+) -> Result<[f64; LEG_COUNT], ControlError> {
+    load_leg_forces_with(geometry, &geometry.jacobian(&sample.pose), load, sample)
+}
+
+/// [`load_leg_forces`] with the Jacobian at `sample`'s pose already at hand.
+pub fn load_leg_forces_with(
+    geometry: &Geometry,
+    jacobian: &Matrix6<f64>,
     load: &InertialParameters,
     sample: &TrajectorySample,
 ) -> Result<[f64; LEG_COUNT], ControlError> {
@@ -84,7 +96,7 @@ pub fn load_leg_forces(
             index: 0,
         });
     }
-    leg_forces_for(geometry, sample, &load_wrench(load, sample))
+    leg_forces_for(geometry, &sample.pose, jacobian, &load_wrench(load, sample))
 }
 
 #[cfg(test)]

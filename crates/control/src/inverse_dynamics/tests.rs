@@ -118,5 +118,5 @@ fn non_finite_input_is_an_error_not_a_force() {
     load.mass_kg = f64::NAN;
     assert!(load_leg_forces(&g, &load, &s).is_err());
     let wrench = Vector6::new(0.0, 0.0, f64::INFINITY, 0.0, 0.0, 0.0);
-    assert!(leg_forces_for(&g, &s, &wrench).is_err());
+    assert!(leg_forces_for(&g, &s.pose, &g.jacobian(&s.pose), &wrench).is_err());
 }
