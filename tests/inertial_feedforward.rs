@@ -9,11 +9,9 @@
 
 mod support;
 
-use std::sync::atomic::AtomicBool;
-
 use control::supervisor::Phase;
 use measure::observer::{Observer, TickEvent};
-use measure::{End, MeasureSetup, Measurement};
+use measure::Measurement;
 use sim::NoisePreset;
 
 /// The largest |desired − measured| leg length over the excitation, m.
@@ -42,28 +40,8 @@ fn largest_tracking_error_m(feedforward: bool) -> f64 {
         format!("[run]\nduration_s = 8.0\n[control]\ninertial_feedforward = {feedforward}\n");
     let loaded = support::config_str(&text, "inertial_feedforward.toml");
     let scenario = support::world(loaded, Some(NoisePreset::None));
-    let loaded = &scenario.loaded;
-    let geometry = measure::setup::geometry(loaded).expect("geometry");
-    let trajectory = measure::setup::trajectory(loaded, &geometry, loaded.config.run.duration_s)
-        .expect("trajectory");
-    let controller = measure::setup::controller(loaded, &geometry, trajectory).expect("controller");
-    let mut backend = scenario.simulator(geometry, true).expect("simulator");
-    let setup = MeasureSetup {
-        config: &loaded.config,
-        geometry,
-        measurement: Measurement::Loaded,
-        tare: None,
-    };
     let mut tracking = Tracking::default();
-    let outcome = measure::measure(
-        &mut backend,
-        &setup,
-        controller,
-        &mut tracking,
-        &AtomicBool::new(false),
-    )
-    .expect("the measurement runs");
-    assert_eq!(outcome.end, End::Completed);
+    support::measure_run(&scenario, Measurement::Loaded, &mut tracking);
     assert!(
         tracking.excitation_ticks > 7000,
         "{}",

@@ -9,14 +9,12 @@
 
 mod support;
 
-use std::sync::atomic::AtomicBool;
-
 use control::io::SensorFrame;
 use estimator::{Estimate, EstimatorConfig};
 use kinematics::FkOptions;
 use measure::observer::{EstimatorStarted, Observer, TickEvent};
 use measure::replay::{replay, BiasSigmas};
-use measure::{End, LoadedConfig, MeasureSetup, Measurement};
+use measure::{LoadedConfig, Measurement};
 use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
 use sim::scenario::Scenario;
@@ -55,34 +53,8 @@ struct Runs {
 }
 
 fn measure_one(scenario: &Scenario, measurement: Measurement) -> Recorded {
-    let loaded = &scenario.loaded;
-    let geometry = measure::setup::geometry(loaded).expect("geometry");
-    let trajectory = match measurement {
-        Measurement::Tare => measure::setup::tare_trajectory(loaded, &geometry),
-        Measurement::Loaded => {
-            measure::setup::trajectory(loaded, &geometry, loaded.config.run.duration_s)
-        }
-    }
-    .expect("trajectory");
-    let controller = measure::setup::controller(loaded, &geometry, trajectory).expect("controller");
-    let payload_on = measurement == Measurement::Loaded;
-    let mut backend = scenario.simulator(geometry, payload_on).expect("simulator");
-    let setup = MeasureSetup {
-        config: &loaded.config,
-        geometry,
-        measurement,
-        tare: None,
-    };
     let mut rec = Recorder::default();
-    let outcome = measure::measure(
-        &mut backend,
-        &setup,
-        controller,
-        &mut rec,
-        &AtomicBool::new(false),
-    )
-    .expect("the measurement runs");
-    assert_eq!(outcome.end, End::Completed);
+    support::measure_run(scenario, measurement, &mut rec);
     let (config, fk) = rec.config.expect("the excitation started");
     Recorded {
         frames: rec.frames,

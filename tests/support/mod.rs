@@ -90,6 +90,44 @@ pub fn config_str(text: &str, name: &str) -> LoadedConfig {
     measure::load::load_str(text, name).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
+/// One measurement of `scenario`'s world through `measure::measure`, told to `observer`: the
+/// tare run's excitation on the empty fixture, or the configured one (`run.duration_s`) with
+/// the payload on; no tare subtracted. Panics on anything but a completed run.
+pub fn measure_run<O: measure::Observer>(
+    scenario: &Scenario,
+    measurement: measure::Measurement,
+    observer: &mut O,
+) -> measure::MeasureOutcome {
+    let loaded = &scenario.loaded;
+    let geometry = measure::setup::geometry(loaded).expect("geometry");
+    let trajectory = match measurement {
+        measure::Measurement::Tare => measure::setup::tare_trajectory(loaded, &geometry),
+        measure::Measurement::Loaded => {
+            measure::setup::trajectory(loaded, &geometry, loaded.config.run.duration_s)
+        }
+    }
+    .expect("trajectory");
+    let controller = measure::setup::controller(loaded, &geometry, trajectory).expect("controller");
+    let payload_on = measurement == measure::Measurement::Loaded;
+    let mut backend = scenario.simulator(geometry, payload_on).expect("simulator");
+    let setup = measure::MeasureSetup {
+        config: &loaded.config,
+        geometry,
+        measurement,
+        tare: None,
+    };
+    let outcome = measure::measure(
+        &mut backend,
+        &setup,
+        controller,
+        observer,
+        &AtomicBool::new(false),
+    )
+    .expect("the measurement runs");
+    assert_eq!(outcome.end, measure::End::Completed);
+    outcome
+}
+
 /// The simulated world of `loaded` at the given grade (seed from the file).
 pub fn world(loaded: LoadedConfig, noise: Option<NoisePreset>) -> Scenario {
     Scenario::new(loaded, None, noise).unwrap_or_else(|e| panic!("world: {e}"))
