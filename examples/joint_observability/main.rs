@@ -329,13 +329,7 @@ fn main() -> anyhow::Result<()> {
         60.0,
         [true; 4],
     );
-    let tenth = Datasheet {
-        gyro_density: d.gyro_density / 10.0,
-        accel_density: d.accel_density / 10.0,
-        cell_noise_n: d.cell_noise_n / 10.0,
-        cell_floor_n: d.cell_floor_n / 10.0,
-        ..d
-    };
+    let tenth = d.quieter(10.0);
     run(
         "all, every sensor's noise / 10",
         &tenth,
@@ -343,13 +337,7 @@ fn main() -> anyhow::Result<()> {
         hold_s,
         [true; 4],
     );
-    let quiet = Datasheet {
-        gyro_density: d.gyro_density / 100.0,
-        accel_density: d.accel_density / 100.0,
-        cell_noise_n: d.cell_noise_n / 100.0,
-        cell_floor_n: d.cell_floor_n / 100.0,
-        ..d
-    };
+    let quiet = d.quieter(100.0);
     run(
         "all, every sensor's noise / 100",
         &quiet,

@@ -88,6 +88,20 @@ pub struct Datasheet {
     pub free: f64,
 }
 
+impl Datasheet {
+    /// The same datasheet with every sensor's noise (gyro, accelerometer, load cells and their
+    /// floor) divided by `k`.
+    pub fn quieter(&self, k: f64) -> Self {
+        Self {
+            gyro_density: self.gyro_density / k,
+            accel_density: self.accel_density / k,
+            cell_noise_n: self.cell_noise_n / k,
+            cell_floor_n: self.cell_floor_n / k,
+            ..*self
+        }
+    }
+}
+
 /// Prior sigma of every parameter: the joints' tolerance; the datasheet's figure for what no
 /// calibration fits (accelerometer scales, gains, drift, the reference's certificate);
 /// `free` datasheet figures (the IMU's axes, scales, biases, position and delay, the cells'
