@@ -60,8 +60,8 @@ fn main() -> anyhow::Result<()> {
     let rig =
         measure::load::load_str("[run]\nduration_s = 20.0\ntare_duration_s = 20.0\n", "mine")?;
     let geometry = setup::geometry(&rig)?;
-    let controller = |s| {
-        setup::trajectory(&rig, &geometry, s).and_then(|t| setup::controller(&rig, &geometry, t))
+    let controller = |s, m| {
+        setup::trajectory(&rig, &geometry, s).and_then(|t| setup::controller(&rig, &geometry, t, m))
     };
     // The stand-in hardware: the default scenario's simulated world, empty fixture first.
     let world = sim::scenario::Scenario::new(rig.clone(), None, None)?;
@@ -72,8 +72,14 @@ fn main() -> anyhow::Result<()> {
     let plan = SessionPlan {
         config: &rig,
         geometry,
-        tare: TarePlan::Measure(Box::new(controller(rig.config.run.tare_duration_s)?)),
-        loaded: Some(controller(rig.config.run.duration_s)?),
+        tare: TarePlan::Measure(Box::new(controller(
+            rig.config.run.tare_duration_s,
+            measure::Measurement::Tare,
+        )?)),
+        loaded: Some(controller(
+            rig.config.run.duration_s,
+            measure::Measurement::Loaded,
+        )?),
         save_tare: None,
         backend: "mine",
     };

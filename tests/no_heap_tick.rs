@@ -179,7 +179,8 @@ fn production_run(loaded: LoadedConfig) {
     let geometry = measure::setup::geometry(loaded).expect("geometry");
     let trajectory =
         measure::setup::trajectory(loaded, &geometry, EXCITATION_S).expect("trajectory");
-    let controller = measure::setup::controller(loaded, &geometry, trajectory).expect("controller");
+    let controller = measure::setup::controller(loaded, &geometry, trajectory, Measurement::Loaded)
+        .expect("controller");
     let mut backend = Uncounted {
         sim: scenario.simulator(geometry, true).expect("simulator"),
     };

@@ -60,8 +60,8 @@ fn a_plate_tiny_against_the_base_is_refused_with_the_configuration() {
 }
 
 /// The seed paper's 30 ms start with the load's feed-forward on: the feed-forward would ask a
-/// leg for more than its 20 kN before the plate has left home, so the measurement is refused
-/// before that run moves, naming the leg's force and the ways out.
+/// leg for more than its 20 kN before the plate has left home, so the configuration is refused
+/// before anything runs (no log), naming the leg's force and the ways out.
 #[test]
 fn a_motion_the_loads_feedforward_cannot_drive_is_refused_before_motion() {
     let paper = include_str!("../configs/paper.toml");
@@ -73,12 +73,13 @@ fn a_motion_the_loads_feedforward_cannot_drive_is_refused_before_motion() {
         paper, with_feedforward,
         "configs/paper.toml switches the feed-forward off"
     );
-    let (code, err, _dir) = simulate(&with_feedforward);
-    assert_ne!(code, 0, "{err}");
+    let (code, err, dir) = simulate(&with_feedforward);
+    assert_eq!(code, 2, "{err}");
     assert!(err.contains("refused before motion"), "{err}");
     assert!(err.contains("control.max_force_n"), "{err}");
     assert!(
         err.contains("control.inertial_feedforward = false"),
         "names a fix: {err}"
     );
+    assert!(!dir.path().join("run.mcap").exists(), "nothing ran");
 }

@@ -33,6 +33,7 @@ use measure::observer::{Ignore, Observer};
 use measure::report::{sigmas, Quantities};
 use measure::session::{self, Job, SessionPlan, Station, TarePlan, TareSource};
 use measure::sources::ErrorSource;
+use measure::Measurement;
 use measure::{setup, MeasureOutcome};
 use nalgebra::{DMatrix, SMatrix, SymmetricEigen, Vector3};
 use observe::{Datasheet, Dynamic, Information, JOINTS};
@@ -127,11 +128,17 @@ fn main() -> anyhow::Result<()> {
     })?;
     let g = setup::geometry(&rig)?;
     let world = sim::scenario::Scenario::new(rig.clone(), Some(seed), None)?;
-    let tare = setup::controller(&rig, &g, setup::tare_trajectory(&rig, &g)?)?;
+    let tare = setup::controller(
+        &rig,
+        &g,
+        setup::tare_trajectory(&rig, &g)?,
+        Measurement::Tare,
+    )?;
     let loaded = setup::controller(
         &rig,
         &g,
         setup::trajectory(&rig, &g, rig.config.run.duration_s)?,
+        Measurement::Loaded,
     )?;
     let plan = SessionPlan {
         config: &rig,

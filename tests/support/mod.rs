@@ -107,7 +107,8 @@ pub fn measure_run<O: measure::Observer>(
         }
     }
     .expect("trajectory");
-    let controller = measure::setup::controller(loaded, &geometry, trajectory).expect("controller");
+    let controller =
+        measure::setup::controller(loaded, &geometry, trajectory, measurement).expect("controller");
     let payload_on = measurement == measure::Measurement::Loaded;
     let mut backend = scenario.simulator(geometry, payload_on).expect("simulator");
     let setup = measure::MeasureSetup {

@@ -71,8 +71,8 @@ impl Scenario {
         let geometry = setup::geometry(loaded).map_err(|e| anyhow!("{e}"))?;
         let trajectory =
             setup::trajectory(loaded, &geometry, excitation_s).map_err(|e| anyhow!("{e}"))?;
-        let controller =
-            setup::controller(loaded, &geometry, trajectory).map_err(|e| anyhow!("{e}"))?;
+        let controller = setup::controller(loaded, &geometry, trajectory, Measurement::Loaded)
+            .map_err(|e| anyhow!("{e}"))?;
         let mut sim = scenario
             .simulator(geometry, true)
             .map_err(|e| anyhow!("{e}"))?;

@@ -154,7 +154,12 @@ pub fn tare_plan(
         }
         None => {
             let t = measure::setup::tare_trajectory(loaded, geometry)?;
-            measure::TarePlan::Measure(Box::new(measure::setup::controller(loaded, geometry, t)?))
+            measure::TarePlan::Measure(Box::new(measure::setup::controller(
+                loaded,
+                geometry,
+                t,
+                measure::Measurement::Tare,
+            )?))
         }
     })
 }

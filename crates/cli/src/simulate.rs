@@ -257,7 +257,8 @@ pub fn simulate(
     let geometry = setup::geometry(loaded)?;
     // The controllers checked here are the ones that run.
     let trajectory = setup::trajectory(loaded, &geometry, config.run.duration_s)?;
-    let loaded_controller = setup::controller(loaded, &geometry, trajectory)?;
+    let loaded_controller =
+        setup::controller(loaded, &geometry, trajectory, measure::Measurement::Loaded)?;
     let tare = common::tare_plan(loaded, &geometry, args.measure.tare.as_deref())?;
     let tare_run = matches!(tare, TarePlan::Measure(_));
     // The loaded world must be accepted too, before the tare run moves anything.

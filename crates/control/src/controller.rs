@@ -338,11 +338,10 @@ impl Controller {
     /// set-point without first building the inertial force up from a tracking error, which
     /// under a heavy payload lets the plate translate and turn where it was not commanded. An
     /// error in θ is left to the loops, as all of the inertial force is without this. Refused,
-    /// leaving the controller unchanged, when `load` is not finite, its mass not positive, the
-    /// warm-start pose singular, or the feed-forward (with the rate term) exceeds the command
-    /// limit anywhere along the excitation, checked every [`FeasibilityLimits::step_s`]
-    /// ([`ControlError::ForceViolation`]: the commands would saturate and the integrators'
-    /// anti-windup ring after it for seconds).
+    /// leaving the controller unchanged, when `load` is not finite, its mass not positive, or
+    /// the warm-start pose singular. Cheap (one solve): it runs between the brake hold and the
+    /// motion, while a rig's watchdog waits for commands; whether the legs can drive the load
+    /// along the excitation is [`Controller::check_load_forces`]'s, before anything runs.
     pub fn set_load(&mut self, load: InertialParameters) -> Result<(), ControlError> {
         if !(load.is_finite() && load.mass_kg > 0.0) {
             return Err(ControlError::InvalidConfig {
@@ -351,25 +350,24 @@ impl Controller {
             });
         }
         let at_hold_n = load_leg_forces(&self.geometry, &load, &rest_at(&self.last_pose))?;
-        let feedforward = LoadFeedforward { load, at_hold_n };
-        self.check_load_forces(&feedforward)?;
-        self.load = Some(feedforward);
+        self.load = Some(LoadFeedforward { load, at_hold_n });
         Ok(())
     }
 
     /// Each leg's feed-forward at the set-point `desired` (Jacobian `jacobian`, desired leg
-    /// speeds `speeds`): the static load, the rate term `kd·l̇_d` when
+    /// speeds `speeds`): the static load `static_n`, the rate term `kd·l̇_d` when
     /// [`ControllerConfig::rate_feedforward`] is on, and `load`'s inverse dynamics less its
     /// weight's share at the hold pose ([`Controller::set_load`]). The one sum the tick
-    /// commands and the pre-motion check bounds.
+    /// commands and [`Controller::check_load_forces`] bounds.
     fn feedforward(
         &self,
         desired: &TrajectorySample,
         jacobian: &Matrix6<f64>,
         speeds: &Vector6<f64>,
+        static_n: [f64; LEG_COUNT],
         load: Option<&LoadFeedforward>,
     ) -> Result<[f64; LEG_COUNT], ControlError> {
-        let mut feedforward = self.config.feedforward_n;
+        let mut feedforward = static_n;
         if self.config.rate_feedforward {
             for (f, speed) in feedforward.iter_mut().zip(speeds.iter()) {
                 *f += self.config.pid.kd * speed;
@@ -384,9 +382,18 @@ impl Controller {
         Ok(feedforward)
     }
 
-    /// The largest feed-forward `load` would command along the excitation, refused beyond the
-    /// supervisor's command limit.
-    fn check_load_forces(&self, load: &LoadFeedforward) -> Result<(), ControlError> {
+    /// Whether the legs can drive `load` (the plate with what it carries, as
+    /// [`Controller::set_load`] would get it) along the excitation with the load's
+    /// feed-forward: the feed-forward's largest command, every [`FeasibilityLimits::step_s`],
+    /// the static part the model's own weight (the brake hold reads it only later), refused
+    /// beyond the supervisor's command limit ([`ControlError::ForceViolation`]: the commands
+    /// would saturate and the integrators' anti-windup ring after it for seconds). Call it
+    /// with the trajectory checks, before anything moves: it solves once per step.
+    pub fn check_load_forces(&self, load: &InertialParameters) -> Result<(), ControlError> {
+        let load = LoadFeedforward {
+            load: *load,
+            at_hold_n: [0.0; LEG_COUNT],
+        };
         let limit_n = self.config.supervisor.max_command_force_n;
         let step_s = self.config.feasibility.step_s.max(1e-4);
         let duration_s = self.trajectory.duration_s();
@@ -396,7 +403,7 @@ impl Controller {
             let s = self.trajectory.sample(t);
             let jacobian = self.geometry.jacobian(&s.pose);
             let speeds = jacobian * s.twist();
-            let forces = self.feedforward(&s, &jacobian, &speeds, Some(load))?;
+            let forces = self.feedforward(&s, &jacobian, &speeds, [0.0; LEG_COUNT], Some(&load))?;
             for (leg, f) in forces.into_iter().enumerate() {
                 if f.abs() > worst.0.abs() {
                     worst = (f, leg, t);
@@ -522,7 +529,13 @@ impl Controller {
                 // A set-point that passed the feasibility check is not singular; should the
                 // load's solve fail anyway, the non-finite feed-forward trips the fault below.
                 let feedforward = self
-                    .feedforward(&desired, &jacobian, &speeds, self.load.as_ref())
+                    .feedforward(
+                        &desired,
+                        &jacobian,
+                        &speeds,
+                        self.config.feedforward_n,
+                        self.load.as_ref(),
+                    )
                     .unwrap_or([f64::NAN; LEG_COUNT]);
                 match self.pids.update(
                     &out.desired_leg_lengths_m,

@@ -485,7 +485,8 @@ mod tests {
         let loaded = load(None).unwrap();
         let geometry = setup::geometry(&loaded).unwrap();
         let trajectory = setup::trajectory(&loaded, &geometry, 10.0).unwrap();
-        let controller = setup::controller(&loaded, &geometry, trajectory).unwrap();
+        let controller =
+            setup::controller(&loaded, &geometry, trajectory, Measurement::Tare).unwrap();
         let home = geometry.leg_lengths(&geometry.home_pose());
         let mut backend = Resting {
             lengths_m: home.into(),

@@ -241,28 +241,42 @@ pub fn controller_config(config: &Config) -> ControllerConfig {
     }
 }
 
-/// Builds the controller for one run, refusing (with the key) a configuration or trajectory
-/// the control crate rejects — including the whole-trajectory feasibility check.
+/// Builds the controller for one `measurement`'s run, refusing (with the key) a configuration
+/// or trajectory the control crate rejects — including the whole-trajectory feasibility check
+/// and, with `control.inertial_feedforward`, whether the legs can drive the load as the rig
+/// description gives it ([`feedforward_load`]) along the trajectory
+/// ([`control::Controller::check_load_forces`]) — before anything is contacted or moves.
 pub fn controller(
     loaded: &LoadedConfig,
     geometry: &Geometry,
     trajectory: Trajectory,
+    measurement: Measurement,
 ) -> Result<control::controller::Controller, ConfigError> {
     let config = controller_config(&loaded.config);
-    control::controller::Controller::new(*geometry, trajectory, config).map_err(|e| {
-        let issue = match e {
-            ControlError::InvalidConfig { parameter, reason } => {
-                let key = if parameter.starts_with("feasibility") {
-                    "excitation"
-                } else {
-                    "control"
-                };
-                loaded.issue(key, format!("{parameter} {reason}"))
-            }
-            other => trajectory_issue(loaded, &other),
-        };
-        ConfigError::single(issue)
-    })
+    let controller =
+        control::controller::Controller::new(*geometry, trajectory, config).map_err(|e| {
+            let issue = match e {
+                ControlError::InvalidConfig { parameter, reason } => {
+                    let key = if parameter.starts_with("feasibility") {
+                        "excitation"
+                    } else {
+                        "control"
+                    };
+                    loaded.issue(key, format!("{parameter} {reason}"))
+                }
+                other => trajectory_issue(loaded, &other),
+            };
+            ConfigError::single(issue)
+        })?;
+    if let Some(load) = feedforward_load(&loaded.config, measurement, None) {
+        controller.check_load_forces(&load).map_err(|e| {
+            ConfigError::single(loaded.issue(
+                amplitude_key(&loaded.config),
+                format!("refused before motion ({} run): {e}", measurement.name()),
+            ))
+        })?;
+    }
+    Ok(controller)
 }
 
 /// The accelerometer's position in P, m: the IMU calibration's when one is applied, else the
@@ -434,7 +448,7 @@ mod tests {
         let loaded = load(None).unwrap();
         let g = geometry(&loaded).unwrap();
         let t = trajectory(&loaded, &g, loaded.config.run.duration_s).unwrap();
-        controller(&loaded, &g, t).unwrap();
+        controller(&loaded, &g, t, Measurement::Loaded).unwrap();
     }
 
     #[test]
@@ -489,7 +503,7 @@ mod tests {
         let loaded = load_str(text, "far.toml").unwrap();
         let g = geometry(&loaded).unwrap();
         let t = trajectory(&loaded, &g, 20.0).unwrap();
-        let err = controller(&loaded, &g, t).unwrap_err();
+        let err = controller(&loaded, &g, t, Measurement::Loaded).unwrap_err();
         let issue = &err.issues[0];
         assert_eq!(issue.key, "excitation.multisine");
         assert_eq!(issue.line, Some(1));

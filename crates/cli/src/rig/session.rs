@@ -43,7 +43,12 @@ pub fn rig_with_abort(
     let loaded_controller = if plan == Plan::MeasureOnly || plan == Plan::Both || calibrating_cells
     {
         let t = setup::trajectory(&loaded, &geometry, config.run.duration_s)?;
-        Some(setup::controller(&loaded, &geometry, t)?)
+        Some(setup::controller(
+            &loaded,
+            &geometry,
+            t,
+            measure::Measurement::Loaded,
+        )?)
     } else {
         None
     };
