@@ -32,6 +32,7 @@
 )]
 
 pub mod conditioning;
+pub mod dof;
 mod error;
 mod estimate;
 pub mod filter;

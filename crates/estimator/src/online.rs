@@ -9,11 +9,11 @@ use crate::legs::{unseen_total, LegModel};
 use crate::regressor::{from_signals, inertia_columns, RegressorSignals};
 use crate::rls::Rls;
 use crate::timebase::Timing;
-use crate::uncertainty::ScoreCovariance;
+use crate::uncertainty::{derived_jacobian, ScoreCovariance};
 use crate::wrench::{measured, to_vector};
 use kinematics::{Geometry, Pose, Wrench};
 use nalgebra::{Const, DimMin, Matrix6, SMatrix, SVector, Vector3, Vector6};
-use stewart_types::{InertialParameters, ParameterVector, GRAVITY_B_M_S2};
+use stewart_types::{InertialParameters, ParameterVector, GRAVITY_B_M_S2, PARAMETER_COUNT};
 
 /// Which parameters are estimated.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -403,9 +403,23 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         p * (bw.tr_mul(&(y - s.tr_mul(&theta))) - s * (bw * theta))
     }
 
-    fn covariance(&self) -> SMatrix<f64, N, N> {
+    /// Covariance of θ, each reported quantity (rows of `quantities`, gradients with respect
+    /// to θ, given θ) with its own small-sample factor.
+    fn covariance(
+        &self,
+        quantities: impl Fn(&SVector<f64, N>) -> SMatrix<f64, N, N>,
+    ) -> SMatrix<f64, N, N> {
         let (theta, p) = self.corrected();
-        self.score.covariance(&theta, &p)
+        self.score.covariance(&theta, &p, &quantities(&theta))
+    }
+
+    /// Degrees of freedom of each reported quantity's variance (as for [`Self::covariance`]).
+    fn degrees_of_freedom(
+        &self,
+        quantities: impl Fn(&SVector<f64, N>) -> SMatrix<f64, N, N>,
+    ) -> [Option<f64>; N] {
+        let (theta, p) = self.corrected();
+        self.score.degrees_of_freedom(&p, &quantities(&theta))
     }
 }
 
@@ -494,16 +508,19 @@ enum Engine {
 }
 
 /// The bound on [`OnlineEstimator`]'s size, bytes, asserted when the crate compiles: a change
-/// that grows the state past it must say so here.
-pub const ONLINE_ESTIMATOR_MAX_BYTES: usize = 48 * 1024;
+/// that grows the state past it must say so here. 96 KiB since the residual blocks'
+/// information ([`crate::dof`], 49 KB) joined the 44 KB of the rest.
+pub const ONLINE_ESTIMATOR_MAX_BYTES: usize = 96 * 1024;
 
 const _: () = assert!(core::mem::size_of::<OnlineEstimator>() <= ONLINE_ESTIMATOR_MAX_BYTES);
 
 /// The online estimator. `update` costs a few microseconds and never allocates.
 ///
-/// Its whole state lives inline: 43 792 bytes on x86-64 for the ten-parameter engine (both
+/// Its whole state lives inline: 93 072 bytes on x86-64 for the ten-parameter engine (both
 /// engines share the storage), bounded at compile time by [`ONLINE_ESTIMATOR_MAX_BYTES`]; most
-/// of it the RLS's U-D factors, the residual scores and the conditioning's filter states. A
+/// of it the residual blocks' information for each quantity's degrees of freedom (49 KB,
+/// [`crate::dof`]), the RLS's U-D factors, the residual scores and the conditioning's filter
+/// states. A
 /// firmware gives it a static or a task stack of that size. It is not `Copy`, so that a copy
 /// of that size is always a visible `clone()`.
 #[derive(Clone, Debug, PartialEq)]
@@ -900,14 +917,35 @@ impl OnlineEstimator {
     }
 
     /// Covariance of θ (P and the residual scores; see [`crate::uncertainty`]).
+    ///
+    /// Each reported quantity's variance carries its own small-sample factor
+    /// ([`crate::uncertainty::ScoreCovariance::covariance`]): for the full model the mass,
+    /// the centre of mass and J_C's entries ([`derived_jacobian`] at θ, or θ's own entries
+    /// while the mass is not positive), for the paper's six the tensor's entries.
     pub fn covariance(&self) -> ParameterCovariance {
         match &self.engine {
-            Engine::Full(s) => s.covariance(),
+            Engine::Full(s) => s.covariance(reported_quantities),
             Engine::Six { solver, .. } => {
                 let mut c = ParameterCovariance::zeros();
                 c.fixed_view_mut::<6, 6>(4, 4)
-                    .copy_from(&solver.covariance());
+                    .copy_from(&solver.covariance(|_| SMatrix::identity()));
                 c
+            }
+        }
+    }
+
+    /// Degrees of freedom of each reported quantity's variance, in θ's layout (the mass, the
+    /// centre of mass, J_C's entries; for the paper's six only the tensor's): how many the
+    /// residual blocks give along that quantity ([`crate::dof`]). `None` where none are
+    /// measured yet or the quantity is not estimated.
+    pub fn degrees_of_freedom(&self) -> [Option<f64>; PARAMETER_COUNT] {
+        match &self.engine {
+            Engine::Full(s) => s.degrees_of_freedom(reported_quantities),
+            Engine::Six { solver, .. } => {
+                let six = solver.degrees_of_freedom(|_| SMatrix::identity());
+                core::array::from_fn(|i| {
+                    i.checked_sub(4).and_then(|k| six.get(k).copied().flatten())
+                })
             }
         }
     }
@@ -981,5 +1019,16 @@ impl OnlineEstimator {
         e.counts = self.counts();
         e.timing = self.timing();
         e
+    }
+}
+
+/// Gradients of the full model's reported quantities (mass, centre of mass, J_C's entries)
+/// with respect to θ, [`derived_jacobian`]; θ's own entries while the mass is not positive.
+fn reported_quantities(theta: &SVector<f64, 10>) -> SMatrix<f64, 10, 10> {
+    let mass = theta.get(0).copied().unwrap_or(f64::NAN);
+    if mass > 0.0 && mass.is_finite() {
+        derived_jacobian(theta)
+    } else {
+        SMatrix::identity()
     }
 }

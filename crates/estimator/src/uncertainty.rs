@@ -9,6 +9,7 @@
 //! M = Σ_blocks g gᵀ, g = Σ_(rows in block) φ r — valid whatever the noise colour, provided the
 //! blocks are long compared with it.
 
+use crate::dof::BlockInformation;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use stewart_types::{parallel_axis, Principal, TENSOR_ENTRIES};
 
@@ -79,6 +80,8 @@ pub struct ScoreCovariance<const N: usize, const R: usize, const NR: usize> {
     /// Score of the last finished block and its offset sensitivity, unaged.
     last_g: SVector<f64, N>,
     last_d: SMatrix<f64, N, R>,
+    /// The counted blocks' information, for each reported quantity's degrees of freedom.
+    information: BlockInformation<N>,
     /// Effective number of finished blocks, Σ λ^(2·age).
     blocks: f64,
     /// Effective number of rows, Σ λ^(age).
@@ -110,6 +113,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             e_e: SMatrix::zeros(),
             last_g: SVector::zeros(),
             last_d: SMatrix::zeros(),
+            information: BlockInformation::new(),
             blocks: 0.0,
             rows: 0.0,
             in_block: 0,
@@ -192,6 +196,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             }
             self.eta_e = self.eta_e * decay + eta * flat.transpose();
             self.e_e = self.e_e * decay + flat * flat.transpose();
+            self.information.add(&a, decay);
             self.blocks = self.blocks * decay + 1.0;
             self.last_g = g;
             self.last_d = d;
@@ -306,8 +311,18 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
 
     /// Covariance of θ given the fit's θ and P (as for [`Self::close_block`]): the offset c,
     /// then the sandwich P M P with M of the offset-free scores, scaled by
-    /// [`small_sample_factor`] (G blocks, n rows, N parameters and R offsets fitted). Before
-    /// [`MIN_COVARIANCE_BLOCKS`] blocks count ([`Self::is_measured`]) it is P, what the
+    /// [`cluster_factor`] (G blocks, n rows, N parameters and R offsets fitted) and, quantity
+    /// by quantity, by [`student_factor`] of that quantity's own degrees of freedom.
+    ///
+    /// `quantities` holds, row by row, the gradients with respect to θ of the N quantities
+    /// the caller reports (the mass, the centre of mass and J_C's entries for the full model:
+    /// [`derived_jacobian`]; θ itself for the paper's six). Quantity j's variance from the
+    /// blocks has νⱼ degrees of freedom along w = P cⱼ ([`BlockInformation`]); its variance is
+    /// scaled by νⱼ/(νⱼ − 2) in the quantities' basis (Q = G C Gᵀ → D Q D, D = diag √fⱼ,
+    /// back by G⁻¹), which keeps the quantities' correlations and C positive semi-definite.
+    /// When `quantities` is singular, every quantity takes ν = G − 1.
+    ///
+    /// Before [`MIN_COVARIANCE_BLOCKS`] blocks count ([`Self::is_measured`]) it is P, what the
     /// configured equation sigmas predict: a provisional figure for a live display, which
     /// understates the spread whenever the residuals exceed the configured sigmas or are
     /// correlated, and which a report must not print as a measurement.
@@ -315,6 +330,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         &self,
         theta: &SVector<f64, N>,
         p: &SMatrix<f64, N, N>,
+        quantities: &SMatrix<f64, N, N>,
     ) -> SMatrix<f64, N, N> {
         let n = self.rows;
         let fitted = (N + R) as f64;
@@ -322,9 +338,91 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             return *p;
         }
         let m = self.score_sum(&self.offset(theta, p));
-        let c = p * m * p * small_sample_factor(self.blocks, n, fitted);
-        (c + c.transpose()) * 0.5
+        let c = p * m * p * cluster_factor(self.blocks, n, fitted);
+        let c = (c + c.transpose()) * 0.5;
+        let fallback = student_factor(self.blocks - 1.0);
+        let roots = SVector::<f64, N>::from_fn(|j, _| {
+            let gradient = quantities.row(j).transpose();
+            let nu = self.information.degrees_of_freedom(&(p * gradient));
+            libm::sqrt(nu.map_or(fallback, student_factor))
+        });
+        scale_in_basis(&c, quantities, &roots).unwrap_or(c * fallback)
     }
+
+    /// The degrees of freedom of each reported quantity's variance (rows of `quantities` as
+    /// for [`Self::covariance`]), `None` where the blocks give none.
+    pub fn degrees_of_freedom(
+        &self,
+        p: &SMatrix<f64, N, N>,
+        quantities: &SMatrix<f64, N, N>,
+    ) -> [Option<f64>; N] {
+        core::array::from_fn(|j| {
+            let gradient = quantities.row(j).transpose();
+            self.information.degrees_of_freedom(&(p * gradient))
+        })
+    }
+}
+
+/// C' = G⁻¹ D G C Gᵀ D G⁻ᵀ with D = diag(`roots`): C's quantities' covariance G C Gᵀ scaled
+/// entry (i, j) by dᵢ dⱼ, taken back to θ. `None` when G is singular or the result not finite.
+fn scale_in_basis<const N: usize>(
+    c: &SMatrix<f64, N, N>,
+    basis: &SMatrix<f64, N, N>,
+    roots: &SVector<f64, N>,
+) -> Option<SMatrix<f64, N, N>> {
+    let mut t = SMatrix::<f64, N, N>::from_diagonal(roots) * basis;
+    // t ← G⁻¹ D G, solved column by column by Gaussian elimination with partial pivoting
+    // (a generic N has no nalgebra LU).
+    if !solve_in_place(basis, &mut t) {
+        return None;
+    }
+    let scaled = t * c * t.transpose();
+    let scaled = (scaled + scaled.transpose()) * 0.5;
+    scaled.iter().all(|v| v.is_finite()).then_some(scaled)
+}
+
+/// Solves G X = B in place of B (Gaussian elimination, partial pivoting); false when G is
+/// singular to working precision.
+fn solve_in_place<const N: usize>(g: &SMatrix<f64, N, N>, b: &mut SMatrix<f64, N, N>) -> bool {
+    let mut a = *g;
+    let scale = a.amax();
+    if !(scale > 0.0 && scale.is_finite()) {
+        return false;
+    }
+    for k in 0..N {
+        let Some((pivot, value)) = (k..N)
+            .map(|i| (i, a.get((i, k)).copied().unwrap_or(0.0)))
+            .max_by(|x, y| x.1.abs().total_cmp(&y.1.abs()))
+        else {
+            return false;
+        };
+        if !(value.abs() > 1e-14 * scale) {
+            return false;
+        }
+        a.swap_rows(k, pivot);
+        b.swap_rows(k, pivot);
+        for i in (k + 1)..N {
+            let factor = a.get((i, k)).copied().unwrap_or(0.0) / value;
+            if factor != 0.0 {
+                let row_k = a.row(k).into_owned();
+                let mut row_i = a.row_mut(i);
+                row_i -= row_k * factor;
+                let b_k = b.row(k).into_owned();
+                let mut b_i = b.row_mut(i);
+                b_i -= b_k * factor;
+            }
+        }
+    }
+    for k in (0..N).rev() {
+        let diagonal = a.get((k, k)).copied().unwrap_or(f64::NAN);
+        let mut row = b.row(k).into_owned();
+        for j in (k + 1)..N {
+            let a_kj = a.get((k, j)).copied().unwrap_or(0.0);
+            row -= b.row(j) * a_kj;
+        }
+        b.row_mut(k).copy_from(&(row / diagonal));
+    }
+    b.iter().all(|v| v.is_finite())
 }
 
 /// Largest leverage [`own_fit_correction`] corrects for: ½, the second of equal blocks'. A
@@ -390,28 +488,45 @@ pub fn own_fit_correction<const N: usize>(
 pub const MIN_COVARIANCE_BLOCKS: u32 = 6;
 
 /// Small-sample factor of the block-sandwich covariance from G (effective) blocks of n rows
-/// in all, `fitted` = N + R parameters and offsets fitted:
-///
-/// k = G/(G−1) · (n−1)/(n−N−R) · ν/(ν−2),  ν = G − 1.
-///
-/// The first two are the cluster-robust CR1 correction (scores at one fitted θ sum to zero
-/// over the blocks, which spends one of the G; the rows' factor counts the fitted
-/// parameters); the block scores, taken along the run and corrected for their own fit
+/// in all, `fitted` = N + R parameters and offsets fitted, when every quantity's variance has
+/// the blocks' own ν = G − 1 degrees of freedom: [`cluster_factor`] · [`student_factor`](ν).
+/// [`ScoreCovariance::covariance`] takes each quantity's own ν instead ([`crate::dof`]).
+pub fn small_sample_factor(blocks: f64, rows: f64, fitted: f64) -> f64 {
+    cluster_factor(blocks, rows, fitted) * student_factor(blocks - 1.0)
+}
+
+/// G/(G−1) · (n−1)/(n−N−R): the cluster-robust CR1 correction (scores at one fitted θ sum to
+/// zero over the blocks, which spends one of the G; the rows' factor counts the fitted
+/// parameters). The block scores, taken along the run and corrected for their own fit
 /// ([`own_fit_correction`]), do not sum to zero, and G/(G−1) stays as a small margin for the
 /// second-order share of the leverage (the synthetic test's mean z²: 0.98–1.10 at 7–20
-/// blocks). An unbiased variance estimate
-/// from G block scores of one linear combination aᵀθ is σ̂² = σ² χ²_ν/ν, independent of the
-/// error e = aᵀ(θ̂ − θ) ~ N(0, σ²), so e/σ̂ is Student-t with ν degrees of freedom and
-/// E[(e/σ̂)²] = ν/(ν−2): the third factor scales σ̂² so that the reported sigma's mean z² is
-/// 1 (measured, 20 runs at 2–3 s of excitation: mean z² 3–4 without it, G = 4–6). 1 for
-/// G → ∞; infinite for ν ≤ 2 (hence [`MIN_COVARIANCE_BLOCKS`]).
-pub fn small_sample_factor(blocks: f64, rows: f64, fitted: f64) -> f64 {
-    let nu = blocks - 1.0;
-    if !(nu > 2.0 && rows > fitted) {
+/// blocks). Infinite unless G > 1 and n > N + R.
+pub fn cluster_factor(blocks: f64, rows: f64, fitted: f64) -> f64 {
+    if !(blocks > 1.0 && rows > fitted) {
         return f64::INFINITY;
     }
-    blocks / (blocks - 1.0) * (rows - 1.0) / (rows - fitted) * nu / (nu - 2.0)
+    blocks / (blocks - 1.0) * (rows - 1.0) / (rows - fitted)
 }
+
+/// ν/(ν−2) for a variance estimated with ν degrees of freedom: an unbiased σ̂² = σ² χ²_ν/ν,
+/// independent of the error e ~ N(0, σ²), makes e/σ̂ Student-t with ν degrees of freedom and
+/// E[(e/σ̂)²] = ν/(ν−2), so σ̂² scaled by this has mean z² 1 (measured, 20 runs at 2–3 s of
+/// excitation: mean z² 3–4 without it). 1 for ν → ∞; below ν = [`MIN_DEGREES_OF_FREEDOM`]
+/// it is taken at that ν (z² has no finite mean at ν ≤ 2): a quantity whose variance rests
+/// on fewer degrees of freedom is reported with that factor, not refused.
+pub fn student_factor(nu: f64) -> f64 {
+    let nu = if nu.is_nan() {
+        MIN_DEGREES_OF_FREEDOM
+    } else {
+        nu.max(MIN_DEGREES_OF_FREEDOM)
+    };
+    nu / (nu - 2.0)
+}
+
+/// The degrees of freedom at which [`student_factor`] stops: 3 (factor 3). Below it the
+/// standardised error's square has no finite mean (ν ≤ 2) or nearly none, whatever the
+/// factor.
+pub const MIN_DEGREES_OF_FREEDOM: f64 = 3.0;
 
 /// Eigenvalues and eigenvectors (columns) of a small symmetric matrix by cyclic Jacobi
 /// rotations (nalgebra's `SymmetricEigen` needs a dimension it can subtract from, which a
@@ -701,7 +816,7 @@ mod tests {
         let mut s = ScoreCovariance::<2, 1, 2>::new(10, 1.0);
         let p = SMatrix::<f64, 2, 2>::identity() * 0.5;
         let theta = SVector::<f64, 2>::zeros();
-        assert_eq!(s.covariance(&theta, &p), p);
+        assert_eq!(s.covariance(&theta, &p, &SMatrix::identity()), p);
         let rows = SMatrix::<f64, 1, 2>::new(1.0, 0.0);
         for k in 0..1000 {
             let y = SVector::<f64, 1>::new(if k % 2 == 0 { 1.0 } else { -1.0 });
@@ -711,7 +826,7 @@ mod tests {
         }
         // Alternating residuals cancel in every block: no spread in the first parameter.
         assert!((s.blocks() - 99.0).abs() < 1e-12);
-        let c = s.covariance(&theta, &p);
+        let c = s.covariance(&theta, &p, &SMatrix::identity());
         assert!(c[(0, 0)] < 0.03 * p[(0, 0)]);
     }
 
@@ -720,6 +835,12 @@ mod tests {
     /// with θ and P of the fit weighted by a configured sigma five times too small (as the
     /// default rig's torque equations: 2 N·m configured, 16 N·m of residual).
     fn short_run_mean_z2(blocks: usize, runs: usize) -> [f64; 2] {
+        uneven_run_mean_z2(blocks, runs, |_| 1.0)
+    }
+
+    /// As [`short_run_mean_z2`], the first regressor scaled in block k by `envelope(k)`: an
+    /// excitation that spreads its information unevenly over the blocks.
+    fn uneven_run_mean_z2(blocks: usize, runs: usize, envelope: impl Fn(usize) -> f64) -> [f64; 2] {
         use rand::SeedableRng;
         use rand_distr::{Distribution, Normal};
         let mut rng = rand::rngs::StdRng::seed_from_u64(14);
@@ -731,9 +852,11 @@ mod tests {
             let mut s = ScoreCovariance::<2, 1, 2>::new(50, 1.0);
             let mut a = SMatrix::<f64, 2, 2>::identity() * 1e-8;
             let mut b = SVector::<f64, 2>::zeros();
-            for _ in 0..blocks * 50 {
-                let phi =
-                    SMatrix::<f64, 1, 2>::new(normal.sample(&mut rng), normal.sample(&mut rng));
+            for i in 0..blocks * 50 {
+                let phi = SMatrix::<f64, 1, 2>::new(
+                    normal.sample(&mut rng) * envelope(i / 50),
+                    normal.sample(&mut rng),
+                );
                 let y = (phi * truth)[(0, 0)] + normal.sample(&mut rng);
                 let (wphi, wy) = (phi * weight, SVector::<f64, 1>::new(y * weight));
                 a += wphi.tr_mul(&wphi);
@@ -745,7 +868,7 @@ mod tests {
             }
             let p = a.try_inverse().unwrap();
             let theta = p * b;
-            let c = s.covariance(&theta, &p);
+            let c = s.covariance(&theta, &p, &SMatrix::identity());
             for (k, z) in z2.iter_mut().enumerate() {
                 *z += (theta[k] - truth[k]).powi(2) / c[(k, k)] / runs as f64;
             }
@@ -769,6 +892,20 @@ mod tests {
         let z2 = short_run_mean_z2(61, 400);
         for (k, z) in z2.iter().enumerate() {
             assert!((0.75..1.35).contains(z), "parameter {k}: mean z² {z:.3}");
+        }
+    }
+
+    /// Issue 14: an excitation that gives most of one parameter's information to a few
+    /// blocks leaves that parameter's variance far fewer degrees of freedom than the blocks
+    /// (here: 9 counted blocks, the first regressor 4× stronger in two of them, ν ≈ 3.6 along
+    /// it against 5.5 along the other). Each parameter's own ν keeps its mean z² in
+    /// [0.6, 1.5] (4000 runs); the blocks' count for both (ν = G − 1) gave the first 2.0.
+    #[test]
+    fn uneven_blocks_sigma_covers_the_error() {
+        let envelope = |k: usize| if k == 3 || k == 4 { 4.0 } else { 1.0 };
+        let z2 = uneven_run_mean_z2(10, 4000, envelope);
+        for (k, z) in z2.iter().enumerate() {
+            assert!((0.6..=1.5).contains(z), "parameter {k}: mean z² {z:.3}");
         }
     }
 
@@ -823,8 +960,15 @@ mod tests {
         // G = 6, n = 300 rows, 3 fitted: 6/5 · 299/297 · 5/3.
         let k = small_sample_factor(6.0, 300.0, 3.0);
         assert!((k - 6.0 / 5.0 * 299.0 / 297.0 * 5.0 / 3.0).abs() < 1e-12);
-        // ν = G − 1 ≤ 2 has no finite factor; many blocks tend to 1.
-        assert_eq!(small_sample_factor(3.0, 300.0, 3.0), f64::INFINITY);
+        // ν = G − 1 ≤ 2 has no finite mean z²: the factor stops at MIN_DEGREES_OF_FREEDOM
+        // (3/1); many blocks tend to 1; one block has no cluster factor.
+        assert_eq!(student_factor(2.0), 3.0);
+        assert_eq!(student_factor(f64::NAN), 3.0);
+        assert_eq!(
+            small_sample_factor(3.0, 300.0, 3.0),
+            1.5 * 299.0 / 297.0 * 3.0
+        );
+        assert_eq!(cluster_factor(1.0, 300.0, 3.0), f64::INFINITY);
         assert!((small_sample_factor(1e6, 1e9, 3.0) - 1.0).abs() < 1e-5);
     }
 
@@ -838,7 +982,7 @@ mod tests {
         // MIN_COVARIANCE_BLOCKS + 1 blocks in all: the first does not count.
         while s.blocks() < MIN_COVARIANCE_BLOCKS as f64 {
             assert!(!s.is_measured());
-            assert_eq!(s.covariance(&theta, &p), p);
+            assert_eq!(s.covariance(&theta, &p, &SMatrix::identity()), p);
             let y = SVector::<f64, 1>::new(((k * 7919) % 13) as f64 - 6.0);
             if s.add(&rows, &y) {
                 s.close_block(&theta, &p, &SMatrix::zeros());
@@ -847,6 +991,6 @@ mod tests {
         }
         assert_eq!(k, 10 * (MIN_COVARIANCE_BLOCKS + 1));
         assert!(s.is_measured());
-        assert_ne!(s.covariance(&theta, &p), p);
+        assert_ne!(s.covariance(&theta, &p, &SMatrix::identity()), p);
     }
 }
