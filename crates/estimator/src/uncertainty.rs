@@ -396,7 +396,8 @@ fn solve_in_place<const N: usize>(g: &SMatrix<f64, N, N>, b: &mut SMatrix<f64, N
         else {
             return false;
         };
-        if !(value.abs() > 1e-14 * scale) {
+        // A NaN pivot fails this comparison too.
+        if value.abs().partial_cmp(&(1e-14 * scale)) != Some(core::cmp::Ordering::Greater) {
             return false;
         }
         a.swap_rows(k, pivot);
@@ -953,6 +954,28 @@ mod tests {
         let residual =
             t * t * (SMatrix::<f64, 3, 3>::identity() - a * p) - SMatrix::<f64, 3, 3>::identity();
         assert!(residual.norm() < 1e-9, "{residual}");
+    }
+
+    /// Scaling in a basis: unit roots give C back; the quantities' covariance G C' Gᵀ is
+    /// G C Gᵀ with entry (i, j) scaled by dᵢ dⱼ; a singular basis gives None.
+    #[test]
+    fn scaling_in_the_quantities_basis_scales_their_covariance() {
+        let l = SMatrix::<f64, 3, 3>::new(2.0, 0.0, 0.0, 0.5, 1.0, 0.0, -0.3, 0.2, 0.7);
+        let c = l * l.transpose();
+        let g = SMatrix::<f64, 3, 3>::new(1.0, 0.2, 0.0, 0.0, 3.0, -1.0, 0.5, 0.0, 2.0);
+        let same = scale_in_basis(&c, &g, &SVector::from_element(1.0)).unwrap();
+        assert!((same - c).norm() < 1e-12 * c.norm());
+        let d = SVector::<f64, 3>::new(1.5, 1.0, 0.8);
+        let scaled = scale_in_basis(&c, &g, &d).unwrap();
+        let q = g * c * g.transpose();
+        let q2 = g * scaled * g.transpose();
+        for i in 0..3 {
+            for j in 0..3 {
+                assert!((q2[(i, j)] - q[(i, j)] * d[i] * d[j]).abs() < 1e-10 * q.norm());
+            }
+        }
+        let singular = SMatrix::<f64, 3, 3>::new(1.0, 2.0, 3.0, 2.0, 4.0, 6.0, 0.0, 1.0, 1.0);
+        assert_eq!(scale_in_basis(&c, &singular, &d), None);
     }
 
     #[test]
