@@ -110,6 +110,7 @@ mod tests {
                 loaded_blocks: 149,
                 tare_blocks: Some(74),
                 block_s: 0.4,
+                loaded_degrees_of_freedom: [None; 10],
             },
             ..Report::default()
         };

@@ -154,6 +154,18 @@ pub fn render(report: &Report) -> String {
     if let Some(line) = projection_line(&report.consistency) {
         let _ = writeln!(out, "{line}");
     }
+    if let Some((name, nu)) = measure::quality::heavy_tailed(
+        &Quantities::NAMES,
+        &report.covariance_basis.loaded_degrees_of_freedom,
+    ) {
+        let _ = writeln!(
+            out,
+            "{name}'s sigma rests on {nu:.1} degrees of freedom of the residual blocks \
+             (fewer than {:.0}: its error can reach several sigmas more often than a normal \
+             one's); a longer excitation gives more",
+            measure::quality::HEAVY_TAIL_DEGREES_OF_FREEDOM
+        );
+    }
     if let Some(w) = &report.static_weighing {
         let p = &w.payload;
         let [m, x, y] = w.check.z;

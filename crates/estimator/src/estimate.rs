@@ -91,6 +91,11 @@ pub struct Estimate {
     pub counts: Counts,
     /// The time base's measurements: timestamp jitter, rate error, period in use.
     pub timing: Timing,
+    /// Degrees of freedom of each reported quantity's variance as the residual blocks gave
+    /// them ([`crate::dof`]), [m, c_x, c_y, c_z, J_C xx, yy, zz, xy, xz, yz]; NaN where none
+    /// are measured (too few blocks, or a quantity the model does not estimate). A payload's
+    /// ([`Self::without_tare`]) are the loaded run's.
+    pub degrees_of_freedom: ParameterVector,
 }
 
 impl Estimate {
@@ -122,6 +127,7 @@ impl Estimate {
             residual_rms: Vector6::zeros(),
             counts: Counts::default(),
             timing: Timing::default(),
+            degrees_of_freedom: ParameterVector::from_element(f64::NAN),
         };
         if let Some(d) = derive(&theta, &covariance) {
             e.com_m = d.com_m;
@@ -157,6 +163,7 @@ impl Estimate {
             Estimate::from_parameters(self.parameters - *tare, self.covariance + tare_covariance);
         e.residual_rms = self.residual_rms;
         e.counts = self.counts;
+        e.degrees_of_freedom = self.degrees_of_freedom;
         e
     }
 

@@ -926,3 +926,62 @@ fn neumann_series_matches_an_lu_solve_and_refuses_slow_series() {
     let nan = SMatrix::<f64, 10, 10>::from_element(f64::NAN);
     assert_eq!(neumann_solve(|v| nan * v, &b), None);
 }
+
+/// Each reported quantity's degrees of freedom: NaN until enough residual blocks count, then
+/// finite and at most the Newey–West count of equal blocks, G²/(G + ½(G − 1)) (uneven
+/// information can only lower it), and the payload keeps the loaded run's.
+#[test]
+fn each_quantity_reports_its_degrees_of_freedom() {
+    let body = PointBody::vehicle_like();
+    let noise = SensorNoise {
+        leg_force_n: 5.0,
+        gyro_rad_s: 2e-4,
+        accel_m_s2: 0.002,
+    };
+    let mut c = config(Some(20.0), 1e-3);
+    c.gyro_noise_rad_s = noise.gyro_rad_s;
+    c.accel_noise_m_s2 = noise.accel_m_s2;
+    c.covariance_block_samples = 500;
+    let accel_at = Vector3::zeros();
+    let mut short = OnlineEstimator::new(c.clone()).unwrap();
+    let mut rng = StdRng::seed_from_u64(7);
+    run(
+        &mut short,
+        &body,
+        &Motion::rich(),
+        2000,
+        1e-3,
+        &accel_at,
+        &noise,
+        &mut rng,
+    );
+    assert!(short
+        .estimate()
+        .degrees_of_freedom
+        .iter()
+        .all(|v| v.is_nan()));
+    let mut est = OnlineEstimator::new(c).unwrap();
+    run(
+        &mut est,
+        &body,
+        &Motion::rich(),
+        10_000,
+        1e-3,
+        &accel_at,
+        &noise,
+        &mut rng,
+    );
+    let e = est.estimate();
+    let g = e.counts.covariance_blocks as f64;
+    assert!(g >= 15.0, "{:?}", e.counts);
+    let most = g * g / (g + 0.5 * (g - 1.0));
+    for (i, nu) in e.degrees_of_freedom.iter().enumerate() {
+        assert!(
+            nu.is_finite() && *nu > 1.0 && *nu <= most + 1e-9,
+            "quantity {i}: ν {nu}"
+        );
+    }
+    let tare = e.parameters;
+    let payload = e.without_tare(&tare, &e.covariance);
+    assert_eq!(payload.degrees_of_freedom, e.degrees_of_freedom);
+}

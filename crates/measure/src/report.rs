@@ -215,6 +215,13 @@ pub struct CovarianceBasis {
     pub tare_blocks: Option<u64>,
     /// Length of one block, s (samples per block × sample period).
     pub block_s: f64,
+    /// Degrees of freedom of each quantity's variance in the loaded run, in the order of
+    /// [`Quantities::flat`] (mass, c, J_C xx, yy, zz, xy, xz, yz): how many the residual
+    /// blocks give along that quantity (`estimator::dof`; about G/1.5 for equal blocks, fewer
+    /// where a few blocks carry most of its information). Each sigma is scaled by its
+    /// ν/(ν − 2); `null` where none were measured.
+    #[serde(default)]
+    pub loaded_degrees_of_freedom: [Option<f64>; 10],
 }
 
 /// The report. Field order and names are the report convention of docs/log-schema.md; fields
@@ -561,6 +568,9 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
             loaded_blocks: i.loaded.counts.covariance_blocks,
             tare_blocks: i.tare.covariance_blocks,
             block_s: i.loaded.counts.covariance_block_samples as f64 * i.loaded.timing.period_s,
+            loaded_degrees_of_freedom: core::array::from_fn(|k| {
+                Some(i.loaded.degrees_of_freedom[k]).filter(|v| v.is_finite())
+            }),
         },
         static_weighing: i.loaded_weighing.zip(i.tare.static_weighing.as_ref()).map(
             |(loaded, tare)| {
@@ -1025,6 +1035,7 @@ mod tests {
                 loaded_blocks: 6,
                 tare_blocks: Some(70),
                 block_s: 0.4,
+                loaded_degrees_of_freedom: [None; 10],
             },
             ..Report::default()
         };
