@@ -943,7 +943,7 @@ fn each_quantity_reports_its_degrees_of_freedom() {
     c.accel_noise_m_s2 = noise.accel_m_s2;
     c.covariance_block_samples = 500;
     let accel_at = Vector3::zeros();
-    let mut short = OnlineEstimator::new(c.clone()).unwrap();
+    let mut short = OnlineEstimator::new(c).unwrap();
     let mut rng = StdRng::seed_from_u64(7);
     run(
         &mut short,
