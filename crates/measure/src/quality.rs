@@ -92,6 +92,36 @@ pub fn block_samples_for(default_samples: u32, excitation_s: f64, period_s: f64)
     (fitting as u32).max(floor)
 }
 
+/// Residual blocks that count in a run whose excitation lasts `excitation_s`, sampled every
+/// `period_s`, in blocks of `block_samples`: the fit sees the excitation's samples (the
+/// conditioning warms up during the settle phase before it), the block left unfinished at the
+/// end and the run's first block do not count. Measured against runs of the default rig
+/// (fades 0.25 s): 1.5 s → 6, 1.7 s → 7, 2.0 s → 8 (blocks 0.2, 0.2, 0.222 s).
+pub fn counted_blocks(excitation_s: f64, period_s: f64, block_samples: u32) -> u64 {
+    let samples = (excitation_s / period_s).floor();
+    if !(samples.is_finite() && samples > 0.0 && block_samples > 0) {
+        return 0;
+    }
+    ((samples as u64) / u64::from(block_samples)).saturating_sub(1)
+}
+
+/// The rule on a run's excitation before it moves: the blocks it will give
+/// ([`counted_blocks`] with [`block_samples_for`]'s blocks) must be enough for
+/// [`check_covariance`]. `default_block_samples` is the estimator's own (8/f_c).
+pub fn check_excitation(
+    run: &'static str,
+    excitation_s: f64,
+    period_s: f64,
+    default_block_samples: u32,
+) -> Result<(), QualityError> {
+    let block = block_samples_for(default_block_samples, excitation_s, period_s);
+    check_covariance(
+        run,
+        counted_blocks(excitation_s, period_s, block),
+        f64::from(block) * period_s,
+    )
+}
+
 /// rejected / (used + rejected); 0 without samples.
 pub fn rejected_share(used: u64, rejected: u64) -> f64 {
     let total = used.saturating_add(rejected);
@@ -211,6 +241,41 @@ pub fn heavy_tailed<'a>(
         .filter_map(|(name, nu)| nu.filter(|v| v.is_finite()).map(|v| (*name, v)))
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .filter(|(_, nu)| *nu < HEAVY_TAIL_DEGREES_OF_FREEDOM)
+}
+
+#[cfg(test)]
+mod excitation_tests {
+    use super::*;
+
+    /// The counts a run gives (measured: `simulate --duration D` with 0.25 s fades on the
+    /// default rig, the report's `covariance_basis`), and the refusal below six.
+    #[test]
+    fn counted_blocks_match_the_runs_and_short_ones_are_refused() {
+        assert_eq!(counted_blocks(1.4999, 1e-3, 200), 6);
+        assert_eq!(counted_blocks(1.699, 1e-3, 200), 7);
+        assert_eq!(counted_blocks(1.9999, 1e-3, 222), 8);
+        assert_eq!(counted_blocks(3.4989, 1e-3, 388), 8);
+        assert_eq!(counted_blocks(0.0, 1e-3, 200), 0);
+        assert_eq!(counted_blocks(f64::NAN, 1e-3, 200), 0);
+        assert!(check_excitation("loaded", 2.0, 1e-3, 400).is_ok());
+        assert!(check_excitation("loaded", 20.0, 1e-3, 400).is_ok());
+        let err = check_excitation("tare", 1.2, 1e-3, 400).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                QualityError::TooShort {
+                    run: "tare",
+                    blocks: 5,
+                    ..
+                }
+            ),
+            "{err:?}"
+        );
+        assert!(
+            err.to_string().contains("excite for at least 1.6 s"),
+            "{err}"
+        );
+    }
 }
 
 #[cfg(test)]

@@ -268,6 +268,21 @@ pub fn controller(
             };
             ConfigError::single(issue)
         })?;
+    // A run too short for a measured sigma is refused now, not after its motion.
+    let estimator = estimator_config(&loaded.config, geometry, measurement, 0.0, 0.0);
+    crate::quality::check_excitation(
+        measurement.name(),
+        controller.trajectory().duration_s(),
+        estimator.sample_period_s,
+        estimator.covariance_block_samples,
+    )
+    .map_err(|e| {
+        let key = match measurement {
+            Measurement::Tare => "run.tare_duration_s",
+            Measurement::Loaded => "run.duration_s",
+        };
+        ConfigError::single(loaded.issue(key, format!("refused before motion: {e}")))
+    })?;
     if let Some(load) = feedforward_load(&loaded.config, measurement, None) {
         controller.check_load_forces(&load).map_err(|e| {
             ConfigError::single(loaded.issue(
