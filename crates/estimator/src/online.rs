@@ -239,6 +239,9 @@ struct Solver<const N: usize, const R: usize, const NR: usize> {
     inv_sigma: SVector<f64, R>,
     /// Second moment the regressor noise adds per sample, C (weighted rows).
     noise_moment: SMatrix<f64, N, N>,
+    /// The reported quantities, whose sigmas each take their own degrees of freedom
+    /// ([`ScoreCovariance::covariance`]).
+    quantities: Reported,
     /// Effective number of samples, Σ λ^(age).
     samples: f64,
     /// Σ λ^(age) φ_wᵀ W L over the samples, L the (conditioned) map from the six leg forces
@@ -254,6 +257,7 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         config: &EstimatorConfig,
         sigma: SVector<f64, R>,
         noise_moment: SMatrix<f64, N, N>,
+        quantities: Reported,
     ) -> Result<Self, EstimatorError> {
         let p0 = config.prior_sigma * config.prior_sigma;
         Ok(Self {
@@ -266,6 +270,7 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             score: ScoreCovariance::new(config.covariance_block_samples, config.forgetting_factor),
             inv_sigma: sigma.map(|s| 1.0 / s),
             noise_moment,
+            quantities,
             samples: 0.0,
             leg: SMatrix::zeros(),
             correction_applied: None,
@@ -298,7 +303,8 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         }
         if self.score.add(&wrows, &wy) {
             let (theta, p, moment) = self.corrected_with_moment();
-            self.score.close_block(&theta, &p, &moment);
+            self.score
+                .close_block(&theta, &p, &moment, &self.quantities.gradients(&theta));
             self.correction_applied = Some(moment.iter().any(|v| *v != 0.0));
         }
         self.samples = self.samples * self.rls.forgetting() + 1.0;
@@ -403,23 +409,11 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         p * (bw.tr_mul(&(y - s.tr_mul(&theta))) - s * (bw * theta))
     }
 
-    /// Covariance of θ, each reported quantity (rows of `quantities`, gradients with respect
-    /// to θ, given θ) with its own small-sample factor.
-    fn covariance(
-        &self,
-        quantities: impl Fn(&SVector<f64, N>) -> SMatrix<f64, N, N>,
-    ) -> SMatrix<f64, N, N> {
+    /// Covariance of θ, each reported quantity with its own small-sample factor.
+    fn covariance(&self) -> SMatrix<f64, N, N> {
         let (theta, p) = self.corrected();
-        self.score.covariance(&theta, &p, &quantities(&theta))
-    }
-
-    /// Degrees of freedom of each reported quantity's variance (as for [`Self::covariance`]).
-    fn degrees_of_freedom(
-        &self,
-        quantities: impl Fn(&SVector<f64, N>) -> SMatrix<f64, N, N>,
-    ) -> [Option<f64>; N] {
-        let (theta, p) = self.corrected();
-        self.score.degrees_of_freedom(&p, &quantities(&theta))
+        self.score
+            .covariance(&theta, &p, &self.quantities.gradients(&theta))
     }
 }
 
@@ -615,7 +609,7 @@ impl OnlineEstimator {
                     &sigma.map(|s| 1.0 / s),
                     from_signals,
                 );
-                Engine::Full(Solver::new(&config, sigma, c)?)
+                Engine::Full(Solver::new(&config, sigma, c, Reported::MassComInertia)?)
             }
             ParameterSet::InertiaAboutKnownCom { mass_kg, com_m } => {
                 if !(positive_finite(mass_kg) && mass_kg <= MAX_ABS_SIGNAL) {
@@ -641,7 +635,7 @@ impl OnlineEstimator {
                     inertia_columns,
                 );
                 Engine::Six {
-                    solver: Solver::new(&config, sigma, c)?,
+                    solver: Solver::new(&config, sigma, c, Reported::Parameters)?,
                     mass_kg,
                     com_m,
                 }
@@ -924,11 +918,11 @@ impl OnlineEstimator {
     /// while the mass is not positive), for the paper's six the tensor's entries.
     pub fn covariance(&self) -> ParameterCovariance {
         match &self.engine {
-            Engine::Full(s) => s.covariance(reported_quantities),
+            Engine::Full(s) => s.covariance(),
             Engine::Six { solver, .. } => {
                 let mut c = ParameterCovariance::zeros();
                 c.fixed_view_mut::<6, 6>(4, 4)
-                    .copy_from(&solver.covariance(|_| SMatrix::identity()));
+                    .copy_from(&solver.covariance());
                 c
             }
         }
@@ -940,9 +934,9 @@ impl OnlineEstimator {
     /// measured yet or the quantity is not estimated.
     pub fn degrees_of_freedom(&self) -> [Option<f64>; PARAMETER_COUNT] {
         match &self.engine {
-            Engine::Full(s) => s.degrees_of_freedom(reported_quantities),
+            Engine::Full(s) => s.score.degrees_of_freedom(),
             Engine::Six { solver, .. } => {
-                let six = solver.degrees_of_freedom(|_| SMatrix::identity());
+                let six = solver.score.degrees_of_freedom();
                 core::array::from_fn(|i| {
                     i.checked_sub(4).and_then(|k| six.get(k).copied().flatten())
                 })
@@ -1024,6 +1018,30 @@ impl OnlineEstimator {
                 ParameterVector::from_fn(|i, _| nu.get(i).copied().flatten().unwrap_or(f64::NAN));
         }
         e
+    }
+}
+
+/// Which quantities an engine reports, each with its own sigma's degrees of freedom.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Reported {
+    /// The full model's mass, centre of mass and J_C's entries ([`reported_quantities`]).
+    MassComInertia,
+    /// θ's own entries (the paper's six: the tensor about the known centre of mass).
+    Parameters,
+}
+
+impl Reported {
+    /// Their gradients with respect to θ, row by row, at θ (θ's own entries for a model of
+    /// other than ten parameters).
+    fn gradients<const N: usize>(self, theta: &SVector<f64, N>) -> SMatrix<f64, N, N> {
+        match self {
+            Self::MassComInertia if N == PARAMETER_COUNT => {
+                let full = ParameterVector::from_fn(|i, _| theta.get(i).copied().unwrap_or(0.0));
+                let g = reported_quantities(&full);
+                SMatrix::from_fn(|i, j| g.get((i, j)).copied().unwrap_or(0.0))
+            }
+            _ => SMatrix::identity(),
+        }
     }
 }
 

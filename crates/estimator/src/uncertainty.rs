@@ -82,6 +82,9 @@ pub struct ScoreCovariance<const N: usize, const R: usize, const NR: usize> {
     last_d: SMatrix<f64, N, R>,
     /// The counted blocks' information, for each reported quantity's degrees of freedom.
     information: BlockInformation<N>,
+    /// Each reported quantity's degrees of freedom at the last block's close (they change
+    /// only when a block is added; P's drift within a block does not matter to them).
+    degrees: [Option<f64>; N],
     /// Effective number of finished blocks, Σ λ^(2·age).
     blocks: f64,
     /// Effective number of rows, Σ λ^(age).
@@ -114,6 +117,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             last_g: SVector::zeros(),
             last_d: SMatrix::zeros(),
             information: BlockInformation::new(),
+            degrees: [None; N],
             blocks: 0.0,
             rows: 0.0,
             in_block: 0,
@@ -165,11 +169,15 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     /// g = b_k − (A_k − n_k C) θ: scoring the corrected θ against the uncorrected A_k would
     /// leave (A_k/n_k − A/n)·n_k·(θ − θ_uncorrected) in every block, which the blocks' spread
     /// counts as noise.
+    ///
+    /// `quantities` are the gradients of the reported quantities at θ, row by row (as for
+    /// [`Self::covariance`]): their degrees of freedom are taken here, once a block.
     pub fn close_block(
         &mut self,
         theta: &SVector<f64, N>,
         p: &SMatrix<f64, N, N>,
         noise_moment: &SMatrix<f64, N, N>,
+        quantities: &SMatrix<f64, N, N>,
     ) {
         let age = libm::pow(self.forgetting, self.block_samples as f64);
         self.total_s = self.total_s * age + self.block_s;
@@ -197,6 +205,10 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             self.eta_e = self.eta_e * decay + eta * flat.transpose();
             self.e_e = self.e_e * decay + flat * flat.transpose();
             self.information.add(&a, decay);
+            self.degrees = core::array::from_fn(|j| {
+                let gradient = quantities.row(j).transpose();
+                self.information.degrees_of_freedom(&(p * gradient))
+            });
             self.blocks = self.blocks * decay + 1.0;
             self.last_g = g;
             self.last_d = d;
@@ -342,24 +354,16 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         let c = (c + c.transpose()) * 0.5;
         let fallback = student_factor(self.blocks - 1.0);
         let roots = SVector::<f64, N>::from_fn(|j, _| {
-            let gradient = quantities.row(j).transpose();
-            let nu = self.information.degrees_of_freedom(&(p * gradient));
+            let nu = self.degrees.get(j).copied().flatten();
             libm::sqrt(nu.map_or(fallback, student_factor))
         });
         scale_in_basis(&c, quantities, &roots).unwrap_or(c * fallback)
     }
 
-    /// The degrees of freedom of each reported quantity's variance (rows of `quantities` as
-    /// for [`Self::covariance`]), `None` where the blocks give none.
-    pub fn degrees_of_freedom(
-        &self,
-        p: &SMatrix<f64, N, N>,
-        quantities: &SMatrix<f64, N, N>,
-    ) -> [Option<f64>; N] {
-        core::array::from_fn(|j| {
-            let gradient = quantities.row(j).transpose();
-            self.information.degrees_of_freedom(&(p * gradient))
-        })
+    /// The degrees of freedom of each reported quantity's variance, as the last block's close
+    /// took them (the quantities of [`Self::close_block`]), `None` where the blocks give none.
+    pub fn degrees_of_freedom(&self) -> [Option<f64>; N] {
+        self.degrees
     }
 }
 
@@ -822,7 +826,7 @@ mod tests {
         for k in 0..1000 {
             let y = SVector::<f64, 1>::new(if k % 2 == 0 { 1.0 } else { -1.0 });
             if s.add(&rows, &y) {
-                s.close_block(&theta, &p, &SMatrix::zeros());
+                s.close_block(&theta, &p, &SMatrix::zeros(), &SMatrix::identity());
             }
         }
         // Alternating residuals cancel in every block: no spread in the first parameter.
@@ -864,7 +868,7 @@ mod tests {
                 b += wphi.tr_mul(&wy);
                 if s.add(&wphi, &wy) {
                     let p = a.try_inverse().unwrap();
-                    s.close_block(&(p * b), &p, &SMatrix::zeros());
+                    s.close_block(&(p * b), &p, &SMatrix::zeros(), &SMatrix::identity());
                 }
             }
             let p = a.try_inverse().unwrap();
@@ -1008,7 +1012,7 @@ mod tests {
             assert_eq!(s.covariance(&theta, &p, &SMatrix::identity()), p);
             let y = SVector::<f64, 1>::new(((k * 7919) % 13) as f64 - 6.0);
             if s.add(&rows, &y) {
-                s.close_block(&theta, &p, &SMatrix::zeros());
+                s.close_block(&theta, &p, &SMatrix::zeros(), &SMatrix::identity());
             }
             k += 1;
         }
