@@ -85,8 +85,12 @@ impl<const N: usize> BlockInformation<N> {
     pub fn degrees_of_freedom(&self, w: &SVector<f64, N>) -> Option<f64> {
         let x = pack_outer(w);
         let mean = self.sum.dot(&x);
-        let square = x.dot(&(&self.square * &x));
-        let lag = x.dot(&(&self.lag * &x));
+        // gemv in place: the 55 × 55 sums are not copied.
+        let mut product = SVector::<f64, PACKED>::zeros();
+        product.gemv(1.0, &self.square, &x, 0.0);
+        let square = x.dot(&product);
+        product.gemv(1.0, &self.lag, &x, 0.0);
+        let lag = x.dot(&product);
         let spread = square + 0.5 * lag;
         let nu = mean * mean / spread;
         (mean > 0.0 && spread > 0.0 && nu.is_finite()).then_some(nu)
