@@ -50,6 +50,10 @@ struct PlanJson {
     binding: String,
     usage: Usage,
     configured_predicted_sigma: Option<Quantities>,
+    /// Degrees of freedom the loaded run's residual blocks will give each sigma, in the order
+    /// of the report's `covariance_basis.loaded_degrees_of_freedom`; `null` where the run
+    /// does not determine them.
+    predicted_degrees_of_freedom: [Option<f64>; 10],
     base_frequency_hz: f64,
     harmonics_per_axis: usize,
     components: usize,
@@ -108,6 +112,7 @@ fn run(args: &PlanArgs) -> Result<(), CommandError> {
     progress.finish();
     // The rig description's own excitation, predicted alike, for comparison.
     let configured = configured_prediction(&loaded, &planner, duration_s);
+    let degrees = planner.predicted_degrees_of_freedom(&plan.loaded);
     let (worst_index, criterion) = plan.prediction.worst();
     let worst = Quantities::NAMES[worst_index];
     if let Some(path) = &args.out {
@@ -131,6 +136,9 @@ fn run(args: &PlanArgs) -> Result<(), CommandError> {
                 stroke: plan.usage.stroke,
             },
             configured_predicted_sigma: configured.as_ref().map(|p| p.sigma),
+            predicted_degrees_of_freedom: core::array::from_fn(|k| {
+                degrees.and_then(|d| Some(d[k]).filter(|v| v.is_finite()))
+            }),
             base_frequency_hz: plan.base_frequency_hz,
             harmonics_per_axis: plan.harmonics_per_axis,
             components: plan.loaded.components().len(),
@@ -145,6 +153,9 @@ fn run(args: &PlanArgs) -> Result<(), CommandError> {
             "{}",
             table(&plan, &planner, configured.as_ref(), duration_s)
         );
+        if let Some(line) = degrees.as_ref().and_then(degrees_line) {
+            println!("{line}");
+        }
         if let Some(path) = &args.out {
             println!(
                 "written: {} (use it with `stewart simulate --excitation {}` or `stewart rig --excitation …`)",
@@ -195,6 +206,30 @@ fn header(plan: &plan::Plan, duration_s: f64, source: &str) -> String {
         h.push_str(&format!("  {name}: {s:.3e}\n"));
     }
     h
+}
+
+/// The line on the sigmas' degrees of freedom: the fewest, and a warning when a quantity's
+/// falls below [`measure::quality::HEAVY_TAIL_DEGREES_OF_FREEDOM`].
+fn degrees_line(degrees: &[f64; 10]) -> Option<String> {
+    let options = degrees.map(|v| Some(v).filter(|v| v.is_finite()));
+    let (name, fewest) = Quantities::NAMES
+        .iter()
+        .zip(degrees)
+        .filter(|(_, v)| v.is_finite())
+        .min_by(|a, b| a.1.total_cmp(b.1))?;
+    Some(
+        match measure::quality::heavy_tailed(&Quantities::NAMES, &options) {
+            Some((name, nu)) => format!(
+                "residual blocks: {name}'s sigma will rest on {nu:.1} degrees of freedom (fewer \
+                 than {:.0}: its error can reach several sigmas more often than a normal one's); \
+                 a longer excitation gives more",
+                measure::quality::HEAVY_TAIL_DEGREES_OF_FREEDOM
+            ),
+            None => format!(
+                "residual blocks: every sigma will rest on at least {fewest:.1} degrees of freedom ({name})"
+            ),
+        },
+    )
 }
 
 fn table(

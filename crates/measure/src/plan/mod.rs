@@ -214,6 +214,7 @@ impl Planner {
                 cutoff_hz: config.estimator.cutoff_hz,
                 equation_sigma: estimator.equation_sigma,
                 lever_m: estimator.accelerometer_position_m,
+                block_samples: estimator.covariance_block_samples,
             },
             noise: ChannelNoise {
                 load_cell_n: cell.noise_n.hypot(cell.resolution_n / 12f64.sqrt()),
@@ -281,6 +282,15 @@ impl Planner {
         let flat = sigma.flat();
         let ratios = core::array::from_fn(|i| flat[i] / self.targets[i]);
         Some(Prediction { sigma, ratios })
+    }
+
+    /// The degrees of freedom the loaded run's residual blocks will give each reported
+    /// quantity on `loaded` ([`Quantities::NAMES`] order; the estimator scales each sigma by
+    /// its ν/(ν − 2), and below [`crate::quality::HEAVY_TAIL_DEGREES_OF_FREEDOM`] the table
+    /// of a measurement flags it); `None` when the run does not determine θ.
+    pub fn predicted_degrees_of_freedom(&self, loaded: &Trajectory) -> Option<[f64; 10]> {
+        let points = motion::sample(loaded, self.conditioning.period_s);
+        predict::degrees_of_freedom(&points, &(self.payload + self.fixture), &self.conditioning)
     }
 
     /// [`Self::predict_until`] at each of `times_s`: the predicted sigma's course over the

@@ -65,6 +65,9 @@ pub struct Conditioning {
     pub equation_sigma: Vector6<f64>,
     /// Accelerometer position in P, m.
     pub lever_m: Vector3<f64>,
+    /// The estimator's residual block for a long excitation, samples (a short one's is
+    /// shortened alike: [`crate::quality::block_samples_for`]).
+    pub block_samples: u32,
 }
 
 type Cov = SMatrix<f64, 10, 10>;
@@ -146,6 +149,58 @@ pub fn covariance(
     }
     let cov = a_inv * b * a_inv;
     cov.iter().all(|v| v.is_finite()).then_some(cov)
+}
+
+/// The degrees of freedom the estimator's residual blocks will give each reported quantity of
+/// a run on `points` with the body `theta` on the plate (mass, c, J_C's entries: the run's
+/// own, as the estimator takes them): each block's information Aₖ = Σ Φᵀ W Φ over its
+/// samples, the run's first block and its unfinished last one left out, through
+/// [`estimator::dof::BlockInformation`] along w = A⁻¹ cⱼ. `None` when the run does not
+/// determine θ or gives no counted block.
+pub fn degrees_of_freedom(
+    points: &[MotionPoint],
+    theta: &ParameterVector,
+    conditioning: &Conditioning,
+) -> Option<[f64; 10]> {
+    let w = SMatrix::<f64, 6, 6>::from_diagonal(&conditioning.equation_sigma.map(|s| {
+        if s > 0.0 {
+            1.0 / (s * s)
+        } else {
+            0.0
+        }
+    }));
+    let excitation_s = points.len() as f64 * conditioning.period_s;
+    let block = crate::quality::block_samples_for(
+        conditioning.block_samples,
+        excitation_s,
+        conditioning.period_s,
+    )
+    .max(1) as usize;
+    let mut information = estimator::dof::BlockInformation::<10>::new();
+    let mut total = Cov::zeros();
+    for (k, chunk) in points.chunks_exact(block).enumerate() {
+        let a: Cov = chunk
+            .iter()
+            .map(|p| {
+                let phi = p.regressor();
+                phi.transpose() * w * phi
+            })
+            .sum();
+        total += a;
+        if k > 0 {
+            information.add(&a, 1.0);
+        }
+    }
+    if !determined(&total) {
+        return None;
+    }
+    let p = total.try_inverse()?;
+    let gradients = estimator::uncertainty::derived_jacobian(theta);
+    let mut nu = [f64::NAN; 10];
+    for (n, row) in nu.iter_mut().zip(gradients.row_iter()) {
+        *n = information.degrees_of_freedom(&(p * row.transpose()))?;
+    }
+    Some(nu)
 }
 
 /// Smallest eigenvalue of A scaled to a unit diagonal, D^-½ A D^-½, below which the samples do

@@ -318,3 +318,38 @@ fn the_predicted_sigma_falls_with_excitation_time_to_the_whole_runs() {
         }
     }
 }
+
+/// The degrees of freedom the plan predicts for each sigma: on a long brisk multi-sine the
+/// blocks carry nearly the same information, so every quantity gets close to the lag-one
+/// Newey–West count of G equal blocks, G²/(G + ½(G − 1)) and never more; on the same motion
+/// cut to 2.4 s (its 1 s fades kept; 8 counted blocks of 0.27 s) the fades carry little and
+/// the fewest falls well below the count of its blocks.
+#[test]
+fn predicted_degrees_of_freedom_follow_the_blocks_information() {
+    let (_, planner) = default_planner();
+    let long = brisk(&planner, 24.0);
+    let nu = planner
+        .predicted_degrees_of_freedom(&long)
+        .expect("determined");
+    let g = (24.0 / 0.4f64).floor() - 1.0;
+    let most = g * g / (g + 0.5 * (g - 1.0));
+    for (name, n) in Quantities::NAMES.iter().zip(nu) {
+        assert!(
+            n <= most + 1e-9 && n > 0.8 * most,
+            "{name}: ν {n} against {most}"
+        );
+    }
+    let short = brisk(&planner, 2.4);
+    let nu = planner
+        .predicted_degrees_of_freedom(&short)
+        .expect("determined");
+    let block = crate::quality::block_samples_for(400, 2.4, 1e-3);
+    let g = crate::quality::counted_blocks(2.4, 1e-3, block) as f64;
+    assert_eq!((block, g), (266, 8.0));
+    let equal = g * g / (g + 0.5 * (g - 1.0));
+    let fewest = nu.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(
+        fewest < 0.75 * equal,
+        "fewest ν {fewest} against {equal} for equal blocks"
+    );
+}
