@@ -337,6 +337,20 @@ fn convergence(s: &mut String, r: &Report) {
             .unwrap_or_else(|| "not recorded".into()),
         significant(r.covariance_basis.block_s, 3)
     );
+    // The fewest degrees of freedom behind a sigma (the loaded run's), and which quantity.
+    let fewest = Quantities::NAMES
+        .iter()
+        .zip(r.covariance_basis.loaded_degrees_of_freedom)
+        .filter_map(|(name, nu)| nu.filter(|v| v.is_finite()).map(|v| (*name, v)))
+        .min_by(|a, b| a.1.total_cmp(&b.1));
+    if let Some((name, nu)) = fewest {
+        let _ = write!(
+            s,
+            "<tr><th>fewest degrees of freedom behind a sigma (loaded run)</th><td>{} ({})</td></tr>",
+            significant(nu, 2),
+            esc(name)
+        );
+    }
     let _ = writeln!(
         s,
         "</table><figure>{}<figcaption>The loaded run's samples; shaded: before the estimate \
