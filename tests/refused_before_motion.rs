@@ -59,7 +59,7 @@ fn a_plate_tiny_against_the_base_is_refused_with_the_configuration() {
     assert!(!dir.path().join("run.mcap").exists(), "nothing ran");
 }
 
-/// The seed paper's 30 ms start with the load's feed-forward on: the feed-forward would ask a
+/// The seed paper's 20 ms start with the load's feed-forward on: the feed-forward would ask a
 /// leg for more than its 20 kN before the plate has left home, so the configuration is refused
 /// before anything runs (no log), naming the leg's force and the ways out.
 #[test]

@@ -1,6 +1,6 @@
 //! `stewart simulate` end to end, through the library entry point: the default car measured
 //! with realistic noise (a shorter excitation than the 60 s acceptance run, so looser
-//! figures), the paper's case converging within 100 samples, and the tare: subtracted, saved,
+//! figures), the paper's case converging within 50 samples, and the tare: subtracted, saved,
 //! reused, and refused for another rig.
 //!
 //! Every figure is checked against the simulator's truth, which only the report carries.
@@ -167,20 +167,23 @@ fn default_car_without_noise_is_exact() {
     );
 }
 
+/// Issue 14: the paper's case (its legs as described, 40 kg and joint friction) within 1 % in
+/// at most 50 samples. Measured 47 with this 4 s run; with the file's 20 s 45, and 58 with the
+/// half-step mean as the simulator's gyro reading, 62 with a 20 Hz cut-off.
 #[test]
-fn paper_case_converges_within_100_samples() {
+fn paper_case_converges_within_50_samples() {
     let paper = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/configs/paper.toml"))
         .unwrap();
     // Shorter than the file's 20 s: convergence is decided in the first tenth of a second.
     let (_dir, outcome) = run(
-        &format!("{paper}\n{IDEAL_LEGS}[run]\nduration_s = 4.0\ntare_duration_s = 4.0\n")
+        &format!("{paper}\n[run]\nduration_s = 4.0\ntare_duration_s = 4.0\n")
             .replace("[run]\nduration_s = 20.0\ntare_duration_s = 20.0\n", ""),
         |_, _| {},
     );
     let r = report(&outcome);
     assert_eq!(r.run.params, 6);
     let n = r.convergence.samples_to_1pct.expect("converges");
-    assert!(n < 100, "samples_to_1pct = {n}");
+    assert!(n <= 50, "samples_to_1pct = {n}");
     // The six-parameter model takes the mass and centre of mass as given.
     let t = r.truth.as_ref().unwrap();
     assert_eq!(r.estimate.mass, t.mass);

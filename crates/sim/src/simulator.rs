@@ -90,12 +90,13 @@ struct Node {
 impl Node {
     /// The channels of `e`, the accelerometer at `mount_m`:
     /// `f_a = f + ω̇ × r_a + ω × (ω × r_a)`.
-    fn new(e: &Evaluation, mount_m: &Vector3<f64>) -> Self {
+    /// `gyro_rad_s`: [`Simulator::gyro_at_instant`].
+    fn new(e: &Evaluation, mount_m: &Vector3<f64>, gyro_rad_s: &Vector3<f64>) -> Self {
         let (omega, acc) = (e.omega_p, e.acceleration);
         Self {
             forces_n: e.cell_n,
             transverse_n: e.cell_loads.transverse_n,
-            gyro_rad_s: omega,
+            gyro_rad_s: *gyro_rad_s,
             accel_m_s2: acc.specific_force_m_s2
                 + acc.angular_rad_s2.cross(mount_m)
                 + omega.cross(&omega.cross(mount_m)),
@@ -189,9 +190,15 @@ impl PeriodSum {
 ///   applies its state, then advances), never on the command written after the read, so it is
 ///   known when the sample is taken.
 /// - **gyro**: rapier's stored velocity is that of the half step *before* `t_k` (symplectic
-///   Euler read as leapfrog: `v_{n+½} = v_{n−½} + h a(x_n)`). We report
-///   `ω(t_k) = ω_{k−½} + (h/2) ω̇(t_k)`, i.e. the mean of the velocities on either side, which
-///   is what rapier's trajectory passes through at `t_k` to second order.
+///   Euler read as leapfrog: `v_{n+½} = v_{n−½} + h a(x_n)`). The mean of the velocities on
+///   either side, `ω_{k−½} + (h/2) ω̇(t_k)`, is what rapier's trajectory passes through at `t_k`
+///   to second order (the dynamics use it), but its differences are the trapezoidal sums of the
+///   kicks, `h (ω̇ₙ + ω̇ₙ₋₁)/2`, where a body driven continuously by the node forces gains
+///   `∫ω̇ = h (ω̇ₙ + ω̇ₙ₋₁)/2 − (h³/12) ω⃛`: differentiated, that mean is `ω̇ + (h²/12) ω⃛`, and the
+///   torque it implies misses the forces by `(h²/12) J ω⃛`: 0.3 % of the torque 20 ms into
+///   `configs/paper.toml`'s start, 3 N·m rms over its first 60 samples. So the gyro reports
+///   `ω_{k−½} + (h/2) ω̇ₙ − (h/12)(ω̇ₙ − ω̇ₙ₋₁)` (ω̇ₙ₋₁ of the node before; none after a state
+///   change), the continuous body's rate to third order, as a real rig's gyro reads it.
 /// - **accelerometer**: the specific force `f = a_O − g` and `ω̇` that the wrench of those leg
 ///   forces produces on the body at `t_k` by Newton–Euler with the true (rapier's own) inertial
 ///   parameters and `ω(t_k)` — exactly the acceleration of rapier's next kick with the default
@@ -216,8 +223,9 @@ impl PeriodSum {
 /// rapier's motion matches the leg wrench to 3·10⁻⁸ per substep (midpoint gyroscopic torque)
 /// or 3·10⁻⁴ (rapier's). Newton–Euler on the frames alone (pose by forward kinematics of the
 /// mean of two successive frames' leg lengths, `ω̇` from a 4th-order central difference of the
-/// gyro), with the default 100 Hz actuator: 1.6·10⁻⁵ rms with one substep, 1.3·10⁻⁶ with
-/// four, against 3.9·10⁻⁴ with four when the load cells were read at the instant.
+/// gyro), with the default 100 Hz actuator: 2.6·10⁻⁶ rms with one substep (1.5·10⁻⁵ with the
+/// half-step mean as the gyro's reading), 6.6·10⁻⁷ with four, against 3.9·10⁻⁴ with four when
+/// the load cells were read at the instant.
 ///
 /// # Suspended payload
 ///
@@ -275,6 +283,9 @@ pub struct Simulator {
     now: Instant,
     /// Node sums of the period since the last sample (empty after a state change).
     period: PeriodSum,
+    /// ω̇ (P) of the last substep's start node, for the gyro's reading
+    /// ([`Simulator::gyro_at_instant`]); `None` after a state change.
+    last_angular_rad_s2: Option<Vector3<f64>>,
     frame: SensorFrame,
 }
 
@@ -379,6 +390,7 @@ impl Simulator {
                 clean: SensorFrame::default(),
             },
             period: PeriodSum::default(),
+            last_angular_rad_s2: None,
             frame: SensorFrame::default(),
         };
         sim.check_stability()?;
@@ -415,6 +427,7 @@ impl Simulator {
         self.actuators =
             Actuators::new_braked(self.config.actuator, self.substep_s, &legs.lengths_m, &hold);
         self.period = PeriodSum::default();
+        self.last_angular_rad_s2 = None;
         self.refresh()
     }
 
@@ -467,6 +480,7 @@ impl Simulator {
         self.world
             .set_sprung(self.suspension.as_ref().map(Suspension::body));
         self.period = PeriodSum::default();
+        self.last_angular_rad_s2 = None;
         self.refresh()
     }
 
@@ -569,6 +583,8 @@ impl Simulator {
         let pose = self.world.pose();
         let legs = self.legs(&pose);
         let e = self.evaluate(&pose, &legs);
+        let node = Node::new(&e, &self.mount_m(), &self.gyro_at_instant(&e));
+        self.last_angular_rad_s2 = Some(e.acceleration.angular_rad_s2);
         let applied: [(Vector3<f64>, Vector3<f64>); 6] =
             core::array::from_fn(|i| (e.joint_forces_b[i], pose.position_m + legs.arms_m[i]));
         let gyroscopic = match self.config.gyroscopic {
@@ -600,7 +616,17 @@ impl Simulator {
             },
         );
         self.actuators.advance(&e.forces_n);
-        Node::new(&e, &self.mount_m())
+        node
+    }
+
+    /// The gyro's reading at a node: `ω(tₙ) − (h/12)(ω̇ₙ − ω̇ₙ₋₁)`, the rate that a continuous
+    /// body driven by the node forces has (module docs, "What a sample describes").
+    fn gyro_at_instant(&self, e: &Evaluation) -> Vector3<f64> {
+        let a = e.acceleration.angular_rad_s2;
+        match self.last_angular_rad_s2 {
+            Some(prev) => e.omega_p - self.substep_s / 12.0 * (a - prev),
+            None => e.omega_p,
+        }
     }
 
     /// The accelerometer's true position in P (the described one plus its tolerance's draw).
@@ -615,7 +641,7 @@ impl Simulator {
         let pose = self.world.pose();
         let legs = self.legs(&pose);
         let e = self.evaluate(&pose, &legs);
-        let node = Node::new(&e, &self.mount_m());
+        let node = Node::new(&e, &self.mount_m(), &self.gyro_at_instant(&e));
         self.period.add(&node, 0.5);
         // A period lies behind this instant: the motion ran on from the previous sample.
         let continuous = self.period.weight > 0.5;

@@ -303,7 +303,9 @@ fn sample_channels_are_simultaneous() {
         skewed = skewed.max(residual(k, false));
     }
     println!("sample residual: central {central:.2e}, half-sample skew {skewed:.2e}");
-    assert!(central < 1e-4, "channels disagree: {central:.2e}");
+    // 1.5·10⁻⁶ measured; 1.3·10⁻⁵ with the mean of rapier's half-step rates as the gyro's
+    // reading, whose differences are the trapezoidal sums of the kicks (module docs).
+    assert!(central < 5e-6, "channels disagree: {central:.2e}");
     // The check is sensitive to timing: a half-sample skew shows up clearly.
     assert!(skewed > 10.0 * central);
 }
