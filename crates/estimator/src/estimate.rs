@@ -92,10 +92,10 @@ pub struct Estimate {
     /// The time base's measurements: timestamp jitter, rate error, period in use.
     pub timing: Timing,
     /// Degrees of freedom of each reported quantity's variance as the residual blocks gave
-    /// them ([`crate::dof`]), [m, c_x, c_y, c_z, J_C xx, yy, zz, xy, xz, yz]; NaN where none
-    /// are measured (too few blocks, or a quantity the model does not estimate). A payload's
-    /// ([`Self::without_tare`]) are the loaded run's.
-    pub degrees_of_freedom: ParameterVector,
+    /// them ([`crate::dof`]), [m, c_x, c_y, c_z, J_C xx, yy, zz, xy, xz, yz]; `None` where
+    /// none are measured (too few blocks, or a quantity the model does not estimate). A
+    /// payload's ([`Self::without_tare`]) are the loaded run's.
+    pub degrees_of_freedom: [Option<f64>; PARAMETER_COUNT],
 }
 
 impl Estimate {
@@ -127,7 +127,7 @@ impl Estimate {
             residual_rms: Vector6::zeros(),
             counts: Counts::default(),
             timing: Timing::default(),
-            degrees_of_freedom: ParameterVector::from_element(f64::NAN),
+            degrees_of_freedom: [None; PARAMETER_COUNT],
         };
         if let Some(d) = derive(&theta, &covariance) {
             e.com_m = d.com_m;

@@ -1013,9 +1013,7 @@ impl OnlineEstimator {
         e.counts = self.counts();
         e.timing = self.timing();
         if self.counts().covariance_blocks >= u64::from(crate::uncertainty::MIN_COVARIANCE_BLOCKS) {
-            let nu = self.degrees_of_freedom();
-            e.degrees_of_freedom =
-                ParameterVector::from_fn(|i, _| nu.get(i).copied().flatten().unwrap_or(f64::NAN));
+            e.degrees_of_freedom = self.degrees_of_freedom();
         }
         e
     }

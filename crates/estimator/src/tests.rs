@@ -959,7 +959,7 @@ fn each_quantity_reports_its_degrees_of_freedom() {
         .estimate()
         .degrees_of_freedom
         .iter()
-        .all(|v| v.is_nan()));
+        .all(Option::is_none));
     let mut est = OnlineEstimator::new(c).unwrap();
     run(
         &mut est,
@@ -976,10 +976,8 @@ fn each_quantity_reports_its_degrees_of_freedom() {
     assert!(g >= 15.0, "{:?}", e.counts);
     let most = g * g / (g + 0.5 * (g - 1.0));
     for (i, nu) in e.degrees_of_freedom.iter().enumerate() {
-        assert!(
-            nu.is_finite() && *nu > 1.0 && *nu <= most + 1e-9,
-            "quantity {i}: ν {nu}"
-        );
+        let nu = nu.unwrap_or(f64::NAN);
+        assert!(nu > 1.0 && nu <= most + 1e-9, "quantity {i}: ν {nu}");
     }
     let tare = e.parameters;
     let payload = e.without_tare(&tare, &e.covariance);

@@ -568,9 +568,10 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
             loaded_blocks: i.loaded.counts.covariance_blocks,
             tare_blocks: i.tare.covariance_blocks,
             block_s: i.loaded.counts.covariance_block_samples as f64 * i.loaded.timing.period_s,
-            loaded_degrees_of_freedom: core::array::from_fn(|k| {
-                Some(i.loaded.degrees_of_freedom[k]).filter(|v| v.is_finite())
-            }),
+            loaded_degrees_of_freedom: i
+                .loaded
+                .degrees_of_freedom
+                .map(|nu| nu.filter(|v| v.is_finite())),
         },
         static_weighing: i.loaded_weighing.zip(i.tare.static_weighing.as_ref()).map(
             |(loaded, tare)| {
