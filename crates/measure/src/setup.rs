@@ -268,7 +268,7 @@ pub fn controller(
             };
             ConfigError::single(issue)
         })?;
-    // A run too short for a measured sigma is refused now, not after its motion.
+    // A run too short for a measured sigma is refused here, before its motion.
     let estimator = estimator_config(&loaded.config, geometry, measurement, 0.0, 0.0);
     crate::quality::check_excitation(
         measurement.name(),
