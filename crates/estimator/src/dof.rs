@@ -31,15 +31,21 @@ use nalgebra::{SMatrix, SVector};
 /// model's parameters): 10·11/2.
 pub const PACKED: usize = 55;
 
+/// Entries of the packed upper triangle of a symmetric PACKED × PACKED matrix: 55·56/2. The
+/// second moments are kept so (12 KB each instead of 24): a debug build holds several copies
+/// of the estimator's state on the stack.
+const PACKED_SQUARE: usize = PACKED * (PACKED + 1) / 2;
+
 /// The blocks' information as far as the degrees of freedom need it (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BlockInformation<const N: usize> {
     /// Σ λ^(2·age) vₖ.
     sum: SVector<f64, PACKED>,
-    /// Σ λ^(4·age) vₖ vₖᵀ.
-    square: SMatrix<f64, PACKED, PACKED>,
-    /// Σ λ^(4·age) vₖ vₖ₋₁ᵀ.
-    lag: SMatrix<f64, PACKED, PACKED>,
+    /// Σ λ^(4·age) vₖ vₖᵀ, its packed upper triangle.
+    square: SVector<f64, PACKED_SQUARE>,
+    /// Σ λ^(4·age) ½(vₖ vₖ₋₁ᵀ + vₖ₋₁ vₖᵀ), its packed upper triangle (only the symmetric part
+    /// reaches a quadratic form).
+    lag: SVector<f64, PACKED_SQUARE>,
     /// The last block's vₖ, unaged (zero before the first).
     last: SVector<f64, PACKED>,
 }
@@ -59,8 +65,8 @@ impl<const N: usize> BlockInformation<N> {
         let () = Self::FITS;
         Self {
             sum: SVector::zeros(),
-            square: SMatrix::zeros(),
-            lag: SMatrix::zeros(),
+            square: SVector::zeros(),
+            lag: SVector::zeros(),
             last: SVector::zeros(),
         }
     }
@@ -72,11 +78,23 @@ impl<const N: usize> BlockInformation<N> {
         if !v.iter().all(|x| x.is_finite()) {
             return;
         }
-        // In place (ger: rank-one update): the 55 × 55 sums are 24 KB each.
         let decay_squared = decay * decay;
         self.sum.axpy(1.0, &v, decay);
-        self.square.ger(1.0, &v, &v, decay_squared);
-        self.lag.ger(decay, &v, &self.last, decay_squared);
+        if decay_squared != 1.0 {
+            self.square *= decay_squared;
+            self.lag *= decay_squared;
+        }
+        let last = self.last * decay;
+        let mut k = 0;
+        for (i, (vi, li)) in v.iter().zip(last.iter()).enumerate() {
+            for (vj, lj) in v.iter().zip(last.iter()).skip(i) {
+                if let (Some(sq), Some(lg)) = (self.square.get_mut(k), self.lag.get_mut(k)) {
+                    *sq += vi * vj;
+                    *lg += 0.5 * (vi * lj + li * vj);
+                }
+                k += 1;
+            }
+        }
         self.last = v;
     }
 
@@ -85,16 +103,26 @@ impl<const N: usize> BlockInformation<N> {
     pub fn degrees_of_freedom(&self, w: &SVector<f64, N>) -> Option<f64> {
         let x = pack_outer(w);
         let mean = self.sum.dot(&x);
-        // gemv in place: the 55 × 55 sums are not copied.
-        let mut product = SVector::<f64, PACKED>::zeros();
-        product.gemv(1.0, &self.square, &x, 0.0);
-        let square = x.dot(&product);
-        product.gemv(1.0, &self.lag, &x, 0.0);
-        let lag = x.dot(&product);
+        let square = packed_quadratic(&self.square, &x);
+        let lag = packed_quadratic(&self.lag, &x);
         let spread = square + 0.5 * lag;
         let nu = mean * mean / spread;
         (mean > 0.0 && spread > 0.0 && nu.is_finite()).then_some(nu)
     }
+}
+
+/// xᵀ Q x for a symmetric Q given by its packed upper triangle (row by row).
+fn packed_quadratic(q: &SVector<f64, PACKED_SQUARE>, x: &SVector<f64, PACKED>) -> f64 {
+    let mut sum = 0.0;
+    let mut k = 0;
+    for (i, xi) in x.iter().enumerate() {
+        for (j, xj) in x.iter().enumerate().skip(i) {
+            let weight = if i == j { 1.0 } else { 2.0 };
+            sum += weight * q.get(k).copied().unwrap_or(0.0) * xi * xj;
+            k += 1;
+        }
+    }
+    sum
 }
 
 /// Index of entry (i, j), i ≤ j < N, in the packed upper triangle (row by row).
@@ -155,6 +183,32 @@ mod tests {
         let w = SVector::<f64, 4>::new(0.3, -1.2, 2.0, 0.7);
         let direct = w.dot(&(a * w));
         assert!((pack(&a).dot(&pack_outer(&w)) - direct).abs() < 1e-12 * direct.abs());
+    }
+
+    /// The packed second moments give the quadratic forms of the full ones.
+    #[test]
+    fn packed_second_moments_give_the_full_quadratic_forms() {
+        let mut info = BlockInformation::<3>::new();
+        let blocks = [
+            SMatrix::<f64, 3, 3>::new(4.0, 1.0, 0.0, 1.0, 3.0, 0.5, 0.0, 0.5, 2.0),
+            SMatrix::<f64, 3, 3>::new(1.0, -0.3, 0.2, -0.3, 5.0, 0.1, 0.2, 0.1, 0.7),
+            SMatrix::<f64, 3, 3>::new(2.0, 0.4, -0.6, 0.4, 1.0, 0.0, -0.6, 0.0, 3.0),
+        ];
+        let w = SVector::<f64, 3>::new(0.7, -1.1, 0.4);
+        let a: std::vec::Vec<f64> = blocks.iter().map(|b| w.dot(&(b * w))).collect();
+        for b in &blocks {
+            info.add(b, 0.9);
+        }
+        // Ages: the last block 1, the one before 0.9, the first 0.81 (λ^(2B) = 0.9).
+        let mean = 0.81 * a[0] + 0.9 * a[1] + a[2];
+        let square = 0.81 * 0.81 * a[0] * a[0] + 0.81 * a[1] * a[1] + a[2] * a[2];
+        let lag = 0.81 * 0.9 * a[1] * a[0] + 0.9 * a[2] * a[1];
+        let expected = mean * mean / (square + 0.5 * lag);
+        let nu = info.degrees_of_freedom(&w).unwrap();
+        assert!(
+            (nu - expected).abs() < 1e-9 * expected,
+            "{nu} against {expected}"
+        );
     }
 
     /// G equal blocks: ν = G² / (G + ½ (G − 1)), about G/1.5, whatever the direction.
