@@ -338,12 +338,10 @@ fn convergence(s: &mut String, r: &Report) {
         significant(r.covariance_basis.block_s, 3)
     );
     // The fewest degrees of freedom behind a sigma (the loaded run's), and which quantity.
-    let fewest = Quantities::NAMES
-        .iter()
-        .zip(r.covariance_basis.loaded_degrees_of_freedom)
-        .filter_map(|(name, nu)| nu.filter(|v| v.is_finite()).map(|v| (*name, v)))
-        .min_by(|a, b| a.1.total_cmp(&b.1));
-    if let Some((name, nu)) = fewest {
+    if let Some((name, nu)) = measure::quality::fewest_degrees_of_freedom(
+        &Quantities::NAMES,
+        &r.covariance_basis.loaded_degrees_of_freedom,
+    ) {
         let _ = write!(
             s,
             "<tr><th>fewest degrees of freedom behind a sigma (loaded run)</th><td>{} ({})</td></tr>",

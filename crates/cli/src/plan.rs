@@ -112,7 +112,9 @@ fn run(args: &PlanArgs) -> Result<(), CommandError> {
     progress.finish();
     // The rig description's own excitation, predicted alike, for comparison.
     let configured = configured_prediction(&loaded, &planner, duration_s);
-    let degrees = planner.predicted_degrees_of_freedom(&plan.loaded);
+    let degrees: [Option<f64>; 10] = planner
+        .predicted_degrees_of_freedom(&plan.loaded)
+        .map_or([None; 10], |d| d.map(|v| Some(v).filter(|v| v.is_finite())));
     let (worst_index, criterion) = plan.prediction.worst();
     let worst = Quantities::NAMES[worst_index];
     if let Some(path) = &args.out {
@@ -136,9 +138,7 @@ fn run(args: &PlanArgs) -> Result<(), CommandError> {
                 stroke: plan.usage.stroke,
             },
             configured_predicted_sigma: configured.as_ref().map(|p| p.sigma),
-            predicted_degrees_of_freedom: core::array::from_fn(|k| {
-                degrees.and_then(|d| Some(d[k]).filter(|v| v.is_finite()))
-            }),
+            predicted_degrees_of_freedom: degrees,
             base_frequency_hz: plan.base_frequency_hz,
             harmonics_per_axis: plan.harmonics_per_axis,
             components: plan.loaded.components().len(),
@@ -153,7 +153,7 @@ fn run(args: &PlanArgs) -> Result<(), CommandError> {
             "{}",
             table(&plan, &planner, configured.as_ref(), duration_s)
         );
-        if let Some(line) = degrees.as_ref().and_then(degrees_line) {
+        if let Some(line) = degrees_line(&degrees) {
             println!("{line}");
         }
         if let Some(path) = &args.out {
@@ -210,15 +210,10 @@ fn header(plan: &plan::Plan, duration_s: f64, source: &str) -> String {
 
 /// The line on the sigmas' degrees of freedom: the fewest, and a warning when a quantity's
 /// falls below [`measure::quality::HEAVY_TAIL_DEGREES_OF_FREEDOM`].
-fn degrees_line(degrees: &[f64; 10]) -> Option<String> {
-    let options = degrees.map(|v| Some(v).filter(|v| v.is_finite()));
-    let (name, fewest) = Quantities::NAMES
-        .iter()
-        .zip(degrees)
-        .filter(|(_, v)| v.is_finite())
-        .min_by(|a, b| a.1.total_cmp(b.1))?;
+fn degrees_line(degrees: &[Option<f64>; 10]) -> Option<String> {
+    let (name, fewest) = measure::quality::fewest_degrees_of_freedom(&Quantities::NAMES, degrees)?;
     Some(
-        match measure::quality::heavy_tailed(&Quantities::NAMES, &options) {
+        match measure::quality::heavy_tailed(&Quantities::NAMES, degrees) {
             Some((name, nu)) => format!(
                 "residual blocks: {name}'s sigma will rest on {nu:.1} degrees of freedom (fewer \
                  than {:.0}: its error can reach several sigmas more often than a normal one's); \

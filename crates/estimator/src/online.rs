@@ -410,7 +410,10 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
     }
 
     /// Covariance of θ, each reported quantity with its own small-sample factor.
-    fn covariance(&self) -> SMatrix<f64, N, N> {
+    fn covariance(&self) -> SMatrix<f64, N, N>
+    where
+        Const<N>: DimMin<Const<N>, Output = Const<N>>,
+    {
         let (theta, p) = self.corrected();
         self.score
             .covariance(&theta, &p, &self.quantities.gradients(&theta))
@@ -1012,9 +1015,7 @@ impl OnlineEstimator {
         }
         e.counts = self.counts();
         e.timing = self.timing();
-        if self.counts().covariance_blocks >= u64::from(crate::uncertainty::MIN_COVARIANCE_BLOCKS) {
-            e.degrees_of_freedom = self.degrees_of_freedom();
-        }
+        e.degrees_of_freedom = self.degrees_of_freedom();
         e
     }
 }

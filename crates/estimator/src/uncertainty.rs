@@ -10,7 +10,7 @@
 //! blocks are long compared with it.
 
 use crate::dof::BlockInformation;
-use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+use nalgebra::{Const, DimMin, Matrix3, SMatrix, SVector, Vector3};
 use stewart_types::{parallel_axis, Principal, TENSOR_ENTRIES};
 
 /// Block-summed residual scores of an exponentially weighted least-squares fit.
@@ -343,7 +343,10 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         theta: &SVector<f64, N>,
         p: &SMatrix<f64, N, N>,
         quantities: &SMatrix<f64, N, N>,
-    ) -> SMatrix<f64, N, N> {
+    ) -> SMatrix<f64, N, N>
+    where
+        Const<N>: DimMin<Const<N>, Output = Const<N>>,
+    {
         let n = self.rows;
         let fitted = (N + R) as f64;
         if !self.is_measured() || n <= fitted + 1.0 {
@@ -361,9 +364,14 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     }
 
     /// The degrees of freedom of each reported quantity's variance, as the last block's close
-    /// took them (the quantities of [`Self::close_block`]), `None` where the blocks give none.
+    /// took them (the quantities of [`Self::close_block`]), `None` where the blocks give none
+    /// or too few blocks count for a measured covariance ([`Self::is_measured`]).
     pub fn degrees_of_freedom(&self) -> [Option<f64>; N] {
-        self.degrees
+        if self.is_measured() {
+            self.degrees
+        } else {
+            [None; N]
+        }
     }
 }
 
@@ -373,61 +381,17 @@ fn scale_in_basis<const N: usize>(
     c: &SMatrix<f64, N, N>,
     basis: &SMatrix<f64, N, N>,
     roots: &SVector<f64, N>,
-) -> Option<SMatrix<f64, N, N>> {
-    let mut t = SMatrix::<f64, N, N>::from_diagonal(roots) * basis;
-    // t ← G⁻¹ D G, solved column by column by Gaussian elimination with partial pivoting
-    // (a generic N has no nalgebra LU).
-    if !solve_in_place(basis, &mut t) {
-        return None;
-    }
+) -> Option<SMatrix<f64, N, N>>
+where
+    Const<N>: DimMin<Const<N>, Output = Const<N>>,
+{
+    // t = G⁻¹ D G by one LU solve.
+    let t = basis
+        .lu()
+        .solve(&(SMatrix::<f64, N, N>::from_diagonal(roots) * basis))?;
     let scaled = t * c * t.transpose();
     let scaled = (scaled + scaled.transpose()) * 0.5;
     scaled.iter().all(|v| v.is_finite()).then_some(scaled)
-}
-
-/// Solves G X = B in place of B (Gaussian elimination, partial pivoting); false when G is
-/// singular to working precision.
-fn solve_in_place<const N: usize>(g: &SMatrix<f64, N, N>, b: &mut SMatrix<f64, N, N>) -> bool {
-    let mut a = *g;
-    let scale = a.amax();
-    if !(scale > 0.0 && scale.is_finite()) {
-        return false;
-    }
-    for k in 0..N {
-        let Some((pivot, value)) = (k..N)
-            .map(|i| (i, a.get((i, k)).copied().unwrap_or(0.0)))
-            .max_by(|x, y| x.1.abs().total_cmp(&y.1.abs()))
-        else {
-            return false;
-        };
-        // A NaN pivot fails this comparison too.
-        if value.abs().partial_cmp(&(1e-14 * scale)) != Some(core::cmp::Ordering::Greater) {
-            return false;
-        }
-        a.swap_rows(k, pivot);
-        b.swap_rows(k, pivot);
-        for i in (k + 1)..N {
-            let factor = a.get((i, k)).copied().unwrap_or(0.0) / value;
-            if factor != 0.0 {
-                let row_k = a.row(k).into_owned();
-                let mut row_i = a.row_mut(i);
-                row_i -= row_k * factor;
-                let b_k = b.row(k).into_owned();
-                let mut b_i = b.row_mut(i);
-                b_i -= b_k * factor;
-            }
-        }
-    }
-    for k in (0..N).rev() {
-        let diagonal = a.get((k, k)).copied().unwrap_or(f64::NAN);
-        let mut row = b.row(k).into_owned();
-        for j in (k + 1)..N {
-            let a_kj = a.get((k, j)).copied().unwrap_or(0.0);
-            row -= b.row(j) * a_kj;
-        }
-        b.row_mut(k).copy_from(&(row / diagonal));
-    }
-    b.iter().all(|v| v.is_finite())
 }
 
 /// Largest leverage [`own_fit_correction`] corrects for: ½, the second of equal blocks'. A

@@ -228,10 +228,10 @@ mod tests {
 /// is the honest scale; the report and the table say so, and a longer excitation gives more.
 pub const HEAVY_TAIL_DEGREES_OF_FREEDOM: f64 = 4.0;
 
-/// The quantity whose sigma rests on the fewest degrees of freedom, with that number, when it
-/// is below [`HEAVY_TAIL_DEGREES_OF_FREEDOM`]; `names` and `degrees_of_freedom` in the same
-/// order (the report's [`crate::report::Quantities::flat`]).
-pub fn heavy_tailed<'a>(
+/// The quantity whose sigma rests on the fewest degrees of freedom, with that number;
+/// `names` and `degrees_of_freedom` in the same order (the report's
+/// [`crate::report::Quantities::flat`]); `None` where none is known.
+pub fn fewest_degrees_of_freedom<'a>(
     names: &[&'a str],
     degrees_of_freedom: &[Option<f64>],
 ) -> Option<(&'a str, f64)> {
@@ -240,6 +240,14 @@ pub fn heavy_tailed<'a>(
         .zip(degrees_of_freedom)
         .filter_map(|(name, nu)| nu.filter(|v| v.is_finite()).map(|v| (*name, v)))
         .min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+/// [`fewest_degrees_of_freedom`] when it is below [`HEAVY_TAIL_DEGREES_OF_FREEDOM`].
+pub fn heavy_tailed<'a>(
+    names: &[&'a str],
+    degrees_of_freedom: &[Option<f64>],
+) -> Option<(&'a str, f64)> {
+    fewest_degrees_of_freedom(names, degrees_of_freedom)
         .filter(|(_, nu)| *nu < HEAVY_TAIL_DEGREES_OF_FREEDOM)
 }
 

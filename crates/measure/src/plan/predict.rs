@@ -84,13 +84,7 @@ pub fn covariance(
 ) -> Option<Cov> {
     let biquad = Biquad::butterworth(conditioning.cutoff_hz, conditioning.period_s).ok()?;
     let (value, slope) = stencil_weights(conditioning.period_s);
-    let w = SMatrix::<f64, 6, 6>::from_diagonal(&conditioning.equation_sigma.map(|s| {
-        if s > 0.0 {
-            1.0 / (s * s)
-        } else {
-            0.0
-        }
-    }));
+    let w = weights(conditioning);
     let phis: Vec<_> = points.iter().map(|p| p.regressor()).collect();
     let mut a = Cov::zeros();
     for phi in &phis {
@@ -162,13 +156,7 @@ pub fn degrees_of_freedom(
     theta: &ParameterVector,
     conditioning: &Conditioning,
 ) -> Option<[f64; 10]> {
-    let w = SMatrix::<f64, 6, 6>::from_diagonal(&conditioning.equation_sigma.map(|s| {
-        if s > 0.0 {
-            1.0 / (s * s)
-        } else {
-            0.0
-        }
-    }));
+    let w = weights(conditioning);
     let excitation_s = points.len() as f64 * conditioning.period_s;
     let block = crate::quality::block_samples_for(
         conditioning.block_samples,
@@ -201,6 +189,17 @@ pub fn degrees_of_freedom(
         *n = information.degrees_of_freedom(&(p * row.transpose()))?;
     }
     Some(nu)
+}
+
+/// W, the rows' weights: each equation's inverse squared sigma (0 for a sigma of 0).
+fn weights(conditioning: &Conditioning) -> SMatrix<f64, 6, 6> {
+    SMatrix::from_diagonal(&conditioning.equation_sigma.map(|s| {
+        if s > 0.0 {
+            1.0 / (s * s)
+        } else {
+            0.0
+        }
+    }))
 }
 
 /// Smallest eigenvalue of A scaled to a unit diagonal, D^-½ A D^-½, below which the samples do
