@@ -94,19 +94,31 @@ pub fn render(report: &Report) -> String {
         let _ = write!(out, " {:>13} {:>12} {:>7}", "truth", "error", "err/σ");
     }
     out.push('\n');
-    for row in &ROWS {
+    // The six-parameter model (the paper's) fits the tensor only: the mass and centre of mass
+    // are the rig description's, given rather than measured.
+    let given = report.run.params == 6;
+    for (k, row) in ROWS.iter().enumerate() {
         let est = (row.get)(&report.estimate);
         let sig = (row.get)(&report.sigma);
         let d = decimals_for(sig, est);
-        let cell = format!("{} ± {}", fixed(est, d), fixed(sig, d));
+        let is_given = given && k < 4;
+        let cell = if is_given {
+            format!("{} (given)", fixed(est, d))
+        } else {
+            format!("{} ± {}", fixed(est, d), fixed(sig, d))
+        };
         let _ = write!(out, "{:<8} {:<6} {:>28}", row.name, row.unit, cell);
         if let Some(truth) = &report.truth {
             let t = (row.get)(truth);
             let err = est - t;
-            let z = if sig > 0.0 { err / sig } else { f64::NAN };
+            let z = if sig > 0.0 && !is_given {
+                format!("{:.2}", err / sig)
+            } else {
+                "-".into()
+            };
             let _ = write!(
                 out,
-                " {:>13} {:>12} {:>7.2}",
+                " {:>13} {:>12} {:>7}",
                 fixed(t, d),
                 fixed(err, d + 1),
                 z
@@ -168,11 +180,17 @@ pub fn render(report: &Report) -> String {
     }
     if let Some(w) = &report.static_weighing {
         let p = &w.payload;
-        let [m, x, y] = w.check.z;
+        let compared = match &w.check {
+            Some(c) => {
+                let [m, x, y] = c.z;
+                format!("dynamic − static: {m:+.1}, {x:+.1}, {y:+.1} σ")
+            }
+            None => "not compared (the fit takes the mass and centre of mass as given)".into(),
+        };
         let _ = writeln!(
             out,
             "static weighing (brake holds): mass {:.3} ± {:.3} kg, c_x {:.2} ± {:.2} mm, c_y \
-             {:.2} ± {:.2} mm; dynamic − static: {m:+.1}, {x:+.1}, {y:+.1} σ",
+             {:.2} ± {:.2} mm; {compared}",
             p.mass_kg,
             p.sigma_mass_kg,
             p.com_xy_m[0] * 1e3,
@@ -327,6 +345,28 @@ mod tests {
             line.contains("1.23 σ") && line.contains("consistency.raw"),
             "{line}"
         );
+    }
+
+    /// Regression (paper.toml printed `± 0.00` and an err/σ of NaN for the mass): the
+    /// six-parameter model's mass and centre of mass are shown as given, with no z.
+    #[test]
+    fn the_six_parameter_models_given_mass_shows_no_sigma() {
+        let mut report = Report::default();
+        report.run.params = 6;
+        report.estimate.mass = 1500.0;
+        report.estimate.inertia_com[0][0] = 600.01;
+        report.sigma.inertia_com[0][0] = 0.005;
+        report.truth = Some(Quantities {
+            mass: 1500.0,
+            inertia_com: [[600.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]],
+            ..Quantities::default()
+        });
+        let text = render(&report);
+        let mass = text.lines().find(|l| l.starts_with("mass")).unwrap();
+        assert!(mass.contains("(given)") && !mass.contains('±'), "{mass}");
+        assert!(!text.contains("NaN"), "{text}");
+        let xx = text.lines().find(|l| l.starts_with("J_C xx")).unwrap();
+        assert!(xx.contains('±') && xx.contains("2.00"), "{xx}");
     }
 
     #[test]

@@ -576,13 +576,15 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
         static_weighing: i.loaded_weighing.zip(i.tare.static_weighing.as_ref()).map(
             |(loaded, tare)| {
                 let (q, s) = (quantities(&reported), sigmas(&payload));
+                // The six-parameter model takes the mass and centre of mass as given.
+                let fitted = (i.params == ParamCount::Ten)
+                    .then_some(([q.mass, q.com[0], q.com[1]], [s.mass, s.com[0], s.com[1]]));
                 static_weighing_section(
                     loaded,
                     tare,
                     &i.loaded.parameters.to_vector().into(),
                     &i.tare.theta,
-                    [q.mass, q.com[0], q.com[1]],
-                    [s.mass, s.com[0], s.com[1]],
+                    fitted,
                 )
             },
         ),

@@ -32,38 +32,42 @@ pub struct StaticWeighingReport {
     pub payload: Weighed,
     /// The tare (fixture and plate) alone.
     pub tare: Weighed,
-    /// The dynamic fit's payload against `payload`.
-    pub check: WeighingCheck,
+    /// The dynamic fit's payload against `payload`; absent when the fit does not estimate the
+    /// mass and centre of mass (the paper's six-parameter model takes them as given).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub check: Option<WeighingCheck>,
 }
 
 /// The section of the loaded run's weighing `loaded` and the tare's `tare`, with the dynamic
 /// fit's total θ `loaded_theta` and tare θ `tare_theta` (their h_z/m give each run's centre of
 /// mass height, which one level pose cannot, see [`crate::weigh`]), checked against the
-/// dynamic payload's mass and c_x, c_y `dynamic` with their sigmas `dynamic_sigma`.
+/// dynamic payload's mass and c_x, c_y with their sigmas, `dynamic` = `Some((values,
+/// sigmas))`; `None` when the fit does not estimate them (no check).
 pub fn section(
     loaded: &StaticWeighing,
     tare: &StaticWeighing,
     loaded_theta: &[f64; 10],
     tare_theta: &[f64; 10],
-    dynamic: [f64; 3],
-    dynamic_sigma: [f64; 3],
+    dynamic: Option<([f64; 3], [f64; 3])>,
 ) -> StaticWeighingReport {
     let height = |t: &[f64; 10]| if t[0] > 0.0 { t[3] / t[0] } else { 0.0 };
     let p = payload(loaded, height(loaded_theta), tare, height(tare_theta));
     let weighed = [p.mass_kg, p.com_xy_m[0], p.com_xy_m[1]];
     let sigma = [p.sigma_mass_kg, p.sigma_com_xy_m[0], p.sigma_com_xy_m[1]];
-    let z: [f64; 3] =
-        core::array::from_fn(|k| (dynamic[k] - weighed[k]) / dynamic_sigma[k].hypot(sigma[k]));
-    let largest_abs_z = z.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let check = dynamic.map(|(values, dynamic_sigma)| {
+        let z: [f64; 3] =
+            core::array::from_fn(|k| (values[k] - weighed[k]) / dynamic_sigma[k].hypot(sigma[k]));
+        WeighingCheck {
+            z,
+            largest_abs_z: z.iter().fold(0.0f64, |a, v| a.max(v.abs())),
+            limit_sigma: CHECK_LIMIT_SIGMA,
+            agrees: z.iter().all(|v| v.abs() <= CHECK_LIMIT_SIGMA),
+        }
+    });
     StaticWeighingReport {
         payload: p,
         tare: tare.weighed(height(tare_theta)),
-        check: WeighingCheck {
-            z,
-            largest_abs_z,
-            limit_sigma: CHECK_LIMIT_SIGMA,
-            agrees: z.iter().all(|v| v.abs() <= CHECK_LIMIT_SIGMA),
-        },
+        check,
     }
 }
 
@@ -71,15 +75,13 @@ impl StaticWeighingReport {
     /// The warning when the dynamic fit and the static weighing disagree beyond
     /// [`CHECK_LIMIT_SIGMA`]; `None` when they agree.
     pub fn warning(&self) -> Option<String> {
-        if self.check.agrees {
-            return None;
-        }
-        let [m, x, y] = self.check.z;
+        let check = self.check.as_ref().filter(|c| !c.agrees)?;
+        let [m, x, y] = check.z;
         Some(format!(
             "the dynamic fit and the static weighing of the brake holds disagree: mass {m:+.1} σ, \
              c_x {x:+.1} σ, c_y {y:+.1} σ (limit {:.0} σ); static mass {:.3} ± {:.3} kg, c_x \
              {:.2} ± {:.2} mm, c_y {:.2} ± {:.2} mm",
-            self.check.limit_sigma,
+            check.limit_sigma,
             self.payload.mass_kg,
             self.payload.sigma_mass_kg,
             self.payload.com_xy_m[0] * 1e3,
@@ -162,15 +164,14 @@ mod tests {
             &t,
             &theta(1900.0),
             &theta(400.0),
-            [1500.0, 0.15, -0.08],
-            [0.3, 2e-4, 2e-4],
+            Some(([1500.0, 0.15, -0.08], [0.3, 2e-4, 2e-4])),
         ));
         let back: Report = serde_json::from_str(&with.to_json()).expect("reads");
         assert_eq!(back.static_weighing, with.static_weighing);
         let s = back.static_weighing.expect("section");
         assert!((s.payload.mass_kg - 1500.0).abs() < 1e-9);
         assert!((s.payload.com_xy_m[0] - 0.15).abs() < 1e-12);
-        assert!(s.check.agrees && s.warning().is_none());
+        assert!(s.check.is_some_and(|c| c.agrees) && s.warning().is_none());
         let prior = static_weighing_of(&with.to_json()).expect("a prior");
         let mut plan = crate::config::PlanConfig::default();
         apply_prior(&mut plan, &prior);
@@ -194,12 +195,33 @@ mod tests {
             &t,
             &theta(1900.0),
             &theta(400.0),
-            [1500.0 + off, 0.0, 0.0],
-            [0.1, 1e-4, 1e-4],
+            Some(([1500.0 + off, 0.0, 0.0], [0.1, 1e-4, 1e-4])),
         );
-        assert!((s.check.z[0] - 5.0).abs() < 1e-9, "{:?}", s.check);
-        assert!(!s.check.agrees);
+        let check = s.check.expect("a check");
+        assert!((check.z[0] - 5.0).abs() < 1e-9, "{check:?}");
+        assert!(!check.agrees);
         let w = s.warning().expect("a warning");
         assert!(w.contains("mass +5.0 σ"), "{w}");
+    }
+
+    /// Regression (paper.toml warned of a 3e5 σ disagreement): a fit that takes the mass and
+    /// centre of mass as given, with zero sigma, is not checked against the weighing, and its
+    /// report still reads.
+    #[test]
+    fn a_fit_with_the_mass_given_is_not_checked_against_the_weighing() {
+        let (l, t) = (
+            weighing(1900.0, 0.0, 0.0, 1e-12),
+            weighing(400.0, 0.0, 0.0, 1e-12),
+        );
+        let theta = |m: f64| [m, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0];
+        let s = section(&l, &t, &theta(1900.0), &theta(400.0), None);
+        assert_eq!(s.check, None);
+        assert_eq!(s.warning(), None);
+        let mut report = Report::default();
+        report.static_weighing = Some(s);
+        let text = report.to_json();
+        assert!(!text.contains("\"check\""), "{text}");
+        let back: Report = serde_json::from_str(&text).expect("reads");
+        assert_eq!(back.static_weighing, report.static_weighing);
     }
 }
