@@ -148,7 +148,7 @@ fn bench(c: &mut Criterion) {
         .iter()
         .map(|f| tick.step(f).sample.expect("FK converges on the stream"))
         .collect();
-    let estimator: OnlineEstimator = rec.start.estimator;
+    let estimator: OnlineEstimator = *rec.start.estimator;
     c.bench_function("full_tick/estimator_part", |b| {
         b.iter_custom(|iters| {
             ring(Clock::Cpu, iters, &estimator, &samples, |e, s| {

@@ -284,7 +284,7 @@ where
                 fk: &fk_options,
             })?;
         }
-        let estimator = tick.window.map(|_| &tick.estimator);
+        let estimator = tick.window.map(|_| &*tick.estimator);
         observer.tick(&TickEvent {
             measurement,
             index,

@@ -94,7 +94,8 @@ pub const TRACE_CAPACITY: usize = 4096;
 /// is a [`ThetaHistory`], the trace at most [`TRACE_CAPACITY`] points.
 pub struct Replay {
     config: EstimatorConfig,
-    estimator: OnlineEstimator,
+    /// Boxed, as [`crate::tick::Tick::estimator`] is.
+    estimator: Box<OnlineEstimator>,
     feed: Feed,
     sigmas: BiasSigmas,
     trace_every: u64,
@@ -126,7 +127,7 @@ impl Replay {
         trace_every: u64,
     ) -> Result<Self, ReplayError> {
         Ok(Self {
-            estimator: OnlineEstimator::new(config).map_err(ReplayError::Settings)?,
+            estimator: Box::new(OnlineEstimator::new(config).map_err(ReplayError::Settings)?),
             feed: Feed::new(config.geometry, fk, imu),
             config,
             sigmas,

@@ -24,8 +24,10 @@ pub struct Tick {
     pub controller: Controller,
     /// The frame-to-sample rule.
     pub feed: Feed,
-    /// Wrench, conditioning, regressor, RLS.
-    pub estimator: OnlineEstimator,
+    /// Wrench, conditioning, regressor, RLS. Boxed: its inline state (tens of kilobytes, see
+    /// `estimator::ONLINE_ESTIMATOR_MAX_BYTES`) would otherwise be copied through the frames of
+    /// every call that moves a tick, which an unoptimised build's thread stack cannot afford.
+    pub estimator: Box<OnlineEstimator>,
     /// Length of the excitation (the fit window), s.
     pub excitation_s: f64,
     /// The fit window, once the excitation started.
@@ -64,7 +66,7 @@ impl Tick {
         Ok(Self {
             controller,
             feed,
-            estimator: OnlineEstimator::new(estimator)?,
+            estimator: Box::new(OnlineEstimator::new(estimator)?),
             excitation_s,
             window: None,
         })

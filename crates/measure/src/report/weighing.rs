@@ -217,8 +217,10 @@ mod tests {
         let s = section(&l, &t, &theta(1900.0), &theta(400.0), None);
         assert_eq!(s.check, None);
         assert_eq!(s.warning(), None);
-        let mut report = Report::default();
-        report.static_weighing = Some(s);
+        let report = Report {
+            static_weighing: Some(s),
+            ..Report::default()
+        };
         let text = report.to_json();
         assert!(!text.contains("\"check\""), "{text}");
         let back: Report = serde_json::from_str(&text).expect("reads");
