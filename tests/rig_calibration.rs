@@ -14,7 +14,7 @@ use support::*;
 fn rig_calibrate_imu_agrees_with_the_simulated_calibration_of_the_same_world() {
     let _lock = real_time();
     let scratch = Scratch::new(RIG_SHORT);
-    let emulator = start(&emulate_args(&scratch));
+    let emulator = start(&emulate_args_fast(&scratch));
     let file = scratch.path("rig-imu.toml");
     let args = rig_against(
         &scratch.config,
@@ -77,7 +77,7 @@ fn rig_calibrate_load_cells_agrees_with_the_simulated_calibration_of_the_same_wo
     let scratch = Scratch::new(&format!("[calibration]\nmeasure_imu = false\n{RIG_SHORT}"));
     let emulator = start(&EmulateArgs {
         reference: true,
-        ..emulate_args(&scratch)
+        ..emulate_args_fast(&scratch)
     });
     let file = scratch.path("rig-cells.toml");
     let log = scratch.path("rig.mcap");

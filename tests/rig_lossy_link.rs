@@ -83,7 +83,7 @@ fn dropped_and_corrupted_frames_are_counted_and_the_run_completes() {
     let emulator = start(&EmulateArgs {
         drop: 0.10,
         corrupt: 0.01,
-        ..emulate_args(&scratch)
+        ..emulate_args_fast(&scratch)
     });
     let args = rig_tare(&scratch, emulator.address(), &[]);
     let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));

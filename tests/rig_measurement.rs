@@ -59,7 +59,7 @@ fn a_rig_measurement_agrees_with_truth_as_well_as_simulate() {
     std::fs::write(&sim_report, sim_json.to_string()).unwrap();
 
     // The rig, against the emulator: tare session, payload on, loaded session.
-    let emulator = start(&emulate_args(&scratch));
+    let emulator = start(&emulate_args_fast(&scratch));
     let log = scratch.path("rig.mcap");
     let report_path = scratch.path("rig.json");
     let args = rig_against(

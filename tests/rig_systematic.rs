@@ -86,7 +86,7 @@ fn assert_systematic_as_estimate(rig: &Report, log: &Path) {
 fn the_rig_reports_the_systematic_part_estimate_computes() {
     let _lock = real_time();
     let scratch = Scratch::new(&quick());
-    let emulator = start(&emulate_args(&scratch));
+    let emulator = start(&emulate_args_fast(&scratch));
     let tare_path = scratch.path("tare.json");
 
     // Tare session, payload on, loaded session; the tare saved on the way.
@@ -170,7 +170,7 @@ fn a_datasheet_figure_in_the_rig_description_reaches_the_rig_report() {
     let mut reports = Vec::new();
     for (name, config) in [("base", &scratch.config), ("worse", &worse)] {
         // A fresh emulator each: its first session is the empty fixture, the second loaded.
-        let emulator = start(&emulate_args(&scratch));
+        let emulator = start(&emulate_args_fast(&scratch));
         let log = scratch.path(&format!("{name}.mcap"));
         let report = rig_report(config, emulator.address(), &log, &[]);
         let settings = LogContents::read(&log).unwrap();

@@ -252,6 +252,15 @@ pub fn emulate_args(scratch: &Scratch) -> EmulateArgs {
     }
 }
 
+/// [`emulate_args`], fast-forwarding (`--fast-forward`): the run takes as long as host and
+/// emulator compute. For tests whose other threads do not act on the run's real time.
+pub fn emulate_args_fast(scratch: &Scratch) -> EmulateArgs {
+    EmulateArgs {
+        fast_forward: true,
+        ..emulate_args(scratch)
+    }
+}
+
 /// Starts an emulator on its own thread.
 pub fn start(args: &EmulateArgs) -> RunningEmulator {
     emulate::spawn(args).unwrap_or_else(|e| panic!("emulator: {e}"))

@@ -21,7 +21,8 @@
 //! `--delay-ms N` (with `--delay-fraction F`, default all frames), `--stop-after N` (stop
 //! answering after N sensor frames of a session, as a rig whose link died). `--lockstep`
 //! trades real time for robustness on a busy machine: the emulated world waits for the
-//! host's answer to each frame (up to the watchdog time).
+//! host's answer to each frame (up to the watchdog time); `--fast-forward` then goes on as
+//! soon as the answer came, faster than real time.
 
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -126,6 +127,11 @@ pub struct EmulateArgs {
     /// time: for tests on busy machines.
     #[arg(long)]
     pub lockstep: bool,
+    /// With --lockstep: simulate the next sample as soon as the host has answered the last
+    /// one, so that a run takes as long as host and emulator compute, not its real time (the
+    /// emulated rig's watchdog and timeouts count emulated time). For tests and demonstrations.
+    #[arg(long, requires = "lockstep")]
+    pub fast_forward: bool,
     /// Print nothing but errors.
     #[arg(long)]
     pub quiet: bool,
@@ -150,6 +156,7 @@ impl Default for EmulateArgs {
             delay_fraction: 1.0,
             stop_after: None,
             lockstep: false,
+            fast_forward: false,
             quiet: false,
         }
     }
@@ -285,6 +292,7 @@ pub fn prepare(args: &EmulateArgs) -> Result<Prepared, CommandError> {
         key,
         faults,
         lockstep: args.lockstep.then_some(watchdog),
+        fast_forward: args.fast_forward,
         seed: scenario.world.seed,
         ..EmulatorConfig::new(limits(config, &scenario.world))
     };

@@ -28,6 +28,8 @@ pub(crate) struct FakeBackend {
     /// Legs extend at this speed while the actuators are enabled, m/s.
     rate_m_s: f64,
     enabled_ticks: u64,
+    /// The sample period, s (`None`: [`PERIOD_S`]).
+    period_s: Option<f64>,
 }
 
 impl FakeBackend {
@@ -70,12 +72,12 @@ impl Backend for FakeBackend {
         self.applied.push(*command);
         self.enabled_ticks += u64::from(command.enable);
         self.sequence += 1;
-        self.time_s = self.sequence as f64 * PERIOD_S;
+        self.time_s = self.sequence as f64 * self.sample_period_s();
         Ok(())
     }
 
     fn sample_period_s(&self) -> f64 {
-        PERIOD_S
+        self.period_s.unwrap_or(PERIOD_S)
     }
 }
 
@@ -1169,4 +1171,47 @@ fn in_lockstep_a_slow_host_pauses_the_emulated_world() {
     assert!((39..=45).contains(&enabled), "{enabled} enabled ticks");
     assert!(emulator.faults().is_empty(), "{:?}", emulator.faults());
     assert_eq!(accepted_late, 0, "{stats}");
+}
+
+/// Fast-forwarding, a host that answers at once runs the emulated world faster than real
+/// time: 100 samples of 50 ms (5 s of real time) take a fraction of it, the rig core's clock
+/// counts the emulated time, and nothing is late or faulted.
+#[test]
+fn fast_forwarding_runs_the_emulated_world_as_fast_as_the_host_answers() {
+    const PERIOD: f64 = 0.05;
+    let inner = FakeBackend {
+        period_s: Some(PERIOD),
+        ..FakeBackend::default()
+    };
+    let rig = start_with(
+        inner,
+        EmulatorConfig {
+            lockstep: Some(Duration::from_millis(1000)),
+            fast_forward: true,
+            ..config()
+        },
+    );
+    let mut host = RigBackend::connect(&rig.address, host_options()).expect("connect");
+    let started = std::time::Instant::now();
+    let frames = drive(&mut host, 100, 10.0).unwrap();
+    let took = started.elapsed();
+    let stats = *host.stats();
+    drop(host);
+    let emulator = rig.finish();
+    // Real time would take 5 s; any machine answers 100 loopback datagrams in far less.
+    assert!(
+        took < Duration::from_millis(2500),
+        "{took:?} for 100 samples"
+    );
+    assert!(
+        emulator.fast_forwarded() >= Duration::from_millis(2500),
+        "the rig core's clock ran {:?} ahead of the wall",
+        emulator.fast_forwarded()
+    );
+    for pair in frames.windows(2) {
+        assert_eq!(pair[1].sequence, pair[0].sequence + 1);
+        assert!((pair[1].time_s - pair[0].time_s - PERIOD).abs() < 1e-9);
+    }
+    assert!(emulator.faults().is_empty(), "{:?}", emulator.faults());
+    assert_eq!(stats.late, 0, "{stats}");
 }

@@ -54,6 +54,14 @@ pub struct EmulatorConfig {
     /// instead of letting the platform run on its last command. The watchdog still trips
     /// when the host stays silent for longer than the watchdog time.
     pub lockstep: Option<Duration>,
+    /// With `lockstep`: once the host has answered the last sensor frame, the next sample
+    /// follows at once instead of at its time (false, the default: real time). The emulated
+    /// world then runs as fast as host and emulator compute, and the rig core's clock (its
+    /// watchdog, its session timeout) runs on the emulated time: each sample is one sample
+    /// period later, however soon it came. While no session is open, or the host has not
+    /// answered, or the link is silenced by injection, the clock is the wall's again. For tests
+    /// and demonstrations: a rig runs in real time.
+    pub fast_forward: bool,
     /// Seed for session numbers and fault injection.
     pub seed: u64,
 }
@@ -77,6 +85,7 @@ impl EmulatorConfig {
             speed_window: 10,
             faults: FaultInjection::default(),
             lockstep: None,
+            fast_forward: false,
             seed: rand::random(),
         }
     }

@@ -56,6 +56,9 @@ pub struct Emulator<B> {
     core: RigCore<Peer>,
     /// The rig core's clock: its nanoseconds count from here.
     epoch: Instant,
+    /// How far the clock ran ahead of the wall ([`EmulatorConfig::fast_forward`]): the
+    /// emulator's time is the wall's plus this.
+    skipped: Duration,
     stats: EmulatorStats,
     rng: StdRng,
     delayed: VecDeque<(Instant, Peer, Vec<u8>)>,
@@ -165,6 +168,7 @@ where
             period,
             core,
             epoch: Instant::now(),
+            skipped: Duration::ZERO,
             stats: EmulatorStats::default(),
             rng: StdRng::seed_from_u64(config.seed),
             delayed: VecDeque::new(),
@@ -228,10 +232,16 @@ where
         self.core.session().map(|s| s.peer)
     }
 
-    /// When the last sensor frame went onto the link (for measuring how fast a host notices
-    /// that the rig went silent).
+    /// When the last sensor frame went onto the link, by the wall's clock (for measuring how
+    /// fast a host notices that the rig went silent).
     pub fn last_sensor_sent_at(&self) -> Option<Instant> {
         self.last_sensor_sent_at
+    }
+
+    /// How far the emulator's clock ran ahead of the wall's by fast-forwarding
+    /// ([`EmulatorConfig::fast_forward`]); zero in real time.
+    pub fn fast_forwarded(&self) -> Duration {
+        self.skipped
     }
 
     /// The served backend (e.g. to read the simulator's truth).
@@ -249,18 +259,46 @@ where
         self.inner
     }
 
-    /// Runs in real time until `stop` is set, then brakes the inner backend once more.
+    /// The emulator's clock: the wall's, plus what fast-forwarding skipped.
+    fn now(&self) -> Instant {
+        Instant::now() + self.skipped
+    }
+
+    /// Whether the next sample may come before its time: fast-forwarding in lockstep, a
+    /// session open whose host has commanded (until then there is no answer to wait for, and
+    /// skipping ahead would only run the watchdog out), and the link not silenced by injection.
+    fn fast_forwarding(&self) -> bool {
+        self.config.fast_forward
+            && self.config.lockstep.is_some()
+            && !self.silent
+            && self
+                .core
+                .session()
+                .is_some_and(|s| s.fault.is_none() && s.latest.is_some())
+    }
+
+    /// Runs in real time (or faster, [`EmulatorConfig::fast_forward`]) until `stop` is set,
+    /// then brakes the inner backend once more.
     pub fn run(&mut self, stop: &AtomicBool) -> Result<(), RigError> {
-        let mut next = Instant::now() + self.period;
+        let mut next = self.now() + self.period;
         while !stop.load(Ordering::Relaxed) {
-            self.pump_until(next)?;
+            let fast = self.fast_forwarding();
+            if !fast {
+                self.pump_until(next)?;
+            }
             if let Some(limit) = self.config.lockstep {
-                if self.wait_for_host(limit)? {
+                let waited = self.wait_for_host(limit)?;
+                if waited && (!fast || self.now() > next) {
                     // The emulated world paused with the host: its clock restarts.
-                    next = Instant::now();
+                    next = self.now();
                 }
             }
-            let now = Instant::now();
+            if fast {
+                // The host has answered: the sample's time has come.
+                self.skipped += next.saturating_duration_since(self.now());
+                self.pump_until(next)?;
+            }
+            let now = self.now();
             let behind = now.saturating_duration_since(next);
             if behind > self.period {
                 self.stats.overruns += 1;
@@ -284,15 +322,15 @@ where
     /// Lockstep: waits (at most `limit`) while the host has not answered the last frame sent
     /// intact. Returns whether it waited.
     fn wait_for_host(&mut self, limit: Duration) -> Result<bool, RigError> {
-        let start = Instant::now();
+        let start = self.now();
         let mut waited = false;
         while self.host_is_behind() {
-            let now = Instant::now();
+            let now = self.now();
             if now.saturating_duration_since(start) >= limit {
                 break;
             }
             waited = true;
-            self.pump_until((now + self.period / 4).min(start + limit))?;
+            self.pump((now + self.period / 4).min(start + limit), true)?;
         }
         Ok(waited)
     }
@@ -456,9 +494,15 @@ where
     /// on a host that answered (on a loaded machine a descheduled rig wakes past its deadline
     /// with commands waiting).
     fn pump_until(&mut self, deadline: Instant) -> Result<(), RigError> {
+        self.pump(deadline, false)
+    }
+
+    /// [`Self::pump_until`], returning early, when `until_answered`, as soon as the host is no
+    /// longer behind (lockstep's wait).
+    fn pump(&mut self, deadline: Instant, until_answered: bool) -> Result<(), RigError> {
         let mut drained_late = 0;
         loop {
-            let now = Instant::now();
+            let now = self.now();
             while self.delayed.front().is_some_and(|(due, _, _)| *due <= now) {
                 if let Some((_, peer, frame)) = self.delayed.pop_front() {
                     if !self.silent {
@@ -482,13 +526,16 @@ where
                 .recv(&mut self.buf, until.saturating_duration_since(now))?
             {
                 Recv::Frame { len, from } => {
-                    let received = Instant::now();
+                    let received = self.now();
                     let at = self.ns(received);
                     match self.buf.get(..len) {
                         Some(frame) => self.core.receive(at, from, frame, &mut self.outbox),
                         None => self.core.receive_garbled(),
                     }
                     self.deliver(received);
+                    if until_answered && !self.host_is_behind() {
+                        return Ok(());
+                    }
                 }
                 Recv::Garbled => {
                     self.core.receive_garbled();
