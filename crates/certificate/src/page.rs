@@ -123,15 +123,23 @@ fn results(s: &mut String, r: &Report) {
         },
         k = COVERAGE_FACTOR
     );
+    // The six-parameter model (the paper's) fits the tensor alone: the mass and the centre of
+    // mass are the rig description's, given rather than measured.
+    let given = |q: usize| r.run.params == 6 && q < 4;
     for q in 0..10 {
         let big_u = expanded(u[q]);
         let (vt, ut) = rounded(e[q], big_u);
+        let uncertainty = if given(q) {
+            "given".to_string()
+        } else {
+            format!("± {ut}")
+        };
         let _ = write!(
             s,
             "<tr><th>{}</th>{}{}<td>{}</td>{}",
             LABELS[q],
             cell(&format!("estimate.{}", KEYS[q]), e[q], &vt),
-            cell(&format!("U.{}", KEYS[q]), big_u, &format!("± {ut}")),
+            cell(&format!("U.{}", KEYS[q]), big_u, &uncertainty),
             UNITS[q],
             cell(&format!("sigma.{}", KEYS[q]), u[q], &significant(u[q], 2)),
         );
@@ -141,7 +149,7 @@ fn results(s: &mut String, r: &Report) {
                 s,
                 "{}<td class=\"num\">{}</td>",
                 cell(&format!("truth.{}", KEYS[q]), t[q], &significant(t[q], 6)),
-                if ratio.is_finite() {
+                if ratio.is_finite() && !given(q) {
                     format!("{ratio:.2}")
                 } else {
                     "—".into()
@@ -159,7 +167,13 @@ fn results(s: &mut String, r: &Report) {
          statistical part of the fit (noise, lost frames, timestamp jitter) and every \
          systematic source of the error budget (section 3) in quadrature. Values are rounded to \
          the decimal place of U's second significant digit; the data attributes of each cell \
-         hold the report's full-precision numbers.</p>"
+         hold the report's full-precision numbers.{}</p>",
+        if r.run.params == 6 {
+            " The six-parameter model fits the tensor alone: the mass and the centre of mass \
+             marked \"given\" are the rig description's, not measured."
+        } else {
+            ""
+        }
     );
     let verdict = if r.consistency.problems.is_empty() {
         format!("Physical consistency: {}.", esc(&r.consistency.verdict))

@@ -165,3 +165,21 @@ fn a_projected_estimate_is_said_to_be_one() {
     assert!(html.contains("projection onto the consistent set"));
     assert!(html.contains("2.50 σ from the fit"));
 }
+
+/// Regression (the paper's model printed its given mass as `± —`): with six parameters the
+/// mass and centre of mass are marked given, the tensor keeps its uncertainty, and the page
+/// says why.
+#[test]
+fn the_six_parameter_models_given_quantities_are_marked_given() {
+    let mut r = report();
+    r.run.params = 6;
+    r.sigma.mass = 0.0;
+    r.sigma.com = [0.0; 3];
+    let html = render(&parse(&r.to_json()).unwrap(), &context());
+    let u_cells = |text: &str| html.matches(text).count();
+    assert_eq!(u_cells(">given</td>"), 4, "mass and com marked given");
+    assert!(!html.contains("± —"), "no dash uncertainty");
+    assert!(html.contains("The six-parameter model fits the tensor alone"));
+    let ten = render(&parse(&report().to_json()).unwrap(), &context());
+    assert_eq!(ten.matches(">given</td>").count(), 0);
+}
