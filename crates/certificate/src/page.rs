@@ -413,7 +413,11 @@ fn residuals(s: &mut String, r: &Report) {
                 significant(b.peak_hz, 3)
             );
         }
-        None => s.push_str("<p>Rigid-body check: the run's record was too short to tell.</p>"),
+        None => s.push_str(
+            "<p>Rigid-body check: not made (the run's record was too short, or the rig \
+             description is ideal, with no noise and no tolerances, so no residual is predicted \
+             to judge the fit's by).</p>",
+        ),
     }
     s.push_str("</section>\n");
 }
