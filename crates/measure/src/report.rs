@@ -259,7 +259,8 @@ pub struct Report {
     #[serde(default)]
     pub budget_notes: Vec<String>,
     /// Whether the rigid-body model explains the loaded run's data ([`crate::budget::rigid`]);
-    /// `null` when the run's record was too short to tell.
+    /// `null` when the run's record was too short to tell, or the rig description is ideal (no
+    /// residual predicted to judge by).
     #[serde(default)]
     pub rigid_body: Option<crate::budget::RigidBody>,
     /// The systematic part of `sigma` (the budget's sources but the statistical ones),
