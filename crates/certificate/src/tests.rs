@@ -166,9 +166,8 @@ fn a_projected_estimate_is_said_to_be_one() {
     assert!(html.contains("2.50 σ from the fit"));
 }
 
-/// Regression (the paper's model printed its given mass as `± —`): with six parameters the
-/// mass and centre of mass are marked given, the tensor keeps its uncertainty, and the page
-/// says why.
+/// Regression, configs/paper.toml: with six parameters the mass and centre of mass are marked
+/// given (not `± —`), the tensor keeps its uncertainty, and the page says why.
 #[test]
 fn the_six_parameter_models_given_quantities_are_marked_given() {
     let mut r = report();

@@ -347,8 +347,8 @@ mod tests {
         );
     }
 
-    /// Regression (paper.toml printed `± 0.00` and an err/σ of NaN for the mass): the
-    /// six-parameter model's mass and centre of mass are shown as given, with no z.
+    /// Regression, configs/paper.toml: the six-parameter model's mass and centre of mass are
+    /// shown as given, with no z (not `± 0.00` and a NaN err/σ).
     #[test]
     fn the_six_parameter_models_given_mass_shows_no_sigma() {
         let mut report = Report::default();

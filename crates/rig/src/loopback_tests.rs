@@ -93,7 +93,7 @@ pub(crate) fn limits() -> Limits {
 
 /// One real-time pair (emulator and host, each a 1 kHz loop) at a time: run side by side on a
 /// 2-core machine, they starve each other for hundreds of milliseconds and trip watchdogs that
-/// no real host would (CI saw it). Held for the whole test; a failed test does not poison it.
+/// no real host would. Held for the whole test; a failed test does not poison it.
 fn one_at_a_time() -> MutexGuard<'static, ()> {
     static LOCK: Mutex<()> = Mutex::new(());
     LOCK.lock().unwrap_or_else(|poisoned| poisoned.into_inner())

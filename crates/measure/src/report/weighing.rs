@@ -204,9 +204,9 @@ mod tests {
         assert!(w.contains("mass +5.0 σ"), "{w}");
     }
 
-    /// Regression (paper.toml warned of a 3e5 σ disagreement): a fit that takes the mass and
-    /// centre of mass as given, with zero sigma, is not checked against the weighing, and its
-    /// report still reads.
+    /// Regression, configs/paper.toml: a fit that takes the mass and centre of mass as given,
+    /// with zero sigma, is not checked against the weighing (against which it would read 3e5 σ
+    /// off), and its report still reads.
     #[test]
     fn a_fit_with_the_mass_given_is_not_checked_against_the_weighing() {
         let (l, t) = (
