@@ -123,13 +123,10 @@ fn results(s: &mut String, r: &Report) {
         },
         k = COVERAGE_FACTOR
     );
-    // The six-parameter model (the paper's) fits the tensor alone: the mass and the centre of
-    // mass are the rig description's, given rather than measured.
-    let given = |q: usize| r.run.params == 6 && q < 4;
     for q in 0..10 {
         let big_u = expanded(u[q]);
         let (vt, ut) = rounded(e[q], big_u);
-        let uncertainty = if given(q) {
+        let uncertainty = if r.is_given(q) {
             "given".to_string()
         } else {
             format!("± {ut}")
@@ -149,7 +146,7 @@ fn results(s: &mut String, r: &Report) {
                 s,
                 "{}<td class=\"num\">{}</td>",
                 cell(&format!("truth.{}", KEYS[q]), t[q], &significant(t[q], 6)),
-                if ratio.is_finite() && !given(q) {
+                if ratio.is_finite() && !r.is_given(q) {
                     format!("{ratio:.2}")
                 } else {
                     "—".into()
@@ -168,7 +165,7 @@ fn results(s: &mut String, r: &Report) {
          systematic source of the error budget (section 3) in quadrature. Values are rounded to \
          the decimal place of U's second significant digit; the data attributes of each cell \
          hold the report's full-precision numbers.{}</p>",
-        if r.run.params == 6 {
+        if (0..10).any(|q| r.is_given(q)) {
             " The six-parameter model fits the tensor alone: the mass and the centre of mass \
              marked \"given\" are the rig description's, not measured."
         } else {

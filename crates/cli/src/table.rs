@@ -94,14 +94,11 @@ pub fn render(report: &Report) -> String {
         let _ = write!(out, " {:>13} {:>12} {:>7}", "truth", "error", "err/σ");
     }
     out.push('\n');
-    // The six-parameter model (the paper's) fits the tensor only: the mass and centre of mass
-    // are the rig description's, given rather than measured.
-    let given = report.run.params == 6;
     for (k, row) in ROWS.iter().enumerate() {
         let est = (row.get)(&report.estimate);
         let sig = (row.get)(&report.sigma);
         let d = decimals_for(sig, est);
-        let is_given = given && k < 4;
+        let is_given = report.is_given(k);
         let cell = if is_given {
             format!("{} (given)", fixed(est, d))
         } else {

@@ -505,8 +505,8 @@ enum Engine {
 }
 
 /// The bound on [`OnlineEstimator`]'s size, bytes, asserted when the crate compiles: a change
-/// that grows the state past it must say so here. 72 KiB since the residual blocks'
-/// information ([`crate::dof`], 25 KB) joined the 44 KB of the rest.
+/// that grows the state past it must say so here. 72 KiB: the residual blocks' information
+/// ([`crate::dof`], 25 KB) and 44 KB of the rest.
 pub const ONLINE_ESTIMATOR_MAX_BYTES: usize = 72 * 1024;
 
 const _: () = assert!(core::mem::size_of::<OnlineEstimator>() <= ONLINE_ESTIMATOR_MAX_BYTES);

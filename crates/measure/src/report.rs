@@ -284,6 +284,13 @@ pub struct Report {
 }
 
 impl Report {
+    /// Whether quantity `k` ([`Quantities::flat`]'s order) is given by the rig description
+    /// rather than measured ([`ParamCount::given`]: the six-parameter model's mass and centre
+    /// of mass).
+    pub fn is_given(&self, k: usize) -> bool {
+        ParamCount::try_from(self.run.params).is_ok_and(|p| p.given(k))
+    }
+
     /// One sigma of every quantity from the error source `id` alone (its line of
     /// `error_budget`); `None` when the budget has no such line.
     pub fn budget_line(&self, id: &str) -> Option<&Quantities> {
@@ -577,8 +584,7 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
         static_weighing: i.loaded_weighing.zip(i.tare.static_weighing.as_ref()).map(
             |(loaded, tare)| {
                 let (q, s) = (quantities(&reported), sigmas(&payload));
-                // The six-parameter model takes the mass and centre of mass as given.
-                let fitted = (i.params == ParamCount::Ten)
+                let fitted = (!i.params.given(0))
                     .then_some(([q.mass, q.com[0], q.com[1]], [s.mass, s.com[0], s.com[1]]));
                 static_weighing_section(
                     loaded,
@@ -617,10 +623,7 @@ pub fn samples_to_1pct(
         }
     };
     let fin = sub(last);
-    let range = match params {
-        ParamCount::Ten => 0..10,
-        ParamCount::Six => 4..10,
-    };
+    let range = params.estimated();
     let within = |t: &[f64; 10]| {
         let t = sub(t);
         range

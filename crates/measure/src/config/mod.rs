@@ -639,6 +639,23 @@ pub enum ParamCount {
     Six,
 }
 
+impl ParamCount {
+    /// Indices of θ the model estimates: all ten, or the six of the tensor (m and h given).
+    /// The report's quantities ([`crate::report::Quantities::flat`]) share the order: mass and
+    /// centre of mass first, then J_C's entries.
+    pub fn estimated(self) -> core::ops::Range<usize> {
+        match self {
+            Self::Ten => 0..10,
+            Self::Six => 4..10,
+        }
+    }
+
+    /// Whether quantity `k` (θ's order, or the report's) is given rather than estimated.
+    pub fn given(self, k: usize) -> bool {
+        !self.estimated().contains(&k)
+    }
+}
+
 impl TryFrom<u8> for ParamCount {
     type Error = String;
     fn try_from(v: u8) -> Result<Self, String> {
