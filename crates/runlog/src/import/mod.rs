@@ -235,10 +235,12 @@ pub fn import(plan: &ImportPlan<'_>) -> Result<Imported> {
             if time_s >= r.window_s[0] {
                 let mut c =
                     setup::estimator_config(config, &geometry, run, r.window_s[0], r.window_s[1]);
-                // As a measurement does: a short window gets blocks short enough for a sigma.
+                // As a measurement does: a short window gets half-blocks short enough for a
+                // sigma, from the excitation's length — the window's span from its first
+                // frame to its last, plus the last frame's period.
                 c.covariance_block_samples = measure::quality::block_samples_for(
                     c.covariance_block_samples,
-                    r.window_s[1] - r.window_s[0],
+                    r.window_s[1] - r.window_s[0] + c.sample_period_s,
                     c.sample_period_s,
                 );
                 let settings = EstimatorSettings::from_config(run.name(), &c, &fk);
