@@ -84,16 +84,15 @@ fn a_motion_the_loads_feedforward_cannot_drive_is_refused_before_motion() {
     assert!(!dir.path().join("run.mcap").exists(), "nothing ran");
 }
 
-/// A tare run too short for a measured sigma (1.2 s of excitation with 0.25 s fades: five
-/// residual blocks where six must count) is refused with the configuration, naming the key and
-/// how long to excite, before anything runs (no log); it used to move and then refuse its
-/// report.
+/// A tare run too short for a measured sigma (1.2 s of excitation with 0.25 s fades: three
+/// residual windows where six must count) is refused with the configuration, naming the key and
+/// how long to excite, before anything runs (no log) rather than after the motion.
 #[test]
 fn a_run_too_short_for_a_measured_sigma_is_refused_before_motion() {
     let (code, err, dir) = simulate("[excitation]\nfade_s = 0.25\n[run]\ntare_duration_s = 1.2\n");
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("run.tare_duration_s"), "{err}");
     assert!(err.contains("refused before motion"), "{err}");
-    assert!(err.contains("excite for at least 1.6 s"), "{err}");
+    assert!(err.contains("excite for at least 1.8 s"), "{err}");
     assert!(!dir.path().join("run.mcap").exists(), "nothing ran");
 }

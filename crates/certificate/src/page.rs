@@ -334,7 +334,7 @@ fn convergence(s: &mut String, r: &Report) {
         "<tr><th>samples used (loaded run)</th>{}</tr>\
          <tr><th>excitation time, s</th>{}</tr>\
          <tr><th>samples until every parameter stayed within 1 % of its final value</th>{}</tr>\
-         <tr><th>residual blocks behind u (loaded run, tare), block length</th><td>{}, {}, {} s</td></tr>",
+         <tr><th>residual windows behind u (loaded run, tare), half-block length</th><td>{}, {}, {} s</td></tr>",
         cell("samples", r.samples as f64, &r.samples.to_string()),
         cell("excitation_s", r.excitation_s, &significant(r.excitation_s, 5)),
         match r.convergence.samples_to_1pct {

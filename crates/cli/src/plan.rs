@@ -50,7 +50,7 @@ struct PlanJson {
     binding: String,
     usage: Usage,
     configured_predicted_sigma: Option<Quantities>,
-    /// Degrees of freedom the loaded run's residual blocks will give each sigma, in the order
+    /// Degrees of freedom the loaded run's residual windows will give each sigma, in the order
     /// of the report's `covariance_basis.loaded_degrees_of_freedom`; `null` where the run
     /// does not determine them.
     predicted_degrees_of_freedom: [Option<f64>; 10],
@@ -215,13 +215,13 @@ fn degrees_line(degrees: &[Option<f64>; 10]) -> Option<String> {
     Some(
         match measure::quality::heavy_tailed(&Quantities::NAMES, degrees) {
             Some((name, nu)) => format!(
-                "residual blocks: {name}'s sigma will rest on {nu:.1} degrees of freedom (fewer \
+                "residual windows: {name}'s sigma will rest on {nu:.1} degrees of freedom (fewer \
                  than {:.0}: its error can reach several sigmas more often than a normal one's); \
                  a longer excitation gives more",
                 measure::quality::HEAVY_TAIL_DEGREES_OF_FREEDOM
             ),
             None => format!(
-                "residual blocks: every sigma will rest on at least {fewest:.1} degrees of freedom ({name})"
+                "residual windows: every sigma will rest on at least {fewest:.1} degrees of freedom ({name})"
             ),
         },
     )

@@ -169,7 +169,7 @@ pub fn render(report: &Report) -> String {
     ) {
         let _ = writeln!(
             out,
-            "{name}'s sigma rests on {nu:.1} degrees of freedom of the residual blocks \
+            "{name}'s sigma rests on {nu:.1} degrees of freedom of the residual windows \
              (fewer than {:.0}: its error can reach several sigmas more often than a normal \
              one's); a longer excitation gives more",
             measure::quality::HEAVY_TAIL_DEGREES_OF_FREEDOM

@@ -1,29 +1,29 @@
-//! Effective degrees of freedom of the block-sandwich variance, direction by direction.
+//! Effective degrees of freedom of the window-sandwich variance, direction by direction.
 //!
-//! The sandwich's variance of one quantity q = cᵀθ is a quadratic form in the blocks' scores
-//! along w = P c: with uₖ = wᵀ gₖ, M's Newey–West form (lag one, Bartlett's weight ½) gives
-//! V̂ ∝ Σ uₖ² + Σ uₖ uₖ₋₁ = uᵀ W u, W tridiagonal (1 on the diagonal, ½ beside it). Were the
-//! blocks alike, V̂ would carry about G/1.5 degrees of freedom; but an excitation does not
-//! spread its information evenly — the fades carry little, a sine's phase decides what each
-//! short block sees — so a few blocks can make most of V̂ in one direction and few in another,
-//! and the standardised error e/σ̂ is then Student-t with far fewer degrees of freedom than the
-//! block count says (measured on a planned 2 s excitation, 8 counted blocks: σ̂² of J_C xx
-//! spread over the runs as χ² with 3.7 degrees of freedom, against the 7 assumed, and mean z²
-//! 2.8).
+//! The sandwich's variance of one quantity q = cᵀθ is a quadratic form in the windows' scores
+//! along w = P c: with uₖ = wᵀ gₖ, V̂ ∝ Σ uₖ² ([`crate::score`]). Were the windows alike, V̂
+//! would carry about G/1.2 degrees of freedom (consecutive windows share a half-block); but
+//! an excitation does not spread its information evenly — the fades carry little, a sine's
+//! phase decides what each short window sees — so a few windows can make most of V̂ in one
+//! direction and few in another, and the standardised error e/σ̂ is then Student-t with far
+//! fewer degrees of freedom than the window count says (measured on a planned 2 s
+//! excitation, 8 counted blocks: σ̂² of J_C xx spread over the runs as χ² with 3.7 degrees of
+//! freedom, against the 7 assumed, and mean z² 2.8).
 //!
 //! Satterthwaite's approximation with model-based weights (Bell & McCaffrey 2002; Imbens &
 //! Kolesár 2016, "Robust standard errors in small samples", the BM degrees of freedom): the
-//! scores are independent with variances aₖ = wᵀ Aₖ w (Aₖ the block's information, what the
-//! own-fit corrected score's variance is for white equation errors), so
-//! E V̂ = tr(WΛ) = Σ aₖ and Var V̂ = 2 tr(WΛWΛ) = 2 (Σ aₖ² + ½ Σ aₖ aₖ₋₁), and matching a
-//! scaled χ²_ν gives
+//! scores have variances aₖ = wᵀ Vₖ w (Vₖ what the own-fit corrected score's covariance is
+//! for white equation errors) and consecutive ones the covariances cₖ = wᵀ Cₖ w (Cₖ from
+//! their shared half-block), the rest independent, so with Λ their tridiagonal covariance
+//! E V̂ = tr Λ = Σ aₖ and Var V̂ = 2 tr(Λ²) = 2 (Σ aₖ² + 2 Σ cₖ²), and matching a scaled χ²_ν
+//! gives
 //!
-//! ν = (Σ aₖ)² / (Σ aₖ² + ½ Σ aₖ aₖ₋₁).
+//! ν = (Σ aₖ)² / (Σ aₖ² + 2 Σ cₖ²).
 //!
 //! Since w is known only when the covariance is asked for (P at the end of the run), the
-//! blocks' information is kept as the second moments of its packed upper triangles vₖ
-//! (aₖ = vₖ · x(w), x(w) the packed w wᵀ with off-diagonal entries doubled), so that ν is exact
-//! for any direction at any time: Σ vₖ, Σ vₖ vₖᵀ and Σ vₖ vₖ₋₁ᵀ.
+//! windows' matrices are kept as the second moments of their packed upper triangles
+//! (aₖ = vₖ · x(w), x(w) the packed w wᵀ with off-diagonal entries doubled), so that ν is
+//! exact for any direction at any time: Σ vₖ, Σ vₖ vₖᵀ and Σ sₖ sₖᵀ (sₖ the packed Cₖ).
 
 use nalgebra::{SMatrix, SVector};
 
@@ -36,18 +36,16 @@ pub const PACKED: usize = 55;
 /// of the estimator's state on the stack.
 const PACKED_SQUARE: usize = PACKED * (PACKED + 1) / 2;
 
-/// The blocks' information as far as the degrees of freedom need it (see the module docs).
+/// The windows' score covariances as far as the degrees of freedom need them (see the module
+/// docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BlockInformation<const N: usize> {
     /// Σ λ^(2·age) vₖ.
     sum: SVector<f64, PACKED>,
     /// Σ λ^(4·age) vₖ vₖᵀ, its packed upper triangle.
     square: SVector<f64, PACKED_SQUARE>,
-    /// Σ λ^(4·age) ½(vₖ vₖ₋₁ᵀ + vₖ₋₁ vₖᵀ), its packed upper triangle (only the symmetric part
-    /// reaches a quadratic form).
-    lag: SVector<f64, PACKED_SQUARE>,
-    /// The last block's vₖ, unaged (zero before the first).
-    last: SVector<f64, PACKED>,
+    /// Σ λ^(4·age) sₖ sₖᵀ, its packed upper triangle.
+    shared: SVector<f64, PACKED_SQUARE>,
 }
 
 impl<const N: usize> Default for BlockInformation<N> {
@@ -60,52 +58,57 @@ impl<const N: usize> BlockInformation<N> {
     /// Compile-time check that N × N fits the packed storage.
     pub const FITS: () = assert!(N * (N + 1) / 2 <= PACKED, "N must be at most 10");
 
-    /// No blocks yet.
+    /// No windows yet.
     pub fn new() -> Self {
         let () = Self::FITS;
         Self {
             sum: SVector::zeros(),
             square: SVector::zeros(),
-            lag: SVector::zeros(),
-            last: SVector::zeros(),
+            shared: SVector::zeros(),
         }
     }
 
-    /// Adds one counted block's information `a` (symmetric); `decay` is λ^(2B) for blocks of
-    /// B samples (1 without forgetting), the factor by which M ages each block.
-    pub fn add(&mut self, a: &SMatrix<f64, N, N>, decay: f64) {
-        let v = pack(a);
-        if !v.iter().all(|x| x.is_finite()) {
+    /// Adds one counted window: `variance`, Vₖ, the matrix of its score's variance along any
+    /// direction, and `with_previous`, Cₖ, that of its covariance with the window before
+    /// (`None` for the first that counts). `decay` is λ^(2B) for half-blocks of B samples (1
+    /// without forgetting), the factor by which the sandwich ages each window.
+    pub fn add(
+        &mut self,
+        variance: &SMatrix<f64, N, N>,
+        with_previous: Option<&SMatrix<f64, N, N>>,
+        decay: f64,
+    ) {
+        let v = pack(variance);
+        let c = with_previous.map_or_else(SVector::zeros, pack);
+        if !(v.iter().all(|x| x.is_finite()) && c.iter().all(|x| x.is_finite())) {
             return;
         }
         let decay_squared = decay * decay;
         self.sum.axpy(1.0, &v, decay);
         if decay_squared != 1.0 {
             self.square *= decay_squared;
-            self.lag *= decay_squared;
+            self.shared *= decay_squared;
         }
-        let last = self.last * decay;
         let mut k = 0;
-        for (i, (vi, li)) in v.iter().zip(last.iter()).enumerate() {
-            for (vj, lj) in v.iter().zip(last.iter()).skip(i) {
-                if let (Some(sq), Some(lg)) = (self.square.get_mut(k), self.lag.get_mut(k)) {
+        for (i, (vi, ci)) in v.iter().zip(c.iter()).enumerate() {
+            for (vj, cj) in v.iter().zip(c.iter()).skip(i) {
+                if let (Some(sq), Some(sh)) = (self.square.get_mut(k), self.shared.get_mut(k)) {
                     *sq += vi * vj;
-                    *lg += 0.5 * (vi * lj + li * vj);
+                    *sh += ci * cj;
                 }
                 k += 1;
             }
         }
-        self.last = v;
     }
 
     /// ν of the sandwich's variance along w = P c (see the module docs); `None` before any
-    /// block, for a zero or non-finite direction, or when the sums give no positive ν.
+    /// window, for a zero or non-finite direction, or when the sums give no positive ν.
     pub fn degrees_of_freedom(&self, w: &SVector<f64, N>) -> Option<f64> {
         let x = pack_outer(w);
         let mean = self.sum.dot(&x);
         let square = packed_quadratic(&self.square, &x);
-        let lag = packed_quadratic(&self.lag, &x);
-        let spread = square + 0.5 * lag;
+        let shared = packed_quadratic(&self.shared, &x);
+        let spread = square + 2.0 * shared;
         let nu = mean * mean / spread;
         (mean > 0.0 && spread > 0.0 && nu.is_finite()).then_some(nu)
     }
@@ -189,21 +192,26 @@ mod tests {
     #[test]
     fn packed_second_moments_give_the_full_quadratic_forms() {
         let mut info = BlockInformation::<3>::new();
-        let blocks = [
+        let windows = [
             SMatrix::<f64, 3, 3>::new(4.0, 1.0, 0.0, 1.0, 3.0, 0.5, 0.0, 0.5, 2.0),
             SMatrix::<f64, 3, 3>::new(1.0, -0.3, 0.2, -0.3, 5.0, 0.1, 0.2, 0.1, 0.7),
             SMatrix::<f64, 3, 3>::new(2.0, 0.4, -0.6, 0.4, 1.0, 0.0, -0.6, 0.0, 3.0),
         ];
+        let shared = [
+            SMatrix::<f64, 3, 3>::new(0.5, 0.1, 0.0, 0.1, 0.4, 0.0, 0.0, 0.0, 0.3),
+            SMatrix::<f64, 3, 3>::new(0.2, 0.0, 0.1, 0.0, 0.9, -0.2, 0.1, -0.2, 0.6),
+        ];
         let w = SVector::<f64, 3>::new(0.7, -1.1, 0.4);
-        let a: std::vec::Vec<f64> = blocks.iter().map(|b| w.dot(&(b * w))).collect();
-        for b in &blocks {
-            info.add(b, 0.9);
-        }
-        // Ages: the last block 1, the one before 0.9, the first 0.81 (λ^(2B) = 0.9).
+        let a: std::vec::Vec<f64> = windows.iter().map(|b| w.dot(&(b * w))).collect();
+        let c: std::vec::Vec<f64> = shared.iter().map(|b| w.dot(&(b * w))).collect();
+        info.add(&windows[0], None, 0.9);
+        info.add(&windows[1], Some(&shared[0]), 0.9);
+        info.add(&windows[2], Some(&shared[1]), 0.9);
+        // Ages: the last window 1, the one before 0.9, the first 0.81 (λ^(2B) = 0.9).
         let mean = 0.81 * a[0] + 0.9 * a[1] + a[2];
         let square = 0.81 * 0.81 * a[0] * a[0] + 0.81 * a[1] * a[1] + a[2] * a[2];
-        let lag = 0.81 * 0.9 * a[1] * a[0] + 0.9 * a[2] * a[1];
-        let expected = mean * mean / (square + 0.5 * lag);
+        let covariance = 0.81 * c[0] * c[0] + c[1] * c[1];
+        let expected = mean * mean / (square + 2.0 * covariance);
         let nu = info.degrees_of_freedom(&w).unwrap();
         assert!(
             (nu - expected).abs() < 1e-9 * expected,
@@ -211,15 +219,18 @@ mod tests {
         );
     }
 
-    /// G equal blocks: ν = G² / (G + ½ (G − 1)), about G/1.5, whatever the direction.
+    /// G equal windows whose neighbours correlate by ρ: ν = G² / (G + 2 (G − 1) ρ²) whatever
+    /// the direction (ρ = 1/π for the sine windows: about G/1.2).
     #[test]
-    fn equal_blocks_give_the_newey_west_count() {
+    fn equal_windows_give_their_count_less_the_overlap() {
         let mut info = BlockInformation::<3>::new();
         let a = SMatrix::<f64, 3, 3>::new(4.0, 1.0, 0.0, 1.0, 3.0, 0.5, 0.0, 0.5, 2.0);
-        for _ in 0..8 {
-            info.add(&a, 1.0);
+        let rho = 1.0 / core::f64::consts::PI;
+        info.add(&a, None, 1.0);
+        for _ in 1..8 {
+            info.add(&a, Some(&(a * rho)), 1.0);
         }
-        let expected = 64.0 / (8.0 + 3.5);
+        let expected = 64.0 / (8.0 + 14.0 * rho * rho);
         for w in [
             SVector::<f64, 3>::new(1.0, 0.0, 0.0),
             SVector::<f64, 3>::new(0.2, -0.7, 1.3),
@@ -229,14 +240,14 @@ mod tests {
         }
     }
 
-    /// One block holding nearly all the information along w: about one degree of freedom,
-    /// however many blocks there are; along a direction every block sees alike, the count.
+    /// One window holding nearly all the information along w: about one degree of freedom,
+    /// however many windows there are; along a direction every window sees alike, the count.
     #[test]
-    fn one_dominant_block_leaves_about_one_degree_of_freedom() {
+    fn one_dominant_window_leaves_about_one_degree_of_freedom() {
         let mut info = BlockInformation::<2>::new();
         for k in 0..20 {
             let x = if k == 7 { 1000.0 } else { 1.0 };
-            info.add(&SMatrix::<f64, 2, 2>::new(x, 0.0, 0.0, 1.0), 1.0);
+            info.add(&SMatrix::<f64, 2, 2>::new(x, 0.0, 0.0, 1.0), None, 1.0);
         }
         let along = info
             .degrees_of_freedom(&SVector::<f64, 2>::new(1.0, 0.0))
@@ -245,23 +256,27 @@ mod tests {
         let across = info
             .degrees_of_freedom(&SVector::<f64, 2>::new(0.0, 1.0))
             .unwrap();
-        assert!((across - 400.0 / (20.0 + 9.5)).abs() < 1e-9, "{across}");
+        assert!((across - 20.0).abs() < 1e-9, "{across}");
     }
 
     #[test]
-    fn no_blocks_or_no_direction_give_none() {
+    fn no_windows_or_no_direction_give_none() {
         let mut info = BlockInformation::<2>::new();
         assert_eq!(
             info.degrees_of_freedom(&SVector::<f64, 2>::new(1.0, 0.0)),
             None
         );
-        info.add(&SMatrix::<f64, 2, 2>::identity(), 1.0);
+        info.add(&SMatrix::<f64, 2, 2>::identity(), None, 1.0);
         assert_eq!(info.degrees_of_freedom(&SVector::zeros()), None);
         assert_eq!(
             info.degrees_of_freedom(&SVector::<f64, 2>::new(f64::NAN, 0.0)),
             None
         );
-        info.add(&SMatrix::<f64, 2, 2>::from_element(f64::INFINITY), 1.0);
+        info.add(
+            &SMatrix::<f64, 2, 2>::from_element(f64::INFINITY),
+            None,
+            1.0,
+        );
         assert!(info
             .degrees_of_freedom(&SVector::<f64, 2>::new(1.0, 0.0))
             .is_some());

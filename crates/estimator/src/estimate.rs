@@ -32,12 +32,13 @@ pub struct Counts {
     pub bridged: u64,
     /// Short gaps bridged.
     pub bridged_gaps: u64,
-    /// Residual blocks whose scores the covariance counts (a run's first block does not;
+    /// Residual windows whose scores the covariance counts (a run's first window does not;
     /// with λ < 1 the effective number, rounded down). Below
     /// [`crate::uncertainty::MIN_COVARIANCE_BLOCKS`] the covariance is P from the configured
     /// equation sigmas, a provisional figure, not a measurement.
     pub covariance_blocks: u64,
-    /// Samples per residual block ([`crate::EstimatorConfig::covariance_block_samples`]).
+    /// Samples per half-block of the residual windows
+    /// ([`crate::EstimatorConfig::covariance_block_samples`]).
     pub covariance_block_samples: u64,
 }
 
@@ -91,7 +92,7 @@ pub struct Estimate {
     pub counts: Counts,
     /// The time base's measurements: timestamp jitter, rate error, period in use.
     pub timing: Timing,
-    /// Degrees of freedom of each reported quantity's variance as the residual blocks gave
+    /// Degrees of freedom of each reported quantity's variance as the residual windows gave
     /// them ([`crate::dof`]), [m, c_x, c_y, c_z, J_C xx, yy, zz, xy, xz, yz]; `None` where
     /// none are measured (too few blocks, or a quantity the model does not estimate). A
     /// payload's ([`Self::without_tare`]) are the loaded run's.

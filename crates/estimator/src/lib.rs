@@ -6,8 +6,8 @@
 //! [`conditioning`] (filtered derivative, one low-pass for everything, lever arm) → plus what
 //! the cells do not see of the legs' mass and the joints' friction ([`legs`], when described) →
 //! [`regressor`] (Newton–Euler about the P origin, linear in θ) → rows weighted by their noise →
-//! [`rls`] (U-D factorised recursive least squares) → [`uncertainty`] (block-sandwich
-//! covariance, propagated to c and J_C) → [`Estimate`]. An estimate that is not physically
+//! [`rls`] (U-D factorised recursive least squares) → [`score`] (the residuals' sandwich
+//! covariance over overlapping windows) → [`uncertainty`] (propagated to c and J_C) → [`Estimate`]. An estimate that is not physically
 //! consistent is projected onto the consistent set by [`projection::nearest_consistent`] (the
 //! nearest point in the metric of its covariance).
 //!
@@ -42,8 +42,10 @@ mod online;
 pub mod projection;
 pub mod regressor;
 pub mod rls;
+pub mod score;
 pub mod timebase;
 pub mod uncertainty;
+pub mod window;
 pub mod wrench;
 
 #[cfg(test)]

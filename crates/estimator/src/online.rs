@@ -8,8 +8,9 @@ use crate::hold::{AccelerometerOffset, HoldAverage};
 use crate::legs::{unseen_total, LegModel};
 use crate::regressor::{from_signals, inertia_columns, RegressorSignals};
 use crate::rls::Rls;
+use crate::score::ScoreCovariance;
 use crate::timebase::Timing;
-use crate::uncertainty::{derived_jacobian, ScoreCovariance};
+use crate::uncertainty::derived_jacobian;
 use crate::wrench::{measured, to_vector};
 use kinematics::{Geometry, Pose, Wrench};
 use nalgebra::{Const, DimMin, Matrix6, SMatrix, SVector, Vector3, Vector6};
@@ -47,7 +48,7 @@ pub struct EstimatorConfig {
     pub parameters: ParameterSet,
     /// Expected one-sigma noise of each equation after conditioning, [Fx, Fy, Fz] in N and
     /// [τx, τy, τz] in N·m; rows are divided by it. Sets the relative weights and the sigmas
-    /// reported before enough residual blocks exist; afterwards the residuals decide.
+    /// reported before enough residual windows exist; afterwards the residuals decide.
     pub equation_sigma: Vector6<f64>,
     /// Prior one-sigma of every parameter about zero, SI units (a weak prior: large).
     pub prior_sigma: f64,
@@ -76,10 +77,10 @@ pub struct EstimatorConfig {
     /// sample goes through the conditioning too (36 more filtered channels, about a third of a
     /// microsecond per sample). Off by default.
     pub leg_force_offsets: bool,
-    /// Samples per residual block of the covariance estimate; blocks must be long compared
-    /// with the filter's memory (≈ 1/f_c) and with the boundary terms of the gyro's derivative
-    /// noise (which grow with f_c and matter most for slow motion), and a run needs some tens
-    /// of them for a steady sigma.
+    /// Samples per half-block of the covariance estimate's residual windows (each window spans
+    /// two, [`crate::window`]); half-blocks must be long compared with the filter's memory
+    /// (≈ 1/f_c), and what the windows leave of the gyro's derivative noise falls with their
+    /// length; a run needs some tens of them for a steady sigma.
     pub covariance_block_samples: u32,
     /// The legs' mass properties and the joints' friction, when known: each conditioned
     /// sample's wrench then gains what the load cells do not see of them ([`crate::legs`]),
@@ -247,7 +248,7 @@ struct Solver<const N: usize, const R: usize, const NR: usize> {
     /// Σ λ^(age) φ_wᵀ W L over the samples, L the (conditioned) map from the six leg forces
     /// to the sample's equations: b's sensitivity to constant leg-force offsets.
     leg: SMatrix<f64, N, 6>,
-    /// Whether the full correction at the last residual block's close applied (a definite
+    /// Whether the full correction at the last residual window's close applied (a definite
     /// corrected system); `None` before the first block closed.
     correction_applied: Option<bool>,
 }
@@ -505,7 +506,7 @@ enum Engine {
 }
 
 /// The bound on [`OnlineEstimator`]'s size, bytes, asserted when the crate compiles: a change
-/// that grows the state past it must say so here. 72 KiB: the residual blocks' information
+/// that grows the state past it must say so here. 72 KiB: the residual windows' information
 /// ([`crate::dof`], 25 KB) and 44 KB of the rest.
 pub const ONLINE_ESTIMATOR_MAX_BYTES: usize = 72 * 1024;
 
@@ -515,7 +516,7 @@ const _: () = assert!(core::mem::size_of::<OnlineEstimator>() <= ONLINE_ESTIMATO
 ///
 /// Its whole state lives inline: 69 472 bytes on x86-64 for the ten-parameter engine (both
 /// engines share the storage), bounded at compile time by [`ONLINE_ESTIMATOR_MAX_BYTES`]; most
-/// of it the residual blocks' information for each quantity's degrees of freedom (25 KB,
+/// of it the residual windows' information for each quantity's degrees of freedom (25 KB,
 /// [`crate::dof`]), the RLS's U-D factors, the residual scores and the conditioning's filter
 /// states. A
 /// firmware gives it a static or a task stack of that size. It is not `Copy`, so that a copy
@@ -905,7 +906,7 @@ impl OnlineEstimator {
     }
 
     /// θ as [`Self::theta`] for a per-sample history: the errors-in-variables correction is
-    /// one 10×10 LU solve, applied when the last residual block's full correction found the
+    /// one 10×10 LU solve, applied when the last residual window's full correction found the
     /// corrected system definite (a verdict at most one block old), where [`Self::theta`]
     /// checks it again at every call. Equal to [`Self::theta`] to rounding whenever both apply
     /// the correction or neither does.
@@ -916,7 +917,7 @@ impl OnlineEstimator {
     /// Covariance of θ (P and the residual scores; see [`crate::uncertainty`]).
     ///
     /// Each reported quantity's variance carries its own small-sample factor
-    /// ([`crate::uncertainty::ScoreCovariance::covariance`]): for the full model the mass,
+    /// ([`crate::score::ScoreCovariance::covariance`]): for the full model the mass,
     /// the centre of mass and J_C's entries ([`derived_jacobian`] at θ, or θ's own entries
     /// while the mass is not positive), for the paper's six the tensor's entries.
     pub fn covariance(&self) -> ParameterCovariance {
@@ -933,7 +934,7 @@ impl OnlineEstimator {
 
     /// Degrees of freedom of each reported quantity's variance, in θ's layout (the mass, the
     /// centre of mass, J_C's entries; for the paper's six only the tensor's): how many the
-    /// residual blocks give along that quantity ([`crate::dof`]). `None` where none are
+    /// residual windows give along that quantity ([`crate::dof`]). `None` where none are
     /// measured yet or the quantity is not estimated.
     pub fn degrees_of_freedom(&self) -> [Option<f64>; PARAMETER_COUNT] {
         match &self.engine {
@@ -951,7 +952,7 @@ impl OnlineEstimator {
     /// w₀ = [F; τ] (N, N·m) about the P origin in P axes, added to every sample: a load cell's
     /// zero offset b on leg i moves θ by (this) · ŵᵢ · b, ŵᵢ the wrench of a unit force of
     /// leg i. Exact for λ = 1 (θ is linear in the measurements); the residual covariance
-    /// leaves such offsets out (see [`crate::uncertainty::ScoreCovariance`]), so a caller that
+    /// leaves such offsets out (see [`crate::score::ScoreCovariance`]), so a caller that
     /// knows the offsets' datasheet sigma adds their effect as a systematic term.
     pub fn wrench_offset_sensitivity(&self) -> SMatrix<f64, 10, 6> {
         match &self.engine {

@@ -1,383 +1,13 @@
-//! Honest uncertainty: the covariance of the estimate from P and the residuals, and its first-
-//! order propagation to the centre of mass, the tensor about it and the principal moments.
-//!
-//! Why not simply σ̂²·P? The low-pass makes the equation errors of neighbouring samples
-//! correlated (over roughly 1/f_c), and the gyro noise reaches ω̇ through a derivative, so the
-//! error spectrum is far from white. σ̂²·P would understate the spread several-fold. Instead the
-//! residual scores are summed over blocks longer than the correlation time and their spread
-//! gives a sandwich (batch-means, cluster-robust) covariance, Cov = P·M·P with
-//! M = Σ_blocks g gᵀ, g = Σ_(rows in block) φ r — valid whatever the noise colour, provided the
-//! blocks are long compared with it.
+//! Honest uncertainty: the small-sample factors and the own-fit correction of the residuals'
+//! covariance ([`crate::score`] measures it), and its first-order propagation to the centre
+//! of mass, the tensor about it and the principal moments.
 
-use crate::dof::BlockInformation;
 use nalgebra::{Const, DimMin, Matrix3, SMatrix, SVector, Vector3};
 use stewart_types::{parallel_axis, Principal, TENSOR_ENTRIES};
 
-/// Block-summed residual scores of an exponentially weighted least-squares fit.
-///
-/// Each block keeps b = Σ φ y and A = Σ φ φᵀ, so that its score is taken at the estimate of
-/// the block's end, g = b − A θ, rather than at the estimates of its samples: the estimate
-/// still moving at the start of a run would otherwise inflate the scores of the first blocks
-/// many times over. The first block, where the prior still shapes θ, is left out.
-///
-/// **The block's own fit.** The estimate at the block's end has fitted part of the block's
-/// own noise: for white equation errors Cov g = (𝟙 − A P) A instead of A (P the fit's after
-/// the block, A P the block's leverage, 1/k for the k-th of equal blocks and near 1 in a
-/// direction the block is the first to determine). Left as it is, the sandwich is short by
-/// about ln G of G blocks, most in the directions a short run determines last (the centre of
-/// mass's height and J_C, which the gyro's noise reaches through J ω̇: mean z² 2.0–2.4 on a
-/// planned 5 s excitation). So each score, and its offset sensitivity D alike, is multiplied
-/// by [`own_fit_correction`], (𝟙 − A P)^(-1/2), which restores Cov g = A exactly for white
-/// errors and leaves consecutive corrected scores uncorrelated (as recursive residuals are),
-/// the leverage capped at [`MAX_LEVERAGE`].
-///
-/// **Constant offsets.** A constant error c in the equations — a load cell's zero offset
-/// mapped into the wrench, m·b and h × b of an accelerometer bias b — is not noise: over a
-/// whole run it meets regressor columns that average out, yet every block's share of it looks
-/// like a random score, and the blocks' spread would count it as noise several times over
-/// (measured: the load-cell offsets alone tripled σ(J_zz) of the default scenario while moving
-/// J_zz by a fifth of that). So the scores are those of the fit augmented with one constant
-/// offset per equation, y = φθ + c + e. A block's score depends on c through
-/// D_k = S_k − A_k P_k S (S_k = Σ φ over the block, S over the fit so far, P_k the fit's P at
-/// the block's end: θ_k absorbs P_k S c), so the offset-free score is g_k − D_k c. The offset
-/// is the augmented fit's, c = (n𝟙 − SᵀPS)⁺(Y − Sᵀθ) from the augmented normal equations
-/// [A S; Sᵀ n𝟙][θ; c] = [b; Y] (Y = Σ y, n samples), taken at the *latest* fit whenever the
-/// covariance is asked for: a running offset would be poorly known along the directions the
-/// regressors nearly absorb (F_z with m·f_z ≈ m·g; measured: σ(m) 2.4× too large), while
-/// at the latest fit its error is an ordinary fitted parameter's. Hence the sums kept are
-/// those of M's expansion in c (below). The offset's own effect on θ, P S c, is systematic:
-/// where its cause has a datasheet figure the caller accounts for it as such, from
-/// [`Self::totals`] (`OnlineEstimator::wrench_offset_sensitivity`).
-///
-/// M = Σ λ^(2·age) (g gᵀ + ½(g g₋ᵀ + g₋ gᵀ)) over the finished blocks (g₋ the block before;
-/// Newey–West at lag one) equals ½ Σ λ^(2·age) h hᵀ + ½ g_G g_Gᵀ with h = g + λ^B g₋ (G the
-/// last block), and h − (D + λ^B D₋) c is quadratic in c: `NR` = N·R sizes the sums of
-/// η ⊗ E and E ⊗ E (η = g + λ^B g₋, E = D + λ^B D₋).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ScoreCovariance<const N: usize, const R: usize, const NR: usize> {
-    /// Σ λ^(age) φ y over the block in progress.
-    block_b: SVector<f64, N>,
-    /// Σ λ^(age) φ φᵀ over the block in progress (upper triangle only).
-    block_a: SMatrix<f64, N, N>,
-    /// Σ λ^(age) φ over the block in progress, one column per equation.
-    block_s: SMatrix<f64, N, R>,
-    /// Σ λ^(age) y over the block in progress.
-    block_y: SVector<f64, R>,
-    /// Σ λ^(age) 1 over the block in progress.
-    block_n: f64,
-    /// Σ λ^(age) φ over the finished blocks.
-    total_s: SMatrix<f64, N, R>,
-    /// Σ λ^(age) y over the finished blocks.
-    total_y: SVector<f64, R>,
-    /// Σ λ^(age) over the samples of the finished blocks.
-    total_samples: f64,
-    /// Σ λ^(2·age) η ηᵀ.
-    eta_eta: SMatrix<f64, N, N>,
-    /// Σ λ^(2·age) η ⊗ E: entry (i, j·R + r) = Σ ηᵢ E_jr.
-    eta_e: SMatrix<f64, N, NR>,
-    /// Σ λ^(2·age) E ⊗ E: entry (i·R + r, j·R + s) = Σ E_ir E_js.
-    e_e: SMatrix<f64, NR, NR>,
-    /// Score of the last finished block and its offset sensitivity, unaged.
-    last_g: SVector<f64, N>,
-    last_d: SMatrix<f64, N, R>,
-    /// The counted blocks' information, for each reported quantity's degrees of freedom.
-    information: BlockInformation<N>,
-    /// Each reported quantity's degrees of freedom at the last block's close (they change
-    /// only when a block is added; P's drift within a block does not matter to them).
-    degrees: [Option<f64>; N],
-    /// Effective number of finished blocks, Σ λ^(2·age).
-    blocks: f64,
-    /// Effective number of rows, Σ λ^(age).
-    rows: f64,
-    in_block: u32,
-    finished: u64,
-    block_samples: u32,
-    forgetting: f64,
-    block_decay: f64,
-}
-
-impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> {
-    /// Blocks of `block_samples` samples (≥ 1); forgetting factor λ as the fit's. `NR` must
-    /// be N·R (checked by the compiler's evaluation of [`Self::SIZES_MATCH`]).
-    pub fn new(block_samples: u32, forgetting: f64) -> Self {
-        let () = Self::SIZES_MATCH;
-        let block_samples = block_samples.max(1);
-        Self {
-            block_b: SVector::zeros(),
-            block_a: SMatrix::zeros(),
-            block_s: SMatrix::zeros(),
-            block_y: SVector::zeros(),
-            block_n: 0.0,
-            total_s: SMatrix::zeros(),
-            total_y: SVector::zeros(),
-            total_samples: 0.0,
-            eta_eta: SMatrix::zeros(),
-            eta_e: SMatrix::zeros(),
-            e_e: SMatrix::zeros(),
-            last_g: SVector::zeros(),
-            last_d: SMatrix::zeros(),
-            information: BlockInformation::new(),
-            degrees: [None; N],
-            blocks: 0.0,
-            rows: 0.0,
-            in_block: 0,
-            finished: 0,
-            block_samples,
-            forgetting,
-            block_decay: libm::pow(forgetting, 2.0 * block_samples as f64),
-        }
-    }
-
-    /// Compile-time check that `NR` = N·R.
-    pub const SIZES_MATCH: () = assert!(NR == N * R, "NR must be N·R");
-
-    /// Adds one sample's weighted rows and weighted measurements. Returns true when the
-    /// sample completes a block: the caller then calls [`Self::close_block`] with the fit
-    /// after this sample (θ and P cost a little to form, so only then).
-    pub fn add(&mut self, rows: &SMatrix<f64, R, N>, y: &SVector<f64, R>) -> bool {
-        if self.forgetting < 1.0 {
-            self.block_b *= self.forgetting;
-            self.block_a *= self.forgetting;
-            self.block_s *= self.forgetting;
-            self.block_y *= self.forgetting;
-        }
-        self.block_b += rows.tr_mul(y);
-        self.block_s += rows.transpose();
-        self.block_y += y;
-        self.block_n = self.block_n * self.forgetting + 1.0;
-        // A's upper triangle: entry (i, j ≥ i) gains rᵢ rⱼ (skipped where rᵢ = 0), row by row
-        // of the sample, column by contiguous column of A.
-        for row in rows.row_iter() {
-            let r = row.transpose();
-            for (j, (mut a_col, rj)) in self.block_a.column_iter_mut().zip(r.iter()).enumerate() {
-                for (a_ij, ri) in a_col.as_mut_slice().iter_mut().zip(r.iter()).take(j + 1) {
-                    if *ri != 0.0 {
-                        *a_ij += ri * rj;
-                    }
-                }
-            }
-        }
-        self.rows = self.rows * self.forgetting + R as f64;
-        self.in_block += 1;
-        self.in_block >= self.block_samples
-    }
-
-    /// Closes the block in progress with the fit after its last sample: θ and P of the
-    /// estimator as reported, which solves (A − n C) θ = b, C the second moment that
-    /// regressor noise adds per sample (zero without an errors-in-variables correction; see
-    /// `OnlineEstimator`). The block's score is that of the same equations,
-    /// g = b_k − (A_k − n_k C) θ: scoring the corrected θ against the uncorrected A_k would
-    /// leave (A_k/n_k − A/n)·n_k·(θ − θ_uncorrected) in every block, which the blocks' spread
-    /// counts as noise.
-    ///
-    /// `quantities` are the gradients of the reported quantities at θ, row by row (as for
-    /// [`Self::covariance`]): their degrees of freedom are taken here, once a block.
-    pub fn close_block(
-        &mut self,
-        theta: &SVector<f64, N>,
-        p: &SMatrix<f64, N, N>,
-        noise_moment: &SMatrix<f64, N, N>,
-        quantities: &SMatrix<f64, N, N>,
-    ) {
-        let age = libm::pow(self.forgetting, self.block_samples as f64);
-        self.total_s = self.total_s * age + self.block_s;
-        self.total_y = self.total_y * age + self.block_y;
-        self.total_samples = self.total_samples * age + self.in_block as f64;
-        if self.finished > 0 {
-            // A symmetric, stored as its upper triangle.
-            let mut upper = self.block_a;
-            upper.fill_lower_triangle_with_upper_triangle();
-            let a = upper - noise_moment * self.block_n;
-            // The fit after the block has absorbed part of the block's own noise:
-            // (𝟙 − A_k P)^(-1/2) restores the score's variance (see the type's docs).
-            let t = own_fit_correction(&a, p);
-            let g = t * (self.block_b - a * theta);
-            let d = t * (self.block_s - a * (p * self.total_s));
-            let eta = g + self.last_g * age;
-            let e = d + self.last_d * age;
-            let decay = self.block_decay;
-            self.eta_eta = self.eta_eta * decay + eta * eta.transpose();
-            // e's rows one after another: eᵀ's column-major storage (NR = N·R entries).
-            let mut flat = SVector::<f64, NR>::zeros();
-            for (dst, src) in flat.iter_mut().zip(e.transpose().iter()) {
-                *dst = *src;
-            }
-            self.eta_e = self.eta_e * decay + eta * flat.transpose();
-            self.e_e = self.e_e * decay + flat * flat.transpose();
-            self.information.add(&a, decay);
-            self.degrees = core::array::from_fn(|j| {
-                let gradient = quantities.row(j).transpose();
-                self.information.degrees_of_freedom(&(p * gradient))
-            });
-            self.blocks = self.blocks * decay + 1.0;
-            self.last_g = g;
-            self.last_d = d;
-        }
-        self.finished += 1;
-        self.block_b = SVector::zeros();
-        self.block_a = SMatrix::zeros();
-        self.block_s = SMatrix::zeros();
-        self.block_y = SVector::zeros();
-        self.block_n = 0.0;
-        self.in_block = 0;
-    }
-
-    /// The augmented fit's offset c = (n𝟙 − SᵀPS)⁺(Y − Sᵀθ) over every sample so far, from the
-    /// plain fit's θ and P. The Schur complement is positive semi-definite; a direction where
-    /// it vanishes (below 1e-9 of n: an offset the regressors cannot be told from) gets no
-    /// offset (pseudo-inverse), as θ has absorbed it already.
-    fn offset(&self, theta: &SVector<f64, N>, p: &SMatrix<f64, N, N>) -> SVector<f64, R> {
-        let (s, y) = self.totals();
-        let n = self.total_samples * libm::pow(self.forgetting, self.in_block as f64)
-            + self.in_block as f64;
-        let schur = SMatrix::<f64, R, R>::identity() * n - s.tr_mul(&(p * s));
-        let schur = (schur + schur.transpose()) * 0.5;
-        let rhs = y - s.tr_mul(theta);
-        let mut offset = SVector::<f64, R>::zeros();
-        if !(n > 0.0 && schur.iter().all(|v| v.is_finite()) && rhs.iter().all(|v| v.is_finite())) {
-            return offset;
-        }
-        let (values, vectors) = jacobi_eigen(schur);
-        for (value, v) in values.iter().zip(vectors.column_iter()) {
-            if *value > 1e-9 * n {
-                offset += v * (v.dot(&rhs) / value);
-            }
-        }
-        if offset.iter().all(|v| v.is_finite()) {
-            offset
-        } else {
-            SVector::zeros()
-        }
-    }
-
-    /// Σ (x − X c)(x − X c)ᵀ from the sums x xᵀ, x ⊗ X and X ⊗ X.
-    fn quadratic(
-        xx: &SMatrix<f64, N, N>,
-        x_x: &SMatrix<f64, N, NR>,
-        xx_xx: &SMatrix<f64, NR, NR>,
-        c: &SVector<f64, R>,
-    ) -> SMatrix<f64, N, N> {
-        let mut cross = SMatrix::<f64, N, N>::zeros();
-        let mut square = SMatrix::<f64, N, N>::zeros();
-        // Entry (i, j): x ⊗ X's row i at columns jR + r, X ⊗ X's rows iR + r at columns jR + t.
-        // The indices lie inside the N × NR and NR × NR sums by construction (NR = N·R); the
-        // NaN an out-of-range `get` would give cannot occur, and would poison the result
-        // rather than pass as zero.
-        let at = |m: &SMatrix<f64, NR, NR>, row: usize, col: usize| {
-            m.get((row, col)).copied().unwrap_or(f64::NAN)
-        };
-        for (i, (mut cross_row, mut square_row)) in
-            cross.row_iter_mut().zip(square.row_iter_mut()).enumerate()
-        {
-            for (j, (cross_ij, square_ij)) in
-                cross_row.iter_mut().zip(square_row.iter_mut()).enumerate()
-            {
-                let mut v = 0.0;
-                let mut w = 0.0;
-                for (r, c_r) in c.iter().enumerate() {
-                    v += x_x.get((i, j * R + r)).copied().unwrap_or(f64::NAN) * c_r;
-                    for (t, c_t) in c.iter().enumerate() {
-                        w += at(xx_xx, i * R + r, j * R + t) * c_r * c_t;
-                    }
-                }
-                *cross_ij = v;
-                *square_ij = w;
-            }
-        }
-        xx - cross - cross.transpose() + square
-    }
-
-    /// M of the offset-free scores g̃ = g − D c: Σ g̃ g̃ᵀ + ½ Σ (g̃ g̃₋ᵀ + g̃₋ g̃ᵀ), Newey–West
-    /// at lag one with Bartlett's weight ½, which keeps M positive semi-definite:
-    /// ½ Σ h hᵀ + ½ g̃_G g̃_Gᵀ. Neighbouring blocks' scores correlate (slow noise) or
-    /// anticorrelate (the gyro's derivative noise telescopes across a block boundary); the
-    /// weight ½ leaves half of that lag-one term in M, so blocks must be long compared with
-    /// both the noise's memory and the boundary terms (see `EstimatorConfig`).
-    fn score_sum(&self, c: &SVector<f64, R>) -> SMatrix<f64, N, N> {
-        let h_h = Self::quadratic(&self.eta_eta, &self.eta_e, &self.e_e, c);
-        let last = self.last_g - self.last_d * c;
-        let m = (h_h + last * last.transpose()) * 0.5;
-        (m + m.transpose()) * 0.5
-    }
-
-    /// S = Σ λ^(age) φ (one column per equation) and Y = Σ λ^(age) y over every sample so far,
-    /// the block in progress included.
-    pub fn totals(&self) -> (SMatrix<f64, N, R>, SVector<f64, R>) {
-        let age = libm::pow(self.forgetting, self.in_block as f64);
-        (
-            self.total_s * age + self.block_s,
-            self.total_y * age + self.block_y,
-        )
-    }
-
-    /// Effective number of finished blocks that count.
-    pub fn blocks(&self) -> f64 {
-        self.blocks
-    }
-
-    /// Whether enough blocks count for [`Self::covariance`] to be the residuals' measurement
-    /// rather than P ([`MIN_COVARIANCE_BLOCKS`]).
-    pub fn is_measured(&self) -> bool {
-        self.blocks >= MIN_COVARIANCE_BLOCKS as f64
-    }
-
-    /// Covariance of θ given the fit's θ and P (as for [`Self::close_block`]): the offset c,
-    /// then the sandwich P M P with M of the offset-free scores, scaled by
-    /// [`cluster_factor`] (G blocks, n rows, N parameters and R offsets fitted) and, quantity
-    /// by quantity, by [`student_factor`] of that quantity's own degrees of freedom.
-    ///
-    /// `quantities` holds, row by row, the gradients with respect to θ of the N quantities
-    /// the caller reports (the mass, the centre of mass and J_C's entries for the full model:
-    /// [`derived_jacobian`]; θ itself for the paper's six). Quantity j's variance from the
-    /// blocks has νⱼ degrees of freedom along w = P cⱼ ([`BlockInformation`]); its variance is
-    /// scaled by νⱼ/(νⱼ − 2) in the quantities' basis (Q = G C Gᵀ → D Q D, D = diag √fⱼ,
-    /// back by G⁻¹), which keeps the quantities' correlations and C positive semi-definite.
-    /// When `quantities` is singular, every quantity takes ν = G − 1.
-    ///
-    /// Before [`MIN_COVARIANCE_BLOCKS`] blocks count ([`Self::is_measured`]) it is P, what the
-    /// configured equation sigmas predict: a provisional figure for a live display, which
-    /// understates the spread whenever the residuals exceed the configured sigmas or are
-    /// correlated, and which a report must not print as a measurement.
-    pub fn covariance(
-        &self,
-        theta: &SVector<f64, N>,
-        p: &SMatrix<f64, N, N>,
-        quantities: &SMatrix<f64, N, N>,
-    ) -> SMatrix<f64, N, N>
-    where
-        Const<N>: DimMin<Const<N>, Output = Const<N>>,
-    {
-        let n = self.rows;
-        let fitted = (N + R) as f64;
-        if !self.is_measured() || n <= fitted + 1.0 {
-            return *p;
-        }
-        let m = self.score_sum(&self.offset(theta, p));
-        let c = p * m * p * cluster_factor(self.blocks, n, fitted);
-        let c = (c + c.transpose()) * 0.5;
-        let fallback = student_factor(self.blocks - 1.0);
-        let roots = SVector::<f64, N>::from_fn(|j, _| {
-            let nu = self.degrees.get(j).copied().flatten();
-            libm::sqrt(nu.map_or(fallback, student_factor))
-        });
-        scale_in_basis(&c, quantities, &roots).unwrap_or(c * fallback)
-    }
-
-    /// The degrees of freedom of each reported quantity's variance, as the last block's close
-    /// took them (the quantities of [`Self::close_block`]), `None` where the blocks give none
-    /// or too few blocks count for a measured covariance ([`Self::is_measured`]).
-    pub fn degrees_of_freedom(&self) -> [Option<f64>; N] {
-        if self.is_measured() {
-            self.degrees
-        } else {
-            [None; N]
-        }
-    }
-}
-
 /// C' = G⁻¹ D G C Gᵀ D G⁻ᵀ with D = diag(`roots`): C's quantities' covariance G C Gᵀ scaled
 /// entry (i, j) by dᵢ dⱼ, taken back to θ. `None` when G is singular or the result not finite.
-fn scale_in_basis<const N: usize>(
+pub(crate) fn scale_in_basis<const N: usize>(
     c: &SMatrix<f64, N, N>,
     basis: &SMatrix<f64, N, N>,
     roots: &SVector<f64, N>,
@@ -447,8 +77,9 @@ pub fn own_fit_correction<const N: usize>(
     }
 }
 
-/// Fewest residual blocks whose scores count (the first block of a run does not) for the
-/// covariance to be measured: G ≥ 6, i.e. ν = G − 1 ≥ 5 degrees of freedom. Why: the
+/// Fewest residual windows whose scores count (the first window of a run does not) for the
+/// covariance to be measured: G ≥ 6, i.e. ν = G − 1 ≥ 5 degrees of freedom (a little fewer
+/// for the overlapping windows, [`crate::dof`]). Why: the
 /// standardised error z = e/σ̂ of a variance estimated with ν degrees of freedom is Student-t;
 /// [`small_sample_factor`] makes E[z²] = 1 for any ν > 2, but z² has a finite variance only for
 /// ν > 4, so below that a single run's z, or a campaign's mean z², says nothing reliable (one
@@ -456,20 +87,21 @@ pub fn own_fit_correction<const N: usize>(
 /// for every larger ν (Gaussian: 95.4 %).
 pub const MIN_COVARIANCE_BLOCKS: u32 = 6;
 
-/// Small-sample factor of the block-sandwich covariance from G (effective) blocks of n rows
-/// in all, `fitted` = N + R parameters and offsets fitted, when every quantity's variance has
-/// the blocks' own ν = G − 1 degrees of freedom: [`cluster_factor`] · [`student_factor`](ν).
-/// [`ScoreCovariance::covariance`] takes each quantity's own ν instead ([`crate::dof`]).
+/// Small-sample factor of the window-sandwich covariance from G (effective) windows of n
+/// rows in all, `fitted` = N + R parameters and offsets fitted, when every quantity's variance has
+/// the windows' own ν = G − 1 degrees of freedom: [`cluster_factor`] · [`student_factor`](ν).
+/// [`crate::score::ScoreCovariance::covariance`] takes each quantity's own ν instead
+/// ([`crate::dof`]).
 pub fn small_sample_factor(blocks: f64, rows: f64, fitted: f64) -> f64 {
     cluster_factor(blocks, rows, fitted) * student_factor(blocks - 1.0)
 }
 
 /// G/(G−1) · (n−1)/(n−N−R): the cluster-robust CR1 correction (scores at one fitted θ sum to
-/// zero over the blocks, which spends one of the G; the rows' factor counts the fitted
-/// parameters). The block scores, taken along the run and corrected for their own fit
+/// zero over the clusters, which spends one of the G; the rows' factor counts the fitted
+/// parameters). The window scores, taken along the run and corrected for their own fit
 /// ([`own_fit_correction`]), do not sum to zero, and G/(G−1) stays as a small margin for the
-/// second-order share of the leverage (the synthetic test's mean z²: 0.98–1.10 at 7–20
-/// blocks). Infinite unless G > 1 and n > N + R.
+/// second-order share of the leverage (`crate::score`'s synthetic tests: mean z² within
+/// [0.85, 1.2] at 8–18 windows). Infinite unless G > 1 and n > N + R.
 pub fn cluster_factor(blocks: f64, rows: f64, fitted: f64) -> f64 {
     if !(blocks > 1.0 && rows > fitted) {
         return f64::INFINITY;
@@ -500,7 +132,7 @@ pub const MIN_DEGREES_OF_FREEDOM: f64 = 3.0;
 /// Eigenvalues and eigenvectors (columns) of a small symmetric matrix by cyclic Jacobi
 /// rotations (nalgebra's `SymmetricEigen` needs a dimension it can subtract from, which a
 /// generic `R` is not). Converges quadratically; 30 sweeps are far more than a 6×6 needs.
-fn jacobi_eigen<const R: usize>(
+pub(crate) fn jacobi_eigen<const R: usize>(
     mut a: SMatrix<f64, R, R>,
 ) -> (SVector<f64, R>, SMatrix<f64, R, R>) {
     let mut v = SMatrix::<f64, R, R>::identity();
@@ -780,121 +412,6 @@ mod tests {
         assert!((vectors.transpose() * vectors - SMatrix::<f64, 4, 4>::identity()).norm() < 1e-12);
     }
 
-    #[test]
-    fn score_covariance_falls_back_to_p_until_blocks_exist() {
-        let mut s = ScoreCovariance::<2, 1, 2>::new(10, 1.0);
-        let p = SMatrix::<f64, 2, 2>::identity() * 0.5;
-        let theta = SVector::<f64, 2>::zeros();
-        assert_eq!(s.covariance(&theta, &p, &SMatrix::identity()), p);
-        let rows = SMatrix::<f64, 1, 2>::new(1.0, 0.0);
-        for k in 0..1000 {
-            let y = SVector::<f64, 1>::new(if k % 2 == 0 { 1.0 } else { -1.0 });
-            if s.add(&rows, &y) {
-                s.close_block(&theta, &p, &SMatrix::zeros(), &SMatrix::identity());
-            }
-        }
-        // Alternating residuals cancel in every block: no spread in the first parameter.
-        assert!((s.blocks() - 99.0).abs() < 1e-12);
-        let c = s.covariance(&theta, &p, &SMatrix::identity());
-        assert!(c[(0, 0)] < 0.03 * p[(0, 0)]);
-    }
-
-    /// Mean z² of each parameter over `runs` linear fits y = φθ + e, φ and e standard normal
-    /// (two parameters, one equation per sample), each `blocks` blocks of 50 samples long,
-    /// with θ and P of the fit weighted by a configured sigma five times too small (as the
-    /// default rig's torque equations: 2 N·m configured, 16 N·m of residual).
-    fn short_run_mean_z2(blocks: usize, runs: usize) -> [f64; 2] {
-        uneven_run_mean_z2(blocks, runs, |_| 1.0)
-    }
-
-    /// As [`short_run_mean_z2`], the first regressor scaled in block k by `envelope(k)`: an
-    /// excitation that spreads its information unevenly over the blocks.
-    fn uneven_run_mean_z2(blocks: usize, runs: usize, envelope: impl Fn(usize) -> f64) -> [f64; 2] {
-        use rand::SeedableRng;
-        use rand_distr::{Distribution, Normal};
-        let mut rng = rand::rngs::StdRng::seed_from_u64(14);
-        let normal = Normal::new(0.0, 1.0).unwrap();
-        let truth = SVector::<f64, 2>::new(1.0, -2.0);
-        let weight = 1.0 / 0.2;
-        let mut z2 = [0.0; 2];
-        for _ in 0..runs {
-            let mut s = ScoreCovariance::<2, 1, 2>::new(50, 1.0);
-            let mut a = SMatrix::<f64, 2, 2>::identity() * 1e-8;
-            let mut b = SVector::<f64, 2>::zeros();
-            for i in 0..blocks * 50 {
-                let phi = SMatrix::<f64, 1, 2>::new(
-                    normal.sample(&mut rng) * envelope(i / 50),
-                    normal.sample(&mut rng),
-                );
-                let y = (phi * truth)[(0, 0)] + normal.sample(&mut rng);
-                let (wphi, wy) = (phi * weight, SVector::<f64, 1>::new(y * weight));
-                a += wphi.tr_mul(&wphi);
-                b += wphi.tr_mul(&wy);
-                if s.add(&wphi, &wy) {
-                    let p = a.try_inverse().unwrap();
-                    s.close_block(&(p * b), &p, &SMatrix::zeros(), &SMatrix::identity());
-                }
-            }
-            let p = a.try_inverse().unwrap();
-            let theta = p * b;
-            let c = s.covariance(&theta, &p, &SMatrix::identity());
-            for (k, z) in z2.iter_mut().enumerate() {
-                *z += (theta[k] - truth[k]).powi(2) / c[(k, k)] / runs as f64;
-            }
-        }
-        z2
-    }
-
-    /// Issue 14: a sigma from a handful of residual blocks must still cover the error: mean
-    /// z² in [0.5, 2] (4000 runs: the mean's own standard error is about 0.05). With G = 6
-    /// counted blocks (seven in all) the variance estimate has ν = 5 degrees of freedom, so
-    /// unscaled E[z²] = ν/(ν−2) = 5/3, and the blend with P (a fifth of the real noise) made
-    /// it worse: mean z² 2.9 before the small-sample factor; with it and the own-fit
-    /// correction 0.98–1.06.
-    #[test]
-    fn short_runs_sigma_covers_the_error() {
-        let z2 = short_run_mean_z2(MIN_COVARIANCE_BLOCKS as usize + 1, 4000);
-        for (k, z) in z2.iter().enumerate() {
-            assert!((0.5..=2.0).contains(z), "parameter {k}: mean z² {z:.3}");
-        }
-        // A long run: the factor tends to 1 and the own-data fit fades (mean z² near 1).
-        let z2 = short_run_mean_z2(61, 400);
-        for (k, z) in z2.iter().enumerate() {
-            assert!((0.75..1.35).contains(z), "parameter {k}: mean z² {z:.3}");
-        }
-    }
-
-    /// Issue 14: an excitation that gives most of one parameter's information to a few
-    /// blocks leaves that parameter's variance far fewer degrees of freedom than the blocks
-    /// (here: 9 counted blocks, the first regressor 4× stronger in two of them, ν ≈ 3.6 along
-    /// it against 5.5 along the other). Each parameter's own ν keeps its mean z² in
-    /// [0.6, 1.5] (4000 runs); the blocks' count for both (ν = G − 1) gave the first 2.0.
-    #[test]
-    fn uneven_blocks_sigma_covers_the_error() {
-        let envelope = |k: usize| if k == 3 || k == 4 { 4.0 } else { 1.0 };
-        let z2 = uneven_run_mean_z2(10, 4000, envelope);
-        for (k, z) in z2.iter().enumerate() {
-            assert!((0.6..=1.5).contains(z), "parameter {k}: mean z² {z:.3}");
-        }
-    }
-
-    /// Issue 14: the fit after a block has absorbed part of the block's own noise, so block
-    /// scores at the fit of the block's end are short by the blocks' leverage (with G equal
-    /// blocks by about H_G of G, H the harmonic number). Corrected, the synthetic fit's mean z²
-    /// is within [0.85, 1.2] at 10 and 20 blocks (without the correction: 1.43 and 1.25).
-    #[test]
-    fn block_scores_are_not_shrunk_by_their_own_fit() {
-        for blocks in [10, 20] {
-            let z2 = short_run_mean_z2(blocks, 4000);
-            for (k, z) in z2.iter().enumerate() {
-                assert!(
-                    (0.85..=1.2).contains(z),
-                    "{blocks} blocks, parameter {k}: mean z² {z:.3}"
-                );
-            }
-        }
-    }
-
     /// The correction against its closed form for a running mean (one parameter, k equal
     /// blocks of information a: leverage a P = 1/k, so (1 − 1/k)^(-1/2), and √2 for a block
     /// that taught the fit more than the blocks before it together), and for a matrix case
@@ -961,27 +478,5 @@ mod tests {
         );
         assert_eq!(cluster_factor(1.0, 300.0, 3.0), f64::INFINITY);
         assert!((small_sample_factor(1e6, 1e9, 3.0) - 1.0).abs() < 1e-5);
-    }
-
-    #[test]
-    fn covariance_is_p_until_enough_blocks_count() {
-        let mut s = ScoreCovariance::<2, 1, 2>::new(10, 1.0);
-        let p = SMatrix::<f64, 2, 2>::identity() * 0.5;
-        let theta = SVector::<f64, 2>::zeros();
-        let rows = SMatrix::<f64, 1, 2>::new(1.0, -0.5);
-        let mut k = 0u32;
-        // MIN_COVARIANCE_BLOCKS + 1 blocks in all: the first does not count.
-        while s.blocks() < MIN_COVARIANCE_BLOCKS as f64 {
-            assert!(!s.is_measured());
-            assert_eq!(s.covariance(&theta, &p, &SMatrix::identity()), p);
-            let y = SVector::<f64, 1>::new(((k * 7919) % 13) as f64 - 6.0);
-            if s.add(&rows, &y) {
-                s.close_block(&theta, &p, &SMatrix::zeros(), &SMatrix::identity());
-            }
-            k += 1;
-        }
-        assert_eq!(k, 10 * (MIN_COVARIANCE_BLOCKS + 1));
-        assert!(s.is_measured());
-        assert_ne!(s.covariance(&theta, &p, &SMatrix::identity()), p);
     }
 }

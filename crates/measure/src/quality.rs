@@ -7,7 +7,7 @@
 //! inputs, time not increasing, or forward kinematics that failed). Rejections that many mean
 //! the sensors or the log are broken, and what is left is not a fair sample of the excitation.
 //!
-//! It fails too when the loaded run or the tare gave fewer residual blocks than
+//! It fails too when the loaded run or the tare gave fewer residual windows than
 //! [`MIN_COVARIANCE_BLOCKS`] (plus the first, which does not count): the sigma's statistical
 //! part would then be the configured equation sigmas' P, not a measurement, and understates
 //! the error (measured: 20 runs of a 1 s window of the default scenario, mean z² of J_C zz
@@ -47,11 +47,11 @@ pub enum QualityError {
         /// Samples used plus rejected.
         total: u64,
     },
-    /// Too few residual blocks for the sigma to be measured.
+    /// Too few residual windows for the sigma to be measured.
     #[error(
         "the {run} run is too short for an honest sigma: its excitation gave {blocks} residual \
-         block(s) of {block_s:.2} s after the first, and the noise's covariance needs at least \
-         {needed} (with fewer, the sigma would be the configured equation sigmas' guess and \
+         window(s) (two half-blocks of {block_s:.2} s each) after the first, and the noise's \
+         covariance needs at least {needed} (with fewer, the sigma would be the configured equation sigmas' guess and \
          understate the error); excite for at least {seconds:.1} s",
         needed = MIN_COVARIANCE_BLOCKS,
         seconds = needed_seconds(*block_s)
@@ -59,32 +59,34 @@ pub enum QualityError {
     TooShort {
         /// `"loaded"` or `"tare"`.
         run: &'static str,
-        /// Residual blocks that counted.
+        /// Residual windows that counted.
         blocks: u64,
         /// Length of one block, s.
         block_s: f64,
     },
 }
 
-/// Excitation that gives [`MIN_COVARIANCE_BLOCKS`] counted blocks of `block_s`, s: two blocks
-/// more, one for the first block (which does not count), one for the samples the conditioning
-/// withholds at the start and the block left unfinished at the end.
+/// Excitation that gives [`MIN_COVARIANCE_BLOCKS`] counted windows on half-blocks of
+/// `block_s`, s: G windows span G + 1 half-blocks; one more for the first window (which does
+/// not count), one for the samples the conditioning withholds at the start and the half-block
+/// left unfinished at the end.
 pub fn needed_seconds(block_s: f64) -> f64 {
-    f64::from(MIN_COVARIANCE_BLOCKS + 2) * block_s
+    f64::from(MIN_COVARIANCE_BLOCKS + 3) * block_s
 }
 
-/// Samples per residual block for an excitation of `excitation_s` sampled every `period_s`:
-/// `default_samples` (the estimator's 8/f_c), or, when the excitation would give fewer than
-/// [`MIN_COVARIANCE_BLOCKS`] counted blocks of it, the length that gives them with one block to
-/// spare (`excitation / (MIN_COVARIANCE_BLOCKS + 3)`), but never under half the default: 4/f_c
-/// is still four times the low-pass's memory, so the blocks stay nearly independent, and a
-/// shorter excitation is refused ([`check_covariance`]) as before.
+/// Samples per residual half-block for an excitation of `excitation_s` sampled every
+/// `period_s`: `default_samples` (the estimator's 8/f_c), or, when the excitation would give
+/// fewer than [`MIN_COVARIANCE_BLOCKS`] counted windows of it, the length that gives them with
+/// one half-block to spare (`excitation / (MIN_COVARIANCE_BLOCKS + 4)`), but never under half
+/// the default: 4/f_c is still four times the low-pass's memory, so windows that do not
+/// share a half-block stay nearly independent, and a shorter excitation is refused
+/// ([`check_covariance`]).
 pub fn block_samples_for(default_samples: u32, excitation_s: f64, period_s: f64) -> u32 {
     let samples = excitation_s / period_s;
     if !(samples.is_finite() && samples > 0.0) {
         return default_samples;
     }
-    let fitting = (samples / f64::from(MIN_COVARIANCE_BLOCKS + 3)).floor();
+    let fitting = (samples / f64::from(MIN_COVARIANCE_BLOCKS + 4)).floor();
     if fitting >= f64::from(default_samples) {
         return default_samples;
     }
@@ -92,21 +94,23 @@ pub fn block_samples_for(default_samples: u32, excitation_s: f64, period_s: f64)
     (fitting as u32).max(floor)
 }
 
-/// Residual blocks that count in a run whose excitation lasts `excitation_s`, sampled every
-/// `period_s`, in blocks of `block_samples`: the fit sees the excitation's samples (the
-/// conditioning warms up during the settle phase before it), the block left unfinished at the
-/// end and the run's first block do not count. Measured against runs of the default rig
-/// (fades 0.25 s): 1.5 s → 6, 1.7 s → 7, 2.0 s → 8 (blocks 0.2, 0.2, 0.222 s).
+/// Residual windows that count in a run whose excitation lasts `excitation_s`, sampled every
+/// `period_s`, on half-blocks of `block_samples`: the fit sees the excitation's samples but
+/// one (the conditioning warms up during the settle phase before it); the half-block left
+/// unfinished at the end and the run's first window do not count, and G windows span G + 1
+/// half-blocks. Measured against runs of the default rig (fades 0.25 s): 1.5 s → 5
+/// (refused), 1.7 s → 6, 2.0 s → 7, 2.4 s → 7, 3.5 s → 7 (half-blocks 0.2, 0.2, 0.2, 0.24,
+/// 0.35 s).
 pub fn counted_blocks(excitation_s: f64, period_s: f64, block_samples: u32) -> u64 {
     let samples = (excitation_s / period_s).floor();
     if !(samples.is_finite() && samples > 0.0 && block_samples > 0) {
         return 0;
     }
-    ((samples as u64) / u64::from(block_samples)).saturating_sub(1)
+    ((samples as u64).saturating_sub(1) / u64::from(block_samples)).saturating_sub(2)
 }
 
-/// The rule on a run's excitation before it moves: the blocks it will give
-/// ([`counted_blocks`] with [`block_samples_for`]'s blocks) must be enough for
+/// The rule on a run's excitation before it moves: the windows it will give
+/// ([`counted_blocks`] with [`block_samples_for`]'s half-blocks) must be enough for
 /// [`check_covariance`]. `default_block_samples` is the estimator's own (8/f_c).
 pub fn check_excitation(
     run: &'static str,
@@ -147,8 +151,8 @@ pub fn check(used: u64, rejected: u64) -> Result<(), QualityError> {
     Ok(())
 }
 
-/// The rule on the residual blocks of one run (`run`: `"loaded"` or `"tare"`): at least
-/// [`MIN_COVARIANCE_BLOCKS`] of `block_s` each.
+/// The rule on the residual windows of one run (`run`: `"loaded"` or `"tare"`): at least
+/// [`MIN_COVARIANCE_BLOCKS`] on half-blocks of `block_s`.
 pub fn check_covariance(run: &'static str, blocks: u64, block_s: f64) -> Result<(), QualityError> {
     if blocks < u64::from(MIN_COVARIANCE_BLOCKS) {
         return Err(QualityError::TooShort {
@@ -166,16 +170,17 @@ mod tests {
 
     #[test]
     fn a_short_excitation_gets_shorter_blocks_down_to_half_the_default() {
-        // 400 samples of 1 ms (0.4 s) by default; MIN_COVARIANCE_BLOCKS + 3 = 9 blocks.
+        // 400 samples of 1 ms (0.4 s) by default; MIN_COVARIANCE_BLOCKS + 4 = 10 half-blocks.
         assert_eq!(block_samples_for(400, 20.0, 1e-3), 400);
-        assert_eq!(block_samples_for(400, 3.6, 1e-3), 400);
-        assert_eq!(block_samples_for(400, 2.0, 1e-3), 222);
+        assert_eq!(block_samples_for(400, 4.0, 1e-3), 400);
+        assert_eq!(block_samples_for(400, 3.0, 1e-3), 300);
+        assert_eq!(block_samples_for(400, 2.0, 1e-3), 200);
         assert_eq!(block_samples_for(400, 1.0, 1e-3), 200);
         assert_eq!(block_samples_for(400, f64::INFINITY, 1e-3), 400);
         assert_eq!(block_samples_for(400, f64::NAN, 1e-3), 400);
         assert_eq!(block_samples_for(400, -1.0, 1e-3), 400);
-        // A 2 s excitation at 222 samples needs needed_seconds(0.222) = 1.8 s: it fits.
-        assert!(needed_seconds(0.222) <= 2.0);
+        // A 2 s excitation at 200 samples needs needed_seconds(0.2) = 1.8 s: it fits.
+        assert!(needed_seconds(0.2) <= 2.0);
     }
 
     #[test]
@@ -210,11 +215,12 @@ mod tests {
                 block_s: 0.4
             }
         );
-        // Six counted blocks of 0.4 s, the first and one of margin: 3.2 s.
-        assert!((needed_seconds(0.4) - 3.2).abs() < 1e-12);
+        // Six counted windows on half-blocks of 0.4 s span seven; the first window and one
+        // half-block of margin: 3.6 s.
+        assert!((needed_seconds(0.4) - 3.6).abs() < 1e-12);
         let text = e.to_string();
         assert!(
-            text.contains("tare run") && text.contains("at least 3.2 s"),
+            text.contains("tare run") && text.contains("at least 3.6 s"),
             "{text}"
         );
     }
@@ -259,10 +265,11 @@ mod excitation_tests {
     /// default rig, the report's `covariance_basis`), and the refusal below six.
     #[test]
     fn counted_blocks_match_the_runs_and_short_ones_are_refused() {
-        assert_eq!(counted_blocks(1.4999, 1e-3, 200), 6);
-        assert_eq!(counted_blocks(1.699, 1e-3, 200), 7);
-        assert_eq!(counted_blocks(1.9999, 1e-3, 222), 8);
-        assert_eq!(counted_blocks(3.4989, 1e-3, 388), 8);
+        assert_eq!(counted_blocks(1.5, 1e-3, 200), 5);
+        assert_eq!(counted_blocks(1.7, 1e-3, 200), 6);
+        assert_eq!(counted_blocks(2.0, 1e-3, 200), 7);
+        assert_eq!(counted_blocks(2.4, 1e-3, 240), 7);
+        assert_eq!(counted_blocks(3.5, 1e-3, 350), 7);
         assert_eq!(counted_blocks(0.0, 1e-3, 200), 0);
         assert_eq!(counted_blocks(f64::NAN, 1e-3, 200), 0);
         assert!(check_excitation("loaded", 2.0, 1e-3, 400).is_ok());
@@ -273,14 +280,14 @@ mod excitation_tests {
                 err,
                 QualityError::TooShort {
                     run: "tare",
-                    blocks: 5,
+                    blocks: 3,
                     ..
                 }
             ),
             "{err:?}"
         );
         assert!(
-            err.to_string().contains("excite for at least 1.6 s"),
+            err.to_string().contains("excite for at least 1.8 s"),
             "{err}"
         );
     }

@@ -206,14 +206,15 @@ pub struct DataLoss {
 }
 
 /// What the estimator's covariance (the budget's `noise` line) was measured from: residual
-/// blocks of the loaded run and the tare ([`estimator::uncertainty::MIN_COVARIANCE_BLOCKS`]).
+/// windows of the loaded run and the tare ([`estimator::uncertainty::MIN_COVARIANCE_BLOCKS`]).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct CovarianceBasis {
-    /// Residual blocks of the loaded run whose scores count (its first does not).
+    /// Residual windows of the loaded run whose scores count (its first does not).
     pub loaded_blocks: u64,
     /// The same for the tare; `null` when not known (a tare file written without it).
     pub tare_blocks: Option<u64>,
-    /// Length of one block, s (samples per block × sample period).
+    /// Length of one half-block, s (samples per half-block × sample period); each window
+    /// spans two.
     pub block_s: f64,
     /// Degrees of freedom of each quantity's variance in the loaded run, in the order of
     /// [`Quantities::flat`] (mass, c, J_C xx, yy, zz, xy, xz, yz): how many the residual
@@ -273,7 +274,7 @@ pub struct Report {
     #[serde(default)]
     pub data: DataLoss,
     /// What the statistical part of `sigma` was measured from ([`crate::quality`] refuses a
-    /// report with too few residual blocks).
+    /// report with too few residual windows).
     #[serde(default)]
     pub covariance_basis: CovarianceBasis,
     /// The brake holds' static weighing of the payload and the tare, checked against the
@@ -301,7 +302,7 @@ impl Report {
     }
 
     /// The rules of [`crate::quality`]: did the loaded run measure anything, and did the
-    /// loaded run and the tare give enough residual blocks for an honest sigma?
+    /// loaded run and the tare give enough residual windows for an honest sigma?
     pub fn check_quality(&self) -> Result<(), crate::quality::QualityError> {
         crate::quality::check(self.samples, self.rejected_samples)?;
         let b = &self.covariance_basis;

@@ -97,7 +97,7 @@ impl TareFile {
                 ("budget", nullable(crate::budget::RunBudget::schema())),
                 (
                     "covariance_blocks",
-                    nullable(int("residual blocks behind the covariance")),
+                    nullable(int("residual windows behind the covariance")),
                 ),
                 (
                     "static_weighing",

@@ -209,7 +209,7 @@ pub struct EstimatorSettings {
     /// estimated with the estimator's default, 1e-4.
     #[serde(default = "default_max_rate_error")]
     pub max_rate_error: f64,
-    /// Samples per residual block of the covariance estimate.
+    /// Samples per half-block of the covariance estimate's residual windows.
     pub covariance_block_samples: u32,
     /// Gyro white noise per sample for the errors-in-variables correction, rad/s (0: off).
     #[serde(default)]

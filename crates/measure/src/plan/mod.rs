@@ -284,7 +284,7 @@ impl Planner {
         Some(Prediction { sigma, ratios })
     }
 
-    /// The degrees of freedom the loaded run's residual blocks will give each reported
+    /// The degrees of freedom the loaded run's residual windows will give each reported
     /// quantity on `loaded` ([`Quantities::NAMES`] order; the estimator scales each sigma by
     /// its ν/(ν − 2), and below [`crate::quality::HEAVY_TAIL_DEGREES_OF_FREEDOM`] the table
     /// of a measurement flags it); `None` when the run does not determine θ.

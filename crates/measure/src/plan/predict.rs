@@ -14,7 +14,7 @@
 //! ```
 //!
 //! so that `Cov θ̂ = A⁻¹ (Σ_channels σ² Σₛ vₛ vₛᵀ) A⁻¹`, A = Σ Φᵀ W Φ — the sandwich the
-//! estimator's residual blocks measure ([`estimator::uncertainty`]), here predicted from the
+//! estimator's residual windows measure ([`estimator::score`]), here predicted from the
 //! datasheet. v is u run backwards through the conditioning (a causal filter on the reversed
 //! sequence correlates with h), so the cost is linear in the samples. The accelerometer's lever
 //! arm enters ω̇'s sensitivity (f_O = f_r − ω̇ × r − ω × (ω × r)); its centripetal part, second
@@ -65,7 +65,7 @@ pub struct Conditioning {
     pub equation_sigma: Vector6<f64>,
     /// Accelerometer position in P, m.
     pub lever_m: Vector3<f64>,
-    /// The estimator's residual block for a long excitation, samples (a short one's is
+    /// The estimator's residual half-block for a long excitation, samples (a short one's is
     /// shortened alike: [`crate::quality::block_samples_for`]).
     pub block_samples: u32,
 }
@@ -145,12 +145,14 @@ pub fn covariance(
     cov.iter().all(|v| v.is_finite()).then_some(cov)
 }
 
-/// The degrees of freedom the estimator's residual blocks will give each reported quantity of
-/// a run on `points` with the body `theta` on the plate (mass, c, J_C's entries: the run's
-/// own, as the estimator takes them): each block's information Aₖ = Σ Φᵀ W Φ over its
-/// samples, the run's first block and its unfinished last one left out, through
-/// [`estimator::dof::BlockInformation`] along w = A⁻¹ cⱼ. `None` when the run does not
-/// determine θ or gives no counted block.
+/// The degrees of freedom the estimator's residual windows will give each reported quantity
+/// of a run on `points` with the body `theta` on the plate (mass, c, J_C's entries: the run's
+/// own, as the estimator takes them): each half-block's information Σ w Φᵀ W Φ under the
+/// rising and the falling window ([`estimator::window`]), window k the rising half of
+/// half-block k and the falling half of k + 1, the run's first window and its unfinished
+/// last half-block left out, through [`estimator::dof::BlockInformation`] along w = A⁻¹ cⱼ,
+/// with the score covariances the estimator gives it. `None` when the run does not determine
+/// θ or gives no counted window.
 pub fn degrees_of_freedom(
     points: &[MotionPoint],
     theta: &ParameterVector,
@@ -163,21 +165,31 @@ pub fn degrees_of_freedom(
         excitation_s,
         conditioning.period_s,
     )
-    .max(1) as usize;
+    .max(1);
+    let kappa = estimator::window::mean_to_square(block);
+    let shared_share = estimator::window::shared_share(block);
     let mut information = estimator::dof::BlockInformation::<10>::new();
     let mut total = Cov::zeros();
-    for (k, chunk) in points.chunks_exact(block).enumerate() {
-        let a: Cov = chunk
-            .iter()
-            .map(|p| {
-                let phi = p.regressor();
-                phi.transpose() * w * phi
-            })
-            .sum();
-        total += a;
-        if k > 0 {
-            information.add(&a, 1.0);
+    // The last finished half-block's rising and combined information.
+    let mut previous: Option<(Cov, Cov)> = None;
+    for (k, chunk) in points.chunks_exact(block as usize).enumerate() {
+        let (mut rising, mut falling) = (Cov::zeros(), Cov::zeros());
+        for (t, p) in chunk.iter().enumerate() {
+            let phi = p.regressor();
+            let a = phi.transpose() * w * phi;
+            let (rise, fall) = estimator::window::weights(t as u32, block);
+            rising += a * rise;
+            falling += a * fall;
+            total += a;
         }
+        if let (true, Some((pending, _))) = (k >= 2, &previous) {
+            let shared = previous
+                .as_ref()
+                .filter(|_| k >= 3)
+                .map(|(_, both)| both * shared_share);
+            information.add(&((pending + falling) / kappa), shared.as_ref(), 1.0);
+        }
+        previous = Some((rising, rising + falling));
     }
     if !determined(&total) {
         return None;

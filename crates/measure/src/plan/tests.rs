@@ -320,22 +320,23 @@ fn the_predicted_sigma_falls_with_excitation_time_to_the_whole_runs() {
 }
 
 /// The degrees of freedom the plan predicts for each sigma: on a long brisk multi-sine the
-/// blocks carry nearly the same information, so every quantity gets close to the lag-one
-/// Newey–West count of G equal blocks, G²/(G + ½(G − 1)) and never more; on the same motion
-/// cut to 2.4 s (its 1 s fades kept; 8 counted blocks of 0.27 s) the fades carry little and
-/// the fewest falls well below the count of its blocks.
+/// windows carry nearly the same information, so every quantity gets close to the count of G
+/// equal windows that share half-blocks, G²/(G + 2(G − 1)/π²); on the same motion cut to
+/// 2.4 s (its 1 s fades kept; 7 counted windows on half-blocks of 0.24 s) the fades carry
+/// little and the fewest falls well below the count of its windows.
 #[test]
-fn predicted_degrees_of_freedom_follow_the_blocks_information() {
+fn predicted_degrees_of_freedom_follow_the_windows_information() {
+    let equal = |g: f64| g * g / (g + 2.0 * (g - 1.0) / (std::f64::consts::PI.powi(2)));
     let (_, planner) = default_planner();
     let long = brisk(&planner, 24.0);
     let nu = planner
         .predicted_degrees_of_freedom(&long)
         .expect("determined");
-    let g = (24.0 / 0.4f64).floor() - 1.0;
-    let most = g * g / (g + 0.5 * (g - 1.0));
+    // 60 half-blocks of 0.4 s: windows 1 to 58 count.
+    let most = equal(58.0);
     for (name, n) in Quantities::NAMES.iter().zip(nu) {
         assert!(
-            n <= most + 1e-9 && n > 0.8 * most,
+            n <= most + 1e-6 && n > 0.8 * most,
             "{name}: ν {n} against {most}"
         );
     }
@@ -345,11 +346,11 @@ fn predicted_degrees_of_freedom_follow_the_blocks_information() {
         .expect("determined");
     let block = crate::quality::block_samples_for(400, 2.4, 1e-3);
     let g = crate::quality::counted_blocks(2.4, 1e-3, block) as f64;
-    assert_eq!((block, g), (266, 8.0));
-    let equal = g * g / (g + 0.5 * (g - 1.0));
+    assert_eq!((block, g), (240, 7.0));
     let fewest = nu.iter().copied().fold(f64::INFINITY, f64::min);
     assert!(
-        fewest < 0.75 * equal,
-        "fewest ν {fewest} against {equal} for equal blocks"
+        fewest < 0.75 * equal(g),
+        "fewest ν {fewest} against {} for equal windows",
+        equal(g)
     );
 }
