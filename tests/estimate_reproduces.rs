@@ -114,6 +114,28 @@ fn estimate_reproduces_the_online_report_and_refuses_a_missing_channel() {
     assert!(other.samples < run.report.samples);
     assert!(other.estimate.mass != run.report.estimate.mass);
     assert!(close(other.estimate.mass, run.report.estimate.mass, 0.05));
+    // A window shorter than the run's gets half-blocks short enough for a measured sigma, as
+    // a measurement of that length would (2.5 s: 0.25 s half-blocks and seven windows, where
+    // the recorded 0.4 s would give three and refuse the report).
+    let (short, ..) = reestimate(
+        &log,
+        &SettingsOverride {
+            window: Some(Window {
+                start_s: Some(0.5),
+                end_s: Some(3.0),
+            }),
+            ..SettingsOverride::default()
+        },
+        None,
+        None,
+    )
+    .unwrap_or_else(|e| panic!("a 2.5 s window: {e:#}"));
+    let basis = &short.covariance_basis;
+    assert!(
+        (basis.block_s - 0.25).abs() < 1e-9 && basis.loaded_blocks >= 6,
+        "{basis:?}"
+    );
+    assert!((run.report.covariance_basis.block_s - 0.4).abs() < 1e-9);
 
     // Without /sensors, or without the estimator's settings, the log is refused by name.
     for topic in ["/sensors", "/run/estimator", "/run/metadata"] {

@@ -9,7 +9,9 @@
 //!
 //! Options change the settings of every measurement alike: `--cutoff-hz`, `--forgetting-factor`,
 //! `--params` and `--window START:END` (seconds from the start of each measurement's recorded
-//! window, its excitation; either end may be left open).
+//! window, its excitation; either end may be left open; a window shorter than the recorded one
+//! gets the residual half-blocks a measurement of its length would,
+//! `measure::quality::block_samples_for`).
 //!
 //! `--save-tare FILE` writes the tare of the log's tare run ([`save_tare`]); a log with a tare
 //! run only (as `stewart import` writes from a tare-only table) gives that file and no report.
@@ -59,7 +61,9 @@ pub struct EstimateArgs {
     #[arg(long, value_name = "LAMBDA")]
     pub forgetting_factor: Option<f64>,
     /// Time window START:END in seconds from the start of each measurement's excitation;
-    /// either end may be empty (e.g. `5:` or `:30`).
+    /// either end may be empty (e.g. `5:` or `:30`). A short window gets residual half-blocks
+    /// short enough for a measured sigma, as a measurement of that length would (at least
+    /// 1.8 s with the default settings).
     #[arg(long, value_name = "START:END", value_parser = parse_window)]
     pub window: Option<Window>,
     /// Write SVG and PNG figures (estimates with ±σ and truth, tracking error, excitation) here.

@@ -189,6 +189,20 @@ pub fn settings_of(
         if let Some(e) = w.end_s {
             c.window_end_s = origin_s + e;
         }
+        // As a measurement does for a short excitation: a window shorter than the recorded
+        // one gets half-blocks short enough for a measured sigma, never longer than the
+        // recorded ones.
+        let recorded_end_s = recorded.window_end_s.unwrap_or(f64::INFINITY);
+        let span_s = c.window_end_s.min(recorded_end_s) - c.window_start_s.max(origin_s);
+        if span_s.is_finite() && span_s > 0.0 {
+            let default = EstimatorConfig::new(geometry, c.sample_period_s);
+            c.covariance_block_samples = measure::quality::block_samples_for(
+                default.covariance_block_samples,
+                span_s,
+                c.sample_period_s,
+            )
+            .min(c.covariance_block_samples);
+        }
     }
     Ok((c, fk))
 }
