@@ -74,17 +74,35 @@ pub fn needed_seconds(block_s: f64) -> f64 {
     f64::from(MIN_COVARIANCE_BLOCKS + 3) * block_s
 }
 
+/// Residual windows a long run keeps ([`block_samples_for`]): 24, about 20 degrees of freedom
+/// (Student factor 1.11, a sigma's own relative spread about a third).
+pub const LONG_RUN_WINDOWS: u32 = 24;
+
 /// Samples per residual half-block for an excitation of `excitation_s` sampled every
-/// `period_s`: `default_samples` (the estimator's 8/f_c), or, when the excitation would give
-/// fewer than [`MIN_COVARIANCE_BLOCKS`] counted windows of it, the length that gives them with
-/// one half-block to spare (`excitation / (MIN_COVARIANCE_BLOCKS + 4)`), but never under half
-/// the default: 4/f_c is still four times the low-pass's memory, so windows that do not
-/// share a half-block stay nearly independent, and a shorter excitation is refused
-/// ([`check_covariance`]).
+/// `period_s`:
+///
+/// - a long excitation, which would give more than [`LONG_RUN_WINDOWS`] windows of
+///   `default_samples` (the estimator's default, [`estimator::EstimatorConfig::new`]'s
+///   8/(20 Hz)), gets half-blocks that give about that many
+///   (`excitation / (LONG_RUN_WINDOWS + 3)`). What the windows leave of the gyro's derivative
+///   noise in the scores of h falls with the half-block's square while the degrees of freedom
+///   fall only with its length (measured, noise-only world, planned 20 s: mean z² of c_x 0.50
+///   with 0.4 s half-blocks and 48 windows, 1.00 with 0.8 s and 23, 1.13 with 1.2 s and 14;
+///   every other quantity within [0.6, 1.5] in all three);
+/// - a short one, which would give fewer than [`MIN_COVARIANCE_BLOCKS`] counted windows of the
+///   default, the length that gives them with one half-block to spare
+///   (`excitation / (MIN_COVARIANCE_BLOCKS + 4)`), but never under half the default: 4/(20 Hz)
+///   is still several times the low-pass's memory, so windows that do not share a half-block
+///   stay nearly independent, and a shorter excitation is refused ([`check_covariance`]);
+/// - the default in between.
 pub fn block_samples_for(default_samples: u32, excitation_s: f64, period_s: f64) -> u32 {
     let samples = excitation_s / period_s;
     if !(samples.is_finite() && samples > 0.0) {
         return default_samples;
+    }
+    let long = (samples / f64::from(LONG_RUN_WINDOWS + 3)).floor();
+    if long > f64::from(default_samples) {
+        return long.min(f64::from(u32::MAX)) as u32;
     }
     let fitting = (samples / f64::from(MIN_COVARIANCE_BLOCKS + 4)).floor();
     if fitting >= f64::from(default_samples) {
@@ -169,10 +187,14 @@ mod tests {
     use super::*;
 
     #[test]
-    fn a_short_excitation_gets_shorter_blocks_down_to_half_the_default() {
+    fn a_short_excitation_gets_shorter_half_blocks_down_to_half_the_default_a_long_one_longer() {
         // 400 samples of 1 ms (0.4 s) by default; MIN_COVARIANCE_BLOCKS + 4 = 10 half-blocks.
-        assert_eq!(block_samples_for(400, 20.0, 1e-3), 400);
+        assert_eq!(block_samples_for(400, 10.0, 1e-3), 400);
         assert_eq!(block_samples_for(400, 4.0, 1e-3), 400);
+        // A long one: about LONG_RUN_WINDOWS windows (27 half-blocks of 20 s: 740 samples).
+        assert_eq!(block_samples_for(400, 20.0, 1e-3), 740);
+        assert_eq!(counted_blocks(20.0, 1e-3, 740), 25);
+        assert_eq!(block_samples_for(400, 60.0, 1e-3), 2222);
         assert_eq!(block_samples_for(400, 3.0, 1e-3), 300);
         assert_eq!(block_samples_for(400, 2.0, 1e-3), 200);
         assert_eq!(block_samples_for(400, 1.0, 1e-3), 200);

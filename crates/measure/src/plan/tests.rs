@@ -332,8 +332,10 @@ fn predicted_degrees_of_freedom_follow_the_windows_information() {
     let nu = planner
         .predicted_degrees_of_freedom(&long)
         .expect("determined");
-    // 60 half-blocks of 0.4 s: windows 1 to 58 count.
-    let most = equal(58.0);
+    // 27 half-blocks of 0.888 s (a long run's, `quality::LONG_RUN_WINDOWS`): windows 1 to 25
+    // count.
+    assert_eq!(crate::quality::block_samples_for(400, 24.0, 1e-3), 888);
+    let most = equal(25.0);
     for (name, n) in Quantities::NAMES.iter().zip(nu) {
         assert!(
             n <= most + 1e-6 && n > 0.8 * most,
