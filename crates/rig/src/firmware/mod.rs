@@ -20,7 +20,8 @@
 //! frames from other senders, out of sequence, or (with a key) without a valid tag are dropped
 //! and counted; a `Hello` from the session's host with a new nonce opens a new session. The
 //! rig core brakes (a `CommandFrame` with `enable = false`) and reports a [`Fault`] when no
-//! valid command arrived for longer than the watchdog time (quiet > watchdog), when a command
+//! valid command arrived for longer than the watchdog time while the last one drove the
+//! actuators (quiet > watchdog; after a braking command it stays braked), when a command
 //! force is outside [force_min, force_max] (NaN included), or while driven when a sensed leg
 //! length leaves [stroke_min, stroke_max] or a leg speed |lᵢ(k) − lᵢ(k−w)| / (w·T) exceeds
 //! speed_max. The first fault of a session latches, is reported again every
@@ -240,8 +241,9 @@ impl<P: Copy + PartialEq> RigCore<P> {
     }
 
     /// The actuator output for the sample period starting at `now_ns`: the newest valid
-    /// command, or the brakes (no session, a latched fault, no command yet, or the watchdog:
-    /// now − last command > watchdog, which latches a fault). Ends a session whose host has
+    /// command, or the brakes (no session, a latched fault, no command yet, a braking
+    /// command, or the watchdog: now − last command > watchdog after a driving command, which
+    /// latches a fault). Ends a session whose host has
     /// been silent for longer than the session timeout.
     pub fn actuate(&mut self, now_ns: u64, out: &mut Outbox<P>) -> CommandFrame {
         if let Some(s) = &self.session {
@@ -334,7 +336,11 @@ impl<P: Copy + PartialEq> RigCore<P> {
         if s.view.fault.is_some() {
             return brake;
         }
-        if let Some(at) = s.last_command_at {
+        // The watchdog guards driven actuators: after a braking command the rig is braked
+        // already, and a host that ends its session with a safe stop and falls silent is the
+        // session's normal end (the session timeout closes it), not a fault.
+        let driven = s.view.latest.as_ref().is_some_and(|c| c.enable);
+        if let (Some(at), true) = (s.last_command_at, driven) {
             let quiet_ns = now_ns.saturating_sub(at);
             if quiet_ns > self.config.watchdog_ns {
                 self.trip(FaultCode::WATCHDOG, NO_LEG, quiet_ns as f64 / 1e9, out);

@@ -227,6 +227,58 @@ fn the_watchdog_trips_exactly_after_the_configured_time() {
     assert_eq!(rig.stats().faults_sent, 1);
 }
 
+/// A host that ends with a safe stop (a braking command) and falls silent ends the session
+/// normally: the rig stays braked, no WATCHDOG fault, and the session times out; a driving
+/// command after the brake arms the watchdog again.
+#[test]
+fn a_session_ended_with_a_safe_stop_does_not_trip_the_watchdog() {
+    let mut rig = RigCore::new(config()).unwrap();
+    let mut out = Outbox::new();
+    open(&mut rig, 0, 1, None);
+    rig.receive(MS, HOST, &encode(command(1, 5.0, true), None), &mut out);
+    assert!(rig.actuate(2 * MS, &mut out).enable);
+    rig.receive(
+        3 * MS,
+        HOST,
+        &encode(command(2, 0.0, false), None),
+        &mut out,
+    );
+    out.clear();
+    for t in [4 * MS, 50 * MS, 500 * MS, 1003 * MS] {
+        assert!(!rig.actuate(t, &mut out).enable, "{t}");
+    }
+    assert!(faults_of(&drain(&mut out, None)).is_empty());
+    assert_eq!(rig.stats().faults_sent, 0);
+    assert!(rig.session().is_some_and(|s| s.fault.is_none()));
+    assert!(!rig.actuate(1003 * MS + 1, &mut out).enable);
+    assert!(matches!(
+        out.events().next(),
+        Some(CoreEvent::SessionTimedOut { session: 1, .. })
+    ));
+    assert!(rig.session().is_none());
+
+    // Brake, then drive again, then silence: the watchdog trips as ever.
+    open(&mut rig, 2000 * MS, 2, None);
+    rig.receive(
+        2001 * MS,
+        HOST,
+        &encode(command(1, 0.0, false), None),
+        &mut out,
+    );
+    rig.receive(
+        2040 * MS,
+        HOST,
+        &encode(command(2, 5.0, true), None),
+        &mut out,
+    );
+    assert!(rig.actuate(2041 * MS, &mut out).enable);
+    out.clear();
+    assert!(!rig.actuate(2060 * MS + 1, &mut out).enable);
+    let faults = faults_of(&drain(&mut out, None));
+    assert_eq!(faults.len(), 1);
+    assert_eq!(faults[0].code, FaultCode::WATCHDOG);
+}
+
 #[test]
 fn forged_unauthenticated_and_replayed_commands_are_dropped_and_counted() {
     let mut rig = RigCore::new(keyed()).unwrap();
