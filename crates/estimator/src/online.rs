@@ -99,7 +99,7 @@ impl EstimatorConfig {
     /// Defaults: low-pass at 20 Hz (at most a fifth of the sample rate), λ = 1, all ten
     /// parameters, equation sigmas 1 N and 0.2 N·m, prior sigma 1e4, accelerometer at the P
     /// origin, no time window, gaps of more than 10 periods restart (shorter ones are bridged),
-    /// a rate error of 1e-4 (100 ppm, beyond a crystal's) tolerated, covariance blocks of 8/f_c
+    /// a rate error of 1e-4 (100 ppm, beyond a crystal's) tolerated, covariance half-blocks of 8/f_c
     /// (at least 20 samples).
     pub fn new(geometry: Geometry, sample_period_s: f64) -> Self {
         let rate_hz = 1.0 / sample_period_s;

@@ -129,7 +129,8 @@ pub fn counted_blocks(excitation_s: f64, period_s: f64, block_samples: u32) -> u
 
 /// The rule on a run's excitation before it moves: the windows it will give
 /// ([`counted_blocks`] with [`block_samples_for`]'s half-blocks) must be enough for
-/// [`check_covariance`]. `default_block_samples` is the estimator's own (8/f_c).
+/// [`check_covariance`]. `default_block_samples` is the estimator's default
+/// ([`estimator::EstimatorConfig::new`]'s 8/(20 Hz)).
 pub fn check_excitation(
     run: &'static str,
     excitation_s: f64,
