@@ -575,4 +575,44 @@ mod tests {
         assert!(s.is_measured());
         assert_ne!(s.covariance(&theta, &p, &SMatrix::identity()), p);
     }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(64))]
+        /// Whatever the rows, measurements, half-block length and forgetting, the measured
+        /// covariance is finite, symmetric and positive semi-definite: Σ g gᵀ over the windows
+        /// needs no lag term that could make it indefinite.
+        #[test]
+        fn the_measured_covariance_is_positive_semi_definite(
+            samples in proptest::collection::vec(
+                (-10.0f64..10.0, -10.0f64..10.0, -10.0f64..10.0, -100.0f64..100.0),
+                60..400,
+            ),
+            block in 1u32..20,
+            forgetting in 0.99f64..=1.0,
+        ) {
+            let mut s = ScoreCovariance::<3, 1, 3>::new(block, forgetting);
+            let mut a = SMatrix::<f64, 3, 3>::identity() * 1e-6;
+            let mut b = SVector::<f64, 3>::zeros();
+            for (x, y, z, m) in &samples {
+                let rows = SMatrix::<f64, 1, 3>::new(*x, *y, *z);
+                let meas = SVector::<f64, 1>::new(*m);
+                a = a * forgetting + rows.tr_mul(&rows);
+                b = b * forgetting + rows.tr_mul(&meas);
+                if s.add(&rows, &meas) {
+                    let p = a.try_inverse().unwrap_or_else(SMatrix::identity);
+                    s.close_block(&(p * b), &p, &SMatrix::zeros(), &SMatrix::identity());
+                }
+            }
+            let p = a.try_inverse().unwrap_or_else(SMatrix::identity);
+            let c = s.covariance(&(p * b), &p, &SMatrix::identity());
+            proptest::prop_assert!(c.iter().all(|v| v.is_finite()), "{c}");
+            proptest::prop_assert!((c - c.transpose()).norm() <= 1e-9 * c.norm().max(1e-300));
+            let (values, _) = crate::uncertainty::jacobi_eigen(c);
+            let largest = values.iter().copied().fold(0.0f64, f64::max);
+            proptest::prop_assert!(
+                values.iter().all(|v| *v >= -1e-9 * largest),
+                "eigenvalues {values}"
+            );
+        }
+    }
 }
