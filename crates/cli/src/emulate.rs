@@ -104,7 +104,8 @@ pub struct EmulateArgs {
     /// Stay at normal priority: do not ask for SCHED_FIFO and locked memory.
     #[arg(long)]
     pub no_realtime: bool,
-    /// Brake when no valid command arrived for this long, ms (rig.watchdog_ms, default 20).
+    /// Brake, with a WATCHDOG fault, when no valid command arrived for this long after one
+    /// that drove the actuators, ms (rig.watchdog_ms, default 20).
     #[arg(long, value_name = "MS")]
     pub watchdog_ms: Option<f64>,
     /// Fault injection: fraction of sensor frames not sent.

@@ -227,8 +227,8 @@ impl RigBackend {
         (self.force_min_n, self.force_max_n)
     }
 
-    /// Sends the safe-stop command (brake, zero force). The rig also brakes by itself when
-    /// commands stop for longer than its watchdog.
+    /// Sends the safe-stop command (brake, zero force). The rig also brakes by itself, with a
+    /// WATCHDOG fault, when driving commands stop for longer than its watchdog.
     pub fn safe_stop(&mut self) -> Result<(), RigError> {
         let command = Command {
             sequence: self.next_command_sequence,
@@ -564,7 +564,7 @@ fn refused(fault: &Fault) -> RigError {
 
 /// Fault codes 5–8 answer a `Hello` (protocol section 5); any other fault seen during a
 /// handshake is left over from an earlier session (say the watchdog tripping after the host
-/// stopped commanding) and says nothing about this one.
+/// stopped commanding mid-motion) and says nothing about this one.
 fn answers_hello(code: FaultCode) -> bool {
     matches!(
         code,

@@ -8,9 +8,10 @@
 //! (`write`, which advances a simulator by one period), hands the backend's sensors to the
 //! rig core and sends the frames the rig core assembled. Frames that arrive between ticks go to
 //! the rig core as they come. The rig core brakes and reports a [`Fault`] when no valid command
-//! arrived within the watchdog time (20 ms), when a command exceeds the force limits, or when
-//! a leg leaves its stroke or exceeds its speed limit; a fault holds the brakes until the host
-//! opens a new session.
+//! arrived within the watchdog time (20 ms) while the last one drove the actuators (after a
+//! braking command it stays braked without a fault), when a command exceeds the force limits,
+//! or when a leg leaves its stroke or exceeds its speed limit; a fault holds the brakes until
+//! the host opens a new session.
 //!
 //! After a handshake, only the session's host may command: frames from other addresses, out
 //! of sequence, or (with a key) without a valid tag are dropped and counted.
