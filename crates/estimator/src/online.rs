@@ -102,22 +102,10 @@ impl EstimatorConfig {
     /// a rate error of 1e-4 (100 ppm, beyond a crystal's) tolerated, covariance half-blocks of 8/f_c
     /// (at least 20 samples).
     pub fn new(geometry: Geometry, sample_period_s: f64) -> Self {
-        let rate_hz = 1.0 / sample_period_s;
-        let cutoff_hz = if rate_hz.is_finite() && rate_hz > 0.0 {
-            20.0f64.min(0.2 * rate_hz)
-        } else {
-            20.0
-        };
-        let block = libm::ceil(8.0 / (cutoff_hz * sample_period_s));
-        let block = if block.is_finite() {
-            block.clamp(20.0, 1e6) as u32
-        } else {
-            20
-        };
         Self {
             geometry,
             sample_period_s,
-            lowpass_cutoff_hz: Some(cutoff_hz),
+            lowpass_cutoff_hz: Some(Self::default_cutoff_hz(sample_period_s)),
             forgetting_factor: 1.0,
             parameters: ParameterSet::Full,
             equation_sigma: Vector6::new(1.0, 1.0, 1.0, 0.2, 0.2, 0.2),
@@ -130,9 +118,31 @@ impl EstimatorConfig {
             gyro_noise_rad_s: 0.0,
             accel_noise_m_s2: 0.0,
             leg_force_offsets: false,
-            covariance_block_samples: block,
+            covariance_block_samples: Self::default_covariance_block_samples(sample_period_s),
             legs: None,
             local_gravity_m_s2: 0.0,
+        }
+    }
+
+    /// The default low-pass cut-off: 20 Hz, at most a fifth of the sample rate.
+    pub fn default_cutoff_hz(sample_period_s: f64) -> f64 {
+        let rate_hz = 1.0 / sample_period_s;
+        if rate_hz.is_finite() && rate_hz > 0.0 {
+            20.0f64.min(0.2 * rate_hz)
+        } else {
+            20.0
+        }
+    }
+
+    /// The default residual half-block: 8 / [`Self::default_cutoff_hz`] (at least 20
+    /// samples), whatever cut-off a caller then sets.
+    pub fn default_covariance_block_samples(sample_period_s: f64) -> u32 {
+        let cutoff_hz = Self::default_cutoff_hz(sample_period_s);
+        let block = libm::ceil(8.0 / (cutoff_hz * sample_period_s));
+        if block.is_finite() {
+            block.clamp(20.0, 1e6) as u32
+        } else {
+            20
         }
     }
 

@@ -257,8 +257,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         self.total_s = self.total_s * age + self.block_s;
         self.total_y = self.total_y * age + self.block_y;
         self.total_samples = self.total_samples * age + self.in_block as f64;
-        // Half-block h closes window h − 1, which counts from h = 2 on (window 0 does not).
-        if self.finished >= 2 {
+        if let Some(shares) = window::closing(self.finished) {
             let window = self.pending.aged_plus(age, &self.falling);
             let a = window.information(noise_moment);
             // The fit after the window has absorbed part of the window's own noise:
@@ -277,7 +276,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             self.d_d = self.d_d * decay + flat * flat.transpose();
             // The score's variance is A_ww ≈ A/κ; its covariance with the window before (when
             // that counted) the shared half-block's Σ sin·cos φ φᵀ.
-            let shared = (self.finished >= 3).then(|| self.shared * (age * self.shared_share));
+            let shared = shares.then(|| self.shared * (age * self.shared_share));
             self.information
                 .add(&(a / self.mean_to_square), shared.as_ref(), decay);
             self.degrees = core::array::from_fn(|j| {

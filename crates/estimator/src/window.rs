@@ -26,6 +26,15 @@
 
 use core::f64::consts::FRAC_PI_2;
 
+/// What the close of half-block `index` (0-based) does to the counted windows: `None` when it
+/// ends no counted window; else `Some(shares)`, `shares` telling whether the window it ends
+/// shares its first half-block with a counted window before it. Window k rises over
+/// half-block k and falls over k + 1, so it ends with half-block k + 1; window 0, where the
+/// prior still shapes the fit, does not count.
+pub fn closing(index: u64) -> Option<bool> {
+    (index >= 2).then_some(index >= 3)
+}
+
 /// The rising and falling weights (sin(πu/2), cos(πu/2)) of the sample at position `t`
 /// (0-based) of a half-block of `half_block` samples, u = (t + ½)/B.
 pub fn weights(t: u32, half_block: u32) -> (f64, f64) {
@@ -65,6 +74,16 @@ mod tests {
                 assert!(rise > 0.0 && fall > 0.0);
             }
         }
+    }
+
+    /// Half-blocks 0 and 1 end no counted window; 2 ends the first (sharing nothing counted),
+    /// every later one a window that shares its first half with the one before.
+    #[test]
+    fn the_first_window_does_not_count() {
+        assert_eq!(
+            [0, 1, 2, 3, 40].map(closing),
+            [None, None, Some(false), Some(true), Some(true)]
+        );
     }
 
     /// The closed forms against the sums themselves.

@@ -82,8 +82,8 @@ pub const LONG_RUN_WINDOWS: u32 = 24;
 /// `period_s`:
 ///
 /// - a long excitation, which would give more than [`LONG_RUN_WINDOWS`] windows of
-///   `default_samples` (the estimator's default, [`estimator::EstimatorConfig::new`]'s
-///   8/(20 Hz)), gets half-blocks that give about that many
+///   `default_samples` (the estimator's default,
+///   [`estimator::EstimatorConfig::default_covariance_block_samples`]: 8/(20 Hz)), gets half-blocks that give about that many
 ///   (`excitation / (LONG_RUN_WINDOWS + 3)`). What the windows leave of the gyro's derivative
 ///   noise in the scores of h falls with the half-block's square while the degrees of freedom
 ///   fall only with its length (measured, noise-only world, planned 20 s: mean z² of c_x 0.50
@@ -130,7 +130,7 @@ pub fn counted_blocks(excitation_s: f64, period_s: f64, block_samples: u32) -> u
 /// The rule on a run's excitation before it moves: the windows it will give
 /// ([`counted_blocks`] with [`block_samples_for`]'s half-blocks) must be enough for
 /// [`check_covariance`]. `default_block_samples` is the estimator's default
-/// ([`estimator::EstimatorConfig::new`]'s 8/(20 Hz)).
+/// ([`estimator::EstimatorConfig::default_covariance_block_samples`]).
 pub fn check_excitation(
     run: &'static str,
     excitation_s: f64,

@@ -182,10 +182,10 @@ pub fn degrees_of_freedom(
             falling += a * fall;
             total += a;
         }
-        // Half-block k closes window k − 1, which counts from k = 2 on; its score shares
-        // half-block k − 1 with the window before it from k = 3 on.
-        if let (true, Some((pending, both))) = (k >= 2, &previous) {
-            let shared = (k >= 3).then(|| both * shared_share);
+        if let (Some(shares), Some((pending, both))) =
+            (estimator::window::closing(k as u64), &previous)
+        {
+            let shared = shares.then(|| both * shared_share);
             information.add(&((pending + falling) / kappa), shared.as_ref(), 1.0);
         }
         previous = Some((rising, rising + falling));

@@ -195,9 +195,8 @@ pub fn settings_of(
         let recorded_end_s = recorded.window_end_s.unwrap_or(f64::INFINITY);
         let span_s = c.window_end_s.min(recorded_end_s) - c.window_start_s.max(origin_s);
         if span_s.is_finite() && span_s > 0.0 {
-            let default = EstimatorConfig::new(geometry, c.sample_period_s);
             c.covariance_block_samples = measure::quality::block_samples_for(
-                default.covariance_block_samples,
+                EstimatorConfig::default_covariance_block_samples(c.sample_period_s),
                 span_s,
                 c.sample_period_s,
             )
