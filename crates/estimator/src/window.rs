@@ -39,8 +39,7 @@ pub fn closing(index: u64) -> Option<bool> {
 /// (0-based) of a half-block of `half_block` samples, u = (t + ½)/B.
 pub fn weights(t: u32, half_block: u32) -> (f64, f64) {
     let u = (f64::from(t) + 0.5) / f64::from(half_block.max(1));
-    let angle = FRAC_PI_2 * u;
-    (libm::sin(angle), libm::cos(angle))
+    libm::sincos(FRAC_PI_2 * u)
 }
 
 /// κ = Σw / Σw² over a whole window of two half-blocks of B samples: Σ sin = Σ cos =
