@@ -51,9 +51,9 @@ const CHANNELS: usize = 18;
 /// matrix's entries (9, column-major).
 const POSE_CHANNELS: usize = 12;
 
-/// Filtered motion channels: position (3), rotation (9), ω (3) and the position's derivative
-/// v (3).
-const MOTION_CHANNELS: usize = 18;
+/// Filtered motion channels: position (3), rotation (9), ω (3), the position's derivative
+/// v (3) and the pose's own rate ω_k (3).
+const MOTION_CHANNELS: usize = 21;
 
 /// Largest magnitude accepted for any conditioned channel (SI units). Far beyond any rig; it
 /// keeps every later product finite, so a finite but absurd sample is rejected up front.
@@ -98,6 +98,13 @@ pub struct Conditioned {
     /// the motion (far below 1e-4 for motion well inside the pass band); it feeds the legs'
     /// model ([`crate::legs`]), a small correction, where that is negligible.
     pub motion: Option<PlateMotion>,
+    /// The gyro's rate less the kinematic rate of the pose, ω − ω_k, through the same
+    /// conditioning, when the samples carried their pose: ω_k = vee(Rᵀ Ṙ) at the stencil's
+    /// midpoint, R and Ṙ from the value and derivative stencils of the pose's rotation. The
+    /// encoders resolve the plate's angle to about a micro-radian, so at the excitation's
+    /// frequencies this is the gyro's own error (noise, bias, delay), which reaches ω̇ through
+    /// the derivative ([`crate::score::ScoreCovariance`] takes it out of the windows' slopes).
+    pub gyro_excess_rad_s: Option<Vector3<f64>>,
 }
 
 /// What one pushed sample produced.
@@ -556,6 +563,7 @@ impl Conditioner {
         let mut rest_mid = SVector::<f64, 15>::zeros();
         let mut map_mid = SVector::<f64, 36>::zeros();
         let mut motion_mid = SVector::<f64, MOTION_CHANNELS>::zeros();
+        let mut rotation_rate = Matrix3::<f64>::zeros();
         for ((sample, value_k), slope_k) in window.iter().zip(value).zip(slope) {
             omega_dot += sample.omega * slope_k;
             rest_mid += sample.rest * value_k;
@@ -569,7 +577,15 @@ impl Conditioner {
                 w += sample.omega * value_k;
                 let mut v = motion_mid.fixed_rows_mut::<3>(POSE_CHANNELS + 3);
                 v += sample.pose.fixed_rows::<3>(0) * slope_k;
+                rotation_rate += rotation_of(&sample.pose) * slope_k;
             }
+        }
+        if with.pose {
+            let rotation = rotation_of(&motion_mid.fixed_rows::<POSE_CHANNELS>(0).into_owned());
+            let rate = kinematic_rate(&rotation, &rotation_rate);
+            motion_mid
+                .fixed_rows_mut::<3>(POSE_CHANNELS + 6)
+                .copy_from(&rate);
         }
         let mut x = SVector::<f64, CHANNELS>::zeros();
         x.fixed_rows_mut::<3>(0).copy_from(&omega_dot);
@@ -614,6 +630,8 @@ impl Conditioner {
         signals.specific_force_m_s2 -=
             signals.angular_acceleration_rad_s2.cross(&r) + signals.centripetal(&r);
         let motion = motion_y.map(|m| plate_motion(&m, &signals));
+        let gyro_excess_rad_s = motion_y
+            .map(|m| m.fixed_rows::<3>(POSE_CHANNELS) - m.fixed_rows::<3>(POSE_CHANNELS + 6));
         Ok(Step::Ready(Conditioned {
             signals,
             wrench: Wrench {
@@ -622,8 +640,25 @@ impl Conditioner {
             },
             leg_map: map_y,
             motion,
+            gyro_excess_rad_s,
         }))
     }
+}
+
+/// The rotation matrix of a pose's channels (entries 3… column-major).
+fn rotation_of(pose: &SVector<f64, POSE_CHANNELS>) -> Matrix3<f64> {
+    Matrix3::from_iterator(pose.fixed_rows::<9>(3).iter().copied())
+}
+
+/// ω in P of a rotation R (P to B) moving at Ṙ: Rᵀ Ṙ = [ω]×, its skew part's axial vector
+/// (the symmetric part, zero for an exact rotation, is the interpolation's error).
+fn kinematic_rate(rotation: &Matrix3<f64>, rate: &Matrix3<f64>) -> Vector3<f64> {
+    let w = rotation.tr_mul(rate);
+    Vector3::new(
+        0.5 * (w.m32 - w.m23),
+        0.5 * (w.m13 - w.m31),
+        0.5 * (w.m21 - w.m12),
+    )
 }
 
 /// The plate's motion from the filtered motion channels and the conditioned signals:
@@ -700,6 +735,63 @@ mod tests {
             }
             // Fourth-order stencils: (ωΔt)⁴ ≈ 1e-7 at 3 Hz and 1 kHz, on a fraction of the wrench.
             assert!(worst < 1e-8 * scale, "{cutoff:?}: worst {worst} of {scale}");
+        }
+    }
+
+    /// The gyro's excess over the kinematic rate of the pose: zero to the stencils' error on
+    /// exact readings along a rotating motion (ω up to 0.45 rad/s), the gyro's own error when it
+    /// has one (here a constant offset and a slow ramp), and absent without a pose.
+    #[test]
+    fn gyro_excess_is_the_gyros_own_error() {
+        let motion = Motion::rich();
+        let offset = Vector3::new(2e-4, -1e-4, 3e-4);
+        for error_scale in [0.0, 1.0] {
+            let mut c = Conditioner::new(config(Some(5.0), Vector3::zeros())).unwrap();
+            let mut worst: f64 = 0.0;
+            let mut outputs = 0;
+            for k in 0..3000 {
+                let t = k as f64 * 1e-3;
+                let s = motion.state(t);
+                // A ramp of 1e-4 rad/s per second: its conditioned value lags by the filter's
+                // group delay, 1e-4 × 45 ms = 4.5e-6 rad/s at most.
+                let error = (offset + Vector3::new(1e-4, 1e-4, -1e-4) * t) * error_scale;
+                let pose = Pose::new(s.position_m, s.rotation);
+                let step = c
+                    .push_sequenced(
+                        t,
+                        None,
+                        &(s.omega + error),
+                        &s.specific_force,
+                        &Wrench::default(),
+                        None,
+                        Some(&pose),
+                    )
+                    .unwrap();
+                if let Step::Ready(out) = step {
+                    let excess = out.gyro_excess_rad_s.unwrap();
+                    worst = worst.max((excess - error).norm());
+                    outputs += 1;
+                }
+            }
+            assert!(outputs > 2000);
+            assert!(worst < 1e-5, "error scale {error_scale}: worst {worst:e}");
+            if error_scale == 0.0 {
+                assert!(worst < 1e-8, "exact readings: worst {worst:e}");
+            }
+        }
+        let mut c = Conditioner::new(config(None, Vector3::zeros())).unwrap();
+        for k in 0..5 {
+            let step = c
+                .push(
+                    f64::from(k) * 1e-3,
+                    &Vector3::x(),
+                    &Vector3::z(),
+                    &Wrench::default(),
+                )
+                .unwrap();
+            if let Step::Ready(out) = step {
+                assert_eq!(out.gyro_excess_rad_s, None);
+            }
         }
     }
 

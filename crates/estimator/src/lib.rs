@@ -6,8 +6,9 @@
 //! [`conditioning`] (filtered derivative, one low-pass for everything, lever arm) → plus what
 //! the cells do not see of the legs' mass and the joints' friction ([`legs`], when described) →
 //! [`regressor`] (Newton–Euler about the P origin, linear in θ) → rows weighted by their noise →
-//! [`rls`] (U-D factorised recursive least squares) → [`score`] (the residuals' sandwich
-//! covariance over overlapping windows) → [`uncertainty`] (propagated to c and J_C) → [`Estimate`]. An estimate that is not physically
+//! [`rls`] (U-D factorised recursive least squares; the gyro's error, measured against the
+//! kinematic rate of the pose, taken out at the run's ends by [`rate_ends`]) → [`score`] (the
+//! residuals' sandwich covariance over overlapping windows) → [`uncertainty`] (propagated to c and J_C) → [`Estimate`]. An estimate that is not physically
 //! consistent is projected onto the consistent set by [`projection::nearest_consistent`] (the
 //! nearest point in the metric of its covariance).
 //!
@@ -40,6 +41,7 @@ pub mod hold;
 pub mod legs;
 mod online;
 pub mod projection;
+pub mod rate_ends;
 pub mod regressor;
 pub mod rls;
 pub mod score;

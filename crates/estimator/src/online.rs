@@ -6,6 +6,7 @@ use crate::error::EstimatorError;
 use crate::estimate::{Counts, Estimate, ParameterCovariance};
 use crate::hold::{AccelerometerOffset, HoldAverage};
 use crate::legs::{unseen_total, LegModel};
+use crate::rate_ends::RateEnds;
 use crate::regressor::{from_signals, inertia_columns, RegressorSignals};
 use crate::rls::Rls;
 use crate::score::ScoreCovariance;
@@ -261,6 +262,8 @@ struct Solver<const N: usize, const R: usize, const NR: usize> {
     /// Whether the full correction at the last residual window's close applied (a definite
     /// corrected system); `None` before the first block closed.
     correction_applied: Option<bool>,
+    /// The gyro's error at the ends of the conditioning's stretches, taken out of θ.
+    ends: RateEnds<N, R>,
 }
 
 impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
@@ -278,13 +281,15 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
                 config.forgetting_factor,
             )?
             .with_variance_cap(p0),
-            score: ScoreCovariance::new(config.covariance_block_samples, config.forgetting_factor),
+            score: ScoreCovariance::new(config.covariance_block_samples, config.forgetting_factor)
+                .with_sample_period(config.sample_period_s),
             inv_sigma: sigma.map(|s| 1.0 / s),
             noise_moment,
             quantities,
             samples: 0.0,
             leg: SMatrix::zeros(),
             correction_applied: None,
+            ends: RateEnds::new(config.sample_period_s, config.forgetting_factor),
         })
     }
 
@@ -303,6 +308,8 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         rows: &SMatrix<f64, R, N>,
         y: &SVector<f64, R>,
         leg_map: Option<&SMatrix<f64, R, 6>>,
+        rate_error_rows: Option<&SMatrix<f64, R, N>>,
+        starts_stretch: bool,
     ) -> Result<(), EstimatorError> {
         let wrows = self.weigh(rows);
         let wy = y.component_mul(&self.inv_sigma);
@@ -312,7 +319,12 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             self.rls = before;
             return Err(EstimatorError::Overflow("least-squares update"));
         }
-        if self.score.add(&wrows, &wy) {
+        let wpsi = rate_error_rows.map(|psi| self.weigh(psi));
+        match &wpsi {
+            Some(psi) => self.ends.add(&wrows, psi, starts_stretch),
+            None => self.ends.interrupt(),
+        }
+        if self.score.add_sample(&wrows, &wy, wpsi.as_ref()) {
             let (theta, p, moment) = self.corrected_with_moment();
             self.score
                 .close_block(&theta, &p, &moment, &self.quantities.gradients(&theta));
@@ -331,12 +343,14 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
 
     /// ∂θ/∂δf for constant offsets δf of the six leg forces: θ = P' b and b gains L δf.
     fn leg_sensitivity(&self) -> SMatrix<f64, N, 6> {
-        self.corrected().1 * self.leg
+        self.gain() * self.leg
     }
 
-    /// θ and P corrected for regressor noise: with A = P⁻¹ and b = A θ, the corrected normal
-    /// equations (A − nC) θ' = b give θ' = (𝟙 − nPC)⁻¹ θ and P' = (𝟙 − nPC)⁻¹ P. Uncorrected
-    /// when no noise is configured or the correction would not leave a definite system.
+    /// θ and P corrected for regressor noise and for the gyro's error at the stretches' ends:
+    /// with A = P⁻¹ and b = A θ, the corrected normal equations (A − nC − Δ) θ' = b give
+    /// θ' = (𝟙 − P (nC + Δ))⁻¹ θ, and P' = (𝟙 − nPC)⁻¹ P (Δ, two samples' worth, carries no
+    /// information; [`crate::rate_ends`]). The noise moment is left out when none is configured
+    /// or when it would not leave a definite system; Δ when the kinematics are not carried.
     fn corrected(&self) -> (SVector<f64, N>, SMatrix<f64, N, N>) {
         let (theta, p, _) = self.corrected_with_moment();
         (theta, p)
@@ -346,7 +360,48 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
     fn corrected_with_moment(&self) -> (SVector<f64, N>, SMatrix<f64, N, N>, SMatrix<f64, N, N>) {
         let theta = *self.rls.theta();
         let p = self.rls.covariance();
-        let plain = (theta, p, SMatrix::zeros());
+        let (pc, moment, inv) = self.moment_corrected(&p);
+        let delta = self.ends.delta();
+        if delta.iter().all(|v| *v == 0.0) {
+            return (inv.map_or(theta, |i| i * theta), pc, moment);
+        }
+        let k = moment * self.samples + delta;
+        let m = SMatrix::<f64, N, N>::identity() - p * k;
+        match m.try_inverse().map(|i| i * theta) {
+            Some(t) if t.iter().all(|v| v.is_finite()) => (t, pc, moment),
+            _ => (inv.map_or(theta, |i| i * theta), pc, moment),
+        }
+    }
+
+    /// Q = (A − nC − Δ)⁻¹ = (𝟙 − P (nC + Δ))⁻¹ P, the map from the normal equations' b to
+    /// θ' ([`Self::corrected`]): what a change of b does to the estimate. P' where Δ is zero
+    /// or leaves the system singular.
+    fn gain(&self) -> SMatrix<f64, N, N> {
+        let p = self.rls.covariance();
+        let (pc, moment, _) = self.moment_corrected(&p);
+        let delta = self.ends.delta();
+        if delta.iter().all(|v| *v == 0.0) {
+            return pc;
+        }
+        let m = SMatrix::<f64, N, N>::identity() - p * (moment * self.samples + delta);
+        match m.try_inverse().map(|i| i * p) {
+            Some(q) if q.iter().all(|v| v.is_finite()) => q,
+            _ => pc,
+        }
+    }
+
+    /// P' = (𝟙 − nPC)⁻¹ P, the moment C and (𝟙 − nPC)⁻¹ when the noise moment applies (a
+    /// definite, finite P'); P, zero and `None` otherwise.
+    #[allow(clippy::type_complexity)]
+    fn moment_corrected(
+        &self,
+        p: &SMatrix<f64, N, N>,
+    ) -> (
+        SMatrix<f64, N, N>,
+        SMatrix<f64, N, N>,
+        Option<SMatrix<f64, N, N>>,
+    ) {
+        let plain = (*p, SMatrix::zeros(), None);
         if self.samples <= 0.0 || self.noise_moment.iter().all(|v| *v == 0.0) {
             return plain;
         }
@@ -356,10 +411,9 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         };
         let pc = inv * p;
         let pc = (pc + pc.transpose()) * 0.5;
-        let t = inv * theta;
         let definite = pc.diagonal().iter().all(|v| *v > 0.0);
-        if definite && t.iter().all(|v| v.is_finite()) && pc.iter().all(|v| v.is_finite()) {
-            (t, pc, self.noise_moment)
+        if definite && pc.iter().all(|v| v.is_finite()) && inv.iter().all(|v| v.is_finite()) {
+            (pc, self.noise_moment, Some(inv))
         } else {
             plain
         }
@@ -369,12 +423,12 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         self.corrected().0
     }
 
-    /// θ' = (𝟙 − nPC)⁻¹ θ, when the last block's full correction applied (its definiteness
-    /// check needs P' = (𝟙 − nPC)⁻¹ P, ten solves and a product more); otherwise
+    /// θ' = (𝟙 − P (nC + Δ))⁻¹ θ, when the last block's full correction applied (its
+    /// definiteness check needs P' = (𝟙 − nPC)⁻¹ P, ten solves and a product more); otherwise
     /// [`Self::theta`].
     ///
     /// The correction is small beside θ (nPC is the noise's share of the information), so the
-    /// Neumann series θ' = Σₖ (nPC)ᵏ θ converges fast: each term is two matrix–vector
+    /// Neumann series θ' = Σₖ (P (nC + Δ))ᵏ θ converges fast: each term is two matrix–vector
     /// products through P's factors, and the sum stops when a term no longer changes it
     /// ([`NEUMANN_TOLERANCE`]). A series that converges slowly (a term more than half the one
     /// before) or not within [`NEUMANN_TERMS`] gives way to one LU solve of the same system.
@@ -386,11 +440,11 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             return self.theta();
         }
         let theta = *self.rls.theta();
-        let moment = self.noise_moment * self.samples;
-        if let Some(t) = neumann_solve(|v| self.rls.covariance_times(&(moment * v)), &theta) {
+        let k = self.noise_moment * self.samples + self.ends.delta();
+        if let Some(t) = neumann_solve(|v| self.rls.covariance_times(&(k * v)), &theta) {
             return t;
         }
-        let m = SMatrix::<f64, N, N>::identity() - self.rls.covariance() * moment;
+        let m = SMatrix::<f64, N, N>::identity() - self.rls.covariance() * k;
         let mut t = theta;
         match m.lu().solve_mut(&mut t) {
             true if t.iter().all(|v| v.is_finite()) => t,
@@ -399,11 +453,11 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
     }
 
     /// ∂θ/∂c for a constant offset c added to every sample's (unweighted) measurements:
-    /// θ = P' b and b gains S W c, so Δθ = P' S W c (exact for λ = 1: P does not see y).
+    /// θ = Q b ([`Self::gain`]) and b gains S W c, so Δθ = Q S W c (exact for λ = 1: P does
+    /// not see y).
     fn offset_sensitivity(&self) -> SMatrix<f64, N, R> {
         let (s, _) = self.score.totals();
-        let (_, p) = self.corrected();
-        let mut sw = p * s;
+        let mut sw = self.gain() * s;
         for (mut column, s) in sw.column_iter_mut().zip(self.inv_sigma.iter()) {
             column.scale_mut(*s);
         }
@@ -412,12 +466,13 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
 
     /// Δθ caused by a constant perturbation `b` of every sample's (unweighted) regressor, to
     /// first order: with Φ → Φ + B, A gains S B_w + B_wᵀ Sᵀ and b gains B_wᵀ Y (B_w = W B), so
-    /// Δθ = P' (B_wᵀ (Y − Sᵀθ) − S B_w θ): from the accumulated S and Y, no second fit.
+    /// Δθ = Q (B_wᵀ (Y − Sᵀθ) − S B_w θ) ([`Self::gain`]): from the accumulated S and Y, no
+    /// second fit.
     fn regressor_perturbation_effect(&self, b: &SMatrix<f64, R, N>) -> SVector<f64, N> {
         let (s, y) = self.score.totals();
-        let (theta, p) = self.corrected();
+        let theta = self.theta();
         let bw = self.weigh(b);
-        p * (bw.tr_mul(&(y - s.tr_mul(&theta))) - s * (bw * theta))
+        self.gain() * (bw.tr_mul(&(y - s.tr_mul(&theta))) - s * (bw * theta))
     }
 
     /// Covariance of θ, each reported quantity with its own small-sample factor.
@@ -426,8 +481,12 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         Const<N>: DimMin<Const<N>, Output = Const<N>>,
     {
         let (theta, p) = self.corrected();
-        self.score
-            .covariance(&theta, &p, &self.quantities.gradients(&theta))
+        self.score.covariance(
+            &theta,
+            &p,
+            &self.quantities.gradients(&theta),
+            &self.ends.residual_sum(&theta),
+        )
     }
 }
 
@@ -516,20 +575,20 @@ enum Engine {
 }
 
 /// The bound on [`OnlineEstimator`]'s size, bytes, asserted when the crate compiles: a change
-/// that grows the state past it must say so here. 72 KiB: the residual windows' information
-/// ([`crate::dof`], 25 KB) and 44 KB of the rest.
-pub const ONLINE_ESTIMATOR_MAX_BYTES: usize = 72 * 1024;
+/// that grows the state past it must say so here. 80 KiB: the residual windows' information
+/// ([`crate::dof`], 25 KB) and 54 KB of the rest.
+pub const ONLINE_ESTIMATOR_MAX_BYTES: usize = 80 * 1024;
 
 const _: () = assert!(core::mem::size_of::<OnlineEstimator>() <= ONLINE_ESTIMATOR_MAX_BYTES);
 
 /// The online estimator. `update` costs a few microseconds and never allocates.
 ///
-/// Its whole state lives inline: 69 472 bytes on x86-64 for the ten-parameter engine (both
+/// Its whole state lives inline: 78 840 bytes on x86-64 for the ten-parameter engine (both
 /// engines share the storage), bounded at compile time by [`ONLINE_ESTIMATOR_MAX_BYTES`]; most
 /// of it the residual windows' information for each quantity's degrees of freedom (25 KB,
-/// [`crate::dof`]), the RLS's U-D factors, the residual scores and the conditioning's filter
-/// states. A
-/// firmware gives it a static or a task stack of that size. It is not `Copy`, so that a copy
+/// [`crate::dof`]), the RLS's U-D factors, the residual scores (with the gyro's error at the
+/// windows' slopes and at the stretches' ends, [`crate::rate_ends`]) and the conditioning's
+/// filter states. A firmware gives it a static or a task stack of that size. It is not `Copy`, so that a copy
 /// of that size is always a visible `clone()`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct OnlineEstimator {
@@ -543,6 +602,9 @@ pub struct OnlineEstimator {
     /// b̂, fixed at the window's first sample.
     accel_offset: Option<AccelerometerOffset>,
     hold_closed: bool,
+    /// The conditioning's restart count at the last sample the solver took (`None` before
+    /// the first): a change starts a new stretch of the gyro's error.
+    stretch: Option<u64>,
 }
 
 fn positive_finite(v: f64) -> bool {
@@ -665,6 +727,7 @@ impl OnlineEstimator {
             hold: HoldAverage::new(),
             accel_offset: None,
             hold_closed: false,
+            stretch: None,
         })
     }
 
@@ -778,7 +841,7 @@ impl OnlineEstimator {
             &sample.gyro_rad_s,
             &sample.accel_m_s2,
             map.as_ref(),
-            self.config.legs.is_some().then_some(&sample.pose),
+            Some(&sample.pose),
         )
     }
 
@@ -866,15 +929,44 @@ impl OnlineEstimator {
     fn solve(&mut self, c: &Conditioned) -> Result<(), EstimatorError> {
         let phi = from_signals(&c.signals);
         let y = to_vector(&c.wrench);
+        // The regressor's part linear in ω̇, at the gyro's measured error: ω̇ enters the
+        // specific force at the P origin through the lever arm, −ω̇ × r. Only for a gyro the
+        // rig describes as noisy: against an exact one, the measured excess is the
+        // kinematics' own error (a simulator's integrator, 3e-7 rad/s on the paper's case),
+        // which the correction would amplify by 1/Δt at the run's first samples.
+        let gyro_is_noisy = self.config.gyro_noise_rad_s > 0.0;
+        let rate_error = c
+            .gyro_excess_rad_s
+            .filter(|_| gyro_is_noisy)
+            .map(|n| RegressorSignals {
+                angular_acceleration_rad_s2: n,
+                rate_products_rad2_s2: Vector6::zeros(),
+                specific_force_m_s2: -n.cross(&self.config.accelerometer_position_m),
+            });
+        // A conditioning restarted since the last sample used starts a new stretch of the
+        // gyro's error ([`crate::rate_ends`]).
+        let restarts = self.conditioner.restarts();
+        let starts_stretch = self.stretch != Some(restarts);
         match &mut self.engine {
-            Engine::Full(solver) => solver.update(&phi, &y, c.leg_map.as_ref())?,
+            Engine::Full(solver) => {
+                let psi = rate_error.map(|s| from_signals(&s));
+                solver.update(&phi, &y, c.leg_map.as_ref(), psi.as_ref(), starts_stretch)?
+            }
             Engine::Six { solver, com_m, .. } => {
                 let yc = c.wrench.torque_nm - com_m.cross(&c.wrench.force_n);
                 // τ_C = τ − c × F: the leg map reaches the rows as [−[c]×, 𝟙] L.
                 let lc = c.leg_map.map(|l| to_com_rows(com_m) * l);
-                solver.update(&inertia_columns(&c.signals), &yc, lc.as_ref())?;
+                let psi = rate_error.map(|s| inertia_columns(&s));
+                solver.update(
+                    &inertia_columns(&c.signals),
+                    &yc,
+                    lc.as_ref(),
+                    psi.as_ref(),
+                    starts_stretch,
+                )?;
             }
         }
+        self.stretch = Some(restarts);
         let r = y - phi * self.assemble(Correction::None);
         let lambda = self.config.forgetting_factor;
         self.residual_sq = self.residual_sq * lambda + r.component_mul(&r);

@@ -18,13 +18,15 @@ use crate::window;
 use nalgebra::{Const, DimMin, SMatrix, SVector};
 
 /// A stretch of samples' weighted sums: b = Σ w φ y, A = Σ w φ φᵀ (upper triangle only),
-/// S = Σ w φ (one column per equation) and n = Σ w, each aged by λ per sample.
+/// S = Σ w φ (one column per equation), n = Σ w and E = Σ ẇ φ ψᵀ (ψ the rows' part linear in
+/// ω̇ at the gyro's measured excess rate: the type's docs), each aged by λ per sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Weighted<const N: usize, const R: usize> {
     b: SVector<f64, N>,
     a: SMatrix<f64, N, N>,
     s: SMatrix<f64, N, R>,
     n: f64,
+    e: SMatrix<f64, N, N>,
 }
 
 impl<const N: usize, const R: usize> Weighted<N, R> {
@@ -34,6 +36,7 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
             a: SMatrix::zeros(),
             s: SMatrix::zeros(),
             n: 0.0,
+            e: SMatrix::zeros(),
         }
     }
 
@@ -42,6 +45,7 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
         self.a *= factor;
         self.s *= factor;
         self.n *= factor;
+        self.e *= factor;
     }
 
     /// `self` aged by `factor`, plus `later`.
@@ -51,6 +55,7 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
             a: self.a * factor + later.a,
             s: self.s * factor + later.s,
             n: self.n * factor + later.n,
+            e: self.e * factor + later.e,
         }
     }
 
@@ -99,6 +104,25 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
 /// quadratic in c, and `NR` = N·R sizes the sums of g ⊗ D and D ⊗ D. The offset's own effect
 /// on θ, P S c, is systematic: where its cause has a datasheet figure the caller accounts for
 /// it as such, from [`Self::totals`] (`OnlineEstimator::wrench_offset_sensitivity`).
+///
+/// **The gyro's error at the windows' slopes.** The gyro's error n (its noise, and whatever
+/// else it reads beyond the plate's rate) reaches the equations through ω̇, a derivative: the
+/// residual carries −ψ(ṅ)θ, ψ(v) the regressor with ω̇ = v and nothing else (J v, v × h, and
+/// m·(−v × r) through the accelerometer's lever arm r). Summed by parts over a window,
+/// −Σ w φ ψ(ṅ)θ = Σ ẇ φ ψ(n)θ + Σ w φ̇ ψ(n)θ. The whole run (w ≡ 1) has only the second
+/// sum and its two ends; the first is the window's own doing, and for a parameter whose
+/// column barely changes (h through gravity, whose sum of φ̇ is small) it is most of each
+/// window's score, a term the windows' spread counts once per window and the run's error
+/// does not contain (measured, noise-only world, 2 s: mean z² of c_x 0.09; it falls as 1/B²
+/// ([`crate::window`]) but a short run cannot afford long half-blocks). When the samples
+/// carry the rig's forward kinematics (and its gyro is described as noisy), the gyro's error
+/// is measured as its rate less the
+/// kinematic rate of the pose, conditioned alike (`ψ` rows of [`Self::add_sample`]): the
+/// encoders see the plate's rotation some fifty times more quietly than the gyro does at
+/// the excitation's frequencies. Each window's score is then taken without the first sum,
+/// g = b − (A + E)θ with E = Σ ẇ φ ψᵀ, which leaves the scores of the run's own integrand
+/// φ̇ ψ(n)θ. What the kinematics get wrong (a joint's survey error scales the kinematic rate
+/// by about 1e-4) enters E instead, a small smooth term.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ScoreCovariance<const N: usize, const R: usize, const NR: usize> {
     /// The half-block in progress, weighted by the rising window.
@@ -145,6 +169,8 @@ pub struct ScoreCovariance<const N: usize, const R: usize, const NR: usize> {
     mean_to_square: f64,
     /// [`window::shared_share`].
     shared_share: f64,
+    /// π/(2 B Δt): the windows' slopes ẇ per second are this times their (cos, −sin).
+    slope_scale: f64,
 }
 
 impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> {
@@ -177,7 +203,15 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             block_decay: libm::pow(forgetting, 2.0 * block_samples as f64),
             mean_to_square: window::mean_to_square(block_samples),
             shared_share: window::shared_share(block_samples),
+            slope_scale: window::slope_scale(block_samples, 1.0),
         }
+    }
+
+    /// The same, its samples `period_s` apart: it scales the windows' slopes ẇ, which meet the
+    /// gyro's error rows of [`Self::add_sample`] (1 s unless given).
+    pub fn with_sample_period(mut self, period_s: f64) -> Self {
+        self.slope_scale = window::slope_scale(self.block_samples, period_s);
+        self
     }
 
     /// Compile-time check that `NR` = N·R.
@@ -187,6 +221,19 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     /// sample completes a half-block: the caller then calls [`Self::close_block`] with the
     /// fit after this sample (θ and P cost a little to form, so only then).
     pub fn add(&mut self, rows: &SMatrix<f64, R, N>, y: &SVector<f64, R>) -> bool {
+        self.add_sample(rows, y, None)
+    }
+
+    /// [`Self::add`] with the sample's gyro-error rows ψ (weighted alike): the regressor with
+    /// ω̇ set to the gyro's measured error n̂ (its rate less the kinematic rate) and every
+    /// other signal zero. Each window's score is then taken without its slopes' share of the
+    /// gyro's error (the type's docs).
+    pub fn add_sample(
+        &mut self,
+        rows: &SMatrix<f64, R, N>,
+        y: &SVector<f64, R>,
+        rate_error_rows: Option<&SMatrix<f64, R, N>>,
+    ) -> bool {
         if self.forgetting < 1.0 {
             self.rising.age(self.forgetting);
             self.falling.age(self.forgetting);
@@ -202,6 +249,11 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         self.falling.s += phi * fall;
         self.rising.n += rise;
         self.falling.n += fall;
+        if let Some(psi) = rate_error_rows {
+            let product = rows.tr_mul(psi);
+            self.rising.e += product * (self.slope_scale * fall);
+            self.falling.e -= product * (self.slope_scale * rise);
+        }
         self.block_s += phi;
         self.block_y += y;
         // A's upper triangle: entry (i, j ≥ i) gains w rᵢ rⱼ (skipped where rᵢ = 0), row by
@@ -263,7 +315,8 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             // The fit after the window has absorbed part of the window's own noise:
             // (𝟙 − κ A P)^(-1/2) restores the score's variance (see the type's docs).
             let t = own_fit_correction(&(a * self.mean_to_square), p);
-            let g = t * (window.b - a * theta);
+            let g = t * (window.b - (a + window.e) * theta);
+
             let d = t * (window.s - a * (p * self.total_s));
             let decay = self.block_decay;
             self.g_g = self.g_g * decay + g * g.transpose();
@@ -300,13 +353,18 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     /// plain fit's θ and P. The Schur complement is positive semi-definite; a direction where
     /// it vanishes (below 1e-9 of n: an offset the regressors cannot be told from) gets no
     /// offset (pseudo-inverse), as θ has absorbed it already.
-    fn offset(&self, theta: &SVector<f64, N>, p: &SMatrix<f64, N, N>) -> SVector<f64, R> {
+    fn offset(
+        &self,
+        theta: &SVector<f64, N>,
+        p: &SMatrix<f64, N, N>,
+        ends: &SVector<f64, R>,
+    ) -> SVector<f64, R> {
         let (s, y) = self.totals();
         let n = self.total_samples * libm::pow(self.forgetting, self.in_block as f64)
             + self.in_block as f64;
         let schur = SMatrix::<f64, R, R>::identity() * n - s.tr_mul(&(p * s));
         let schur = (schur + schur.transpose()) * 0.5;
-        let rhs = y - s.tr_mul(theta);
+        let rhs = y - s.tr_mul(theta) + ends;
         let mut offset = SVector::<f64, R>::zeros();
         if !(n > 0.0 && schur.iter().all(|v| v.is_finite()) && rhs.iter().all(|v| v.is_finite())) {
             return offset;
@@ -377,7 +435,9 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         self.blocks >= MIN_COVARIANCE_BLOCKS as f64
     }
 
-    /// Covariance of θ given the fit's θ and P (as for [`Self::close_block`]): the offset c,
+    /// Covariance of θ given the fit's θ and P (as for [`Self::close_block`]) and the gyro's
+    /// error's share of the residuals' sum, `ends` ([`crate::rate_ends::RateEnds::residual_sum`],
+    /// zero without the kinematics), which the offset must not take for its own: the offset c,
     /// then the sandwich P M P with M of the offset-free scores, scaled by
     /// [`cluster_factor`] (G windows, n rows, N parameters and R offsets fitted) and,
     /// quantity by quantity, by [`student_factor`] of that quantity's own degrees of freedom.
@@ -400,6 +460,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         theta: &SVector<f64, N>,
         p: &SMatrix<f64, N, N>,
         quantities: &SMatrix<f64, N, N>,
+        ends: &SVector<f64, R>,
     ) -> SMatrix<f64, N, N>
     where
         Const<N>: DimMin<Const<N>, Output = Const<N>>,
@@ -409,7 +470,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         if !self.is_measured() || n <= fitted + 1.0 {
             return *p;
         }
-        let m = self.score_sum(&self.offset(theta, p));
+        let m = self.score_sum(&self.offset(theta, p, ends));
         let c = p * m * p * cluster_factor(self.blocks, n, fitted);
         let c = (c + c.transpose()) * 0.5;
         let fallback = student_factor(self.blocks - 1.0);
@@ -441,7 +502,10 @@ mod tests {
         let mut s = ScoreCovariance::<2, 1, 2>::new(10, 1.0);
         let p = SMatrix::<f64, 2, 2>::identity() * 0.5;
         let theta = SVector::<f64, 2>::zeros();
-        assert_eq!(s.covariance(&theta, &p, &SMatrix::identity()), p);
+        assert_eq!(
+            s.covariance(&theta, &p, &SMatrix::identity(), &SVector::zeros()),
+            p
+        );
         let rows = SMatrix::<f64, 1, 2>::new(1.0, 0.0);
         for k in 0..1000 {
             let y = SVector::<f64, 1>::new(if k % 2 == 0 { 1.0 } else { -1.0 });
@@ -453,8 +517,87 @@ mod tests {
         // 100 half-blocks make 98 counted windows (the first does not count, the last
         // half-block only ends one).
         assert!((s.blocks() - 98.0).abs() < 1e-12);
-        let c = s.covariance(&theta, &p, &SMatrix::identity());
+        let c = s.covariance(&theta, &p, &SMatrix::identity(), &SVector::zeros());
         assert!(c[(0, 0)] < 0.03 * p[(0, 0)]);
+    }
+
+    /// The gyro's error through a derivative (see the type's docs): y = h φ + J ω̇ with φ
+    /// gravity-like (9.81, ±20 %) and ω̇ read as ω̇ + ṅ, n low-passed white noise. Each window's
+    /// score of h carries Σ ẇ φ J n, which the whole run's score does not: the windows' M of h
+    /// is then many times the variance of the run's score (without its two ends, which
+    /// `crate::rate_ends` takes out). Given the error rows ψ = [0, n], it matches it (within
+    /// the windows' own shortfall for noise correlated over a tenth of a half-block, and the
+    /// 300 runs' sampling error, about 8 %).
+    #[test]
+    fn the_gyros_error_rows_take_the_window_slopes_share_out_of_the_scores() {
+        use crate::filter::{Biquad, LowPass};
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Normal};
+        let period = 1e-3;
+        let (half_block, half_blocks) = (250u32, 40usize);
+        let samples = half_block as usize * half_blocks;
+        let (h, j) = (2.0, 3.0);
+        let theta = SVector::<f64, 2>::new(h, j);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(21);
+        let normal = Normal::new(0.0, 2e-3).unwrap();
+        let biquad = Biquad::butterworth(5.0, period).unwrap();
+        let runs = 300;
+        let (mut plain, mut corrected, mut legit) = (0.0, 0.0, std::vec::Vec::new());
+        for _ in 0..runs {
+            let mut filter = LowPass::<1>::new(biquad);
+            // Two samples more at each end for the central differences.
+            let n: std::vec::Vec<f64> = (0..samples + 400)
+                .map(|_| {
+                    filter
+                        .step(&SVector::from_element(normal.sample(&mut rng)))
+                        .x
+                })
+                .skip(398)
+                .collect();
+            let phi = |t: usize| {
+                9.81 * (1.0
+                    + 0.2 * libm::sin(2.0 * core::f64::consts::PI * 1.3 * t as f64 * period))
+            };
+            let mut without = ScoreCovariance::<2, 1, 2>::new(half_block, 1.0);
+            let mut with = without.with_sample_period(period);
+            let mut sum = 0.0;
+            for t in 0..samples {
+                let time = t as f64 * period;
+                let omega_dot = 2.0 * libm::sin(2.0 * core::f64::consts::PI * 0.9 * time);
+                let n_dot = (n[t + 2] - n[t]) / (2.0 * period);
+                let rows = SMatrix::<f64, 1, 2>::new(phi(t), omega_dot + n_dot);
+                let y = SVector::<f64, 1>::new(h * phi(t) + j * omega_dot);
+                let psi = SMatrix::<f64, 1, 2>::new(0.0, n[t + 1]);
+                let closes = without.add(&rows, &y);
+                with.add_sample(&rows, &y, Some(&psi));
+                if closes {
+                    let zero = SMatrix::<f64, 2, 2>::zeros();
+                    let one = SMatrix::<f64, 2, 2>::identity();
+                    without.close_block(&theta, &zero, &zero, &one);
+                    with.close_block(&theta, &zero, &zero, &one);
+                }
+                // The run's score of h less its ends: J Σ φ̇ n (summation by parts).
+                let phi_dot = (phi(t + 1) - phi(t.wrapping_sub(1).min(t))) / (2.0 * period);
+                if t > 0 {
+                    sum += j * phi_dot * n[t + 1];
+                }
+            }
+            plain += without.score_sum(&SVector::zeros())[(0, 0)] / runs as f64;
+            corrected += with.score_sum(&SVector::zeros())[(0, 0)] / runs as f64;
+            legit.push(sum);
+        }
+        let mean = legit.iter().sum::<f64>() / runs as f64;
+        let variance = legit.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (runs - 1) as f64;
+        // The counted windows cover all but the first and last half-block.
+        let variance = variance * (half_blocks - 2) as f64 / half_blocks as f64;
+        std::eprintln!(
+            "M of h: {plain:.3e} plain, {corrected:.3e} corrected; run's score less its ends {variance:.3e}"
+        );
+        assert!(plain > 5.0 * variance, "{plain:e} vs {variance:e}");
+        assert!(
+            (0.8..1.25).contains(&(corrected / variance)),
+            "{corrected:e} vs {variance:e}"
+        );
     }
 
     /// Mean z² of each parameter over `runs` linear fits y = φθ + e, φ and e standard normal
@@ -495,7 +638,7 @@ mod tests {
             }
             let p = a.try_inverse().unwrap();
             let theta = p * b;
-            let c = s.covariance(&theta, &p, &SMatrix::identity());
+            let c = s.covariance(&theta, &p, &SMatrix::identity(), &SVector::zeros());
             for (k, z) in z2.iter_mut().enumerate() {
                 *z += (theta[k] - truth[k]).powi(2) / c[(k, k)] / runs as f64;
             }
@@ -563,7 +706,10 @@ mod tests {
         // MIN_COVARIANCE_BLOCKS + 2 half-blocks in all: the first window does not count.
         while s.blocks() < MIN_COVARIANCE_BLOCKS as f64 {
             assert!(!s.is_measured());
-            assert_eq!(s.covariance(&theta, &p, &SMatrix::identity()), p);
+            assert_eq!(
+                s.covariance(&theta, &p, &SMatrix::identity(), &SVector::zeros()),
+                p
+            );
             let y = SVector::<f64, 1>::new(((k * 7919) % 13) as f64 - 6.0);
             if s.add(&rows, &y) {
                 s.close_block(&theta, &p, &SMatrix::zeros(), &SMatrix::identity());
@@ -572,7 +718,10 @@ mod tests {
         }
         assert_eq!(k, 10 * (MIN_COVARIANCE_BLOCKS + 2));
         assert!(s.is_measured());
-        assert_ne!(s.covariance(&theta, &p, &SMatrix::identity()), p);
+        assert_ne!(
+            s.covariance(&theta, &p, &SMatrix::identity(), &SVector::zeros()),
+            p
+        );
     }
 
     proptest::proptest! {
@@ -603,7 +752,7 @@ mod tests {
                 }
             }
             let p = a.try_inverse().unwrap_or_else(SMatrix::identity);
-            let c = s.covariance(&(p * b), &p, &SMatrix::identity());
+            let c = s.covariance(&(p * b), &p, &SMatrix::identity(), &SVector::zeros());
             proptest::prop_assert!(c.iter().all(|v| v.is_finite()), "{c}");
             proptest::prop_assert!((c - c.transpose()).norm() <= 1e-9 * c.norm().max(1e-300));
             let (values, _) = crate::uncertainty::jacobi_eigen(c);

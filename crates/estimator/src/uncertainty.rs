@@ -81,7 +81,7 @@ pub fn own_fit_correction<const N: usize>(
 /// covariance to be measured: G ≥ 6, i.e. ν = G − 1 ≥ 5 degrees of freedom (a little fewer
 /// for the overlapping windows, [`crate::dof`]). Why: the
 /// standardised error z = e/σ̂ of a variance estimated with ν degrees of freedom is Student-t;
-/// [`small_sample_factor`] makes E[z²] = 1 for any ν > 2, but z² has a finite variance only for
+/// [`small_sample_factor`] makes E(z²) = 1 for any ν > 2, but z² has a finite variance only for
 /// ν > 4, so below that a single run's z, or a campaign's mean z², says nothing reliable (one
 /// heavy-tailed run dominates it). With the factor, ±2σ covers 95.1 % at ν = 5 and 95.0–95.4 %
 /// for every larger ν (Gaussian: 95.4 %).
@@ -89,7 +89,7 @@ pub const MIN_COVARIANCE_BLOCKS: u32 = 6;
 
 /// Small-sample factor of the window-sandwich covariance from G (effective) windows of n
 /// rows in all, `fitted` = N + R parameters and offsets fitted, when every quantity's variance has
-/// the windows' own ν = G − 1 degrees of freedom: [`cluster_factor`] · [`student_factor`](ν).
+/// the windows' own ν = G − 1 degrees of freedom: [`cluster_factor`] · [`student_factor`] of ν.
 /// [`crate::score::ScoreCovariance::covariance`] takes each quantity's own ν instead
 /// ([`crate::dof`]).
 pub fn small_sample_factor(blocks: f64, rows: f64, fitted: f64) -> f64 {

@@ -1,6 +1,6 @@
 //! The overlapping windows over which the residual scores are summed.
 //!
-//! The covariance's scores ([`crate::uncertainty::ScoreCovariance`]) are sums of φ r over
+//! The covariance's scores ([`crate::score::ScoreCovariance`]) are sums of φ r over
 //! stretches of the run. Summed with a rectangular window, a stretch of derivative noise
 //! ẋ (the gyro's, through J ω̇) telescopes to its two edge values: the score of a parameter
 //! with a near-constant regressor column (the first moment h, through gravity) is then
@@ -9,7 +9,8 @@
 //! counts once per stretch (measured on the noise-only world, 20 s: mean z² of c_x 0.32, 0.18
 //! and 0.09 with blocks of 0.4, 0.2 and 0.1 s — proportional to the block's length, as a
 //! per-block constant predicts). A window that falls to zero at both ends turns the sum into
-//! −Σ ẇ x, of order 1/B of it.
+//! −Σ ẇ x, of order 1/B of it, and where the kinematics measure the gyro's error x the score
+//! takes that sum out altogether ([`slope_scale`] gives ẇ; [`crate::score`]).
 //!
 //! Each window spans two half-blocks of B samples, rising over the first and falling over the
 //! second, and consecutive windows overlap by one half-block. At position t of a half-block,
@@ -40,6 +41,13 @@ pub fn closing(index: u64) -> Option<bool> {
 pub fn weights(t: u32, half_block: u32) -> (f64, f64) {
     let u = (f64::from(t) + 0.5) / f64::from(half_block.max(1));
     libm::sincos(FRAC_PI_2 * u)
+}
+
+/// π/(2 B Δt): the rising and falling weights' slopes per second are this times
+/// (cos(πu/2), −sin(πu/2)), i.e. times the falling weight and minus the rising one, for
+/// half-blocks of B samples `period_s` apart.
+pub fn slope_scale(half_block: u32, period_s: f64) -> f64 {
+    FRAC_PI_2 / (f64::from(half_block.max(1)) * period_s)
 }
 
 /// κ = Σw / Σw² over a whole window of two half-blocks of B samples: Σ sin = Σ cos =
