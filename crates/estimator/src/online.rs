@@ -94,6 +94,11 @@ pub struct EstimatorConfig {
     /// end at rest) against it give the accelerometer's offset, subtracted from every sample
     /// in the window ([`crate::hold`]). 0 leaves the offset in.
     pub local_gravity_m_s2: f64,
+    /// End of the stretch at rest whose readings give the accelerometer's offset, s: the
+    /// excitation's start when the window starts later (a re-estimate of part of the run: the
+    /// samples between are in motion, and their mean is not gravity's). `None`: the window's
+    /// start.
+    pub hold_end_s: Option<f64>,
 }
 
 impl EstimatorConfig {
@@ -122,6 +127,7 @@ impl EstimatorConfig {
             covariance_block_samples: Self::default_covariance_block_samples(sample_period_s),
             legs: None,
             local_gravity_m_s2: 0.0,
+            hold_end_s: None,
         }
     }
 
@@ -847,7 +853,13 @@ impl OnlineEstimator {
 
     /// Before the window, adds the reading to the average at rest ([`crate::hold`]).
     fn average_at_rest(&mut self, sample: &Sample) {
-        if self.config.local_gravity_m_s2 > 0.0 && sample.time_s < self.config.window_start_s {
+        let hold_end_s = self
+            .config
+            .hold_end_s
+            .map_or(self.config.window_start_s, |e| {
+                e.min(self.config.window_start_s)
+            });
+        if self.config.local_gravity_m_s2 > 0.0 && sample.time_s < hold_end_s {
             let up_in_p = sample.pose.rotation.inverse() * Vector3::z();
             self.hold.push(&sample.accel_m_s2, &up_in_p);
         }
