@@ -367,15 +367,14 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         let theta = *self.rls.theta();
         let p = self.rls.covariance();
         let (pc, moment, inv) = self.moment_corrected(&p);
-        let delta = self.ends.delta();
-        if delta.iter().all(|v| *v == 0.0) {
-            return (inv.map_or(theta, |i| i * theta), pc, moment);
-        }
-        let k = moment * self.samples + delta;
-        let m = SMatrix::<f64, N, N>::identity() - p * k;
-        match m.try_inverse().map(|i| i * theta) {
-            Some(t) if t.iter().all(|v| v.is_finite()) => (t, pc, moment),
-            _ => (inv.map_or(theta, |i| i * theta), pc, moment),
+        let t = self
+            .ends_corrected(&p, &moment)
+            .or(inv)
+            .map_or(theta, |i| i * theta);
+        if t.iter().all(|v| v.is_finite()) {
+            (t, pc, moment)
+        } else {
+            (theta, pc, moment)
         }
     }
 
@@ -385,15 +384,22 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
     fn gain(&self) -> SMatrix<f64, N, N> {
         let p = self.rls.covariance();
         let (pc, moment, _) = self.moment_corrected(&p);
+        self.ends_corrected(&p, &moment).map_or(pc, |i| i * p)
+    }
+
+    /// (𝟙 − P (nC + Δ))⁻¹ with the moment C applied, when the gyro's ends give a Δ and the
+    /// system stays regular and finite; `None` otherwise.
+    fn ends_corrected(
+        &self,
+        p: &SMatrix<f64, N, N>,
+        moment: &SMatrix<f64, N, N>,
+    ) -> Option<SMatrix<f64, N, N>> {
         let delta = self.ends.delta();
         if delta.iter().all(|v| *v == 0.0) {
-            return pc;
+            return None;
         }
         let m = SMatrix::<f64, N, N>::identity() - p * (moment * self.samples + delta);
-        match m.try_inverse().map(|i| i * p) {
-            Some(q) if q.iter().all(|v| v.is_finite()) => q,
-            _ => pc,
-        }
+        m.try_inverse().filter(|i| i.iter().all(|v| v.is_finite()))
     }
 
     /// P' = (𝟙 − nPC)⁻¹ P, the moment C and (𝟙 − nPC)⁻¹ when the noise moment applies (a
