@@ -325,12 +325,19 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             self.rls = before;
             return Err(EstimatorError::Overflow("least-squares update"));
         }
-        let wpsi = rate_error_rows.map(|psi| self.weigh(psi));
-        match &wpsi {
-            Some(psi) => self.ends.add(&wrows, psi, starts_stretch),
-            None => self.ends.interrupt(),
-        }
-        if self.score.add_sample(&wrows, &wy, wpsi.as_ref()) {
+        // Φᵀψ once per sample, for the windows' slopes and for the run's ends.
+        let normal = match rate_error_rows.map(|psi| self.weigh(psi)) {
+            Some(psi) => {
+                let normal = wrows.tr_mul(&psi);
+                self.ends.add(&normal, &psi, starts_stretch);
+                Some(normal)
+            }
+            None => {
+                self.ends.interrupt();
+                None
+            }
+        };
+        if self.score.add_sample(&wrows, &wy, normal.as_ref()) {
             let (theta, p, moment) = self.corrected_with_moment();
             self.score
                 .close_block(&theta, &p, &moment, &self.quantities.gradients(&theta));
@@ -853,8 +860,17 @@ impl OnlineEstimator {
             &sample.gyro_rad_s,
             &sample.accel_m_s2,
             map.as_ref(),
-            Some(&sample.pose),
+            (self.config.legs.is_some() || self.measures_gyro_error()).then_some(&sample.pose),
         )
+    }
+
+    /// Whether the gyro's error is measured against the kinematics and taken out
+    /// ([`crate::rate_ends`], [`crate::score`]): for a gyro the rig describes as noisy only.
+    /// Against an exact one the measured excess is the kinematics' own error (a simulator's
+    /// integrator, 3e-7 rad/s on the paper's case), which the run's ends would amplify by 1/Δt
+    /// at the first samples.
+    fn measures_gyro_error(&self) -> bool {
+        self.config.gyro_noise_rad_s > 0.0
     }
 
     /// Before the window, adds the reading to the average at rest ([`crate::hold`]).
@@ -948,14 +964,10 @@ impl OnlineEstimator {
         let phi = from_signals(&c.signals);
         let y = to_vector(&c.wrench);
         // The regressor's part linear in ω̇, at the gyro's measured error: ω̇ enters the
-        // specific force at the P origin through the lever arm, −ω̇ × r. Only for a gyro the
-        // rig describes as noisy: against an exact one, the measured excess is the
-        // kinematics' own error (a simulator's integrator, 3e-7 rad/s on the paper's case),
-        // which the correction would amplify by 1/Δt at the run's first samples.
-        let gyro_is_noisy = self.config.gyro_noise_rad_s > 0.0;
+        // specific force at the P origin through the lever arm, −ω̇ × r.
         let rate_error = c
             .gyro_excess_rad_s
-            .filter(|_| gyro_is_noisy)
+            .filter(|_| self.measures_gyro_error())
             .map(|n| RegressorSignals {
                 angular_acceleration_rad_s2: n,
                 rate_products_rad2_s2: Vector6::zeros(),

@@ -90,17 +90,18 @@ impl<const N: usize, const R: usize> RateEnds<N, R> {
         }
     }
 
-    /// Adds one sample's weighted rows Φ and gyro-error rows ψ(n̂). `starts_stretch`: the
-    /// conditioning started afresh before this sample (its first output, or the first after a
-    /// restart), which closes the stretch in progress at its latest sample.
+    /// Adds one sample's Φᵀψ(n̂) (`normal`, weighted rows) and gyro-error rows ψ(n̂).
+    /// `starts_stretch`: the conditioning started afresh before this sample (its first output,
+    /// or the first after a restart), which closes the stretch in progress at its latest
+    /// sample.
     pub fn add(
         &mut self,
-        rows: &SMatrix<f64, R, N>,
+        normal: &SMatrix<f64, N, N>,
         psi: &SMatrix<f64, R, N>,
         starts_stretch: bool,
     ) {
         let sample = Ends {
-            normal: rows.tr_mul(psi),
+            normal: *normal,
             rows: *psi,
         };
         if self.forgetting < 1.0 {
@@ -167,17 +168,17 @@ mod tests {
         let theta = nalgebra::Vector2::new(1.0, -2.0);
         assert_eq!(ends.delta(), Matrix2::zeros());
         ends.add(&one, &one, true);
-        ends.add(&one, &(one * 4.0), false);
-        ends.add(&one, &(one * 3.0), false);
+        ends.add(&(one * 4.0), &(one * 4.0), false);
+        ends.add(&(one * 3.0), &(one * 3.0), false);
         assert_eq!(ends.delta(), one * 4.0); // (3 − 1) / 0.5
         assert_eq!(ends.residual_sum(&theta), theta * 4.0);
-        ends.add(&one, &(one * 10.0), true);
-        ends.add(&(one * 2.0), &(one * 11.0), false);
+        ends.add(&(one * 10.0), &(one * 10.0), true);
+        ends.add(&(one * 22.0), &(one * 11.0), false);
         // (2 + (22 − 10)) / 0.5 for Φᵀψ, (2 + 1) / 0.5 for ψ.
         assert_eq!(ends.delta(), one * 28.0);
         assert_eq!(ends.residual_sum(&theta), theta * 6.0);
         ends.interrupt();
-        ends.add(&one, &(one * 7.0), false);
+        ends.add(&(one * 7.0), &(one * 7.0), false);
         assert_eq!(ends.residual_sum(&theta), theta * 6.0);
     }
 }

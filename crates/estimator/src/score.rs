@@ -117,7 +117,7 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
 /// ([`crate::window`]) but a short run cannot afford long half-blocks). When the samples
 /// carry the rig's forward kinematics (and its gyro is described as noisy), the gyro's error
 /// is measured as its rate less the
-/// kinematic rate of the pose, conditioned alike (`ψ` rows of [`Self::add_sample`]): the
+/// kinematic rate of the pose, conditioned alike (Φᵀψ of [`Self::add_sample`]): the
 /// encoders see the plate's rotation some fifty times more quietly than the gyro does at
 /// the excitation's frequencies. Each window's score is then taken without the first sum,
 /// g = b − (A + E)θ with E = Σ ẇ φ ψᵀ, which leaves the scores of the run's own integrand
@@ -224,15 +224,16 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         self.add_sample(rows, y, None)
     }
 
-    /// [`Self::add`] with the sample's gyro-error rows ψ (weighted alike): the regressor with
-    /// ω̇ set to the gyro's measured error n̂ (its rate less the kinematic rate) and every
-    /// other signal zero. Each window's score is then taken without its slopes' share of the
-    /// gyro's error (the type's docs).
+    /// [`Self::add`] with the sample's Φᵀψ, ψ its gyro-error rows (weighted alike): the
+    /// regressor with ω̇ set to the gyro's measured error n̂ (its rate less the kinematic rate)
+    /// and every other signal zero. Each window's score is then taken without its slopes'
+    /// share of the gyro's error (the type's docs). The caller forms Φᵀψ once for this and
+    /// for the run's ends ([`crate::rate_ends::RateEnds::add`]).
     pub fn add_sample(
         &mut self,
         rows: &SMatrix<f64, R, N>,
         y: &SVector<f64, R>,
-        rate_error_rows: Option<&SMatrix<f64, R, N>>,
+        rate_error_normal: Option<&SMatrix<f64, N, N>>,
     ) -> bool {
         if self.forgetting < 1.0 {
             self.rising.age(self.forgetting);
@@ -249,8 +250,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         self.falling.s += phi * fall;
         self.rising.n += rise;
         self.falling.n += fall;
-        if let Some(psi) = rate_error_rows {
-            let product = rows.tr_mul(psi);
+        if let Some(product) = rate_error_normal {
             self.rising.e += product * (self.slope_scale * fall);
             self.falling.e -= product * (self.slope_scale * rise);
         }
@@ -569,7 +569,7 @@ mod tests {
                 let y = SVector::<f64, 1>::new(h * phi(t) + j * omega_dot);
                 let psi = SMatrix::<f64, 1, 2>::new(0.0, n[t + 1]);
                 let closes = without.add(&rows, &y);
-                with.add_sample(&rows, &y, Some(&psi));
+                with.add_sample(&rows, &y, Some(&rows.tr_mul(&psi)));
                 if closes {
                     let zero = SMatrix::<f64, 2, 2>::zeros();
                     let one = SMatrix::<f64, 2, 2>::identity();

@@ -185,8 +185,8 @@ pub fn settings_of(
         })?;
         if let Some(s) = w.start_s {
             c.window_start_s = origin_s + s;
-            // The accelerometer's offset still comes from the rest before the excitation,
-            // not from the motion before a later window.
+            // The accelerometer's offset comes from the rest before the excitation, not from
+            // the motion before a later window.
             c.hold_end_s = Some(origin_s);
         }
         if let Some(e) = w.end_s {
