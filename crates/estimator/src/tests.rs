@@ -82,6 +82,25 @@ fn config(cutoff: Option<f64>, period: f64) -> EstimatorConfig {
     c
 }
 
+/// A noiseless [`synthetic_sample`] with the accelerometer at the P origin.
+fn exact_sample(
+    geometry: &kinematics::Geometry,
+    body: &PointBody,
+    motion: &Motion,
+    t: f64,
+    rng: &mut StdRng,
+) -> crate::online::Sample {
+    synthetic_sample(
+        geometry,
+        body,
+        motion,
+        t,
+        &Vector3::zeros(),
+        &SensorNoise::default(),
+        rng,
+    )
+}
+
 #[allow(clippy::too_many_arguments)]
 fn run(
     estimator: &mut OnlineEstimator,
@@ -181,15 +200,7 @@ fn paper_case_converges_within_100_samples() {
     let g = test_geometry();
     let mut last_outside = 0;
     for k in 0..400 {
-        let s = synthetic_sample(
-            &g,
-            &body,
-            &motion,
-            k as f64 * period,
-            &Vector3::zeros(),
-            &SensorNoise::default(),
-            &mut rng,
-        );
+        let s = exact_sample(&g, &body, &motion, k as f64 * period, &mut rng);
         est.update(&s).unwrap();
         let e = est.estimate();
         let j = e.inertia_com_kg_m2;
@@ -832,15 +843,7 @@ fn low_pass_start_transient_does_not_reach_the_fit() {
     for k in 0..8000 {
         // A gap of 50 ms at 4 s restarts the conditioning.
         let t = k as f64 * 1e-3 + if k >= 4000 { 0.05 } else { 0.0 };
-        let mut s = synthetic_sample(
-            &g,
-            &body,
-            &motion,
-            t,
-            &Vector3::zeros(),
-            &SensorNoise::default(),
-            &mut rng,
-        );
+        let mut s = exact_sample(&g, &body, &motion, t, &mut rng);
         if k == 0 || k == 4000 {
             s.gyro_rad_s.z += 2e-3;
         }
@@ -999,15 +1002,7 @@ fn a_gyro_error_at_the_runs_end_is_taken_out_of_the_first_moment() {
         let mut rng = StdRng::seed_from_u64(1);
         for k in 0..samples {
             let t = k as f64 * 1e-3;
-            let mut s = synthetic_sample(
-                &g,
-                &body,
-                &motion,
-                t,
-                &Vector3::zeros(),
-                &SensorNoise::default(),
-                &mut rng,
-            );
+            let mut s = exact_sample(&g, &body, &motion, t, &mut rng);
             if with_error && k + 20 >= samples {
                 s.gyro_rad_s += error * ((k + 20 - samples) as f64 / 20.0);
             }
@@ -1054,15 +1049,7 @@ fn the_accelerometer_offset_comes_from_the_rest_not_from_the_motion_before_a_lat
         let mut rng = StdRng::seed_from_u64(1);
         for k in 0..6000 {
             let t = k as f64 * 1e-3 - 1.0;
-            let mut s = synthetic_sample(
-                &g,
-                &body,
-                &motion,
-                t.max(0.0),
-                &Vector3::zeros(),
-                &SensorNoise::default(),
-                &mut rng,
-            );
+            let mut s = exact_sample(&g, &body, &motion, t.max(0.0), &mut rng);
             s.time_s = t;
             if t < 0.0 {
                 // At rest at the motion's start pose: gravity's specific force only.
