@@ -101,6 +101,14 @@ impl<const N: usize> BlockInformation<N> {
         }
     }
 
+    /// The counted windows' summed score variance along w for white equation errors,
+    /// Σ aₖ = Σ wᵀ Vₖ w: what the sandwich's middle expects to see of the run's information
+    /// along w (module docs). `None` before any window or for a non-finite sum.
+    pub fn covered_variance(&self, w: &SVector<f64, N>) -> Option<f64> {
+        let covered = self.sum.dot(&pack_outer(w));
+        covered.is_finite().then_some(covered)
+    }
+
     /// ν of the sandwich's variance along w = P c (see the module docs); `None` before any
     /// window, for a zero or non-finite direction, or when the sums give no positive ν.
     pub fn degrees_of_freedom(&self, w: &SVector<f64, N>) -> Option<f64> {

@@ -87,26 +87,19 @@ pub fn own_fit_correction<const N: usize>(
 /// for every larger ν (Gaussian: 95.4 %).
 pub const MIN_COVARIANCE_BLOCKS: u32 = 6;
 
-/// Small-sample factor of the window-sandwich covariance from G (effective) windows of n
-/// rows in all, `fitted` = N + R parameters and offsets fitted, when every quantity's variance has
-/// the windows' own ν = G − 1 degrees of freedom: [`cluster_factor`] · [`student_factor`] of ν.
-/// [`crate::score::ScoreCovariance::covariance`] takes each quantity's own ν instead
-/// ([`crate::dof`]).
-pub fn small_sample_factor(blocks: f64, rows: f64, fitted: f64) -> f64 {
-    cluster_factor(blocks, rows, fitted) * student_factor(blocks - 1.0)
-}
-
-/// G/(G−1) · (n−1)/(n−N−R): the cluster-robust CR1 correction (scores at one fitted θ sum to
-/// zero over the clusters, which spends one of the G; the rows' factor counts the fitted
-/// parameters). The window scores, taken along the run and corrected for their own fit
-/// ([`own_fit_correction`]), do not sum to zero, and G/(G−1) stays as a small margin for the
-/// second-order share of the leverage (`crate::score`'s synthetic tests: mean z² within
-/// [0.85, 1.2] at 8–18 windows). Infinite unless G > 1 and n > N + R.
-pub fn cluster_factor(blocks: f64, rows: f64, fitted: f64) -> f64 {
-    if !(blocks > 1.0 && rows > fitted) {
-        return f64::INFINITY;
+/// (n−1)/(n−N−R) for n rows in all and `fitted` = N + R parameters and offsets fitted: the
+/// rows' share of the cluster-robust CR1 correction. Its windows' share, G/(G−1) for scores at
+/// one fitted θ that sum to zero, does not apply: the window scores are taken along the run
+/// and corrected for their own fit ([`own_fit_correction`]), and what the windows miss is
+/// the run's information outside them, which [`crate::score::ScoreCovariance::covariance`]
+/// restores quantity by quantity (`crate::score`'s synthetic tests: mean z² within
+/// [0.9, 1.1] at 8–18 windows). Infinite unless n > N + R.
+pub fn fitted_rows_factor(rows: f64, fitted: f64) -> f64 {
+    if rows > fitted {
+        (rows - 1.0) / (rows - fitted)
+    } else {
+        f64::INFINITY
     }
-    blocks / (blocks - 1.0) * (rows - 1.0) / (rows - fitted)
 }
 
 /// ν/(ν−2) for a variance estimated with ν degrees of freedom: an unbiased σ̂² = σ² χ²_ν/ν,
@@ -464,19 +457,15 @@ mod tests {
     }
 
     #[test]
-    fn small_sample_factor_by_hand() {
-        // G = 6, n = 300 rows, 3 fitted: 6/5 · 299/297 · 5/3.
-        let k = small_sample_factor(6.0, 300.0, 3.0);
-        assert!((k - 6.0 / 5.0 * 299.0 / 297.0 * 5.0 / 3.0).abs() < 1e-12);
-        // ν = G − 1 ≤ 2 has no finite mean z²: the factor stops at MIN_DEGREES_OF_FREEDOM
-        // (3/1); many blocks tend to 1; one block has no cluster factor.
+    fn small_sample_factors_by_hand() {
+        // n = 300 rows, 3 fitted: 299/297; ν = 5: 5/3.
+        assert!((fitted_rows_factor(300.0, 3.0) - 299.0 / 297.0).abs() < 1e-15);
+        assert!((student_factor(5.0) - 5.0 / 3.0).abs() < 1e-15);
+        // ν ≤ 2 has no finite mean z²: the factor stops at MIN_DEGREES_OF_FREEDOM (3/1);
+        // many rows and degrees of freedom tend to 1; no more rows than fitted is infinite.
         assert_eq!(student_factor(2.0), 3.0);
         assert_eq!(student_factor(f64::NAN), 3.0);
-        assert_eq!(
-            small_sample_factor(3.0, 300.0, 3.0),
-            1.5 * 299.0 / 297.0 * 3.0
-        );
-        assert_eq!(cluster_factor(1.0, 300.0, 3.0), f64::INFINITY);
-        assert!((small_sample_factor(1e6, 1e9, 3.0) - 1.0).abs() < 1e-5);
+        assert!((fitted_rows_factor(1e9, 3.0) * student_factor(1e6) - 1.0).abs() < 1e-5);
+        assert_eq!(fitted_rows_factor(3.0, 3.0), f64::INFINITY);
     }
 }
