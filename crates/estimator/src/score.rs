@@ -451,7 +451,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     /// coverage) in the quantities' basis
     /// (Q = G C Gᵀ → D Q D, D = diag √fⱼ, back by G⁻¹), which keeps the quantities'
     /// correlations and C positive semi-definite. When `quantities` is singular, every
-    /// quantity takes ν = G − 1.
+    /// quantity takes ν = G − 1 and the largest coverage.
     ///
     /// Before [`MIN_COVARIANCE_BLOCKS`] windows count ([`Self::is_measured`]) it is P, what
     /// the configured equation sigmas predict: a provisional figure for a live display, which
@@ -476,12 +476,14 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         let c = p * m * p * fitted_rows_factor(n, fitted);
         let c = (c + c.transpose()) * 0.5;
         let fallback = student_factor(self.blocks - 1.0);
+        let coverage =
+            SVector::<f64, N>::from_fn(|j, _| self.coverage(p, &quantities.row(j).transpose()));
         let roots = SVector::<f64, N>::from_fn(|j, _| {
             let nu = self.degrees.get(j).copied().flatten();
-            let coverage = self.coverage(p, &quantities.row(j).transpose());
-            libm::sqrt(nu.map_or(fallback, student_factor) * coverage)
+            let covered = coverage.get(j).copied().unwrap_or(1.0);
+            libm::sqrt(nu.map_or(fallback, student_factor) * covered)
         });
-        scale_in_basis(&c, quantities, &roots).unwrap_or(c * fallback)
+        scale_in_basis(&c, quantities, &roots).unwrap_or(c * (fallback * coverage.max()))
     }
 
     /// The run's information along quantity q against what the counted windows cover of it:
@@ -717,7 +719,6 @@ mod tests {
     fn information_near_the_runs_ends_counts_in_the_sigma() {
         let z2 = uneven_run_mean_z2(10, 4000, |k| if k == 9 { 3.0 } else { 1.0 });
         for (k, z) in z2.iter().enumerate() {
-            std::eprintln!("parameter {k}: mean z² {z:.3}");
             assert!((0.75..=1.2).contains(z), "parameter {k}: mean z² {z:.3}");
         }
     }
