@@ -8,7 +8,8 @@
 //! [`regressor`] (Newton–Euler about the P origin, linear in θ) → rows weighted by their noise →
 //! [`rls`] (U-D factorised recursive least squares; the gyro's error, measured against the
 //! kinematic rate of the pose, taken out at the run's ends by [`rate_ends`]) → [`score`] (the
-//! residuals' sandwich covariance over overlapping windows) → [`uncertainty`] (propagated to c and J_C) → [`Estimate`]. An estimate that is not physically
+//! residuals' sandwich covariance over overlapping windows, scored at the estimate without the
+//! gyro's measured error, [`rate_integral`]) → [`uncertainty`] (propagated to c and J_C) → [`Estimate`]. An estimate that is not physically
 //! consistent is projected onto the consistent set by [`projection::nearest_consistent`] (the
 //! nearest point in the metric of its covariance).
 //!
@@ -42,6 +43,7 @@ pub mod legs;
 mod online;
 pub mod projection;
 pub mod rate_ends;
+pub mod rate_integral;
 pub mod regressor;
 pub mod rls;
 pub mod score;

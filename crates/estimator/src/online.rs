@@ -7,9 +7,10 @@ use crate::estimate::{Counts, Estimate, ParameterCovariance};
 use crate::hold::{AccelerometerOffset, HoldAverage};
 use crate::legs::{unseen_total, LegModel};
 use crate::rate_ends::RateEnds;
+use crate::rate_integral::RateIntegral;
 use crate::regressor::{from_signals, inertia_columns, RegressorSignals};
 use crate::rls::Rls;
-use crate::score::ScoreCovariance;
+use crate::score::{RateErrorNormals, ScoreCovariance};
 use crate::timebase::Timing;
 use crate::uncertainty::derived_jacobian;
 use crate::wrench::{measured, to_vector};
@@ -270,15 +271,21 @@ struct Solver<const N: usize, const R: usize, const NR: usize> {
     correction_applied: Option<bool>,
     /// The gyro's error at the ends of the conditioning's stretches, taken out of θ.
     ends: RateEnds<N, R>,
+    /// The gyro's measured error over the whole run, taken out of the estimate the residual
+    /// windows are scored at (not out of θ: [`crate::rate_integral`]).
+    rate_integral: RateIntegral<N, R>,
 }
 
 impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
+    /// `noise`: the regressor noise's second moment per sample C, and C_ω̇, the part of it
+    /// the gyro's derivative noise adds ([`noise_moment`]).
     fn new(
         config: &EstimatorConfig,
         sigma: SVector<f64, R>,
-        noise_moment: SMatrix<f64, N, N>,
+        noise: (SMatrix<f64, N, N>, SMatrix<f64, N, N>),
         quantities: Reported,
     ) -> Result<Self, EstimatorError> {
+        let (noise_moment, rate_moment) = noise;
         let p0 = config.prior_sigma * config.prior_sigma;
         Ok(Self {
             rls: Rls::new(
@@ -288,7 +295,8 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             )?
             .with_variance_cap(p0),
             score: ScoreCovariance::new(config.covariance_block_samples, config.forgetting_factor)
-                .with_sample_period(config.sample_period_s),
+                .with_sample_period(config.sample_period_s)
+                .with_rate_moment(rate_moment),
             inv_sigma: sigma.map(|s| 1.0 / s),
             noise_moment,
             quantities,
@@ -296,6 +304,7 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             leg: SMatrix::zeros(),
             correction_applied: None,
             ends: RateEnds::new(config.sample_period_s, config.forgetting_factor),
+            rate_integral: RateIntegral::new(config.sample_period_s, config.forgetting_factor),
         })
     }
 
@@ -325,22 +334,25 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             self.rls = before;
             return Err(EstimatorError::Overflow("least-squares update"));
         }
-        // Φᵀψ once per sample, for the windows' slopes and for the run's ends.
-        let normal = match rate_error_rows.map(|psi| self.weigh(psi)) {
+        // Φᵀψ and Φᵀψ(ṅ̂) once per sample, for the windows and for the run's ends and whole.
+        let products = match rate_error_rows.map(|psi| self.weigh(psi)) {
             Some(psi) => {
-                let normal = wrows.tr_mul(&psi);
-                self.ends.add(&normal, &psi, starts_stretch);
-                Some(normal)
+                let rate = wrows.tr_mul(&psi);
+                self.ends.add(&rate, &psi, starts_stretch);
+                let derivative = self.rate_integral.add(&wrows, &psi, starts_stretch);
+                Some(RateErrorNormals { rate, derivative })
             }
             None => {
                 self.ends.interrupt();
+                self.rate_integral.interrupt();
                 None
             }
         };
-        if self.score.add_sample(&wrows, &wy, normal.as_ref()) {
+        if self.score.add_sample(&wrows, &wy, products.as_ref()) {
             let (theta, p, moment) = self.corrected_with_moment();
+            let scored = self.without_rate_error(&moment).unwrap_or(theta);
             self.score
-                .close_block(&theta, &p, &moment, &self.quantities.gradients(&theta));
+                .close_block(&scored, &p, &moment, &self.quantities.gradients(&theta));
             self.correction_applied = Some(moment.iter().any(|v| *v != 0.0));
         }
         self.samples = self.samples * self.rls.forgetting() + 1.0;
@@ -352,6 +364,24 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             self.leg = self.leg * self.rls.forgetting() + wrows.tr_mul(&wl);
         }
         Ok(())
+    }
+
+    /// The estimate the residual windows are scored at when the gyro's error is measured:
+    /// θ_w = (A − n C + n_u C_ω̇ − Q̂)⁻¹ b = (𝟙 − P (n C − n_u C_ω̇ + Q̂))⁻¹ θ, Q̂ the measured
+    /// Σ Φᵀψ(ṅ̂) over n_u samples, which stands in for both the ends' Δ and the derivative
+    /// noise's expected moment C_ω̇ ([`crate::rate_integral`], [`crate::score`]). `None`
+    /// without a measured error, or where the system is singular or not finite.
+    fn without_rate_error(&self, moment: &SMatrix<f64, N, N>) -> Option<SVector<f64, N>> {
+        let q = self.rate_integral.sum();
+        if self.rate_integral.weight() <= 0.0 {
+            return None;
+        }
+        let c =
+            moment * self.samples - self.score.rate_moment(moment) * self.rate_integral.weight();
+        let m = SMatrix::<f64, N, N>::identity() - self.rls.covariance() * (c + q);
+        m.try_inverse()
+            .map(|i| i * self.rls.theta())
+            .filter(|t| t.iter().all(|v| v.is_finite()))
     }
 
     /// ∂θ/∂δf for constant offsets δf of the six leg forces: θ = P' b and b gains L δf.
@@ -511,18 +541,20 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
 
 /// C = Σ_sources σ² BᵀB over the conditioned noise sources, B the weighted regressor of one
 /// unit source: each gyro axis reaches ω̇ (and, through the lever arm, f_O = f_r − ω̇ × r);
-/// each accelerometer axis reaches f.
+/// each accelerometer axis reaches f. Returns C and C_ω̇, the gyro axes' part of it.
 fn noise_moment<const N: usize, const R: usize>(
     derivative_variance: f64,
     accel_variance: f64,
     lever_m: &Vector3<f64>,
     inv_sigma: &SVector<f64, R>,
     regressor: impl Fn(&RegressorSignals) -> SMatrix<f64, R, N>,
-) -> SMatrix<f64, N, N> {
+) -> (SMatrix<f64, N, N>, SMatrix<f64, N, N>) {
     let mut c = SMatrix::<f64, N, N>::zeros();
+    let mut c_rate = SMatrix::<f64, N, N>::zeros();
     for e in [Vector3::x(), Vector3::y(), Vector3::z()] {
         let sources = [
             (
+                true,
                 derivative_variance,
                 RegressorSignals {
                     angular_acceleration_rad_s2: e,
@@ -531,6 +563,7 @@ fn noise_moment<const N: usize, const R: usize>(
                 },
             ),
             (
+                false,
                 accel_variance,
                 RegressorSignals {
                     angular_acceleration_rad_s2: Vector3::zeros(),
@@ -539,17 +572,21 @@ fn noise_moment<const N: usize, const R: usize>(
                 },
             ),
         ];
-        for (variance, signals) in sources {
+        for (gyro, variance, signals) in sources {
             if variance > 0.0 {
                 let mut b = regressor(&signals);
                 for (mut row, s) in b.row_iter_mut().zip(inv_sigma.iter()) {
                     row.scale_mut(*s);
                 }
-                c += b.tr_mul(&b) * variance;
+                let moment = b.tr_mul(&b) * variance;
+                c += moment;
+                if gyro {
+                    c_rate += moment;
+                }
             }
         }
     }
-    c
+    (c, c_rate)
 }
 
 /// [−[c]×, 𝟙]: a wrench [F; τ] about the P origin to the torque about c, τ − c × F.
@@ -594,19 +631,21 @@ enum Engine {
 }
 
 /// The bound on [`OnlineEstimator`]'s size, bytes, asserted when the crate compiles: a change
-/// that grows the state past it must say so here. 80 KiB: the residual windows' information
-/// ([`crate::dof`], 25 KB) and 54 KB of the rest.
-pub const ONLINE_ESTIMATOR_MAX_BYTES: usize = 80 * 1024;
+/// that grows the state past it must say so here. 88 KiB: the residual windows' information
+/// ([`crate::dof`], 25 KB) and 59 KB of the rest, 5 KB of it the gyro's measured error kept
+/// apart in the windows and over the run ([`crate::rate_integral`]).
+pub const ONLINE_ESTIMATOR_MAX_BYTES: usize = 88 * 1024;
 
 const _: () = assert!(core::mem::size_of::<OnlineEstimator>() <= ONLINE_ESTIMATOR_MAX_BYTES);
 
 /// The online estimator. `update` costs a few microseconds and never allocates.
 ///
-/// Its whole state lives inline: 78 840 bytes on x86-64 for the ten-parameter engine (both
+/// Its whole state lives inline: 84 192 bytes on x86-64 for the ten-parameter engine (both
 /// engines share the storage), bounded at compile time by [`ONLINE_ESTIMATOR_MAX_BYTES`]; most
 /// of it the residual windows' information for each quantity's degrees of freedom (25 KB,
-/// [`crate::dof`]), the RLS's U-D factors, the residual scores (with the gyro's error at the
-/// windows' slopes and at the stretches' ends, [`crate::rate_ends`]) and the conditioning's
+/// [`crate::dof`]), the RLS's U-D factors, the residual scores (with the gyro's measured error
+/// at the windows' slopes, in their estimate and at the stretches' ends, [`crate::rate_ends`],
+/// [`crate::rate_integral`]) and the conditioning's
 /// filter states. A firmware gives it a static or a task stack of that size. It is not `Copy`, so that a copy
 /// of that size is always a visible `clone()`.
 #[derive(Clone, Debug, PartialEq)]
@@ -697,14 +736,19 @@ impl OnlineEstimator {
         let engine = match config.parameters {
             ParameterSet::Full => {
                 let sigma = config.equation_sigma;
-                let c = noise_moment(
+                let (c, c_rate) = noise_moment(
                     derivative_variance,
                     accel_variance,
                     &lever,
                     &sigma.map(|s| 1.0 / s),
                     from_signals,
                 );
-                Engine::Full(Solver::new(&config, sigma, c, Reported::MassComInertia)?)
+                Engine::Full(Solver::new(
+                    &config,
+                    sigma,
+                    (c, c_rate),
+                    Reported::MassComInertia,
+                )?)
             }
             ParameterSet::InertiaAboutKnownCom { mass_kg, com_m } => {
                 if !(positive_finite(mass_kg) && mass_kg <= MAX_ABS_SIGNAL) {
@@ -722,7 +766,7 @@ impl OnlineEstimator {
                 let st = config.equation_sigma.fixed_rows::<3>(3);
                 let sigma: SVector<f64, 3> =
                     st.map(|s| libm::sqrt(s * s + com_m.norm_squared() * sf * sf));
-                let c = noise_moment(
+                let (c, c_rate) = noise_moment(
                     derivative_variance,
                     0.0,
                     &lever,
@@ -730,7 +774,7 @@ impl OnlineEstimator {
                     inertia_columns,
                 );
                 Engine::Six {
-                    solver: Solver::new(&config, sigma, c, Reported::Parameters)?,
+                    solver: Solver::new(&config, sigma, (c, c_rate), Reported::Parameters)?,
                     mass_kg,
                     com_m,
                 }

@@ -18,8 +18,9 @@ use crate::window;
 use nalgebra::{Const, DimMin, SMatrix, SVector};
 
 /// A stretch of samples' weighted sums: b = Σ w φ y, A = Σ w φ φᵀ (upper triangle only),
-/// S = Σ w φ (one column per equation), n = Σ w and E = Σ ẇ φ ψᵀ (ψ the rows' part linear in
-/// ω̇ at the gyro's measured excess rate: the type's docs), each aged by λ per sample.
+/// S = Σ w φ (one column per equation), n = Σ w, E = Σ ẇ φ ψᵀ and U = Σ w φ ψ(ṅ̂)ᵀ (ψ the
+/// rows' part linear in ω̇ at the gyro's measured excess rate: the type's docs) with
+/// n_u = Σ w over the samples U covers, each aged by λ per sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Weighted<const N: usize, const R: usize> {
     b: SVector<f64, N>,
@@ -27,6 +28,8 @@ struct Weighted<const N: usize, const R: usize> {
     s: SMatrix<f64, N, R>,
     n: f64,
     e: SMatrix<f64, N, N>,
+    u: SMatrix<f64, N, N>,
+    n_u: f64,
 }
 
 impl<const N: usize, const R: usize> Weighted<N, R> {
@@ -37,6 +40,8 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
             s: SMatrix::zeros(),
             n: 0.0,
             e: SMatrix::zeros(),
+            u: SMatrix::zeros(),
+            n_u: 0.0,
         }
     }
 
@@ -46,6 +51,8 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
         self.s *= factor;
         self.n *= factor;
         self.e *= factor;
+        self.u *= factor;
+        self.n_u *= factor;
     }
 
     /// `self` aged by `factor`, plus `later`.
@@ -56,6 +63,8 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
             s: self.s * factor + later.s,
             n: self.n * factor + later.n,
             e: self.e * factor + later.e,
+            u: self.u * factor + later.u,
+            n_u: self.n_u * factor + later.n_u,
         }
     }
 
@@ -65,6 +74,25 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
         upper.fill_lower_triangle_with_upper_triangle();
         upper - noise_moment * self.n
     }
+
+    /// The gyro's measured share U − n_u C_ω̇: Σ w φ ψ(ṅ̂)ᵀ less the derivative noise's own
+    /// second moment, which it carries in expectation (`rate_moment`, zero where the fit
+    /// applies no noise moment).
+    fn rate_share(&self, rate_moment: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
+        self.u - rate_moment * self.n_u
+    }
+}
+
+/// One sample's gyro-error rows ψ (the regressor's part linear in ω̇, at the gyro's measured
+/// error) met with its weighted rows Φ: what [`ScoreCovariance::add_sample`] takes out of the
+/// windows' scores and keeps apart ([`ScoreCovariance`]'s docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RateErrorNormals<const N: usize> {
+    /// Φᵀ ψ(n̂), n̂ the gyro's measured error.
+    pub rate: SMatrix<f64, N, N>,
+    /// Φᵀ ψ(ṅ̂), `None` on a stretch's first sample
+    /// ([`crate::rate_integral::RateIntegral::add`]).
+    pub derivative: Option<SMatrix<f64, N, N>>,
 }
 
 /// Window-summed residual scores of an exponentially weighted least-squares fit.
@@ -123,6 +151,30 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
 /// g = b − (A + E)θ with E = Σ ẇ φ ψᵀ, which leaves the scores of the run's own integrand
 /// φ̇ ψ(n)θ. What the kinematics get wrong (a joint's survey error scales the kinematic rate
 /// by about 1e-4) enters E instead, a small smooth term.
+///
+/// **The gyro's error in the estimate the windows are scored at.** The fit's error carries
+/// P Q θ of the gyro's error, Q = Σ φ ψ(ṅ)ᵀ ([`crate::rate_integral`]): mostly in J, one draw
+/// that every window shares. A window's score at the fit, g = b_k − A_k θ, carries
+/// −A_k (θ − θ₀), which reaches another quantity's score through the window's
+/// cross-information: the centre of mass's column (gravity) meets J's (ω̇) differently in each
+/// window, while over the whole run the two are told apart. The windows' spread then counts
+/// the J error's shadow as noise of h (measured, noise-only world, planned 2 s excitation,
+/// 60 runs: σ(c_x) three times its spread; with the gyro's noise alone twenty times). So
+/// when the gyro's error is measured the caller scores the windows at the estimate without
+/// it, θ_w = (A − n C + n_u C_ω̇ − Q̂)⁻¹ b (C_ω̇ the derivative-noise part of C, which the
+/// measured Q̂ carries in expectation over its n_u samples; [`Self::rate_moment`]), and each
+/// score splits in two:
+/// - the gyro's measured share g_ω = −(U_k − n_u,k C_ω̇ + E_k) θ_w, U_k = Σ w φ ψ(ṅ̂)ᵀ: the
+///   gyro's noise as this window meets it, its slopes' share taken out as above;
+/// - the rest g_o = b_k − (A_k − n_k C − U_k + n_u,k C_ω̇) θ_w: the other sensors' noise and
+///   what θ_w has fitted of it, which alone takes the own-fit correction (θ_w has not
+///   fitted the gyro's noise).
+///
+/// M = Σ (g_o − D c)(g_o − D c)ᵀ + Σ g_ω g_ωᵀ. The two parts come from independent sensors;
+/// their cross-product, zero in expectation, is in one run the product of two sources' window
+/// patterns, and left in it can cancel most of M exactly when the two errors add (measured,
+/// 5 s, gyro and accelerometer noise only, seed 3: 75 % of M along com z, whose error then
+/// read 7.2 of its sigmas). With the gyro's error not measured, U, E and g_ω are zero and θ_w is the fit's.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ScoreCovariance<const N: usize, const R: usize, const NR: usize> {
     /// The half-block in progress, weighted by the rising window.
@@ -145,8 +197,12 @@ pub struct ScoreCovariance<const N: usize, const R: usize, const NR: usize> {
     total_y: SVector<f64, R>,
     /// Σ λ^(age) over the samples of the finished half-blocks.
     total_samples: f64,
-    /// Σ λ^(2·age) g gᵀ.
+    /// Σ λ^(2·age) g gᵀ of the scores less the gyro's measured share (g_o of the type's docs).
     g_g: SMatrix<f64, N, N>,
+    /// Σ λ^(2·age) g_ω g_ωᵀ, the gyro's measured share of the scores.
+    rate_g_g: SMatrix<f64, N, N>,
+    /// C_ω̇, the part of the fit's noise moment C that the gyro's derivative noise adds.
+    rate_moment: SMatrix<f64, N, N>,
     /// Σ λ^(2·age) g ⊗ D: entry (i, j·R + r) = Σ gᵢ D_jr.
     g_d: SMatrix<f64, N, NR>,
     /// Σ λ^(2·age) D ⊗ D: entry (i·R + r, j·R + s) = Σ D_ir D_js.
@@ -190,6 +246,8 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             total_y: SVector::zeros(),
             total_samples: 0.0,
             g_g: SMatrix::zeros(),
+            rate_g_g: SMatrix::zeros(),
+            rate_moment: SMatrix::zeros(),
             g_d: SMatrix::zeros(),
             d_d: SMatrix::zeros(),
             information: BlockInformation::new(),
@@ -214,6 +272,23 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         self
     }
 
+    /// The same, with C_ω̇, the part of the fit's noise moment C that the gyro's derivative
+    /// noise adds: the measured Φᵀψ(ṅ̂) carries it in expectation (the type's docs).
+    pub fn with_rate_moment(mut self, rate_moment: SMatrix<f64, N, N>) -> Self {
+        self.rate_moment = rate_moment;
+        self
+    }
+
+    /// C_ω̇ where the fit applies its noise moment (`noise_moment` not zero), zero otherwise: the
+    /// share of C that the measured Φᵀψ(ṅ̂) stands in for.
+    pub fn rate_moment(&self, noise_moment: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
+        if noise_moment.iter().any(|v| *v != 0.0) {
+            self.rate_moment
+        } else {
+            SMatrix::zeros()
+        }
+    }
+
     /// Compile-time check that `NR` = N·R.
     pub const SIZES_MATCH: () = assert!(NR == N * R, "NR must be N·R");
 
@@ -224,16 +299,18 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         self.add_sample(rows, y, None)
     }
 
-    /// [`Self::add`] with the sample's Φᵀψ, ψ its gyro-error rows (weighted alike): the
-    /// regressor with ω̇ set to the gyro's measured error n̂ (its rate less the kinematic rate)
-    /// and every other signal zero. Each window's score is then taken without its slopes'
-    /// share of the gyro's error (the type's docs). The caller forms Φᵀψ once for this and
-    /// for the run's ends ([`crate::rate_ends::RateEnds::add`]).
+    /// [`Self::add`] with the sample's gyro-error products, ψ its gyro-error rows (weighted
+    /// alike): the regressor with ω̇ set to the gyro's measured error n̂ (its rate less the
+    /// kinematic rate) and every other signal zero. Each window's score is then taken
+    /// without its slopes' share of the gyro's error, and the gyro's measured share is kept
+    /// apart (the type's docs). The caller forms Φᵀψ once for this and for the run's ends
+    /// ([`crate::rate_ends::RateEnds::add`]), Φᵀψ(ṅ̂) for this and for the run's
+    /// ([`crate::rate_integral::RateIntegral::add`]).
     pub fn add_sample(
         &mut self,
         rows: &SMatrix<f64, R, N>,
         y: &SVector<f64, R>,
-        rate_error_normal: Option<&SMatrix<f64, N, N>>,
+        rate_error: Option<&RateErrorNormals<N>>,
     ) -> bool {
         if self.forgetting < 1.0 {
             self.rising.age(self.forgetting);
@@ -250,9 +327,15 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         self.falling.s += phi * fall;
         self.rising.n += rise;
         self.falling.n += fall;
-        if let Some(product) = rate_error_normal {
-            self.rising.e += product * (self.slope_scale * fall);
-            self.falling.e -= product * (self.slope_scale * rise);
+        if let Some(products) = rate_error {
+            self.rising.e += products.rate * (self.slope_scale * fall);
+            self.falling.e -= products.rate * (self.slope_scale * rise);
+            if let Some(derivative) = &products.derivative {
+                self.rising.u += derivative * rise;
+                self.falling.u += derivative * fall;
+                self.rising.n_u += rise;
+                self.falling.n_u += fall;
+            }
         }
         self.block_s += phi;
         self.block_y += y;
@@ -294,10 +377,11 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     /// without an errors-in-variables correction; see `OnlineEstimator`). The window's score
     /// is that of the same equations, g = b_k − (A_k − n_k C) θ: scoring the corrected θ
     /// against the uncorrected A_k would leave (A_k/n_k − A/n)·n_k·(θ − θ_uncorrected) in
-    /// every window, which the windows' spread counts as noise.
+    /// every window, which the windows' spread counts as noise. Where the gyro's error is
+    /// measured, θ is the estimate without it, θ_w of the type's docs, and P the fit's.
     ///
-    /// `quantities` are the gradients of the reported quantities at θ, row by row (as for
-    /// [`Self::covariance`]): their degrees of freedom are taken here, once a window.
+    /// `quantities` are the gradients of the reported quantities at the fit's θ, row by row
+    /// (as for [`Self::covariance`]): their degrees of freedom are taken here, once a window.
     pub fn close_block(
         &mut self,
         theta: &SVector<f64, N>,
@@ -315,11 +399,20 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             // The fit after the window has absorbed part of the window's own noise:
             // (𝟙 − κ A P)^(-1/2) restores the score's variance (see the type's docs).
             let t = own_fit_correction(&(a * self.mean_to_square), p);
-            let g = t * (window.b - (a + window.e) * theta);
+            // Where the gyro's error was measured over the window, its share apart and the
+            // rest with the own-fit correction (the type's docs); otherwise the gyro's noise is
+            // the fit's like any other, only its slopes' share taken out.
+            let (g, rate) = if window.n_u > 0.0 {
+                let u = window.rate_share(&self.rate_moment(noise_moment));
+                (t * (window.b - (a - u) * theta), -(u + window.e) * theta)
+            } else {
+                (t * (window.b - (a + window.e) * theta), SVector::zeros())
+            };
 
             let d = t * (window.s - a * (p * self.total_s));
             let decay = self.block_decay;
             self.g_g = self.g_g * decay + g * g.transpose();
+            self.rate_g_g = self.rate_g_g * decay + rate * rate.transpose();
             // d's rows one after another: dᵀ's column-major storage (NR = N·R entries).
             let mut flat = SVector::<f64, NR>::zeros();
             for (dst, src) in flat.iter_mut().zip(d.transpose().iter()) {
@@ -382,8 +475,9 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         }
     }
 
-    /// M of the offset-free scores g̃ = g − D c: Σ g̃ g̃ᵀ = Σ g gᵀ − Σ g (D c)ᵀ − Σ (D c) gᵀ
-    /// + Σ (D c)(D c)ᵀ, from the sums g gᵀ, g ⊗ D and D ⊗ D.
+    /// M of the offset-free scores g̃ = g − D c, Σ g̃ g̃ᵀ = Σ g gᵀ − Σ g (D c)ᵀ − Σ (D c) gᵀ
+    /// plus Σ (D c)(D c)ᵀ, from the sums g gᵀ, g ⊗ D and D ⊗ D; and the gyro's measured share
+    /// Σ g_ω g_ωᵀ besides (the type's docs).
     fn score_sum(&self, c: &SVector<f64, R>) -> SMatrix<f64, N, N> {
         let mut cross = SMatrix::<f64, N, N>::zeros();
         let mut square = SMatrix::<f64, N, N>::zeros();
@@ -410,7 +504,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
                 *square_ij = w;
             }
         }
-        let m = self.g_g - cross - cross.transpose() + square;
+        let m = self.g_g - cross - cross.transpose() + square + self.rate_g_g;
         (m + m.transpose()) * 0.5
     }
 
@@ -600,7 +694,11 @@ mod tests {
                 let y = SVector::<f64, 1>::new(h * phi(t) + j * omega_dot);
                 let psi = SMatrix::<f64, 1, 2>::new(0.0, n[t + 1]);
                 let closes = without.add(&rows, &y);
-                with.add_sample(&rows, &y, Some(&rows.tr_mul(&psi)));
+                let products = RateErrorNormals {
+                    rate: rows.tr_mul(&psi),
+                    derivative: None,
+                };
+                with.add_sample(&rows, &y, Some(&products));
                 if closes {
                     let zero = SMatrix::<f64, 2, 2>::zeros();
                     let one = SMatrix::<f64, 2, 2>::identity();

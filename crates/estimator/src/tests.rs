@@ -317,12 +317,11 @@ fn reported_sigmas_match_the_spread_over_seeds() {
         c.equation_sigma = Vector6::new(26.0, 26.0, 26.0, 10.0, 10.0, 10.0);
         c.gyro_noise_rad_s = noise.gyro_rad_s;
         c.accel_noise_m_s2 = noise.accel_m_s2;
-        // Half-blocks of 2 s (20 per run, 18 windows that count). The gyro's derivative
-        // noise, J ω̇, reaches the scores of h (whose regressor column, gravity, is nearly
-        // constant) as Σ w ẋ = −Σ ẇ x: the windows (`crate::window`) make it fall with the
-        // half-block, but at 0.4 s it still inflates σ(c_x) (mean z² of c_x 0.41 with 0.4 s,
-        // 0.74 with 1 s, 0.97 with 2 s; 0.86 with 0.4 s and the gyro's noise off).
-        c.covariance_block_samples = 2000;
+        // Half-blocks of 0.4 s, the default (100 per run). The gyro's derivative noise, J ω̇,
+        // reaches the scores of h (whose regressor column, gravity, is nearly constant): its
+        // slopes' share and the fit's J error are taken out of them (`crate::score`). Without
+        // the latter c_z's mean z² is 0.50 here.
+        c.covariance_block_samples = 400;
         let mut est = OnlineEstimator::new(c).unwrap();
         let mut rng = StdRng::seed_from_u64(1000 + seed);
         run(
@@ -1072,4 +1071,66 @@ fn the_accelerometer_offset_comes_from_the_rest_not_from_the_motion_before_a_lat
     std::eprintln!("mass error: {rest:.2e} kg from the rest, {mixed:.2e} kg with the motion");
     assert!(rest < 1e-3, "{rest:e}");
     assert!(mixed > 20.0 * rest, "{mixed:e} against {rest:e}");
+}
+
+/// The mean z² of the centre of mass's entries (mass, c_x, c_y, c_z) over `seeds` short runs
+/// of `samples` at 1 kHz with half-blocks of `block` samples, in a world whose error the
+/// gyro's derivative noise dominates.
+fn short_gyro_run_com_z2(seeds: u64, samples: usize, block: u32) -> [f64; 4] {
+    let body = PointBody::vehicle_like();
+    let truth = body.parameters();
+    let c_true = truth.com_m().unwrap();
+    let noise = SensorNoise {
+        leg_force_n: 1.0,
+        gyro_rad_s: 2e-3,
+        accel_m_s2: 2e-3,
+    };
+    let period = 1e-3;
+    let mut z2 = [0.0; 4];
+    for seed in 0..seeds {
+        let mut c = config(Some(20.0), period);
+        c.equation_sigma = Vector6::new(26.0, 26.0, 26.0, 10.0, 10.0, 10.0);
+        c.gyro_noise_rad_s = noise.gyro_rad_s;
+        c.accel_noise_m_s2 = noise.accel_m_s2;
+        c.covariance_block_samples = block;
+        let mut est = OnlineEstimator::new(c).unwrap();
+        let mut rng = StdRng::seed_from_u64(5000 + seed);
+        run(
+            &mut est,
+            &body,
+            &Motion::rich(),
+            samples,
+            period,
+            &Vector3::zeros(),
+            &noise,
+            &mut rng,
+        );
+        let e = est.estimate();
+        let errors = [
+            (e.mass_kg() - truth.mass_kg, e.mass_sigma_kg),
+            (e.com_m[0] - c_true[0], e.com_sigma_m[0]),
+            (e.com_m[1] - c_true[1], e.com_sigma_m[1]),
+            (e.com_m[2] - c_true[2], e.com_sigma_m[2]),
+        ];
+        for (z, (error, sigma)) in z2.iter_mut().zip(errors) {
+            *z += (error / sigma).powi(2) / seeds as f64;
+        }
+    }
+    z2
+}
+
+/// Issue 14: the fit's error in J, mostly the gyro's derivative noise and one draw that every
+/// residual window shares, reached the centre of mass's window scores through each window's
+/// cross-information of gravity with ω̇, and the windows' spread counted it as noise of h: a
+/// short run's σ(c) was several times its spread. The windows are now scored at the estimate
+/// without the gyro's measured error, its share kept apart (`crate::score`). 3 s, half-blocks
+/// of 0.2 s, 96 seeds: mean z² of c_x, c_y, c_z 0.35, 0.68, 0.53 scored at the fit; 0.63,
+/// 1.14, 0.81 as it is. (The mass, 0.12, is over-covered either way: see docs/accuracy.md.)
+#[test]
+fn the_gyros_error_in_j_does_not_inflate_the_centre_of_mass_sigma() {
+    let z2 = short_gyro_run_com_z2(96, 3000, 200);
+    std::eprintln!("gyro-dominated 3 s: mean z² of m, c {z2:.2?}");
+    for (k, z) in z2.iter().enumerate().skip(1) {
+        assert!((0.5..=2.0).contains(z), "com [{}]: mean z² {z:.2}", k - 1);
+    }
 }
