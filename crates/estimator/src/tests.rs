@@ -82,6 +82,18 @@ fn config(cutoff: Option<f64>, period: f64) -> EstimatorConfig {
     c
 }
 
+/// The estimator for [`SensorNoise`]'s noise at 1/`period` Hz behind a 20 Hz low-pass: its
+/// gyro and accelerometer figures, equation sigmas near the residuals', half-blocks of `block`
+/// samples.
+fn noisy_config(noise: &SensorNoise, period: f64, block: u32) -> EstimatorConfig {
+    let mut c = config(Some(20.0), period);
+    c.equation_sigma = Vector6::new(26.0, 26.0, 26.0, 10.0, 10.0, 10.0);
+    c.gyro_noise_rad_s = noise.gyro_rad_s;
+    c.accel_noise_m_s2 = noise.accel_m_s2;
+    c.covariance_block_samples = block;
+    c
+}
+
 /// A noiseless [`synthetic_sample`] with the accelerometer at the P origin.
 fn exact_sample(
     geometry: &kinematics::Geometry,
@@ -313,16 +325,11 @@ fn reported_sigmas_match_the_spread_over_seeds() {
     let mut z2_derived = ParameterVector::zeros();
     let mut rel = ParameterVector::zeros();
     for seed in 0..seeds {
-        let mut c = config(Some(20.0), period);
-        c.equation_sigma = Vector6::new(26.0, 26.0, 26.0, 10.0, 10.0, 10.0);
-        c.gyro_noise_rad_s = noise.gyro_rad_s;
-        c.accel_noise_m_s2 = noise.accel_m_s2;
         // Half-blocks of 0.4 s, the default (100 per run). The gyro's derivative noise, J ω̇,
         // reaches the scores of h (whose regressor column, gravity, is nearly constant): its
         // slopes' share and the fit's J error are taken out of them (`crate::score`). Without
         // the latter c_z's mean z² is 0.50 here.
-        c.covariance_block_samples = 400;
-        let mut est = OnlineEstimator::new(c).unwrap();
+        let mut est = OnlineEstimator::new(noisy_config(&noise, period, 400)).unwrap();
         let mut rng = StdRng::seed_from_u64(1000 + seed);
         run(
             &mut est,
@@ -1088,12 +1095,7 @@ fn short_gyro_run_com_z2(seeds: u64, samples: usize, block: u32) -> [f64; 4] {
     let period = 1e-3;
     let mut z2 = [0.0; 4];
     for seed in 0..seeds {
-        let mut c = config(Some(20.0), period);
-        c.equation_sigma = Vector6::new(26.0, 26.0, 26.0, 10.0, 10.0, 10.0);
-        c.gyro_noise_rad_s = noise.gyro_rad_s;
-        c.accel_noise_m_s2 = noise.accel_m_s2;
-        c.covariance_block_samples = block;
-        let mut est = OnlineEstimator::new(c).unwrap();
+        let mut est = OnlineEstimator::new(noisy_config(&noise, period, block)).unwrap();
         let mut rng = StdRng::seed_from_u64(5000 + seed);
         run(
             &mut est,
