@@ -105,6 +105,11 @@ pub struct Conditioned {
     /// frequencies this is the gyro's own error (noise, bias, delay), which reaches ω̇ through
     /// the derivative ([`crate::score::ScoreCovariance`] takes it out of the windows' slopes).
     pub gyro_excess_rad_s: Option<Vector3<f64>>,
+    /// The excess's change over the last grid step, (n̂ₜ − n̂ₜ₋₁)/Δt, the samples a bridged
+    /// gap filled in counting as steps: the gyro's error as it reaches ω̇
+    /// ([`crate::rate_integral`]). `None` without the pose, and on a start's first output
+    /// if the warm-up left no step before it.
+    pub gyro_excess_change_rad_s2: Option<Vector3<f64>>,
 }
 
 /// What one pushed sample produced.
@@ -171,6 +176,9 @@ pub struct Conditioner {
     history: [Raw; STENCIL],
     held: usize,
     primed: bool,
+    /// The gyro's excess over the kinematic rate at the last grid step since the filter was
+    /// primed (filled samples included), for [`Conditioned::gyro_excess_change_rad_s2`].
+    last_excess: Option<Vector3<f64>>,
     /// Filtered samples still to be withheld after the filter was primed.
     warming: u32,
     /// Filtered samples withheld after every (re)start: see [`Self::warmup_samples`].
@@ -286,6 +294,7 @@ impl Conditioner {
             history: [Raw::zero(); STENCIL],
             held: 0,
             primed: false,
+            last_excess: None,
             warming: 0,
             warmup: warmup_samples(&biquad),
             restarts: 0,
@@ -599,6 +608,7 @@ impl Conditioner {
             self.map_filter.reset_to(&map_mid);
             self.motion_filter.reset_to(&motion_mid);
             self.primed = true;
+            self.last_excess = None;
             self.warming = self.warmup;
         }
         let y = self.filter.step(&x);
@@ -610,6 +620,13 @@ impl Conditioner {
             None
         };
         let motion_y = with.pose.then(|| self.motion_filter.step(&motion_mid));
+        let gyro_excess_rad_s = motion_y
+            .map(|m| m.fixed_rows::<3>(POSE_CHANNELS) - m.fixed_rows::<3>(POSE_CHANNELS + 6));
+        let gyro_excess_change_rad_s2 = match (gyro_excess_rad_s, self.last_excess) {
+            (Some(now), Some(before)) => Some((now - before) / self.time.period_s()),
+            _ => None,
+        };
+        self.last_excess = gyro_excess_rad_s;
         self.hold(raw);
         if self.warming > 0 {
             self.warming -= 1;
@@ -630,8 +647,6 @@ impl Conditioner {
         signals.specific_force_m_s2 -=
             signals.angular_acceleration_rad_s2.cross(&r) + signals.centripetal(&r);
         let motion = motion_y.map(|m| plate_motion(&m, &signals));
-        let gyro_excess_rad_s = motion_y
-            .map(|m| m.fixed_rows::<3>(POSE_CHANNELS) - m.fixed_rows::<3>(POSE_CHANNELS + 6));
         Ok(Step::Ready(Conditioned {
             signals,
             wrench: Wrench {
@@ -641,6 +656,7 @@ impl Conditioner {
             leg_map: map_y,
             motion,
             gyro_excess_rad_s,
+            gyro_excess_change_rad_s2,
         }))
     }
 }
@@ -736,6 +752,51 @@ mod tests {
             // Fourth-order stencils: (ωΔt)⁴ ≈ 1e-7 at 3 Hz and 1 kHz, on a fraction of the wrench.
             assert!(worst < 1e-8 * scale, "{cutoff:?}: worst {worst} of {scale}");
         }
+    }
+
+    /// The excess's change is its step over one grid period, lost frames included. A plate at
+    /// rest (so that the gap's linear fill is exact for the pose and the gyro alike) under a
+    /// gyro whose error ramps by 2e-3 rad/s per second reads 2e-3 rad/s² on every output, the
+    /// first after a bridged gap of two lost samples too: differencing consecutive outputs
+    /// would read three times that there.
+    #[test]
+    fn the_gyro_excess_change_spans_one_grid_step_across_a_bridged_gap() {
+        let slope = Vector3::new(2e-3, -2e-3, 1e-3);
+        let at_rest = Pose::new(Vector3::new(0.0, 0.0, 1.0), nalgebra::Rotation3::identity());
+        let gravity = Vector3::new(0.0, 0.0, 9.81);
+        let mut c = Conditioner::new(config(Some(5.0), Vector3::zeros())).unwrap();
+        let (mut outputs, mut after_gap) = (0, false);
+        let mut worst: f64 = 0.0;
+        for k in 0u64..1500 {
+            if (1000..1002).contains(&k) {
+                continue;
+            }
+            let t = k as f64 * 1e-3;
+            let step = c
+                .push_sequenced(
+                    t,
+                    Some(k),
+                    &(slope * t),
+                    &gravity,
+                    &Wrench::default(),
+                    None,
+                    Some(&at_rest),
+                )
+                .unwrap();
+            if let Step::Ready(out) = step {
+                let change = out.gyro_excess_change_rad_s2.unwrap();
+                if k >= 1000 {
+                    worst = worst.max((change - slope).norm());
+                }
+                after_gap |= k == 1002;
+                outputs += 1;
+            }
+        }
+        assert!(after_gap && outputs > 1000);
+        assert_eq!(c.bridged(), 2);
+        // From k = 1000 on, the filter's start transient (a ramp meeting a filter primed at
+        // rest) has died to below 1e-9.
+        assert!(worst < 1e-9, "worst {worst:e}");
     }
 
     /// The gyro's excess over the kinematic rate of the pose: zero to the stencils' error on

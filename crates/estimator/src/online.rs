@@ -304,7 +304,7 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             leg: SMatrix::zeros(),
             correction_applied: None,
             ends: RateEnds::new(config.sample_period_s, config.forgetting_factor),
-            rate_integral: RateIntegral::new(config.sample_period_s, config.forgetting_factor),
+            rate_integral: RateIntegral::new(config.forgetting_factor),
         })
     }
 
@@ -324,6 +324,7 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         y: &SVector<f64, R>,
         leg_map: Option<&SMatrix<f64, R, 6>>,
         rate_error_rows: Option<&SMatrix<f64, R, N>>,
+        rate_change_rows: Option<&SMatrix<f64, R, N>>,
         starts_stretch: bool,
     ) -> Result<(), EstimatorError> {
         let wrows = self.weigh(rows);
@@ -335,16 +336,21 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             return Err(EstimatorError::Overflow("least-squares update"));
         }
         // Φᵀψ and Φᵀψ(ṅ̂) once per sample, for the windows and for the run's ends and whole.
+        let derivative = match rate_change_rows.map(|psi| self.weigh(psi)) {
+            Some(change) => Some(self.rate_integral.add(&wrows, &change)),
+            None => {
+                self.rate_integral.skip();
+                None
+            }
+        };
         let products = match rate_error_rows.map(|psi| self.weigh(psi)) {
             Some(psi) => {
                 let rate = wrows.tr_mul(&psi);
                 self.ends.add(&rate, &psi, starts_stretch);
-                let derivative = self.rate_integral.add(&wrows, &psi, starts_stretch);
                 Some(RateErrorNormals { rate, derivative })
             }
             None => {
                 self.ends.interrupt();
-                self.rate_integral.interrupt();
                 None
             }
         };
@@ -640,7 +646,7 @@ const _: () = assert!(core::mem::size_of::<OnlineEstimator>() <= ONLINE_ESTIMATO
 
 /// The online estimator. `update` costs a few microseconds and never allocates.
 ///
-/// Its whole state lives inline: 84 192 bytes on x86-64 for the ten-parameter engine (both
+/// Its whole state lives inline: 83 728 bytes on x86-64 for the ten-parameter engine (both
 /// engines share the storage), bounded at compile time by [`ONLINE_ESTIMATOR_MAX_BYTES`]; most
 /// of it the residual windows' information for each quantity's degrees of freedom (25 KB,
 /// [`crate::dof`]), the RLS's U-D factors, the residual scores (with the gyro's measured error
@@ -1009,14 +1015,17 @@ impl OnlineEstimator {
         let y = to_vector(&c.wrench);
         // The regressor's part linear in ω̇, at the gyro's measured error: ω̇ enters the
         // specific force at the P origin through the lever arm, −ω̇ × r.
-        let rate_error = c
-            .gyro_excess_rad_s
-            .filter(|_| self.measures_gyro_error())
-            .map(|n| RegressorSignals {
-                angular_acceleration_rad_s2: n,
-                rate_products_rad2_s2: Vector6::zeros(),
-                specific_force_m_s2: -n.cross(&self.config.accelerometer_position_m),
-            });
+        let as_rate_error = |n: Vector3<f64>| RegressorSignals {
+            angular_acceleration_rad_s2: n,
+            rate_products_rad2_s2: Vector6::zeros(),
+            specific_force_m_s2: -n.cross(&self.config.accelerometer_position_m),
+        };
+        let measured = self.measures_gyro_error();
+        let rate_error = c.gyro_excess_rad_s.filter(|_| measured).map(as_rate_error);
+        let rate_change = c
+            .gyro_excess_change_rad_s2
+            .filter(|_| measured)
+            .map(as_rate_error);
         // A conditioning restarted since the last sample used starts a new stretch of the
         // gyro's error ([`crate::rate_ends`]).
         let restarts = self.conditioner.restarts();
@@ -1024,18 +1033,28 @@ impl OnlineEstimator {
         match &mut self.engine {
             Engine::Full(solver) => {
                 let psi = rate_error.map(|s| from_signals(&s));
-                solver.update(&phi, &y, c.leg_map.as_ref(), psi.as_ref(), starts_stretch)?
+                let change = rate_change.map(|s| from_signals(&s));
+                solver.update(
+                    &phi,
+                    &y,
+                    c.leg_map.as_ref(),
+                    psi.as_ref(),
+                    change.as_ref(),
+                    starts_stretch,
+                )?
             }
             Engine::Six { solver, com_m, .. } => {
                 let yc = c.wrench.torque_nm - com_m.cross(&c.wrench.force_n);
                 // τ_C = τ − c × F: the leg map reaches the rows as [−[c]×, 𝟙] L.
                 let lc = c.leg_map.map(|l| to_com_rows(com_m) * l);
                 let psi = rate_error.map(|s| inertia_columns(&s));
+                let change = rate_change.map(|s| inertia_columns(&s));
                 solver.update(
                     &inertia_columns(&c.signals),
                     &yc,
                     lc.as_ref(),
                     psi.as_ref(),
+                    change.as_ref(),
                     starts_stretch,
                 )?;
             }

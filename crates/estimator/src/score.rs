@@ -90,8 +90,8 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
 pub struct RateErrorNormals<const N: usize> {
     /// Φᵀ ψ(n̂), n̂ the gyro's measured error.
     pub rate: SMatrix<f64, N, N>,
-    /// Φᵀ ψ(ṅ̂), `None` on a stretch's first sample
-    /// ([`crate::rate_integral::RateIntegral::add`]).
+    /// Φᵀ ψ(ṅ̂), ṅ̂ the error's change over the last grid step, `None` where the conditioning
+    /// gave none ([`crate::conditioning::Conditioned::gyro_excess_change_rad_s2`]).
     pub derivative: Option<SMatrix<f64, N, N>>,
 }
 
@@ -535,7 +535,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     /// then the sandwich P M P with M of the offset-free scores, scaled by
     /// [`fitted_rows_factor`] (n rows, N parameters and R offsets fitted) and, quantity by
     /// quantity, by the share of the run's information the counted windows miss along it
-    /// ([`Self::coverage`]) and by [`student_factor`] of its own degrees of freedom.
+    /// (`coverage`) and by [`student_factor`] of its own degrees of freedom.
     ///
     /// `quantities` holds, row by row, the gradients with respect to θ of the N quantities
     /// the caller reports (the mass, the centre of mass and J_C's entries for the full model:

@@ -81,7 +81,7 @@ pub fn own_fit_correction<const N: usize>(
 /// covariance to be measured: G ≥ 6, i.e. ν = G − 1 ≥ 5 degrees of freedom (a little fewer
 /// for the overlapping windows, [`crate::dof`]). Why: the
 /// standardised error z = e/σ̂ of a variance estimated with ν degrees of freedom is Student-t;
-/// [`small_sample_factor`] makes E(z²) = 1 for any ν > 2, but z² has a finite variance only for
+/// [`student_factor`] makes E(z²) = 1 for any ν > 2, but z² has a finite variance only for
 /// ν > 4, so below that a single run's z, or a campaign's mean z², says nothing reliable (one
 /// heavy-tailed run dominates it). With the factor, ±2σ covers 95.1 % at ν = 5 and 95.0–95.4 %
 /// for every larger ν (Gaussian: 95.4 %).
