@@ -174,7 +174,9 @@ pub struct RateErrorNormals<const N: usize> {
 /// their cross-product, zero in expectation, is in one run the product of two sources' window
 /// patterns, and left in it can cancel most of M exactly when the two errors add (measured,
 /// 5 s, gyro and accelerometer noise only, seed 3: 75 % of M along com z, whose error then
-/// read 7.2 of its sigmas). With the gyro's error not measured, U, E and g_ω are zero and θ_w is the fit's.
+/// read 7.2 of its sigmas). A window without the gyro's measured change (no kinematics, or a
+/// gyro described as exact) has no U and no g_ω: its score is b_k − (A_k − n_k C + E_k) θ, θ
+/// the fit's, the own-fit correction on all of it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ScoreCovariance<const N: usize, const R: usize, const NR: usize> {
     /// The half-block in progress, weighted by the rising window.
