@@ -1122,12 +1122,12 @@ fn short_gyro_run_com_z2(seeds: u64, samples: usize, block: u32) -> [f64; 4] {
 }
 
 /// Issue 14: the fit's error in J, mostly the gyro's derivative noise and one draw that every
-/// residual window shares, reached the centre of mass's window scores through each window's
-/// cross-information of gravity with ω̇, and the windows' spread counted it as noise of h: a
-/// short run's σ(c) was several times its spread. The windows are now scored at the estimate
-/// without the gyro's measured error, its share kept apart (`crate::score`). 3 s, half-blocks
-/// of 0.2 s, 96 seeds: mean z² of c_x, c_y, c_z 0.35, 0.68, 0.53 scored at the fit; 0.63,
-/// 1.14, 0.81 as it is. (The mass, 0.12, is over-covered either way: see docs/accuracy.md.)
+/// residual window shares, reaches the centre of mass's window scores through each window's
+/// cross-information of gravity with ω̇; counted as noise of h, it makes a short run's σ(c)
+/// several times its spread. The windows are scored at the estimate without the gyro's
+/// measured error, its share kept apart (`crate::score`). 3 s, half-blocks of 0.2 s, 96
+/// seeds: mean z² of c_x, c_y, c_z 0.35, 0.68, 0.53 with the windows scored at the fit, 0.63,
+/// 1.14, 0.81 as they are. (The mass, 0.12, is over-covered either way: docs/accuracy.md.)
 #[test]
 fn the_gyros_error_in_j_does_not_inflate_the_centre_of_mass_sigma() {
     let z2 = short_gyro_run_com_z2(96, 3000, 200);
