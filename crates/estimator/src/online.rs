@@ -562,11 +562,7 @@ fn noise_moment<const N: usize, const R: usize>(
             (
                 true,
                 derivative_variance,
-                RegressorSignals {
-                    angular_acceleration_rad_s2: e,
-                    rate_products_rad2_s2: Vector6::zeros(),
-                    specific_force_m_s2: -e.cross(lever_m),
-                },
+                RegressorSignals::angular_acceleration_error(&e, lever_m),
             ),
             (
                 false,
@@ -1013,13 +1009,10 @@ impl OnlineEstimator {
     fn solve(&mut self, c: &Conditioned) -> Result<(), EstimatorError> {
         let phi = from_signals(&c.signals);
         let y = to_vector(&c.wrench);
-        // The regressor's part linear in ω̇, at the gyro's measured error: ω̇ enters the
-        // specific force at the P origin through the lever arm, −ω̇ × r.
-        let as_rate_error = |n: Vector3<f64>| RegressorSignals {
-            angular_acceleration_rad_s2: n,
-            rate_products_rad2_s2: Vector6::zeros(),
-            specific_force_m_s2: -n.cross(&self.config.accelerometer_position_m),
-        };
+        // The regressor's part linear in ω̇ at the gyro's measured error and its change.
+        let lever = self.config.accelerometer_position_m;
+        let as_rate_error =
+            |n: Vector3<f64>| RegressorSignals::angular_acceleration_error(&n, &lever);
         let measured = self.measures_gyro_error();
         let rate_error = c.gyro_excess_rad_s.filter(|_| measured).map(as_rate_error);
         let rate_change = c

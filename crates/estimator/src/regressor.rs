@@ -57,6 +57,18 @@ impl RegressorSignals {
         }
     }
 
+    /// The signals an error v of ω̇ alone carries: ω̇ = v, and through the accelerometer's
+    /// lever arm r the specific force at the P origin f_O = f_r − ω̇ × r gains −v × r. Its
+    /// regressor is ψ(v), the rows' part linear in ω̇ (the gyro's derivative noise in the
+    /// noise moment, its measured error in [`crate::rate_ends`] and [`crate::rate_integral`]).
+    pub fn angular_acceleration_error(v: &Vector3<f64>, lever_m: &Vector3<f64>) -> Self {
+        Self {
+            angular_acceleration_rad_s2: *v,
+            rate_products_rad2_s2: Vector6::zeros(),
+            specific_force_m_s2: -v.cross(lever_m),
+        }
+    }
+
     /// ω × (ω × r) = (ω ωᵀ − ‖ω‖²𝟙) r, written with the products so it stays linear in them.
     pub fn centripetal(&self, r: &Vector3<f64>) -> Vector3<f64> {
         let [xx, yy, zz, xy, xz, yz]: [f64; 6] = self.rate_products_rad2_s2.into();

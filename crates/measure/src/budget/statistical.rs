@@ -48,11 +48,7 @@ fn equation_covariance(
     let mut v = SMatrix::<f64, 6, 6>::zeros();
     for k in 0..3 {
         let e = Vector3::ith(k, 1.0);
-        let gw = model.regressor(&RegressorSignals {
-            angular_acceleration_rad_s2: e,
-            rate_products_rad2_s2: Vector6::zeros(),
-            specific_force_m_s2: -e.cross(&r),
-        }) * fit.theta;
+        let gw = model.regressor(&RegressorSignals::angular_acceleration_error(&e, &r)) * fit.theta;
         let ga = model.regressor(&RegressorSignals {
             specific_force_m_s2: e,
             ..RegressorSignals::default()

@@ -123,11 +123,7 @@ pub fn covariance(
             ..RegressorSignals::default()
         });
         channel(noise.accel_m_s2.powi(2), &|_| ga, None);
-        let gw = sens(RegressorSignals {
-            angular_acceleration_rad_s2: e,
-            rate_products_rad2_s2: Vector6::zeros(),
-            specific_force_m_s2: -e.cross(&r),
-        });
+        let gw = sens(RegressorSignals::angular_acceleration_error(&e, &r));
         // The estimator takes the gyro's error at the run's two ends out of its estimate
         // ([`estimator::rate_ends`]): −[Φᵀ ψ(n̂)θ]/Δt, n̂ the noise through the value stencil
         // and the low-pass, i.e. ∓ψ(unit)θ/Δt on the value path at the last and first sample.
