@@ -343,18 +343,22 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
                 None
             }
         };
-        let products = match rate_error_rows.map(|psi| self.weigh(psi)) {
+        let rate = match rate_error_rows.map(|psi| self.weigh(psi)) {
             Some(psi) => {
                 let rate = wrows.tr_mul(&psi);
                 self.ends.add(&rate, &psi, starts_stretch);
-                Some(RateErrorNormals { rate, derivative })
+                Some(rate)
             }
             None => {
                 self.ends.interrupt();
                 None
             }
         };
-        if self.score.add_sample(&wrows, &wy, products.as_ref()) {
+        let products = rate.as_ref().map(|rate| RateErrorNormals {
+            rate,
+            derivative: derivative.as_ref(),
+        });
+        if self.score.add_sample(&wrows, &wy, products) {
             let (theta, p, moment) = self.corrected_with_moment();
             let scored = self.without_rate_error(&moment).unwrap_or(theta);
             self.score

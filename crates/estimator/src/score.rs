@@ -87,12 +87,12 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
 /// error) met with its weighted rows Φ: what [`ScoreCovariance::add_sample`] takes out of the
 /// windows' scores and keeps apart ([`ScoreCovariance`]'s docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RateErrorNormals<const N: usize> {
+pub struct RateErrorNormals<'a, const N: usize> {
     /// Φᵀ ψ(n̂), n̂ the gyro's measured error.
-    pub rate: SMatrix<f64, N, N>,
+    pub rate: &'a SMatrix<f64, N, N>,
     /// Φᵀ ψ(ṅ̂), ṅ̂ the error's change over the last grid step, `None` where the conditioning
     /// gave none ([`crate::conditioning::Conditioned::gyro_excess_change_rad_s2`]).
-    pub derivative: Option<SMatrix<f64, N, N>>,
+    pub derivative: Option<&'a SMatrix<f64, N, N>>,
 }
 
 /// Window-summed residual scores of an exponentially weighted least-squares fit.
@@ -312,7 +312,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         &mut self,
         rows: &SMatrix<f64, R, N>,
         y: &SVector<f64, R>,
-        rate_error: Option<&RateErrorNormals<N>>,
+        rate_error: Option<RateErrorNormals<'_, N>>,
     ) -> bool {
         if self.forgetting < 1.0 {
             self.rising.age(self.forgetting);
@@ -332,7 +332,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         if let Some(products) = rate_error {
             self.rising.e += products.rate * (self.slope_scale * fall);
             self.falling.e -= products.rate * (self.slope_scale * rise);
-            if let Some(derivative) = &products.derivative {
+            if let Some(derivative) = products.derivative {
                 self.rising.u += derivative * rise;
                 self.falling.u += derivative * fall;
                 self.rising.n_u += rise;
@@ -696,11 +696,12 @@ mod tests {
                 let y = SVector::<f64, 1>::new(h * phi(t) + j * omega_dot);
                 let psi = SMatrix::<f64, 1, 2>::new(0.0, n[t + 1]);
                 let closes = without.add(&rows, &y);
+                let rate = rows.tr_mul(&psi);
                 let products = RateErrorNormals {
-                    rate: rows.tr_mul(&psi),
+                    rate: &rate,
                     derivative: None,
                 };
-                with.add_sample(&rows, &y, Some(&products));
+                with.add_sample(&rows, &y, Some(products));
                 if closes {
                     let zero = SMatrix::<f64, 2, 2>::zeros();
                     let one = SMatrix::<f64, 2, 2>::identity();
