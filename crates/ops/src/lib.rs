@@ -1,0 +1,6 @@
+//! Every `stewart` command's work as a library call, as cargo's `ops` are to its commands:
+//! `ops::x::run(&XOptions, observer…) -> Result<XOutcome, …>` with plain option structs (no
+//! clap, serde-friendly), so a program, a test or a benchmark runs a measurement, a campaign, a
+//! calibration or a rig session without the binary. The `stewart` binary turns flags into these
+//! options, calls, and prints.
+#![warn(missing_docs)]
