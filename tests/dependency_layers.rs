@@ -1,8 +1,9 @@
 //! The layers keep one direction of use: the library that carries the measurement procedure
 //! (`measure`) reaches none of clap, indicatif, mcap, plotters, rapier or the live view's
 //! server (foxglove, tokio, tungstenite) through any path of
-//! its dependency tree, so rig software and GUIs can embed it; the cores stay free of std-side
-//! crates. Read from `cargo tree -e normal` (what a user's build of the crate pulls in; dev-
+//! its dependency tree, so rig software and GUIs can embed it; neither it nor the rig
+//! description reaches the rig link's transports, the simulator reaches neither the procedure
+//! nor the log; the cores stay free of std-side crates. Read from `cargo tree -e normal` (what a user's build of the crate pulls in; dev-
 //! and build-only dependencies left out), on the locked, already fetched graph.
 
 use std::process::Command;
@@ -59,6 +60,20 @@ fn the_measurement_library_needs_no_terminal_log_format_plotter_or_physics_engin
         ],
     );
     assert!(found.is_empty(), "measure reaches {found:?}");
+}
+
+#[test]
+fn the_simulator_reads_the_rig_description_not_the_procedure() {
+    let found = forbidden_in("sim", &["measure", "runlog", "rig", "ops"]);
+    assert!(found.is_empty(), "sim reaches {found:?}");
+}
+
+#[test]
+fn the_procedure_and_the_rig_description_reach_no_transport() {
+    for library in ["measure", "rig-description"] {
+        let found = forbidden_in(library, &["rig", "serialport", "libc"]);
+        assert!(found.is_empty(), "{library} reaches {found:?}");
+    }
 }
 
 #[test]

@@ -228,8 +228,7 @@ mod tests {
     #[test]
     fn calibrated_gains_divide_each_reading() {
         let g = geometry();
-        let gains =
-            crate::calibration::load_cells::gains_with([1e-3, -2e-3, 0.0, 5e-4, 0.01, -0.01]);
+        let gains = crate::testkit::gains_with([1e-3, -2e-3, 0.0, 5e-4, 0.01, -0.01]);
         let mut feed = Feed::new(g, FkOptions::default(), &ImuMounting::default())
             .with_load_cell_gains(Some(&gains));
         let frame = frame_at(&g, &g.home_pose());

@@ -8,8 +8,9 @@
 //! the `stewart` command line. Nothing here depends on a terminal, a log format, a plotting
 //! library or a physics engine.
 //!
-//! - [`config`], [`load`], [`validate`], [`link`]: the rig description, read from TOML with
-//!   refusals that name the file, line and key.
+//! - [`config`], [`load`], [`validate`], [`link`]: the rig description (crate
+//!   `rig_description`, re-exported), read from TOML with refusals that name the file, line
+//!   and key.
 //! - [`setup`]: geometry, trajectory, controller and estimator settings from it, every check
 //!   that can refuse a run made before anything moves.
 //! - [`feed`] and [`tick`]: the one rule from sensor frame to estimator sample, and the one
@@ -27,12 +28,8 @@
 
 pub mod accuracy;
 pub mod budget;
-pub mod calendar;
 pub mod calibration;
-pub mod config;
 pub mod feed;
-pub mod link;
-pub mod load;
 pub mod measurement;
 pub mod observer;
 pub mod plan;
@@ -45,20 +42,18 @@ pub mod report;
 pub mod schema;
 pub mod session;
 pub mod setup;
-pub mod sources;
 pub mod systematic;
 pub mod tare;
 #[cfg(test)]
 pub(crate) mod testkit;
 pub mod tick;
-pub mod validate;
 pub mod weigh;
 
-pub use config::Config;
-pub use load::{ConfigError, ConfigIssue, LoadedConfig};
 pub use measurement::{measure, End, MeasureOutcome, MeasureSetup};
 pub use observer::{Observer, TickEvent};
 pub use report::Report;
+pub use rig_description::{calendar, config, link, load, sources, validate};
+pub use rig_description::{Config, ConfigError, ConfigIssue, LoadedConfig};
 pub use session::{Station, TarePlan};
 pub use setup::Measurement;
 pub use tare::TareFile;

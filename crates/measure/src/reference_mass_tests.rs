@@ -4,14 +4,14 @@
 //! made with known gains and zero offsets.
 
 use super::*;
-use crate::calibration::load_cells::gains_with;
+use crate::testkit::gains_with;
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal as Gauss};
 
 use crate::budget::testkit;
-use crate::calibration::load_cells::LoadCellFile;
 use crate::calibration::CalibrationDocument;
+use crate::calibration::LoadCellFile;
 
 const H: f64 = 0.01;
 const TRUE_GAINS: [f64; 6] = [4e-4, -6e-4, 2e-4, 8e-4, -3e-4, -5e-4];

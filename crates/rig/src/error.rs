@@ -136,6 +136,15 @@ pub enum RigError {
     },
 }
 
+impl From<rig_description::link::AddressError> for RigError {
+    fn from(e: rig_description::link::AddressError) -> Self {
+        RigError::Config {
+            input: e.input,
+            reason: e.reason,
+        }
+    }
+}
+
 impl RigError {
     /// The class of this error.
     pub fn kind(&self) -> ErrorKind {

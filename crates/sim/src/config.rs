@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use measure::config::LegsConfig;
+use rig_description::config::LegsConfig;
 
 use crate::actuator::ActuatorConfig;
 use crate::error::{check_non_negative, check_positive, SimError};

@@ -6,7 +6,7 @@
 //! campaign can run one source at a time against an estimator that still knows the whole
 //! datasheet ([`Imperfections::only`]).
 
-use measure::sources::ErrorSource;
+use rig_description::sources::ErrorSource;
 use serde::{Deserialize, Serialize};
 
 /// Which error sources the simulated rig has (`true`: on, sized by the rig description).

@@ -48,8 +48,8 @@
 //! and inertia, with `a_c = d_c (α_L × u + ω_L × (ω_L × u))` and
 //! `a_r = l̈ u + 2 l̇ ω_L × u + (l − d_r)(α_L × u + ω_L × (ω_L × u))`.
 
-use measure::config::{LegsConfig, LoadCellEnd};
 use nalgebra::{Matrix3, Matrix6, Vector3, Vector6};
+use rig_description::config::{LegsConfig, LoadCellEnd};
 
 /// Angular speed over which the joints' Coulomb torque changes sign (`tanh(|w| / ω_s)`), rad/s.
 ///

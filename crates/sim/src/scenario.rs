@@ -10,10 +10,10 @@
 
 use serde::{Deserialize, Serialize};
 
-use measure::load::{ConfigError, LoadedConfig, WORLD_TABLE};
-use measure::report::Quantities;
-use measure::sources::ErrorSource;
-use measure::validate::Problems;
+use rig_description::load::{ConfigError, LoadedConfig, WORLD_TABLE};
+use rig_description::quantities::Quantities;
+use rig_description::sources::ErrorSource;
+use rig_description::validate::Problems;
 
 use crate::NoisePreset;
 
@@ -216,7 +216,7 @@ impl Scenario {
     /// inertia; with `joint_friction` on, the Coulomb and viscous figures are scaled alike
     /// from the `joint_friction` stream (`friction_tolerance`). A source off leaves its figures
     /// as described. Figures stay non-negative.
-    pub fn built_legs(&self) -> measure::config::LegsConfig {
+    pub fn built_legs(&self) -> rig_description::config::LegsConfig {
         use crate::streams::{normal, stream};
         let described = self.loaded.config.legs;
         let mut legs = described;
@@ -299,7 +299,7 @@ impl Scenario {
     }
 
     /// Maps a simulator refusal to the key it names.
-    fn sim_issue(&self, e: &crate::SimError) -> measure::ConfigIssue {
+    fn sim_issue(&self, e: &crate::SimError) -> rig_description::ConfigIssue {
         let loaded = &self.loaded;
         match e {
             crate::SimError::InvalidConfig {

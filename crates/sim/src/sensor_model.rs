@@ -59,10 +59,10 @@
 //! clean one bit for bit.
 
 use control::io::SensorFrame;
-use measure::sources::ErrorSource;
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use rand::rngs::StdRng;
 use rand::Rng;
+use rig_description::sources::ErrorSource;
 
 use crate::cell_loads::CellLoads;
 use crate::sensors::SensorConfig;
@@ -129,7 +129,7 @@ fn imu_to_p(orientation_deg: [f64; 3], theta_rad: Vector3<f64>) -> Option<Rotati
     if orientation_deg == [0.0; 3] && theta_rad == Vector3::zeros() {
         return None;
     }
-    let described = measure::config::ImuMounting {
+    let described = rig_description::config::ImuMounting {
         orientation_deg,
         ..Default::default()
     }
@@ -208,7 +208,7 @@ impl SensorModel {
     /// The IMU as built, in the IMU calibration's terms (`measure::calibration::imu`): ground
     /// truth for tests, never read by the estimator.
     pub fn imu_as_built(&self) -> ImuAsBuilt {
-        let described = measure::config::ImuMounting {
+        let described = rig_description::config::ImuMounting {
             orientation_deg: self.config.imu.orientation_deg,
             ..Default::default()
         }

@@ -4,10 +4,10 @@
 //! switching a source off (or changing its figure) leaves every other source's draws as they
 //! were: a campaign with one source on sees exactly that source's errors of the full world.
 
-use measure::sources::ErrorSource;
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rand_distr::StandardNormal;
+use rig_description::sources::ErrorSource;
 
 /// The generator of `source` for `seed`: ChaCha keyed with the seed's 8 bytes followed by the
 /// source's id (at most 24 bytes), so no two (seed, source) pairs share a key.

@@ -84,7 +84,7 @@ fn gains_that_take_up_each_joint_exactly_leave_no_geometry_line() {
 /// `load_cell_scale`, the joints alone in `geometry`.
 #[test]
 fn a_file_without_sensitivities_counts_its_whole_covariance() {
-    let mut gains = crate::calibration::load_cells::gains_with([1e-4; 6]);
+    let mut gains = crate::testkit::gains_with([1e-4; 6]);
     let c = CalibratedGains::of(&gains);
     assert!(c.joint_per_m.is_empty());
     let sigma = |c: &CalibratedGains| c.modes.iter().map(|m| m.0 * m.0).sum::<f64>();

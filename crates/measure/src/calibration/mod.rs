@@ -1,36 +1,18 @@
-//! Calibrations of the rig that the measurement applies: each fitted from the rig's own data,
-//! with its uncertainty, written to a dated calibration file the rig description references
-//! ([`file`]). docs/calibration.md says when to run each and what it reaches.
+//! Calibrations of the rig that the measurement applies, fitted from the rig's own data with
+//! their uncertainty; their dated files are part of the rig description
+//! ([`rig_description::calibration`], re-exported here). docs/calibration.md says when to run
+//! each and what it reaches.
 //!
 //! - [`imu`]: the IMU's alignment against the forward kinematics (its axes' rotation and
 //!   scales, the accelerometer's position, the IMU's delay), from a moving plate.
 //! - [`load_cells`]: the load cells' gains from a reference body of known mass, measured like
-//!   a payload (tare run, then the reference on the fixture).
-//! - [`file`]: the dated calibration file.
+//!   a payload (tare run, then the reference on the fixture; [`crate::reference_mass`] fits
+//!   them).
 
-pub mod file;
 pub mod imu;
-pub mod load_cells;
 pub(crate) mod normal;
 
-pub use file::{CalibrationDocument, CalibrationFile, Provenance};
-pub use imu::ImuAlignment;
-pub use load_cells::{LoadCellFile, LoadCellGains};
-
-/// A calibration a measurement applied, as its report records it.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct AppliedCalibration {
-    /// What it calibrates (`"imu"`).
-    pub kind: String,
-    /// Where it came from: the file the rig description names, or the calibration pass.
-    pub source: String,
-    /// When its data were taken (`2026-11-24T17:40:00Z`).
-    pub calibrated_utc: String,
-    /// The tool that fitted it.
-    pub tool: String,
-}
-
-/// This tool and its version, as reports and calibration files name it.
-pub fn tool() -> String {
-    format!("stewart {}", env!("CARGO_PKG_VERSION"))
-}
+pub use rig_description::calibration::{
+    file, load_cells, tool, AppliedCalibration, CalibrationDocument, CalibrationFile, ImuAlignment,
+    LoadCellFile, LoadCellGains, Provenance,
+};

@@ -3,7 +3,6 @@
 
 use std::fmt;
 use std::net::SocketAddr;
-use std::str::FromStr;
 use std::time::Duration;
 
 use crate::error::RigError;
@@ -14,8 +13,7 @@ mod udp;
 pub use serial::SerialTransport;
 pub use udp::UdpTransport;
 
-/// Default baud rate of `serial://` addresses that do not give one.
-pub const DEFAULT_BAUD: u32 = 921_600;
+pub use rig_description::link::{Address, AddressError, DEFAULT_BAUD};
 
 /// Who a frame came from or goes to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -61,98 +59,6 @@ pub trait Transport: Send {
 
     /// The local socket address, for UDP.
     fn local_addr(&self) -> Option<SocketAddr>;
-}
-
-/// A parsed rig address: `udp://HOST:PORT` or `serial:///dev/ttyUSB0?baud=921600`.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Address {
-    /// UDP: the resolved socket address.
-    Udp(SocketAddr),
-    /// Serial: device path and baud rate.
-    Serial {
-        /// Device path, e.g. `/dev/ttyUSB0`.
-        path: String,
-        /// Baud rate.
-        baud: u32,
-    },
-}
-
-impl FromStr for Address {
-    type Err = RigError;
-
-    fn from_str(input: &str) -> Result<Self, RigError> {
-        let bad = |reason: &str| RigError::config(input, reason);
-        if let Some(rest) = input.strip_prefix("udp://") {
-            let (host, port) = rest
-                .rsplit_once(':')
-                .ok_or_else(|| bad("expected udp://HOST:PORT (no port given)"))?;
-            if host.is_empty() {
-                return Err(bad("expected udp://HOST:PORT (no host given)"));
-            }
-            let port: u16 = port
-                .parse()
-                .map_err(|_| bad("the port must be a number from 0 to 65535"))?;
-            let host = host.trim_start_matches('[').trim_end_matches(']');
-            use std::net::ToSocketAddrs;
-            let addrs: Vec<SocketAddr> = (host, port)
-                .to_socket_addrs()
-                .map_err(|e| bad(&format!("cannot resolve host `{host}`: {e}")))?
-                .collect();
-            // Prefer IPv4 when a name has both ("localhost"): emulators listen on 127.0.0.1 by
-            // default, and a host aiming at ::1 would wait for an answer that never comes.
-            let addr = addrs
-                .iter()
-                .find(|a| a.is_ipv4())
-                .or(addrs.first())
-                .copied()
-                .ok_or_else(|| bad(&format!("host `{host}` has no address")))?;
-            Ok(Address::Udp(addr))
-        } else if let Some(rest) = input.strip_prefix("serial://") {
-            let (path, query) = match rest.split_once('?') {
-                Some((p, q)) => (p, Some(q)),
-                None => (rest, None),
-            };
-            if path.is_empty() {
-                return Err(bad(
-                    "expected serial:///dev/DEVICE?baud=N (no device path given)",
-                ));
-            }
-            let mut baud = DEFAULT_BAUD;
-            for pair in query.into_iter().flat_map(|q| q.split('&')) {
-                match pair.split_once('=') {
-                    Some(("baud", value)) => {
-                        baud = value
-                            .parse()
-                            .ok()
-                            .filter(|&b: &u32| b > 0)
-                            .ok_or_else(|| bad("baud must be a positive whole number"))?;
-                    }
-                    _ => {
-                        return Err(bad(&format!(
-                            "unknown serial option `{pair}` (only baud=N)"
-                        )))
-                    }
-                }
-            }
-            Ok(Address::Serial {
-                path: path.to_string(),
-                baud,
-            })
-        } else {
-            Err(bad(
-                "expected udp://HOST:PORT or serial:///dev/DEVICE?baud=N",
-            ))
-        }
-    }
-}
-
-impl fmt::Display for Address {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Address::Udp(addr) => write!(f, "udp://{addr}"),
-            Address::Serial { path, baud } => write!(f, "serial://{path}?baud={baud}"),
-        }
-    }
 }
 
 /// Opens a link to the rig at `address`; returns it and the rig's peer identity.

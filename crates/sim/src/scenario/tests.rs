@@ -3,7 +3,7 @@
 
 use super::*;
 use control::io::Backend;
-use measure::load::{load, load_str};
+use rig_description::load::{load, load_str};
 
 use crate::{Imperfections, SensorConfig};
 
@@ -102,7 +102,7 @@ fn each_switch_turns_on_its_own_figures_from_the_datasheet() {
 #[test]
 fn the_built_rig_differs_from_the_drawing_by_the_tolerance() {
     let mut s = default_scenario();
-    let described = measure::setup::geometry(&s.loaded).unwrap();
+    let described = rig_description::derived::geometry(&s.loaded).unwrap();
     let sigma = s.loaded.config.platform.joint_position_tolerance_m;
     assert_eq!(sigma, 2e-4);
     let mut offsets = Vec::new();
@@ -153,7 +153,7 @@ fn a_turned_imu_reports_in_its_own_axes() {
     let text = "[sensors.imu]\norientation_deg = [0.0, 0.0, 90.0]\n";
     let mut s = Scenario::new(load_str(text, "t.toml").unwrap(), None, None).unwrap();
     s.world.imperfections = Imperfections::all(false);
-    let described = measure::setup::geometry(&s.loaded).unwrap();
+    let described = rig_description::derived::geometry(&s.loaded).unwrap();
     let mut sim = s.simulator(described, true).unwrap();
     let home = sim.true_pose();
     let spin = nalgebra::Vector3::new(0.2, -0.1, 0.05);
@@ -220,7 +220,7 @@ fn the_suspension_reaches_the_simulator_and_its_refusals_name_its_keys() {
     let text = "[world.suspension]\nenabled = true\n";
     let s = Scenario::new(load_str(text, "s.toml").unwrap(), None, None).unwrap();
     assert!(s.sim_config().suspension.enabled);
-    let geometry = measure::setup::geometry(&s.loaded).unwrap();
+    let geometry = rig_description::derived::geometry(&s.loaded).unwrap();
     let sim = s.simulator(geometry, true).unwrap();
     assert!(sim.true_sprung_pose().is_some());
     assert_eq!(sim.true_payload(), Some(s.world.payload.to_sim()));

@@ -5,8 +5,8 @@ use super::tests::{car, geometry};
 use super::*;
 use crate::legs::Legs;
 use crate::sensors::{NoisePreset, SensorConfig};
-use measure::config::{LegsConfig, LoadCellEnd};
 use nalgebra::{Rotation3, Vector6};
+use rig_description::config::{LegsConfig, LoadCellEnd};
 
 const G: Vector3<f64> = stewart_types::GRAVITY_B_M_S2;
 
@@ -15,7 +15,7 @@ fn legs_config() -> LegsConfig {
     LegsConfig {
         joint_coulomb_torque_nm: 0.0,
         joint_viscous_nm_s_per_rad: 0.0,
-        ..measure::load::load(None)
+        ..rig_description::load::load(None)
             .expect("the embedded default loads")
             .config
             .legs
@@ -414,7 +414,7 @@ fn rapier_moves_the_plate_with_the_coupled_acceleration() {
 /// a source off leaves its figures as described.
 #[test]
 fn the_worlds_switches_draw_the_built_legs_within_their_tolerances() {
-    use measure::load::{load, load_str};
+    use rig_description::load::{load, load_str};
     let scenario = crate::scenario::Scenario::new(load(None).unwrap(), None, None).unwrap();
     let described = scenario.loaded.config.legs;
     assert!(described.cylinder_mass_kg > 0.0 && described.joint_coulomb_torque_nm > 0.0);

@@ -6,8 +6,8 @@ use super::tests::{car, geometry};
 use super::*;
 use crate::imperfections::SuspensionConfig;
 use crate::sensors::{NoisePreset, SensorConfig};
-use measure::config::LegsConfig;
 use nalgebra::Vector6;
+use rig_description::config::LegsConfig;
 use stewart_types::STANDARD_GRAVITY_M_S2;
 
 const G: Vector3<f64> = stewart_types::GRAVITY_B_M_S2;

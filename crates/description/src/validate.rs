@@ -1,7 +1,7 @@
 //! Range checks on a deserialized [`Config`]: every value a physical meaning allows, nothing
 //! else. Each problem is returned as (dotted key, what is wrong) so the loader can add the file
 //! and line. Checks that need the kinematics (reachability, singularity) run later, before any
-//! motion, in [`crate::setup`].
+//! motion, in [`crate::derived::geometry`] and measure's `setup`.
 
 use crate::config::{Config, ExcitationKind, MultisineConfig, ParamCount, SineConfig};
 

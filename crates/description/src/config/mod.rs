@@ -10,7 +10,7 @@
 //! Every table refuses unknown keys (`deny_unknown_fields`) so that a misspelt key or a key with
 //! the wrong unit is an error, never a silently ignored setting. Ranges are checked in
 //! [`crate::validate`]; loading and messages are in [`crate::load`]; the checks that need the
-//! kinematics (singular design, unreachable trajectory) in [`crate::setup`].
+//! kinematics (singular design) in [`crate::derived`], the trajectory's in measure's `setup`.
 
 use serde::{Deserialize, Serialize};
 
@@ -82,7 +82,7 @@ impl BodyPrior {
     }
 }
 
-/// `[plan]`: the excitation design's prior, targets and margins (`crate::plan`). The plan
+/// `[plan]`: the excitation design's prior, targets and margins (measure's `plan`). The plan
 /// minimises the largest ratio of a quantity's predicted sigma to its target.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -346,7 +346,7 @@ pub struct LoadCellDatasheet {
     /// White noise, one standard deviation, N.
     pub noise_n: f64,
     /// One standard deviation of each cell's zero offset left after its calibration, N. Its
-    /// effect enters the reported sigma as a systematic part ([`crate::systematic`]).
+    /// effect enters the reported sigma as a systematic part (measure's `systematic`).
     pub zero_offset_n: f64,
     /// Resolution (quantisation step), N; 0 = continuous.
     pub resolution_n: f64,
@@ -385,7 +385,7 @@ pub struct AccelerometerDatasheet {
     pub noise_density_m_s2_sqrt_hz: f64,
     /// One standard deviation of each axis' constant bias, m/s². Its effect does not cancel
     /// with the tare (it is proportional to the mass on the plate) and enters the reported
-    /// sigma as a systematic part ([`crate::systematic`]).
+    /// sigma as a systematic part (measure's `systematic`).
     pub bias_m_s2: f64,
     /// One standard deviation of each axis' scale-factor error, relative.
     #[serde(default)]
@@ -641,7 +641,7 @@ pub enum ParamCount {
 
 impl ParamCount {
     /// Indices of θ the model estimates: all ten, or the six of the tensor (m and h given).
-    /// The report's quantities ([`crate::report::Quantities::flat`]) share the order: mass and
+    /// The report's quantities ([`crate::quantities::Quantities::flat`]) share the order: mass and
     /// centre of mass first, then J_C's entries.
     pub fn estimated(self) -> core::ops::Range<usize> {
         match self {

@@ -1,6 +1,6 @@
 //! The load cells' calibration file: the gains with their covariance, when and from what, as
 //! TOML beside the rig description, which references it (`[calibration] load_cells`). Its
-//! header is the IMU calibration file's ([`crate::calibration::file`]); its table is
+//! header is the IMU calibration file's ([`super::file`]); its table is
 //! `[load_cells]`.
 
 use serde::{Deserialize, Serialize};
@@ -54,10 +54,10 @@ impl CalibrationDocument for LoadCellFile {
             return Some("covariance_without_joints of the wrong size".into());
         }
         let n = c.joint_sensitivity.len();
-        if n != 0 && n != crate::calibration::load_cells::JOINT_COORDINATES {
+        if n != 0 && n != super::JOINT_COORDINATES {
             return Some(format!(
                 "joint_sensitivity has {n} rows, not one per joint coordinate ({})",
-                crate::calibration::load_cells::JOINT_COORDINATES
+                super::JOINT_COORDINATES
             ));
         }
         let finite = c

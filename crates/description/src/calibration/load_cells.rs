@@ -1,12 +1,9 @@
-//! The load cells' gains as calibrated from a reference mass ([`crate::reference_mass`] fits
-//! them), with their covariance and its parts, and their dated file ([`file`]).
+//! The load cells' gains as calibrated from a reference mass (measure's `reference_mass` fits
+//! them), with their covariance and its parts; their dated file is
+//! [`LoadCellFile`](super::LoadCellFile).
 
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
-
-pub mod file;
-
-pub use file::LoadCellFile;
 
 /// The fitted gains.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -24,7 +21,7 @@ pub struct LoadCellGains {
     pub covariance_without_joints: Vec<Vec<f64>>,
     /// s_k: the change of ĝ when joint coordinate k is off the drawing by
     /// [`joint_tolerance_m`](Self::joint_tolerance_m), k = 0..36 (the base joints' x, y, z leg
-    /// after leg, then the plate joints': [`crate::calibration::load_cells::joint_index`]). Empty in
+    /// after leg, then the plate joints': [`joint_index`]). Empty in
     /// files without it: the budget then counts the whole covariance in `load_cell_scale`.
     #[serde(default)]
     pub joint_sensitivity: Vec<[f64; 6]>,
@@ -81,8 +78,7 @@ impl LoadCellGains {
     /// and each joint coordinate's sensitivity per metre, s_k / tolerance.
     pub fn joint_share(&self) -> Option<(DMatrix<f64>, Vec<nalgebra::Vector6<f64>>)> {
         let t = self.joint_tolerance_m;
-        let complete = self.joint_sensitivity.len()
-            == crate::calibration::load_cells::JOINT_COORDINATES
+        let complete = self.joint_sensitivity.len() == JOINT_COORDINATES
             && self.covariance_without_joints.len() == 6
             && self.covariance_without_joints.iter().all(|r| r.len() == 6)
             && t.is_finite()
@@ -113,35 +109,7 @@ pub const JOINT_COORDINATES: usize = 36;
 
 /// Index of a joint coordinate in [`LoadCellGains::joint_sensitivity`]: the base joints'
 /// coordinates first (leg-major, x y z), then the plate joints', the error budget's
-/// `geometry` order ([`crate::budget::perturb::scalars`]).
+/// `geometry` order.
 pub fn joint_index(plate: bool, leg: usize, coord: usize) -> usize {
     usize::from(plate) * 18 + leg * 3 + coord
-}
-
-/// A gains table with these gains and a small diagonal covariance (other modules' tests).
-#[cfg(test)]
-pub(crate) fn gains_with(gains: [f64; 6]) -> LoadCellGains {
-    LoadCellGains {
-        gains,
-        covariance: (0..6)
-            .map(|i| (0..6).map(|j| if i == j { 1e-8 } else { 0.0 }).collect())
-            .collect(),
-        covariance_without_joints: Vec::new(),
-        joint_sensitivity: Vec::new(),
-        fitted_gains: gains,
-        fitted_covariance: Vec::new(),
-        prior_sigma: 0.0,
-        noise_sigma: [1e-4; 6],
-        joints_sigma: [0.0; 6],
-        legs_sigma: [0.0; 6],
-        drift_sigma: [0.0; 6],
-        mass_sigma: [0.0; 6],
-        reference_mass_kg: 1000.0,
-        reference_mass_tolerance_kg: 0.05,
-        reference_com_m: [0.0, 0.0, 0.3],
-        fixture_mass_kg: 400.0,
-        joint_tolerance_m: 2e-4,
-        residual_rms: 1.0,
-        entries: 4000,
-    }
 }

@@ -279,7 +279,7 @@ mod tests {
         let rig = dir.path().join("car.toml");
         std::fs::write(&rig, "[calibration]\nimu = \"imu.toml\"\n").unwrap();
         let loaded = crate::load::load(Some(&rig)).unwrap();
-        let p = crate::setup::accelerometer_position(&loaded.config);
+        let p = crate::derived::accelerometer_position(&loaded.config);
         assert_eq!([p.x, p.y, p.z], [0.1, -0.2, 0.3]);
         assert_eq!(loaded.config.calibration.age_warnings(0).len(), 0);
         assert_eq!(loaded.config.calibration.age_warnings(91 * 86_400).len(), 1);

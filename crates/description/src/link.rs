@@ -1,7 +1,10 @@
 //! The `[rig]` table of the rig description: how the host reaches the rig (`stewart rig`) and
 //! how the emulator listens (`stewart emulate`).
 
+use std::fmt;
+use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
+use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
@@ -41,6 +44,114 @@ impl Default for RigLinkConfig {
     }
 }
 
+/// Default baud rate of `serial://` addresses that do not give one.
+pub const DEFAULT_BAUD: u32 = 921_600;
+
+/// Why an address string is not a rig address.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("invalid rig address or option `{input}`: {reason}")]
+pub struct AddressError {
+    /// What was given.
+    pub input: String,
+    /// Why it is refused.
+    pub reason: String,
+}
+
+/// A parsed rig address: `udp://HOST:PORT` or `serial:///dev/ttyUSB0?baud=921600`.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Address {
+    /// UDP: the resolved socket address.
+    Udp(SocketAddr),
+    /// Serial: device path and baud rate.
+    Serial {
+        /// Device path, e.g. `/dev/ttyUSB0`.
+        path: String,
+        /// Baud rate.
+        baud: u32,
+    },
+}
+
+impl FromStr for Address {
+    type Err = AddressError;
+
+    fn from_str(input: &str) -> Result<Self, AddressError> {
+        let bad = |reason: &str| AddressError {
+            input: input.to_string(),
+            reason: reason.to_string(),
+        };
+        if let Some(rest) = input.strip_prefix("udp://") {
+            let (host, port) = rest
+                .rsplit_once(':')
+                .ok_or_else(|| bad("expected udp://HOST:PORT (no port given)"))?;
+            if host.is_empty() {
+                return Err(bad("expected udp://HOST:PORT (no host given)"));
+            }
+            let port: u16 = port
+                .parse()
+                .map_err(|_| bad("the port must be a number from 0 to 65535"))?;
+            let host = host.trim_start_matches('[').trim_end_matches(']');
+            use std::net::ToSocketAddrs;
+            let addrs: Vec<SocketAddr> = (host, port)
+                .to_socket_addrs()
+                .map_err(|e| bad(&format!("cannot resolve host `{host}`: {e}")))?
+                .collect();
+            // Prefer IPv4 when a name has both ("localhost"): emulators listen on 127.0.0.1 by
+            // default, and a host aiming at ::1 would wait for an answer that never comes.
+            let addr = addrs
+                .iter()
+                .find(|a| a.is_ipv4())
+                .or(addrs.first())
+                .copied()
+                .ok_or_else(|| bad(&format!("host `{host}` has no address")))?;
+            Ok(Address::Udp(addr))
+        } else if let Some(rest) = input.strip_prefix("serial://") {
+            let (path, query) = match rest.split_once('?') {
+                Some((p, q)) => (p, Some(q)),
+                None => (rest, None),
+            };
+            if path.is_empty() {
+                return Err(bad(
+                    "expected serial:///dev/DEVICE?baud=N (no device path given)",
+                ));
+            }
+            let mut baud = DEFAULT_BAUD;
+            for pair in query.into_iter().flat_map(|q| q.split('&')) {
+                match pair.split_once('=') {
+                    Some(("baud", value)) => {
+                        baud = value
+                            .parse()
+                            .ok()
+                            .filter(|&b: &u32| b > 0)
+                            .ok_or_else(|| bad("baud must be a positive whole number"))?;
+                    }
+                    _ => {
+                        return Err(bad(&format!(
+                            "unknown serial option `{pair}` (only baud=N)"
+                        )))
+                    }
+                }
+            }
+            Ok(Address::Serial {
+                path: path.to_string(),
+                baud,
+            })
+        } else {
+            Err(bad(
+                "expected udp://HOST:PORT or serial:///dev/DEVICE?baud=N",
+            ))
+        }
+    }
+}
+
+impl fmt::Display for Address {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Address::Udp(addr) => write!(f, "udp://{addr}"),
+            Address::Serial { path, baud } => write!(f, "serial://{path}?baud={baud}"),
+        }
+    }
+}
+
 impl RigLinkConfig {
     /// Range problems as (key, problem), like [`crate::validate::validate`].
     pub fn problems(&self) -> Vec<(String, String)> {
@@ -62,7 +173,7 @@ impl RigLinkConfig {
             600.0,
             "s",
         );
-        if let Err(e) = self.address.parse::<rig::transport::Address>() {
+        if let Err(e) = self.address.parse::<Address>() {
             out.push(("rig.address".into(), e.to_string()));
         }
         out
