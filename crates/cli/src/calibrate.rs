@@ -1,13 +1,13 @@
 //! The calibrations as the commands run them: the IMU's alignment fitted on the empty fixture's
 //! run ([`measure::calibration::imu`]) and the load cells' gains on a session of a tare run and
-//! a loaded run with the reference body ([`measure::reference_mass`]), and what is printed of
+//! a loaded run with the reference body ([`calibrate::load_cells`]), and what is printed of
 //! them.
 
 use std::path::Path;
 
+use calibrate::load_cells::{self as reference_mass, Run, Setup};
 use measure::calibration::LoadCellFile;
 use measure::load::{ConfigError, LoadedConfig};
-use measure::reference_mass::{self, Run, Setup};
 use measure::session::{SessionOutcome, TareSource};
 use nalgebra::Vector3;
 
@@ -185,7 +185,7 @@ pub fn imu_calibration(
         .filter(|g| *g > 0.0)
         .unwrap_or(stewart_types::STANDARD_GRAVITY_M_S2);
     let geometry = measure::setup::geometry(loaded).map_err(|e| anyhow::anyhow!("{e}"))?;
-    let alignment = measure::calibration::imu::fit(
+    let alignment = calibrate::imu::fit(
         &record.entries(),
         &nalgebra::Vector3::new(0.0, 0.0, -g),
         &geometry,

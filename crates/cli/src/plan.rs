@@ -7,8 +7,8 @@ use std::path::PathBuf;
 use clap::Args;
 use control::trajectory::Trajectory;
 use measure::load::Overrides;
-use measure::plan::{self, Planner, Prediction};
 use measure::report::Quantities;
+use planner::{Planner, Prediction};
 use serde::Serialize;
 
 use crate::common::{refuse, CommandError};
@@ -98,7 +98,7 @@ fn run(args: &PlanArgs) -> Result<(), CommandError> {
     let progress = crate::progress::Progress::new(1, args.quiet || args.json);
     let bar = progress.handle();
     bar.set_message("planning: scoring candidate excitations");
-    let plan = plan::design(
+    let plan = planner::design(
         &planner,
         &config.excitation,
         duration_s,
@@ -119,7 +119,7 @@ fn run(args: &PlanArgs) -> Result<(), CommandError> {
     let worst = Quantities::NAMES[worst_index];
     if let Some(path) = &args.out {
         let header = header(&plan, duration_s, &loaded.source);
-        let text = plan::search::excitation_file(&plan.excitation, &header);
+        let text = planner::search::excitation_file(&plan.excitation, &header);
         // The export's atomic write: a reader never sees a half-written file.
         inertial_export::file::write_atomically(path, &text)
             .map_err(|e| CommandError::Run(anyhow::anyhow!("{e}")))?;
@@ -190,7 +190,7 @@ pub fn configured_prediction(
 }
 
 /// The file's header: what it is, when, for what, and what it predicts.
-fn header(plan: &plan::Plan, duration_s: f64, source: &str) -> String {
+fn header(plan: &planner::Plan, duration_s: f64, source: &str) -> String {
     let mut h = format!(
         "Excitation designed by `stewart plan` (stewart {}) for the rig description {source}:\n\
          {} sines, base frequency {:.4} Hz, {} harmonics per axis, {duration_s} s loaded run.\n\
@@ -228,7 +228,7 @@ fn degrees_line(degrees: &[Option<f64>; 10]) -> Option<String> {
 }
 
 fn table(
-    plan: &plan::Plan,
+    plan: &planner::Plan,
     planner: &Planner,
     configured: Option<&Prediction>,
     duration_s: f64,

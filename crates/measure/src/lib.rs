@@ -28,14 +28,11 @@
 
 pub mod accuracy;
 pub mod budget;
-pub mod calibration;
 pub mod feed;
 pub mod measurement;
 pub mod observer;
-pub mod plan;
 pub mod quality;
 pub mod record;
-pub mod reference_mass;
 pub mod reorder;
 pub mod replay;
 pub mod report;
@@ -44,15 +41,15 @@ pub mod session;
 pub mod setup;
 pub mod systematic;
 pub mod tare;
-#[cfg(test)]
-pub(crate) mod testkit;
+#[cfg(any(test, feature = "testkit"))]
+pub mod testkit;
 pub mod tick;
 pub mod weigh;
 
 pub use measurement::{measure, End, MeasureOutcome, MeasureSetup};
 pub use observer::{Observer, TickEvent};
 pub use report::Report;
-pub use rig_description::{calendar, config, link, load, sources, validate};
+pub use rig_description::{calendar, calibration, config, link, load, sources, validate};
 pub use rig_description::{Config, ConfigError, ConfigIssue, LoadedConfig};
 pub use session::{Station, TarePlan};
 pub use setup::Measurement;

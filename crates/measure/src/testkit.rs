@@ -1,4 +1,5 @@
-//! What the crate's tests share: the reference platform.
+//! What the tests of this crate and of the crates above it share (feature `testkit`): the
+//! reference platform and a load-cell gains table.
 
 use kinematics::{Geometry, StrokeLimits};
 
@@ -18,7 +19,7 @@ pub fn geometry() -> Geometry {
 }
 
 /// A gains table with these gains and a small diagonal covariance (other modules' tests).
-pub(crate) fn gains_with(gains: [f64; 6]) -> crate::calibration::LoadCellGains {
+pub fn gains_with(gains: [f64; 6]) -> crate::calibration::LoadCellGains {
     crate::calibration::LoadCellGains {
         gains,
         covariance: (0..6)

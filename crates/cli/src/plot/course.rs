@@ -1,9 +1,9 @@
 //! The payload's predicted sigma over the excitation, beside the sigma the run achieved: what
 //! `stewart plan` predicts for the whole run ([`crate::plan::configured_prediction`]), with the
-//! information accumulated only up to each time t ([`measure::plan::Planner::predict_until`]).
+//! information accumulated only up to each time t ([`planner::Planner::predict_until`]).
 
-use measure::plan::Planner;
 use measure::LoadedConfig;
+use planner::Planner;
 use runlog::read::LogContents;
 
 /// Points of the predicted course: the excitation's length split evenly.

@@ -507,3 +507,36 @@ fn joint_change(
         })
         .collect()
 }
+
+/// The poses that the lengths of `poses` (legs of the described `geometry`) give on a rig
+/// whose joint `leg` (plate's, else base's) is off by `delta_m` along `coord`: one Newton step
+/// of forward kinematics from each pose. `None` when the moved geometry is not a platform.
+pub fn moved_poses(
+    geometry: &Geometry,
+    poses: &[Pose],
+    plate: bool,
+    leg: usize,
+    coord: usize,
+    delta_m: f64,
+) -> Option<Vec<Pose>> {
+    let mut b = *geometry.base_joints_m();
+    let mut p = *geometry.plate_joints_m();
+    let joint = if plate {
+        p.get_mut(leg)?
+    } else {
+        b.get_mut(leg)?
+    };
+    *joint.get_mut(coord)? += delta_m;
+    let built = Geometry::from_points(b, p, geometry.stroke()).ok()?;
+    poses
+        .iter()
+        .map(|pose| {
+            let dl = geometry.leg_lengths(pose) - built.leg_lengths(pose);
+            let dx = built.jacobian(pose).lu().solve(&dl)?;
+            Some(Pose::new(
+                pose.position_m + Vector3::new(dx[0], dx[1], dx[2]),
+                Rotation3::new(Vector3::new(dx[3], dx[4], dx[5])) * pose.rotation,
+            ))
+        })
+        .collect()
+}

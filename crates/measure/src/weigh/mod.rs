@@ -37,7 +37,7 @@
 //! at one sigma, by the budget's rule ([`crate::budget::perturb`]): each cell's zero offset
 //! (`zero_offset_n`) and gain (`gain_error`, or the applied calibration's principal errors),
 //! each of the 36 joint coordinates off by `joint_position_tolerance_m` (the pose the same leg
-//! lengths give on the built rig, [`crate::calibration::imu`]'s `moved_poses`, and the built
+//! lengths give on the built rig, [`crate::budget::perturb::moved_poses`], and the built
 //! rig's wrench map), and each compensated `[legs]` mass figure off by its tolerance. These
 //! errors are the rig's, shared by the tare run and the loaded run: the payload's change is the
 //! difference of the two runs' ([`payload`]). A cell's zero drift over the time between the two
@@ -420,7 +420,7 @@ impl Weigher {
         if tol <= 0.0 {
             return [0.0; 3];
         }
-        let moved = crate::calibration::imu::moved_poses(
+        let moved = crate::budget::perturb::moved_poses(
             &self.geometry,
             core::slice::from_ref(pose),
             plate,

@@ -4,14 +4,14 @@
 //! made with known gains and zero offsets.
 
 use super::*;
-use crate::testkit::gains_with;
+use measure::testkit::gains_with;
 use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal as Gauss};
 
-use crate::budget::testkit;
-use crate::calibration::CalibrationDocument;
-use crate::calibration::LoadCellFile;
+use measure::calibration::CalibrationDocument;
+use measure::calibration::LoadCellFile;
+use measure::testkit;
 
 const H: f64 = 0.01;
 const TRUE_GAINS: [f64; 6] = [4e-4, -6e-4, 2e-4, 8e-4, -3e-4, -5e-4];
@@ -114,7 +114,7 @@ fn record(bodies: &[Body], t0: f64, seconds: f64, noise: Noise, seed: u64) -> Ve
                 leg_forces_n: readings,
                 wrench: map * readings,
                 gyro_rad_s: gyro,
-                products: crate::record::derivative::products(&gyro),
+                products: measure::record::derivative::products(&gyro),
                 accel_m_s2: accel,
             }
         })
@@ -368,16 +368,16 @@ fn a_rig_description_applies_its_load_cell_file_or_refuses_a_missing_one() {
         .unwrap();
     let rig = dir.path().join("car.toml");
     std::fs::write(&rig, "[calibration]\nload_cells = \"cells.toml\"\n").unwrap();
-    let loaded = crate::load::load(Some(&rig)).unwrap();
+    let loaded = measure::load::load(Some(&rig)).unwrap();
     let c = &loaded.config.calibration;
     assert_eq!(c.load_cell_gains().map(|g| g.gains), Some(TRUE_GAINS));
-    assert!(crate::budget::Figures::of(&loaded.config)
+    assert!(measure::budget::Figures::of(&loaded.config)
         .load_cells
         .is_some());
     assert_eq!(c.age_warnings(0).len(), 0);
     assert_eq!(c.age_warnings(91 * 86_400).len(), 1);
     std::fs::write(&rig, "[calibration]\n\nload_cells = \"gone.toml\"\n").unwrap();
-    let err = crate::load::load(Some(&rig)).unwrap_err();
+    let err = measure::load::load(Some(&rig)).unwrap_err();
     assert_eq!(err.issues[0].key, "calibration.load_cells");
     assert_eq!(err.issues[0].line, Some(3));
     assert!(err.issues[0].problem.contains("cannot read"), "{err}");

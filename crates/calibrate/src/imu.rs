@@ -4,7 +4,7 @@
 //! noise and the joints' tolerance.
 //!
 //! **The models.** With ω and f the plate's true rate and specific force at the accelerometer,
-//! in P, and the readings already turned into P by the described mounting ([`crate::feed`]):
+//! in P, and the readings already turned into P by the described mounting ([`measure::feed`]):
 //!
 //! - gyro: ω_m(t) = G ω(t − τ) + b_g ≈ G ω(t) − τ ω̇(t) + b_g, G a general 3 × 3 matrix (the
 //!   mounting's small rotation, each axis's scale error, any non-orthogonality);
@@ -13,8 +13,8 @@
 //!   share their axes.
 //!
 //! The truth comes from forward kinematics of the leg lengths: R, ω = 2 Im(q̄ ⊗ q̇), ω̇ and a_O
-//! from the record's mean poses by zero-phase derivatives ([`crate::record::derivative`]). Both fits
-//! are linear least squares ([`super::normal`]): (G, b_g, τ), then (r, b_a) with A and τ fixed. The
+//! from the record's mean poses by zero-phase derivatives ([`measure::record::derivative`]). Both fits
+//! are linear least squares ([`crate::normal`]): (G, b_g, τ), then (r, b_a) with A and τ fixed. The
 //! encoders and the load cells are taken to sample at the same instant (one controller tick),
 //! so τ is also the IMU's delay against the cells.
 //!
@@ -29,18 +29,19 @@
 //! **Uncertainty.** Each fit's noise covariance is the sandwich A⁻¹ (Σ_b s_b s_bᵀ) A⁻¹ over
 //! blocks of [`BLOCK_ENTRIES`] entries, s_b a block's score Σ φ r, which holds for coloured
 //! residuals. To it adds the joints' tolerance, as the budget counts it for a measurement
-//! ([`crate::budget::perturb`]): each of the 36 joint coordinates moved by the tolerance gives
+//! ([`measure::budget::perturb`]): each of the 36 joint coordinates moved by the tolerance gives
 //! the poses the same leg lengths would have had (one Newton step of forward kinematics), the
 //! fit is made again on them, and the change counts as one more independent error.
 
-use kinematics::{Geometry, Pose, Rotation3};
+use kinematics::{Geometry, Pose};
+use measure::budget::perturb::moved_poses;
+pub use measure::calibration::imu::{rotation_of, ImuAlignment, GYRO_PARAMETERS};
 use nalgebra::{DMatrix, Matrix3, Quaternion, SVector, UnitQuaternion, Vector3, Vector6};
-pub use rig_description::calibration::imu::{rotation_of, ImuAlignment, GYRO_PARAMETERS};
 
-use super::normal::Normal;
-pub use super::normal::BLOCK_ENTRIES;
-use crate::record::derivative::{d1, d2, interior};
-use crate::record::Entry;
+use crate::normal::Normal;
+pub use crate::normal::BLOCK_ENTRIES;
+use measure::record::derivative::{d1, d2, interior};
+use measure::record::Entry;
 
 /// Fewest entries a fit takes (two seconds at 100 Hz).
 pub const MIN_ENTRIES: usize = 200;
@@ -220,39 +221,6 @@ fn solve(
         rms: [g_rms, a_rms],
         entries: inner.len(),
     })
-}
-
-/// The poses that the lengths of `poses` (legs of the described `geometry`) give on a rig
-/// whose joint `leg` (plate's, else base's) is off by `delta_m` along `coord`: one Newton step
-/// of forward kinematics from each pose. `None` when the moved geometry is not a platform.
-pub(crate) fn moved_poses(
-    geometry: &Geometry,
-    poses: &[Pose],
-    plate: bool,
-    leg: usize,
-    coord: usize,
-    delta_m: f64,
-) -> Option<Vec<Pose>> {
-    let mut b = *geometry.base_joints_m();
-    let mut p = *geometry.plate_joints_m();
-    let joint = if plate {
-        p.get_mut(leg)?
-    } else {
-        b.get_mut(leg)?
-    };
-    *joint.get_mut(coord)? += delta_m;
-    let built = Geometry::from_points(b, p, geometry.stroke()).ok()?;
-    poses
-        .iter()
-        .map(|pose| {
-            let dl = geometry.leg_lengths(pose) - built.leg_lengths(pose);
-            let dx = built.jacobian(pose).lu().solve(&dl)?;
-            Some(Pose::new(
-                pose.position_m + Vector3::new(dx[0], dx[1], dx[2]),
-                Rotation3::new(Vector3::new(dx[3], dx[4], dx[5])) * pose.rotation,
-            ))
-        })
-        .collect()
 }
 
 fn nested(m: &DMatrix<f64>) -> Vec<Vec<f64>> {

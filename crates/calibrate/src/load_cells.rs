@@ -6,7 +6,7 @@
 //! **The model.** Cell i reads f_i = (1 + g_i) t_i + o_i, t_i the true axial force and o_i its
 //! zero offset. The wrench on the plate the record holds is W = Σ f_i L_i(pose) (L_i the unit
 //! wrench of leg i at the pose, [`kinematics::Geometry::wrench_in_platform`]; plus the legs'
-//! own wrench when the estimator compensates them, [`crate::budget::legs`]), so to first order
+//! own wrench when the estimator compensates them, [`measure::budget::legs`]), so to first order
 //! in g
 //!
 //! - tare run: W = Φ(motion) θ_F + Σ_i (g_i f_i + o_i) L_i,
@@ -19,7 +19,7 @@
 //! 4 N is twice what a 5e-4 gain does to a 4 kN leg force, so they cannot be left out). Linear
 //! least squares in [g (6), θ_F (10), θ_R without m (9), o (6)], each equation weighted by the
 //! estimator's
-//! equation sigma and smoothed alike on both sides ([`super::normal`]); the accelerometer's
+//! equation sigma and smoothed alike on both sides ([`crate::normal`]); the accelerometer's
 //! offset measured at rest before each run ([`estimator::hold`]) is taken out of its
 //! specific force, as the estimator does.
 //!
@@ -31,10 +31,10 @@
 //! differences come mostly from the motion's dynamic forces.
 //!
 //! **Uncertainty.** The noise's part is the sandwich covariance over blocks of the record
-//! ([`super::normal`]). To it add, each as one more independent error whose change of the fit
+//! ([`crate::normal`]). To it add, each as one more independent error whose change of the fit
 //! counts: each of the 36 joint coordinates moved by the joints' tolerance (the poses the same
 //! leg lengths would have had, and the wrench map of the moved rig), each `[legs]` figure moved
-//! by its tolerance ([`crate::budget::legs::tolerance`]), each cell's zero drift at its
+//! by its tolerance ([`measure::budget::legs::tolerance`]), each cell's zero drift at its
 //! datasheet rate (a ramp from the tare run's start, which the shared offsets do not take
 //! up), and the reference's mass moved by its tolerance.
 //!
@@ -43,7 +43,7 @@
 //! beside the covariance, each joint coordinate's change of the applied gains
 //! s_k = (I − K) δĝ_k (K the prior's gain below) and the applied gains' covariance without
 //! the joints' part, T (C − Σ δĝ_k δĝ_kᵀ) Tᵀ + σ_d² K Kᵀ with T = I − K. The budget then moves
-//! the gains by s_k whenever it moves joint k ([`crate::budget::perturb::CalibratedGains`]):
+//! the gains by s_k whenever it moves joint k ([`measure::budget::perturb::CalibratedGains`]):
 //! one correlated effect per joint instead of two independent ones.
 //!
 //! **The datasheet's prior.** The joints' tolerance makes the gains' differences nearly
@@ -66,15 +66,15 @@ use estimator::regressor::{from_signals, Regressor};
 use kinematics::{Geometry, Pose};
 use nalgebra::{DMatrix, Matrix6, SVector, Vector3, Vector6};
 
-use crate::budget::fit::{Data, Mode, Model};
-use crate::budget::legs::{self, LegEffects};
-use crate::calibration::imu::moved_poses;
-use crate::calibration::normal::{Normal, BLOCK_ENTRIES};
-use crate::config::LegsConfig;
-use crate::record::derivative::interior;
-use crate::record::Entry;
+use crate::normal::{Normal, BLOCK_ENTRIES};
+use measure::budget::fit::{Data, Mode, Model};
+use measure::budget::legs::{self, LegEffects};
+use measure::budget::perturb::moved_poses;
+use measure::config::LegsConfig;
+use measure::record::derivative::interior;
+use measure::record::Entry;
 
-pub use crate::calibration::load_cells::LoadCellGains;
+pub use measure::calibration::load_cells::LoadCellGains;
 
 /// Fewest interior entries each run needs (two seconds at 100 Hz).
 pub const MIN_ENTRIES: usize = 200;
@@ -443,7 +443,7 @@ pub fn fit(
     })
 }
 
-pub use crate::calibration::load_cells::{joint_index, JOINT_COORDINATES};
+pub use measure::calibration::load_cells::{joint_index, JOINT_COORDINATES};
 
 /// The applied gains from the fit: ĝ' = T ĝ and C' = C − K C with K = C (C + σ² I)⁻¹ and the
 /// transfer T = I − K.
@@ -502,5 +502,4 @@ fn with_prior(g: &Vector6<f64>, c: &DMatrix<f64>, sigma: f64) -> Posterior {
 }
 
 #[cfg(test)]
-#[path = "reference_mass_tests.rs"]
 pub(crate) mod tests;

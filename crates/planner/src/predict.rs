@@ -70,7 +70,7 @@ pub struct Conditioning {
     /// Accelerometer position in P, m.
     pub lever_m: Vector3<f64>,
     /// The estimator's residual half-block for a long excitation, samples (a short one's is
-    /// shortened alike: [`crate::quality::block_samples_for`]).
+    /// shortened alike: [`measure::quality::block_samples_for`]).
     pub block_samples: u32,
 }
 
@@ -170,7 +170,7 @@ pub fn degrees_of_freedom(
 ) -> Option<[f64; 10]> {
     let w = weights(conditioning);
     let excitation_s = points.len() as f64 * conditioning.period_s;
-    let block = crate::quality::block_samples_for(
+    let block = measure::quality::block_samples_for(
         conditioning.block_samples,
         excitation_s,
         conditioning.period_s,

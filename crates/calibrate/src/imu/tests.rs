@@ -84,7 +84,7 @@ fn record(truth: &Truth, seconds: f64, gyro_noise: f64, accel_noise: f64, seed: 
                 position_m: position(t).0,
                 quaternion: *UnitQuaternion::from_rotation_matrix(&rotation(t)).quaternion(),
                 gyro_rad_s: gyro,
-                products: crate::record::derivative::products(&gyro),
+                products: measure::record::derivative::products(&gyro),
                 accel_m_s2: accel,
                 ..Entry::default()
             }
@@ -106,7 +106,7 @@ fn errors(fit: &ImuAlignment, truth: &Truth) -> ([f64; 10], [f64; 3]) {
 }
 
 fn fitted(entries: &[Entry]) -> ImuAlignment {
-    let g = crate::testkit::geometry();
+    let g = measure::testkit::geometry();
     fit(entries, &Vector3::new(0.0, 0.0, -9.81), &g, 0.0).unwrap()
 }
 
@@ -175,7 +175,7 @@ fn a_plate_at_rest_is_refused_as_unobservable() {
             ..Entry::default()
         })
         .collect();
-    let g = crate::testkit::geometry();
+    let g = measure::testkit::geometry();
     let down = Vector3::new(0.0, 0.0, -9.81);
     assert!(matches!(
         fit(&entries, &down, &g, 2e-4),
@@ -192,7 +192,7 @@ fn a_plate_at_rest_is_refused_as_unobservable() {
 /// nothing.
 #[test]
 fn the_joints_tolerance_widens_the_sigmas() {
-    let g = crate::testkit::geometry();
+    let g = measure::testkit::geometry();
     let home = g.home_pose();
     let t = truth();
     let mut entries = record(&t, 20.0, 5e-4, 4e-3, 3);

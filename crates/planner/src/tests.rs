@@ -1,13 +1,13 @@
 use super::*;
-use crate::config::ExcitationKind;
 use control::trajectory::{MultiSineConfig, Spectrum};
 use estimator::{OnlineEstimator, Sample};
+use measure::config::ExcitationKind;
 use nalgebra::Vector6;
 use rand::{rngs::StdRng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 
 fn default_planner() -> (crate::LoadedConfig, Planner) {
-    let loaded = crate::load::load(None).expect("default loads");
+    let loaded = measure::load::load(None).expect("default loads");
     let planner = Planner::new(&loaded).expect("planner");
     (loaded, planner)
 }
@@ -144,10 +144,10 @@ fn spread_over_predicted(duration: f64, noise: &ChannelNoise, blind: bool) -> Ve
             )
         })
         .collect();
-    let mut config = crate::setup::estimator_config(
+    let mut config = measure::setup::estimator_config(
         &loaded.config,
         &planner.geometry,
-        crate::setup::Measurement::Loaded,
+        measure::setup::Measurement::Loaded,
         f64::NEG_INFINITY,
         f64::INFINITY,
     );
@@ -273,7 +273,7 @@ fn an_excitation_file_lays_the_planned_sines_over_the_rig_description() {
         .with_excitation_text(&text, "plan.toml")
         .expect("the file loads");
     assert_eq!(laid.config.excitation.kind, ExcitationKind::Sines);
-    let back = crate::setup::trajectory(&laid, &planner.geometry, 20.0).expect("trajectory");
+    let back = measure::setup::trajectory(&laid, &planner.geometry, 20.0).expect("trajectory");
     for (a, b) in back.components().iter().zip(t.components()) {
         assert_eq!(a.axis, b.axis);
         assert!((a.amplitude - b.amplitude).abs() < 1e-12 * b.amplitude.abs().max(1e-9));
@@ -294,12 +294,12 @@ fn an_excitation_file_lays_the_planned_sines_over_the_rig_description() {
 fn a_prior_that_is_not_a_body_is_refused_naming_the_key() {
     let bad = "[plan.payload]\nmass_kg = 1500.0\ncom_m = [0.0, 0.0, 0.5]\n\
                inertia_com_kg_m2 = [[100.0, 0.0, 0.0], [0.0, 100.0, 0.0], [0.0, 0.0, 900.0]]\n";
-    let err = crate::load::load_str(bad, "prior.toml").expect_err("triangle inequality broken");
+    let err = measure::load::load_str(bad, "prior.toml").expect_err("triangle inequality broken");
     assert!(
         err.to_string().contains("plan.payload.inertia_com_kg_m2"),
         "{err}"
     );
-    let err = crate::load::load_str("[plan]\ntarget_com_m = 0.0\n", "t.toml").expect_err("zero");
+    let err = measure::load::load_str("[plan]\ntarget_com_m = 0.0\n", "t.toml").expect_err("zero");
     assert!(err.to_string().contains("plan.target_com_m"), "{err}");
 }
 
@@ -376,7 +376,7 @@ fn predicted_degrees_of_freedom_follow_the_windows_information() {
         .expect("determined");
     // 27 half-blocks of 0.888 s (a long run's, `quality::LONG_RUN_WINDOWS`): windows 1 to 25
     // count.
-    assert_eq!(crate::quality::block_samples_for(400, 24.0, 1e-3), 888);
+    assert_eq!(measure::quality::block_samples_for(400, 24.0, 1e-3), 888);
     let most = equal(25.0);
     for (name, n) in Quantities::NAMES.iter().zip(nu) {
         assert!(
@@ -388,8 +388,8 @@ fn predicted_degrees_of_freedom_follow_the_windows_information() {
     let nu = planner
         .predicted_degrees_of_freedom(&short)
         .expect("determined");
-    let block = crate::quality::block_samples_for(400, 2.4, 1e-3);
-    let g = crate::quality::counted_blocks(2.4, 1e-3, block) as f64;
+    let block = measure::quality::block_samples_for(400, 2.4, 1e-3);
+    let g = measure::quality::counted_blocks(2.4, 1e-3, block) as f64;
     assert_eq!((block, g), (240, 7.0));
     let fewest = nu.iter().copied().fold(f64::INFINITY, f64::min);
     assert!(

@@ -19,6 +19,8 @@
 //! and `[plan.fixture]`, what the rig's owner knows before measuring — never a simulated
 //! world's truth.
 
+#![warn(missing_docs)]
+
 pub mod motion;
 pub mod predict;
 pub mod search;
@@ -28,9 +30,9 @@ use estimator::{LegModel, ParameterVector};
 use kinematics::Geometry;
 use nalgebra::{SMatrix, Vector3};
 
-use crate::config::{Config, ParamCount};
-use crate::load::{ConfigError, LoadedConfig};
-use crate::report::Quantities;
+use measure::config::{Config, ParamCount};
+use measure::load::{ConfigError, LoadedConfig};
+use measure::report::Quantities;
 pub use predict::{ChannelNoise, Conditioning};
 pub use search::{design, Plan, PlanError};
 
@@ -178,12 +180,12 @@ impl Planner {
                 "the plan predicts the ten-parameter fit: use params = 10 (or --params 10)",
             )));
         }
-        let geometry = crate::setup::geometry(loaded)?;
+        let geometry = measure::setup::geometry(loaded)?;
         Ok(Self::of(config, geometry))
     }
 
     /// The planner of `config` on `geometry`. The conditioning, weights and IMU noise are the
-    /// estimator's own settings ([`crate::setup::estimator_config`]).
+    /// estimator's own settings ([`measure::setup::estimator_config`]).
     pub fn of(config: &Config, geometry: Geometry) -> Self {
         let plan = &config.plan;
         let payload = plan.payload.parameters();
@@ -198,10 +200,10 @@ impl Planner {
         for t in &mut targets[4..] {
             *t = plan.target_inertia_fraction * smallest;
         }
-        let estimator = crate::setup::estimator_config(
+        let estimator = measure::setup::estimator_config(
             config,
             &geometry,
-            crate::setup::Measurement::Loaded,
+            measure::setup::Measurement::Loaded,
             f64::NEG_INFINITY,
             f64::INFINITY,
         );
@@ -225,7 +227,7 @@ impl Planner {
             // The limits the controller checks every trajectory against before it moves, the
             // leg speed's at the plan's share of it.
             feasibility: {
-                let mut f = crate::setup::controller_config(config).feasibility;
+                let mut f = measure::setup::controller_config(config).feasibility;
                 f.max_leg_speed_m_s *= plan.speed_share;
                 f
             },
@@ -286,7 +288,7 @@ impl Planner {
 
     /// The degrees of freedom the loaded run's residual windows will give each reported
     /// quantity on `loaded` ([`Quantities::NAMES`] order; the estimator scales each sigma by
-    /// its ν/(ν − 2), and below [`crate::quality::HEAVY_TAIL_DEGREES_OF_FREEDOM`] the table
+    /// its ν/(ν − 2), and below [`measure::quality::HEAVY_TAIL_DEGREES_OF_FREEDOM`] the table
     /// of a measurement flags it); `None` when the run does not determine θ.
     pub fn predicted_degrees_of_freedom(&self, loaded: &Trajectory) -> Option<[f64; 10]> {
         let points = motion::sample(loaded, self.conditioning.period_s);
