@@ -73,10 +73,10 @@ impl From<measure::report::ReportTextError> for CertificateError {
     }
 }
 
-/// What a station adds to the JSON report (`stewart rig`: the `rig` object); absent for a
-/// simulation.
+/// The JSON report's `rig` object, which `stewart rig` adds (the rig's address, identity and
+/// sample period); absent for a simulation.
 #[derive(Clone, Debug, Default, PartialEq, Deserialize)]
-pub struct Station {
+pub struct RigSection {
     /// The rig's address.
     #[serde(default)]
     pub address: Option<String>,
@@ -88,13 +88,13 @@ pub struct Station {
     pub sample_period_s: Option<f64>,
 }
 
-/// A parsed report: the measurement and the station's extras.
+/// A parsed report: the measurement and the rig's section.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Input {
     /// The report, as `measure` writes it.
     pub report: Report,
-    /// The `rig` object a rig station adds, when there is one.
-    pub station: Option<Station>,
+    /// The `rig` object of a measurement on a rig, when there is one.
+    pub rig: Option<RigSection>,
 }
 
 /// Reads the report at `path` ([`parse`]).
@@ -107,16 +107,16 @@ pub fn load(path: &std::path::Path) -> Result<Input, CertificateError> {
 }
 
 /// Reads a report's JSON text: the fields of [`Report`] (unknown ones ignored) and the
-/// station's `rig` object. A campaign report is refused.
+/// `rig` object of a measurement on a rig. A campaign report is refused.
 pub fn parse(text: &str) -> Result<Input, CertificateError> {
     let value = measure::report::one_measurement(text).map_err(CertificateError::from)?;
-    let station = match value.get("rig") {
+    let rig = match value.get("rig") {
         Some(v) if v.is_object() => serde_json::from_value(v.clone()).ok(),
         _ => None,
     };
     let report: Report =
         serde_json::from_value(value).map_err(|e| CertificateError::Json(e.to_string()))?;
-    Ok(Input { report, station })
+    Ok(Input { report, rig })
 }
 
 /// What the page says about where it came from, besides the report.

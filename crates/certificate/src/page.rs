@@ -487,7 +487,7 @@ fn tare(s: &mut String, r: &Report) {
 
 fn rig(s: &mut String, input: &Input, cx: &Context<'_>) {
     s.push_str("<section id=\"rig\"><h2>8. The rig</h2><table class=\"kv\">");
-    if let Some(st) = &input.station {
+    if let Some(st) = &input.rig {
         if let Some(a) = &st.address {
             kv(s, "rig address", a);
         }
