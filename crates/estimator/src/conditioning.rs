@@ -107,7 +107,7 @@ pub struct Conditioned {
     pub gyro_excess_rad_s: Option<Vector3<f64>>,
     /// The excess's change over the last grid step, (n̂ₜ − n̂ₜ₋₁)/Δt, the samples a bridged
     /// gap filled in counting as steps: the gyro's error as it reaches ω̇
-    /// ([`crate::rate_integral`]). `None` without the pose, and on a start's first output
+    /// ([`crate::gyro_error::integral`]). `None` without the pose, and on a start's first output
     /// if the warm-up left no step before it.
     pub gyro_excess_change_rad_s2: Option<Vector3<f64>>,
 }

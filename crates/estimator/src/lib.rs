@@ -7,9 +7,9 @@
 //! the cells do not see of the legs' mass and the joints' friction ([`legs`], when described) →
 //! [`regressor`] (Newton–Euler about the P origin, linear in θ) → rows weighted by their noise →
 //! [`rls`] (U-D factorised recursive least squares; the gyro's error, measured against the
-//! kinematic rate of the pose, taken out at the run's ends by [`rate_ends`]) → [`score`] (the
+//! kinematic rate of the pose, taken out at the run's ends: [`gyro_error`]) → [`score`] (the
 //! residuals' sandwich covariance over overlapping windows, scored at the estimate without the
-//! gyro's measured error, [`rate_integral`]) → [`uncertainty`] (propagated to c and J_C) → [`Estimate`]. An estimate that is not physically
+//! gyro's measured error, [`gyro_error`]) → [`uncertainty`] (propagated to c and J_C) → [`Estimate`]. An estimate that is not physically
 //! consistent is projected onto the consistent set by [`projection::nearest_consistent`] (the
 //! nearest point in the metric of its covariance).
 //!
@@ -38,12 +38,11 @@ pub mod dof;
 mod error;
 mod estimate;
 pub mod filter;
+pub mod gyro_error;
 pub mod hold;
 pub mod legs;
 mod online;
 pub mod projection;
-pub mod rate_ends;
-pub mod rate_integral;
 pub mod regressor;
 pub mod rls;
 pub mod score;

@@ -4,13 +4,12 @@
 use crate::conditioning::{Conditioned, Conditioner, ConditioningConfig, Step, MAX_ABS_SIGNAL};
 use crate::error::EstimatorError;
 use crate::estimate::{Counts, Estimate, ParameterCovariance};
+use crate::gyro_error::{self, GyroError, RateErrorNormals};
 use crate::hold::{AccelerometerOffset, HoldAverage};
 use crate::legs::{unseen_total, LegModel};
-use crate::rate_ends::RateEnds;
-use crate::rate_integral::RateIntegral;
 use crate::regressor::{from_signals, inertia_columns, RegressorSignals};
 use crate::rls::Rls;
-use crate::score::{RateErrorNormals, ScoreCovariance};
+use crate::score::ScoreCovariance;
 use crate::timebase::Timing;
 use crate::uncertainty::derived_jacobian;
 use crate::wrench::{measured, to_vector};
@@ -269,11 +268,23 @@ struct Solver<const N: usize, const R: usize, const NR: usize> {
     /// Whether the full correction at the last residual window's close applied (a definite
     /// corrected system); `None` before the first block closed.
     correction_applied: Option<bool>,
-    /// The gyro's error at the ends of the conditioning's stretches, taken out of θ.
-    ends: RateEnds<N, R>,
-    /// The gyro's measured error over the whole run, taken out of the estimate the residual
-    /// windows are scored at (not out of θ: [`crate::rate_integral`]).
-    rate_integral: RateIntegral<N, R>,
+    /// The gyro's measured error: at the ends of the conditioning's stretches, taken out of
+    /// θ, and over the whole run, taken out of the estimate the residual windows are scored
+    /// at (not out of θ: [`crate::gyro_error`]).
+    gyro: GyroError<N, R>,
+}
+
+/// Which correction K of the normal equations (A − K) θ = b a solve applies
+/// ([`Solver::shift`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Shift {
+    /// The regressor noise's moment alone, n C: P' = (𝟙 − n P C)⁻¹ P.
+    Noise,
+    /// n C + Δ, the gyro's error at the stretches' ends besides: θ.
+    NoiseAndEnds,
+    /// n C − n_u C_ω̇ + Q̂, the gyro's measured error over the run: θ_w, the estimate the
+    /// residual windows are scored at.
+    ScoredAt,
 }
 
 impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
@@ -303,8 +314,7 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             samples: 0.0,
             leg: SMatrix::zeros(),
             correction_applied: None,
-            ends: RateEnds::new(config.sample_period_s, config.forgetting_factor),
-            rate_integral: RateIntegral::new(config.forgetting_factor),
+            gyro: GyroError::new(config.sample_period_s, config.forgetting_factor),
         })
     }
 
@@ -336,31 +346,18 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             return Err(EstimatorError::Overflow("least-squares update"));
         }
         // Φᵀψ and Φᵀψ(ṅ̂) once per sample, for the windows and for the run's ends and whole.
-        let derivative = match rate_change_rows.map(|psi| self.weigh(psi)) {
-            Some(change) => Some(self.rate_integral.add(&wrows, &change)),
-            None => {
-                self.rate_integral.skip();
-                None
-            }
-        };
-        let rate = match rate_error_rows.map(|psi| self.weigh(psi)) {
-            Some(psi) => {
-                let rate = wrows.tr_mul(&psi);
-                self.ends.add(&rate, &psi, starts_stretch);
-                Some(rate)
-            }
-            None => {
-                self.ends.interrupt();
-                None
-            }
-        };
+        let change = rate_change_rows.map(|psi| self.weigh(psi));
+        let psi = rate_error_rows.map(|psi| self.weigh(psi));
+        let (rate, derivative) =
+            self.gyro
+                .add(&wrows, psi.as_ref(), change.as_ref(), starts_stretch);
         let products = rate.as_ref().map(|rate| RateErrorNormals {
             rate,
             derivative: derivative.as_ref(),
         });
         if self.score.add_sample(&wrows, &wy, products) {
             let (theta, p, moment) = self.corrected_with_moment();
-            let scored = self.without_rate_error(&moment).unwrap_or(theta);
+            let scored = self.scored_theta(&moment).unwrap_or(theta);
             self.score
                 .close_block(&scored, &p, &moment, &self.quantities.gradients(&theta));
             self.correction_applied = Some(moment.iter().any(|v| *v != 0.0));
@@ -376,20 +373,50 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         Ok(())
     }
 
+    /// K of the corrected normal equations (A − K) θ' = b, for `shift` with the noise
+    /// moment `moment` applied (zero where it fell back): n C, n C + Δ, or θ_w's
+    /// n C − n_u C_ω̇ + Q̂ ([`GyroError::scored_shift`]). `None` where that K has no part of
+    /// its own: the ends' Δ zero, or no measured change of the gyro's error.
+    fn shift(&self, shift: Shift, moment: &SMatrix<f64, N, N>) -> Option<SMatrix<f64, N, N>> {
+        match shift {
+            Shift::Noise => Some(moment * self.samples),
+            Shift::NoiseAndEnds => {
+                let delta = self.gyro.delta();
+                (!delta.iter().all(|v| *v == 0.0)).then(|| moment * self.samples + delta)
+            }
+            Shift::ScoredAt => self
+                .gyro
+                .scored_shift(&(moment * self.samples), &self.score.rate_moment(moment)),
+        }
+    }
+
+    /// (𝟙 − P K)⁻¹ for `shift`'s K ([`Self::shift`]), with A = P⁻¹ the map from θ to the
+    /// corrected θ' = (A − K)⁻¹ A θ and from P to the corrected P' = (𝟙 − P K)⁻¹ P: the one
+    /// solve behind every correction. `None` where K has no part of its own, or the system
+    /// is singular or its inverse not finite.
+    fn correction(
+        &self,
+        p: &SMatrix<f64, N, N>,
+        shift: Shift,
+        moment: &SMatrix<f64, N, N>,
+    ) -> Option<SMatrix<f64, N, N>> {
+        // P C n in that order for the moment alone, as the noise's share of the information.
+        let pk = match shift {
+            Shift::Noise => p * moment * self.samples,
+            _ => p * self.shift(shift, moment)?,
+        };
+        (SMatrix::<f64, N, N>::identity() - pk)
+            .try_inverse()
+            .filter(|i| i.iter().all(|v| v.is_finite()))
+    }
+
     /// The estimate the residual windows are scored at when the gyro's error is measured:
     /// θ_w = (A − n C + n_u C_ω̇ − Q̂)⁻¹ b = (𝟙 − P (n C − n_u C_ω̇ + Q̂))⁻¹ θ, Q̂ the measured
     /// Σ Φᵀψ(ṅ̂) over n_u samples, which stands in for both the ends' Δ and the derivative
-    /// noise's expected moment C_ω̇ ([`crate::rate_integral`], [`crate::score`]). `None`
+    /// noise's expected moment C_ω̇ ([`crate::gyro_error`], [`crate::score`]). `None`
     /// without a measured error, or where the system is singular or not finite.
-    fn without_rate_error(&self, moment: &SMatrix<f64, N, N>) -> Option<SVector<f64, N>> {
-        let q = self.rate_integral.sum();
-        if self.rate_integral.weight() <= 0.0 {
-            return None;
-        }
-        let c =
-            moment * self.samples - self.score.rate_moment(moment) * self.rate_integral.weight();
-        let m = SMatrix::<f64, N, N>::identity() - self.rls.covariance() * (c + q);
-        m.try_inverse()
+    fn scored_theta(&self, moment: &SMatrix<f64, N, N>) -> Option<SVector<f64, N>> {
+        self.correction(&self.rls.covariance(), Shift::ScoredAt, moment)
             .map(|i| i * self.rls.theta())
             .filter(|t| t.iter().all(|v| v.is_finite()))
     }
@@ -400,10 +427,11 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
     }
 
     /// θ and P corrected for regressor noise and for the gyro's error at the stretches' ends:
-    /// with A = P⁻¹ and b = A θ, the corrected normal equations (A − nC − Δ) θ' = b give
+    /// with A = P⁻¹ and b = A θ, the corrected normal equations (A − nC − Δ) θ = b give
     /// θ' = (𝟙 − P (nC + Δ))⁻¹ θ, and P' = (𝟙 − nPC)⁻¹ P (Δ, two samples' worth, carries no
-    /// information; [`crate::rate_ends`]). The noise moment is left out when none is configured
-    /// or when it would not leave a definite system; Δ when the kinematics are not carried.
+    /// information; [`crate::gyro_error::ends`]). The noise moment is left out when none is
+    /// configured or when it would not leave a definite system; Δ when the kinematics are
+    /// not carried.
     fn corrected(&self) -> (SVector<f64, N>, SMatrix<f64, N, N>) {
         let (theta, p, _) = self.corrected_with_moment();
         (theta, p)
@@ -415,7 +443,7 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         let p = self.rls.covariance();
         let (pc, moment, inv) = self.moment_corrected(&p);
         let t = self
-            .ends_corrected(&p, &moment)
+            .correction(&p, Shift::NoiseAndEnds, &moment)
             .or(inv)
             .map_or(theta, |i| i * theta);
         if t.iter().all(|v| v.is_finite()) {
@@ -431,22 +459,8 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
     fn gain(&self) -> SMatrix<f64, N, N> {
         let p = self.rls.covariance();
         let (pc, moment, _) = self.moment_corrected(&p);
-        self.ends_corrected(&p, &moment).map_or(pc, |i| i * p)
-    }
-
-    /// (𝟙 − P (nC + Δ))⁻¹ with the moment C applied, when the gyro's ends give a Δ and the
-    /// system stays regular and finite; `None` otherwise.
-    fn ends_corrected(
-        &self,
-        p: &SMatrix<f64, N, N>,
-        moment: &SMatrix<f64, N, N>,
-    ) -> Option<SMatrix<f64, N, N>> {
-        let delta = self.ends.delta();
-        if delta.iter().all(|v| *v == 0.0) {
-            return None;
-        }
-        let m = SMatrix::<f64, N, N>::identity() - p * (moment * self.samples + delta);
-        m.try_inverse().filter(|i| i.iter().all(|v| v.is_finite()))
+        self.correction(&p, Shift::NoiseAndEnds, &moment)
+            .map_or(pc, |i| i * p)
     }
 
     /// P' = (𝟙 − nPC)⁻¹ P, the moment C and (𝟙 − nPC)⁻¹ when the noise moment applies (a
@@ -464,14 +478,12 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         if self.samples <= 0.0 || self.noise_moment.iter().all(|v| *v == 0.0) {
             return plain;
         }
-        let m = SMatrix::<f64, N, N>::identity() - p * self.noise_moment * self.samples;
-        let Some(inv) = m.try_inverse() else {
+        let Some(inv) = self.correction(p, Shift::Noise, &self.noise_moment) else {
             return plain;
         };
         let pc = inv * p;
         let pc = (pc + pc.transpose()) * 0.5;
-        let definite = pc.diagonal().iter().all(|v| *v > 0.0);
-        if definite && pc.iter().all(|v| v.is_finite()) && inv.iter().all(|v| v.is_finite()) {
+        if pc.diagonal().iter().all(|v| *v > 0.0) && pc.iter().all(|v| v.is_finite()) {
             (pc, self.noise_moment, Some(inv))
         } else {
             plain
@@ -499,7 +511,8 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             return self.theta();
         }
         let theta = *self.rls.theta();
-        let k = self.noise_moment * self.samples + self.ends.delta();
+        // K = n C + Δ whether or not Δ is zero yet: the series needs no inverse to skip.
+        let k = self.noise_moment * self.samples + self.gyro.delta();
         if let Some(t) = neumann_solve(|v| self.rls.covariance_times(&(k * v)), &theta) {
             return t;
         }
@@ -544,7 +557,7 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             &theta,
             &p,
             &self.quantities.gradients(&theta),
-            &self.ends.residual_sum(&theta),
+            &self.gyro.residual_sum(&theta),
         )
     }
 }
@@ -595,6 +608,24 @@ fn noise_moment<const N: usize, const R: usize>(
     (c, c_rate)
 }
 
+/// Where the paper's six parameters sit in θ: J's entries, θ[4..10].
+const SIX_AT: usize = 4;
+
+/// The paper's six-parameter rows (θ's tensor entries, [`ParameterSet::InertiaAboutKnownCom`])
+/// in the ten-parameter layout, at [`SIX_AT`], zero for the mass and the first moment: the
+/// one embedding of the six-parameter model in θ, for its θ and its sensitivities.
+fn six_in_ten<const C: usize>(six: &SMatrix<f64, 6, C>) -> SMatrix<f64, PARAMETER_COUNT, C> {
+    let mut ten = SMatrix::<f64, PARAMETER_COUNT, C>::zeros();
+    ten.fixed_rows_mut::<6>(SIX_AT).copy_from(six);
+    ten
+}
+
+/// A six-parameter covariance in the ten-parameter layout, [`six_in_ten`] on its rows and
+/// its columns.
+fn six_in_ten_square(six: &SMatrix<f64, 6, 6>) -> ParameterCovariance {
+    six_in_ten(&six_in_ten(six).transpose()).transpose()
+}
+
 /// [−[c]×, 𝟙]: a wrench [F; τ] about the P origin to the torque about c, τ − c × F.
 fn to_com_rows(com_m: &Vector3<f64>) -> SMatrix<f64, 3, 6> {
     let mut map = SMatrix::<f64, 3, 6>::zeros();
@@ -639,7 +670,7 @@ enum Engine {
 /// The bound on [`OnlineEstimator`]'s size, bytes, asserted when the crate compiles: a change
 /// that grows the state past it must say so here. 88 KiB: the residual windows' information
 /// ([`crate::dof`], 25 KB) and 59 KB of the rest, 5 KB of it the gyro's measured error kept
-/// apart in the windows and over the run ([`crate::rate_integral`]).
+/// apart in the windows and over the run ([`crate::gyro_error::integral`]).
 pub const ONLINE_ESTIMATOR_MAX_BYTES: usize = 88 * 1024;
 
 const _: () = assert!(core::mem::size_of::<OnlineEstimator>() <= ONLINE_ESTIMATOR_MAX_BYTES);
@@ -650,8 +681,8 @@ const _: () = assert!(core::mem::size_of::<OnlineEstimator>() <= ONLINE_ESTIMATO
 /// engines share the storage), bounded at compile time by [`ONLINE_ESTIMATOR_MAX_BYTES`]; most
 /// of it the residual windows' information for each quantity's degrees of freedom (25 KB,
 /// [`crate::dof`]), the RLS's U-D factors, the residual scores (with the gyro's measured error
-/// at the windows' slopes, in their estimate and at the stretches' ends, [`crate::rate_ends`],
-/// [`crate::rate_integral`]) and the conditioning's
+/// at the windows' slopes, in their estimate and at the stretches' ends, [`crate::gyro_error::ends`],
+/// [`crate::gyro_error::integral`]) and the conditioning's
 /// filter states. A firmware gives it a static or a task stack of that size. It is not `Copy`, so that a copy
 /// of that size is always a visible `clone()`.
 #[derive(Clone, Debug, PartialEq)]
@@ -915,12 +946,9 @@ impl OnlineEstimator {
     }
 
     /// Whether the gyro's error is measured against the kinematics and taken out
-    /// ([`crate::rate_ends`], [`crate::score`]): for a gyro the rig describes as noisy only.
-    /// Against an exact one the measured excess is the kinematics' own error (a simulator's
-    /// integrator, 3e-7 rad/s on the paper's case), which the run's ends would amplify by 1/Δt
-    /// at the first samples.
+    /// ([`gyro_error::is_measured`]).
     fn measures_gyro_error(&self) -> bool {
-        self.config.gyro_noise_rad_s > 0.0
+        gyro_error::is_measured(self.config.gyro_noise_rad_s)
     }
 
     /// Before the window, adds the reading to the average at rest ([`crate::hold`]).
@@ -1014,17 +1042,14 @@ impl OnlineEstimator {
         let phi = from_signals(&c.signals);
         let y = to_vector(&c.wrench);
         // The regressor's part linear in ω̇ at the gyro's measured error and its change.
-        let lever = self.config.accelerometer_position_m;
-        let as_rate_error =
-            |n: Vector3<f64>| RegressorSignals::angular_acceleration_error(&n, &lever);
-        let measured = self.measures_gyro_error();
-        let rate_error = c.gyro_excess_rad_s.filter(|_| measured).map(as_rate_error);
-        let rate_change = c
-            .gyro_excess_change_rad_s2
-            .filter(|_| measured)
-            .map(as_rate_error);
+        let (rate_error, rate_change) = gyro_error::signals(
+            self.measures_gyro_error(),
+            c.gyro_excess_rad_s,
+            c.gyro_excess_change_rad_s2,
+            &self.config.accelerometer_position_m,
+        );
         // A conditioning restarted since the last sample used starts a new stretch of the
-        // gyro's error ([`crate::rate_ends`]).
+        // gyro's error ([`crate::gyro_error::ends`]).
         let restarts = self.conditioner.restarts();
         let starts_stretch = self.stretch != Some(restarts);
         match &mut self.engine {
@@ -1082,9 +1107,7 @@ impl OnlineEstimator {
                     Correction::Quick => solver.theta_quick(),
                     Correction::None => *solver.rls.theta(),
                 };
-                let mut jc = ParameterVector::zeros();
-                jc.fixed_rows_mut::<6>(4).copy_from(&j);
-                let base = InertialParameters::from_vector(&jc);
+                let base = InertialParameters::from_vector(&six_in_ten(&j));
                 InertialParameters::from_com(*mass_kg, *com_m, base.inertia_origin_kg_m2)
                     .to_vector()
             }
@@ -1115,12 +1138,7 @@ impl OnlineEstimator {
     pub fn covariance(&self) -> ParameterCovariance {
         match &self.engine {
             Engine::Full(s) => s.covariance(),
-            Engine::Six { solver, .. } => {
-                let mut c = ParameterCovariance::zeros();
-                c.fixed_view_mut::<6, 6>(4, 4)
-                    .copy_from(&solver.covariance());
-                c
-            }
+            Engine::Six { solver, .. } => six_in_ten_square(&solver.covariance()),
         }
     }
 
@@ -1134,7 +1152,8 @@ impl OnlineEstimator {
             Engine::Six { solver, .. } => {
                 let six = solver.score.degrees_of_freedom();
                 core::array::from_fn(|i| {
-                    i.checked_sub(4).and_then(|k| six.get(k).copied().flatten())
+                    i.checked_sub(SIX_AT)
+                        .and_then(|k| six.get(k).copied().flatten())
                 })
             }
         }
@@ -1151,10 +1170,7 @@ impl OnlineEstimator {
             Engine::Full(s) => s.offset_sensitivity(),
             Engine::Six { solver, com_m, .. } => {
                 // τ_C = τ − c × F: a wrench offset reaches the rows as τ₀ − [c]× F₀.
-                let mut d = SMatrix::<f64, 10, 6>::zeros();
-                d.fixed_view_mut::<6, 6>(4, 0)
-                    .copy_from(&(solver.offset_sensitivity() * to_com_rows(com_m)));
-                d
+                six_in_ten(&(solver.offset_sensitivity() * to_com_rows(com_m)))
             }
         }
     }
@@ -1167,12 +1183,7 @@ impl OnlineEstimator {
     pub fn leg_force_offset_sensitivity(&self) -> SMatrix<f64, 10, 6> {
         match &self.engine {
             Engine::Full(s) => s.leg_sensitivity(),
-            Engine::Six { solver, .. } => {
-                let mut d = SMatrix::<f64, 10, 6>::zeros();
-                d.fixed_view_mut::<6, 6>(4, 0)
-                    .copy_from(&solver.leg_sensitivity());
-                d
-            }
+            Engine::Six { solver, .. } => six_in_ten(&solver.leg_sensitivity()),
         }
     }
 

@@ -60,7 +60,7 @@ impl RegressorSignals {
     /// The signals an error v of ω̇ alone carries: ω̇ = v, and through the accelerometer's
     /// lever arm r the specific force at the P origin f_O = f_r − ω̇ × r gains −v × r. Its
     /// regressor is ψ(v), the rows' part linear in ω̇ (the gyro's derivative noise in the
-    /// noise moment, its measured error in [`crate::rate_ends`] and [`crate::rate_integral`]).
+    /// noise moment, its measured error in [`crate::gyro_error::ends`] and [`crate::gyro_error::integral`]).
     pub fn angular_acceleration_error(v: &Vector3<f64>, lever_m: &Vector3<f64>) -> Self {
         Self {
             angular_acceleration_rad_s2: *v,

@@ -10,6 +10,7 @@
 //! valid whatever the noise colour, provided the half-blocks are long compared with it.
 
 use crate::dof::BlockInformation;
+use crate::gyro_error::{RateErrorNormals, WindowSums};
 use crate::uncertainty::{
     fitted_rows_factor, jacobi_eigen, own_fit_correction, scale_in_basis, student_factor,
     MIN_COVARIANCE_BLOCKS,
@@ -18,18 +19,15 @@ use crate::window;
 use nalgebra::{Const, DimMin, SMatrix, SVector};
 
 /// A stretch of samples' weighted sums: b = Σ w φ y, A = Σ w φ φᵀ (upper triangle only),
-/// S = Σ w φ (one column per equation), n = Σ w, E = Σ ẇ φ ψᵀ and U = Σ w φ ψ(ṅ̂)ᵀ (ψ the
-/// rows' part linear in ω̇ at the gyro's measured excess rate: the type's docs) with
-/// n_u = Σ w over the samples U covers, each aged by λ per sample.
+/// S = Σ w φ (one column per equation), n = Σ w, and the gyro's measured error's
+/// ([`WindowSums`]: E, U and n_u), each aged by λ per sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Weighted<const N: usize, const R: usize> {
     b: SVector<f64, N>,
     a: SMatrix<f64, N, N>,
     s: SMatrix<f64, N, R>,
     n: f64,
-    e: SMatrix<f64, N, N>,
-    u: SMatrix<f64, N, N>,
-    n_u: f64,
+    gyro: WindowSums<N>,
 }
 
 impl<const N: usize, const R: usize> Weighted<N, R> {
@@ -39,9 +37,7 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
             a: SMatrix::zeros(),
             s: SMatrix::zeros(),
             n: 0.0,
-            e: SMatrix::zeros(),
-            u: SMatrix::zeros(),
-            n_u: 0.0,
+            gyro: WindowSums::zeros(),
         }
     }
 
@@ -50,9 +46,7 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
         self.a *= factor;
         self.s *= factor;
         self.n *= factor;
-        self.e *= factor;
-        self.u *= factor;
-        self.n_u *= factor;
+        self.gyro.age(factor);
     }
 
     /// `self` aged by `factor`, plus `later`.
@@ -62,9 +56,7 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
             a: self.a * factor + later.a,
             s: self.s * factor + later.s,
             n: self.n * factor + later.n,
-            e: self.e * factor + later.e,
-            u: self.u * factor + later.u,
-            n_u: self.n_u * factor + later.n_u,
+            gyro: self.gyro.aged_plus(factor, &later.gyro),
         }
     }
 
@@ -74,25 +66,6 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
         upper.fill_lower_triangle_with_upper_triangle();
         upper - noise_moment * self.n
     }
-
-    /// The gyro's measured share U − n_u C_ω̇: Σ w φ ψ(ṅ̂)ᵀ less the derivative noise's own
-    /// second moment, which it carries in expectation (`rate_moment`, zero where the fit
-    /// applies no noise moment).
-    fn rate_share(&self, rate_moment: &SMatrix<f64, N, N>) -> SMatrix<f64, N, N> {
-        self.u - rate_moment * self.n_u
-    }
-}
-
-/// One sample's gyro-error rows ψ (the regressor's part linear in ω̇, at the gyro's measured
-/// error) met with its weighted rows Φ: what [`ScoreCovariance::add_sample`] takes out of the
-/// windows' scores and keeps apart ([`ScoreCovariance`]'s docs).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RateErrorNormals<'a, const N: usize> {
-    /// Φᵀ ψ(n̂), n̂ the gyro's measured error.
-    pub rate: &'a SMatrix<f64, N, N>,
-    /// Φᵀ ψ(ṅ̂), ṅ̂ the error's change over the last grid step, `None` where the conditioning
-    /// gave none ([`crate::conditioning::Conditioned::gyro_excess_change_rad_s2`]).
-    pub derivative: Option<&'a SMatrix<f64, N, N>>,
 }
 
 /// Window-summed residual scores of an exponentially weighted least-squares fit.
@@ -153,7 +126,7 @@ pub struct RateErrorNormals<'a, const N: usize> {
 /// by about 1e-4) enters E instead, a small smooth term.
 ///
 /// **The gyro's error in the estimate the windows are scored at.** The fit's error carries
-/// P Q θ of the gyro's error, Q = Σ φ ψ(ṅ)ᵀ ([`crate::rate_integral`]): mostly in J, one draw
+/// P Q θ of the gyro's error, Q = Σ φ ψ(ṅ)ᵀ ([`crate::gyro_error::integral`]): mostly in J, one draw
 /// that every window shares. A window's score at the fit, g = b_k − A_k θ, carries
 /// −A_k (θ − θ₀), which reaches another quantity's score through the window's
 /// cross-information: the centre of mass's column (gravity) meets J's (ω̇) differently in each
@@ -306,8 +279,8 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     /// kinematic rate) and every other signal zero. Each window's score is then taken
     /// without its slopes' share of the gyro's error, and the gyro's measured share is kept
     /// apart (the type's docs). The caller forms Φᵀψ once for this and for the run's ends
-    /// ([`crate::rate_ends::RateEnds::add`]), Φᵀψ(ṅ̂) for this and for the run's
-    /// ([`crate::rate_integral::RateIntegral::add`]).
+    /// ([`crate::gyro_error::GyroError::add`]), Φᵀψ(ṅ̂) for this and for the run's
+    /// ([`crate::gyro_error::integral::RateIntegral::add`]).
     pub fn add_sample(
         &mut self,
         rows: &SMatrix<f64, R, N>,
@@ -330,14 +303,13 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         self.rising.n += rise;
         self.falling.n += fall;
         if let Some(products) = rate_error {
-            self.rising.e += products.rate * (self.slope_scale * fall);
-            self.falling.e -= products.rate * (self.slope_scale * rise);
-            if let Some(derivative) = products.derivative {
-                self.rising.u += derivative * rise;
-                self.falling.u += derivative * fall;
-                self.rising.n_u += rise;
-                self.falling.n_u += fall;
-            }
+            WindowSums::add(
+                &mut self.rising.gyro,
+                &mut self.falling.gyro,
+                &products,
+                (rise, fall),
+                self.slope_scale,
+            );
         }
         self.block_s += phi;
         self.block_y += y;
@@ -401,15 +373,10 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             // The fit after the window has absorbed part of the window's own noise:
             // (𝟙 − κ A P)^(-1/2) restores the score's variance (see the type's docs).
             let t = own_fit_correction(&(a * self.mean_to_square), p);
-            // Where the gyro's error was measured over the window, its share apart and the
-            // rest with the own-fit correction (the type's docs); otherwise the gyro's noise is
-            // the fit's like any other, only its slopes' share taken out.
-            let (g, rate) = if window.n_u > 0.0 {
-                let u = window.rate_share(&self.rate_moment(noise_moment));
-                (t * (window.b - (a - u) * theta), -(u + window.e) * theta)
-            } else {
-                (t * (window.b - (a + window.e) * theta), SVector::zeros())
-            };
+            // The gyro's measured share apart, the rest with the own-fit correction (the
+            // type's docs).
+            let rate_moment = self.rate_moment(noise_moment);
+            let (g, rate) = window.gyro.scores(&window.b, &a, &t, theta, &rate_moment);
 
             let d = t * (window.s - a * (p * self.total_s));
             let decay = self.block_decay;
@@ -532,7 +499,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     }
 
     /// Covariance of θ given the fit's θ and P (as for [`Self::close_block`]) and the gyro's
-    /// error's share of the residuals' sum, `ends` ([`crate::rate_ends::RateEnds::residual_sum`],
+    /// error's share of the residuals' sum, `ends` ([`crate::gyro_error::GyroError::residual_sum`],
     /// zero without the kinematics), which the offset must not take for its own: the offset c,
     /// then the sandwich P M P with M of the offset-free scores, scaled by
     /// [`fitted_rows_factor`] (n rows, N parameters and R offsets fitted) and, quantity by
@@ -652,7 +619,7 @@ mod tests {
     /// gravity-like (9.81, ±20 %) and ω̇ read as ω̇ + ṅ, n low-passed white noise. Each window's
     /// score of h carries Σ ẇ φ J n, which the whole run's score does not: the windows' M of h
     /// is then many times the variance of the run's score (without its two ends, which
-    /// `crate::rate_ends` takes out). Given the error rows ψ = [0, n], it matches it (within
+    /// `crate::gyro_error::ends` takes out). Given the error rows ψ = [0, n], it matches it (within
     /// the windows' own shortfall for noise correlated over a tenth of a half-block, and the
     /// 300 runs' sampling error, about 8 %).
     #[test]
@@ -778,11 +745,11 @@ mod tests {
         z2
     }
 
-    /// Issue 14: a sigma from a handful of residual windows must still cover the error: mean
+    /// A sigma from a handful of residual windows must still cover the error: mean
     /// z² in [0.5, 2] (4000 runs: the mean's own standard error is about 0.05). With G = 6
     /// counted blocks (seven in all) the variance estimate has ν = 5 degrees of freedom, so
-    /// unscaled E[z²] = ν/(ν−2) = 5/3, and the blend with P (a fifth of the real noise) made
-    /// it worse: mean z² 2.9 before the small-sample factor; with it and the own-fit
+    /// unscaled E[z²] = ν/(ν−2) = 5/3, and a blend with P (a fifth of the real noise) would
+    /// raise it: mean z² 2.9 without the small-sample factor; with it and the own-fit
     /// correction 0.98–1.06.
     #[test]
     fn short_runs_sigma_covers_the_error() {
@@ -797,7 +764,7 @@ mod tests {
         }
     }
 
-    /// Issue 14: an excitation that gives most of one parameter's information to a few
+    /// An excitation that gives most of one parameter's information to a few
     /// blocks leaves that parameter's variance far fewer degrees of freedom than the blocks
     /// (here: 9 counted blocks, the first regressor 4× stronger in two of them, ν ≈ 3.6 along
     /// it against 5.5 along the other). Each parameter's own ν keeps its mean z² in
@@ -811,7 +778,7 @@ mod tests {
         }
     }
 
-    /// Issue 14: the counted windows do not reach the run's first two half-blocks and only half
+    /// The counted windows do not reach the run's first two half-blocks and only half
     /// of its last one, so an excitation that puts its information there would leave it out of
     /// the windows' spread. Ten half-blocks, the first regressor 3× stronger in the last (a
     /// run cut in full motion): with each quantity's coverage, mean z² 0.83 and 0.98 (4000
@@ -824,10 +791,14 @@ mod tests {
         }
     }
 
-    /// Issue 14: the fit after a block has absorbed part of the block's own noise, so block
-    /// scores at the fit of the block's end are short by the blocks' leverage (with G equal
-    /// blocks by about H_G of G, H the harmonic number). Corrected, the synthetic fit's mean z²
-    /// is within [0.85, 1.2] at 10 and 20 blocks (without the correction: 1.43 and 1.25).
+    /// The fit after a block has absorbed part of the block's own noise, so block scores at
+    /// the fit of the block's end are short by the blocks' leverage (with G equal blocks by
+    /// about H_G of G, H the harmonic number). Corrected, the synthetic fit's mean z² is within
+    /// [0.9, 1.1] at 10 and 20 half-blocks (measured: 0.98 and 1.02; without the correction
+    /// 1.43 and 1.25). Why that band: z² with the Student factor is ((ν − 2)/ν)·F(1, ν), of
+    /// variance 2(ν − 1)/(ν − 4), about 4 at the 10 half-blocks' ν ≈ 7, so the mean of 4000
+    /// runs has a standard error of about 0.03 there (0.025 at 20): ±0.1 is three of them, and
+    /// the uncorrected means lie six or more outside it.
     #[test]
     fn block_scores_are_not_shrunk_by_their_own_fit() {
         for blocks in [10, 20] {

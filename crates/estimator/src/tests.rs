@@ -929,9 +929,10 @@ fn neumann_series_matches_an_lu_solve_and_refuses_slow_series() {
     assert_eq!(neumann_solve(|v| nan * v, &b), None);
 }
 
-/// Each reported quantity's degrees of freedom: NaN until enough residual windows count, then
-/// finite and at most the count of windows G ((Σa)² ≤ G Σa², and the windows' overlap only
-/// lowers it), and the payload keeps the loaded run's.
+/// Each reported quantity's degrees of freedom: `None` until enough residual windows count,
+/// then finite and at most the count of windows G ((Σa)² ≤ G Σa², and the windows' overlap
+/// only lowers it), and the payload keeps the loaded run's, not the tare's (here a short run
+/// whose degrees are all `None`).
 #[test]
 fn each_quantity_reports_its_degrees_of_freedom() {
     let body = PointBody::vehicle_like();
@@ -957,11 +958,8 @@ fn each_quantity_reports_its_degrees_of_freedom() {
         &noise,
         &mut rng,
     );
-    assert!(short
-        .estimate()
-        .degrees_of_freedom
-        .iter()
-        .all(Option::is_none));
+    let tare = short.estimate();
+    assert!(tare.degrees_of_freedom.iter().all(Option::is_none));
     let mut est = OnlineEstimator::new(c).unwrap();
     run(
         &mut est,
@@ -981,12 +979,18 @@ fn each_quantity_reports_its_degrees_of_freedom() {
         let nu = nu.unwrap_or(f64::NAN);
         assert!(nu > 1.0 && nu <= most + 1e-9, "quantity {i}: ν {nu}");
     }
-    let tare = e.parameters;
-    let payload = e.without_tare(&tare, &e.covariance);
-    assert_eq!(payload.degrees_of_freedom, e.degrees_of_freedom);
+    let loaded: [f64; 10] = core::array::from_fn(|i| e.degrees_of_freedom[i].unwrap_or(f64::NAN));
+    let payload = e.without_tare(&tare.parameters, &tare.covariance);
+    for (i, (nu, expected)) in payload.degrees_of_freedom.iter().zip(loaded).enumerate() {
+        assert_eq!(*nu, Some(expected), "quantity {i}");
+    }
+    // The payload is the difference of the two runs, its covariance their sum.
+    let difference = e.parameters.to_vector() - tare.parameters.to_vector();
+    assert_eq!(payload.parameters.to_vector(), difference);
+    assert_eq!(payload.covariance, e.covariance + tare.covariance);
 }
 
-/// The gyro's error at the ends of the run ([`crate::rate_ends`]): through ω̇'s derivative an
+/// The gyro's error at the ends of the run ([`crate::gyro_error::ends`]): through ω̇'s derivative an
 /// error n of the gyro reaches the fit as [φ ψ(n)θ]/Δt at the run's ends (plus a sum over the
 /// run of φ̇ ψ(n)θ), which for the first moment h, whose regressor column is gravity, is most of
 /// it. Noiseless samples along the paper's tilts, but for a gyro error that rises to 3e-4 rad/s
@@ -1121,7 +1125,7 @@ fn short_gyro_run_com_z2(seeds: u64, samples: usize, block: u32) -> [f64; 4] {
     z2
 }
 
-/// Issue 14: the fit's error in J, mostly the gyro's derivative noise and one draw that every
+/// The fit's error in J, mostly the gyro's derivative noise and one draw that every
 /// residual window shares, reaches the centre of mass's window scores through each window's
 /// cross-information of gravity with ω̇; counted as noise of h, it makes a short run's σ(c)
 /// several times its spread. The windows are scored at the estimate without the gyro's

@@ -36,6 +36,22 @@ pub fn closing(index: u64) -> Option<bool> {
     (index >= 2).then_some(index >= 3)
 }
 
+/// Counted windows that `half_blocks` finished half-blocks give: every half-block from the
+/// third on closes one ([`closing`]), so G = H − 2. The rule behind [`half_blocks_for`], and
+/// the one a planner uses to count a run's windows before it runs.
+pub fn counted_windows(half_blocks: u64) -> u64 {
+    half_blocks.saturating_sub(UNCOUNTED_HALF_BLOCKS)
+}
+
+/// Finished half-blocks that give `windows` counted windows, H = G + 2 ([`counted_windows`]).
+pub fn half_blocks_for(windows: u32) -> u32 {
+    windows.saturating_add(UNCOUNTED_HALF_BLOCKS as u32)
+}
+
+/// The half-blocks that close no counted window: the first window's two (window 0, where
+/// the prior still shapes the fit, does not count; [`closing`]).
+const UNCOUNTED_HALF_BLOCKS: u64 = 2;
+
 /// The rising and falling weights (sin(πu/2), cos(πu/2)) of the sample at position `t`
 /// (0-based) of a half-block of `half_block` samples, u = (t + ½)/B.
 pub fn weights(t: u32, half_block: u32) -> (f64, f64) {
@@ -70,6 +86,25 @@ pub fn shared_share(half_block: u32) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The count of windows agrees with the windows [`closing`] closes, and
+    /// [`half_blocks_for`] inverts it.
+    #[test]
+    fn counted_windows_are_those_the_half_blocks_close() {
+        for half_blocks in 0..40u64 {
+            let closed = (0..half_blocks).filter(|k| closing(*k).is_some()).count() as u64;
+            assert_eq!(
+                counted_windows(half_blocks),
+                closed,
+                "{half_blocks} half-blocks"
+            );
+        }
+        for windows in 1..30u32 {
+            let h = u64::from(half_blocks_for(windows));
+            assert_eq!(counted_windows(h), u64::from(windows));
+            assert_eq!(counted_windows(h - 1), u64::from(windows - 1));
+        }
+    }
 
     /// Every sample's squared weights over its two windows add to one.
     #[test]

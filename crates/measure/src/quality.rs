@@ -14,6 +14,7 @@
 //! 34; see docs/accuracy.md, "Short measurements"). The error says how long to excite.
 
 pub use estimator::uncertainty::MIN_COVARIANCE_BLOCKS;
+use estimator::window;
 
 /// Largest share of a measurement's samples that may be rejected, 0..1.
 pub const MAX_REJECTED_SHARE: f64 = 0.5;
@@ -67,11 +68,11 @@ pub enum QualityError {
 }
 
 /// Excitation that gives [`MIN_COVARIANCE_BLOCKS`] counted windows on half-blocks of
-/// `block_s`, s: G windows span G + 1 half-blocks; one more for the first window (which does
-/// not count), one for the samples the conditioning withholds at the start and the half-block
-/// left unfinished at the end.
+/// `block_s`, s: the half-blocks the estimator's rule needs for them
+/// ([`window::half_blocks_for`]), and one more for the samples the conditioning withholds at
+/// the start and the half-block left unfinished at the end.
 pub fn needed_seconds(block_s: f64) -> f64 {
-    f64::from(MIN_COVARIANCE_BLOCKS + 3) * block_s
+    f64::from(window::half_blocks_for(MIN_COVARIANCE_BLOCKS) + 1) * block_s
 }
 
 /// Residual windows a long run keeps ([`block_samples_for`]): 24, about 20 degrees of freedom
@@ -84,14 +85,16 @@ pub const LONG_RUN_WINDOWS: u32 = 24;
 /// - a long excitation, which would give more than [`LONG_RUN_WINDOWS`] windows of
 ///   `default_samples` (the estimator's default,
 ///   [`estimator::EstimatorConfig::default_covariance_block_samples`]: 8/(20 Hz)), gets half-blocks that give about that many
-///   (`excitation / (LONG_RUN_WINDOWS + 3)`). What the windows leave of the gyro's derivative
+///   (the excitation over [`window::half_blocks_for`] of them, plus one half-block for the
+///   conditioning's start and the unfinished end). What the windows leave of the gyro's derivative
 ///   noise in the scores of h falls with the half-block's square while the degrees of freedom
 ///   fall only with its length (measured, noise-only world, planned 20 s: mean z² of c_x 0.50
 ///   with 0.4 s half-blocks and 48 windows, 1.00 with 0.8 s and 23, 1.13 with 1.2 s and 14;
 ///   every other quantity within [0.6, 1.5] in all three);
 /// - a short one, which would give fewer than [`MIN_COVARIANCE_BLOCKS`] counted windows of the
 ///   default, the length that gives them with one half-block to spare
-///   (`excitation / (MIN_COVARIANCE_BLOCKS + 4)`), but never under half the default: 4/(20 Hz)
+///   (the excitation over [`window::half_blocks_for`] of them plus two: the conditioning's
+///   start and the unfinished end, and the spare), but never under half the default: 4/(20 Hz)
 ///   is still several times the low-pass's memory, so windows that do not share a half-block
 ///   stay nearly independent, and a shorter excitation is refused ([`check_covariance`]);
 /// - the default in between.
@@ -100,11 +103,11 @@ pub fn block_samples_for(default_samples: u32, excitation_s: f64, period_s: f64)
     if !(samples.is_finite() && samples > 0.0) {
         return default_samples;
     }
-    let long = (samples / f64::from(LONG_RUN_WINDOWS + 3)).floor();
+    let long = (samples / f64::from(window::half_blocks_for(LONG_RUN_WINDOWS) + 1)).floor();
     if long > f64::from(default_samples) {
         return long.min(f64::from(u32::MAX)) as u32;
     }
-    let fitting = (samples / f64::from(MIN_COVARIANCE_BLOCKS + 4)).floor();
+    let fitting = (samples / f64::from(window::half_blocks_for(MIN_COVARIANCE_BLOCKS) + 2)).floor();
     if fitting >= f64::from(default_samples) {
         return default_samples;
     }
@@ -115,8 +118,8 @@ pub fn block_samples_for(default_samples: u32, excitation_s: f64, period_s: f64)
 /// Residual windows that count in a run whose excitation lasts `excitation_s`, sampled every
 /// `period_s`, on half-blocks of `block_samples`: the fit sees the excitation's samples but
 /// one (the conditioning warms up during the settle phase before it); the half-block left
-/// unfinished at the end and the run's first window do not count, and G windows span G + 1
-/// half-blocks. Measured against runs of the default rig (fades 0.25 s): 1.5 s → 5
+/// unfinished at the end does not count, and the finished ones give the estimator's count
+/// ([`window::counted_windows`]). Measured against runs of the default rig (fades 0.25 s): 1.5 s → 5
 /// (refused), 1.7 s → 6, 2.0 s → 7, 2.4 s → 7, 3.5 s → 7 (half-blocks 0.2, 0.2, 0.2, 0.24,
 /// 0.35 s).
 pub fn counted_blocks(excitation_s: f64, period_s: f64, block_samples: u32) -> u64 {
@@ -124,7 +127,7 @@ pub fn counted_blocks(excitation_s: f64, period_s: f64, block_samples: u32) -> u
     if !(samples.is_finite() && samples > 0.0 && block_samples > 0) {
         return 0;
     }
-    ((samples as u64).saturating_sub(1) / u64::from(block_samples)).saturating_sub(2)
+    window::counted_windows((samples as u64).saturating_sub(1) / u64::from(block_samples))
 }
 
 /// The rule on a run's excitation before it moves: the windows it will give

@@ -9,7 +9,7 @@
 //! the accelerometer's `∂(Φθ)/∂f`, the gyro's `∂(Φθ)/∂ω̇` through the derivative stencil and
 //! `∂(Φθ)/∂(ωᵢωⱼ)` through the value stencil, and, because the estimator measures the gyro's
 //! error against the kinematics and takes it out at the run's two ends
-//! ([`estimator::rate_ends`]), ∓`∂(Φθ)/∂ω̇`/Δt through the value stencil at the last and first
+//! ([`estimator::gyro_error::ends`]), ∓`∂(Φθ)/∂ω̇`/Δt through the value stencil at the last and first
 //! sample (what is left of the derivative's noise is then the run's middle, Σ φ̇ ψ(n)θ:
 //! predicted c_x at 2 s with gyro noise alone 7e-7 m instead of 1.6e-5). The score is then
 //!
@@ -125,7 +125,7 @@ pub fn covariance(
         channel(noise.accel_m_s2.powi(2), &|_| ga, None);
         let gw = sens(RegressorSignals::angular_acceleration_error(&e, &r));
         // The estimator takes the gyro's error at the run's two ends out of its estimate
-        // ([`estimator::rate_ends`]): −[Φᵀ ψ(n̂)θ]/Δt, n̂ the noise through the value stencil
+        // ([`estimator::gyro_error::ends`]): −[Φᵀ ψ(n̂)θ]/Δt, n̂ the noise through the value stencil
         // and the low-pass, i.e. ∓ψ(unit)θ/Δt on the value path at the last and first sample.
         let last = points.len().saturating_sub(1);
         let end = gw / conditioning.period_s;

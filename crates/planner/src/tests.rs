@@ -90,7 +90,7 @@ fn the_predicted_covariance_matches_the_estimators_spread_over_random_noise() {
 }
 
 /// The gyro's noise alone on a 3 s run: the estimator takes the gyro's error at the run's two
-/// ends out of its estimate (`estimator::rate_ends`), which is most of the first moment's error
+/// ends out of its estimate (`estimator::gyro_error::ends`), which is most of the first moment's error
 /// in a short run. Against the same draws fed without the pose (nothing to measure the gyro's
 /// error against), the spread of hₓ and h_y falls about fivefold (measured 0.21 and 0.29 of the
 /// blind spread); the tensor's, which the ends barely reach, stays.

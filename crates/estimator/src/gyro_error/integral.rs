@@ -1,7 +1,7 @@
 //! The gyro's measured error over the whole run, as the normal equations meet it.
 //!
 //! The gyro's error n reaches every equation through ω̇, a derivative: the residual carries
-//! −ψ(ṅ)θ, ψ(v) the regressor with ω̇ = v and every other signal zero ([`crate::rate_ends`]).
+//! −ψ(ṅ)θ, ψ(v) the regressor with ω̇ = v and every other signal zero ([`crate::gyro_error::ends`]).
 //! Summed into the normal equations it is Q θ with Q = Σ Φᵀ ψ(ṅ): the fit solves
 //! (A − Q) θ = b rather than A θ = b, so its estimate carries P Q θ of the gyro's error.
 //! That error is mostly in J (the gyro's derivative noise meets J's column ω̇ directly) and
