@@ -42,7 +42,6 @@ pub mod reference_mass;
 pub mod reorder;
 pub mod replay;
 pub mod report;
-pub mod schema;
 pub mod session;
 pub mod setup;
 pub mod sources;

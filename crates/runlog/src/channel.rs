@@ -4,7 +4,7 @@
 
 use anyhow::{Context, Result};
 
-use measure::schema::Schema;
+use crate::schema::Schema;
 
 /// One channel of the log.
 #[derive(Clone, Debug)]

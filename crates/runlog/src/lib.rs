@@ -1,6 +1,8 @@
 //! The run log: every measurement streamed to an MCAP file that opens in Foxglove and that
 //! `stewart estimate` re-reads.
 //!
+//! - [`schema`]: the JSON-schema builder and checker of the log's JSON messages, and the schemas
+//!   of measure's saved records ([`schema::tare`]).
 //! - [`messages`]: the channel catalogue and the `stewart.*` message types with their JSON
 //!   schemas; [`metadata`] the run's metadata, estimator settings and (simulation) truth;
 //!   [`link`] the rig link's records.
@@ -33,6 +35,7 @@ pub mod proto;
 pub mod read;
 pub mod reestimate;
 pub mod run_log;
+pub mod schema;
 
 pub use observer::LogObserver;
 pub use read::LogContents;

@@ -652,7 +652,7 @@ pub fn utc_stamp(unix_s: u64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use measure::schema::{num, object};
+    use crate::schema::{num, object};
 
     #[test]
     fn utc_stamps() {
