@@ -10,8 +10,8 @@
 //! - [`foxglove`]: the 3D scene and transforms in Foxglove's well-known schemas.
 //! - [`mcap_log`] (the MCAP writer on its own thread) and [`run_log`] (topics and time);
 //!   [`observer`]: the [`measure::Observer`] that writes a measurement into it.
-//! - [`live`] (feature `live`, on by default): the same channels served over the Foxglove
-//!   WebSocket protocol while the log is written (`--live`).
+//! - [`tap`]: a second reader of every message the log writes, on the writer thread, and the
+//!   pace the log keeps for it (the live view, crate `live`, is one).
 //! - [`read`]: a log read back, tolerant of a file cut short; [`reestimate`]: its
 //!   measurements re-estimated (`stewart estimate`); [`import`]: another rig's CSV data
 //!   written as a log (`stewart import`).
@@ -25,8 +25,6 @@ pub mod compact;
 pub mod foxglove;
 pub mod import;
 pub mod link;
-#[cfg(feature = "live")]
-pub mod live;
 pub mod mcap_log;
 pub mod messages;
 pub mod metadata;
@@ -36,7 +34,9 @@ pub mod read;
 pub mod reestimate;
 pub mod run_log;
 pub mod schema;
+pub mod tap;
 
 pub use observer::LogObserver;
 pub use read::LogContents;
 pub use run_log::RunLog;
+pub use tap::{Pace, Tap};
