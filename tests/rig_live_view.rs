@@ -1,7 +1,7 @@
 //! `stewart rig --live` against `stewart emulate` on loopback UDP: a Foxglove WebSocket client
 //! (`support::live`) connects while the rig runs its tare and loaded sessions, subscribes to
 //! `/estimate`, `/tf` and the run's metadata, and decodes what it receives as the rig moves.
-//! The rig serves the view from its log's writer thread (`runlog::live`), never from the
+//! The rig serves the view from its log's writer thread (crate `live`), never from the
 //! control loop; what the client gets is the log's messages byte for byte, the log is complete
 //! (no message dropped, every sequence number), and the view kept up with the run instead of
 //! arriving at its end.

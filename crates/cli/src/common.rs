@@ -40,7 +40,7 @@ pub struct SharedArgs {
     /// Serve the log's channels live to Foxglove (WebSocket) at IP:PORT while the run goes
     /// [default: 127.0.0.1:8765]; the log is written as well (docs/live.md).
     #[arg(long, value_name = "IP:PORT", num_args = 0..=1,
-          default_missing_value = runlog::live::DEFAULT_ADDR)]
+          default_missing_value = live::DEFAULT_ADDR)]
     pub live: Option<std::net::SocketAddr>,
 }
 
@@ -194,8 +194,8 @@ pub fn end_code(end: &End, fault_detail: &str) -> u8 {
 
 /// Says where `--live` serves the run (standard error, unless `quiet`): the address a Foxglove
 /// client opens (docs/live.md).
-pub fn announce_live(log: &runlog::RunLog, quiet: bool) {
-    if let (Some(addr), false) = (log.live_addr(), quiet) {
+pub fn announce_live(addr: Option<std::net::SocketAddr>, quiet: bool) {
+    if let (Some(addr), false) = (addr, quiet) {
         eprintln!("live view: ws://{addr} (Foxglove: Open connection → Foxglove WebSocket)");
     }
 }

@@ -273,11 +273,13 @@ pub fn simulate(
     let log_path = log_path.unwrap_or_else(|| common::log_path(&args.measure, start_ns));
     // The live view's address is bound before the log exists: a refused one leaves no log.
     // Watched live, the simulation keeps to the wall clock.
-    let live = runlog::live::serve(args.measure.shared.live, runlog::live::Pace::WallClock)
+    let live = live::serve(args.measure.shared.live, live::Pace::WallClock)
         .map_err(CommandError::Input)?;
-    let mut log = RunLog::create_live(&log_path, start_ns, Delivery::Lossless, live)
+    let live_addr = live.as_ref().map(live::LiveServer::addr);
+    let tap = live.map(live::LiveServer::into_tap);
+    let mut log = RunLog::create_tapped(&log_path, start_ns, Delivery::Lossless, tap)
         .map_err(CommandError::Run)?;
-    common::announce_live(&log, args.measure.shared.quiet);
+    common::announce_live(live_addr, args.measure.shared.quiet);
     let mut runs = Vec::new();
     if tare_run {
         runs.push("tare".to_string());

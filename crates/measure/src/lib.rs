@@ -36,7 +36,6 @@ pub mod record;
 pub mod reorder;
 pub mod replay;
 pub mod report;
-pub mod schema;
 pub mod session;
 pub mod setup;
 pub mod systematic;

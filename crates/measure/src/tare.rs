@@ -7,8 +7,6 @@ use std::path::Path;
 use anyhow::{bail, Context, Result};
 use serde::{Deserialize, Serialize};
 
-use crate::schema::{array, int, nullable, numbers, object, string, Schema};
-
 /// Format tag of a tare file.
 pub const TARE_FORMAT: &str = "stewart-tare/1";
 
@@ -62,52 +60,6 @@ pub struct TareFile {
 }
 
 impl TareFile {
-    /// JSON schema (also of the `/run/tare` channel).
-    pub fn schema() -> Schema {
-        object(
-            vec![
-                ("format", string("\"stewart-tare/1\"")),
-                (
-                    "theta",
-                    numbers(10, "[m, hx, hy, hz, Jxx, Jyy, Jzz, Jxy, Jxz, Jyz] of the empty fixture about the P origin, P axes"),
-                ),
-                ("covariance", array(numbers(10, ""), Some(10), "covariance of theta")),
-                ("samples", int("samples the estimate used")),
-                ("residual_rms", numbers(6, "RMS residual of Fx, Fy, Fz (N), τx, τy, τz (N·m)")),
-                ("base_joints_m", array(numbers(3, ""), Some(6), "base joints in B, m")),
-                ("plate_joints_m", array(numbers(3, ""), Some(6), "plate joints in P, m")),
-                ("config", string("scenario file")),
-                ("backend", string("sim or rig")),
-                (
-                    "accel_bias_sensitivity",
-                    nullable(array(
-                        numbers(10, ""),
-                        Some(3),
-                        "d theta / d accelerometer bias along x, y, z (rows), per m/s^2",
-                    )),
-                ),
-                (
-                    "load_cell_offset_sensitivity",
-                    nullable(array(
-                        numbers(10, ""),
-                        Some(6),
-                        "d theta / d zero offset of each load cell (rows: legs), per N",
-                    )),
-                ),
-                ("budget", nullable(crate::budget::RunBudget::schema())),
-                (
-                    "covariance_blocks",
-                    nullable(int("residual windows behind the covariance")),
-                ),
-                (
-                    "static_weighing",
-                    nullable(crate::weigh::StaticWeighing::schema()),
-                ),
-            ],
-            "The empty fixture's inertial parameters, subtracted from loaded runs",
-        )
-    }
-
     /// Pretty JSON.
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).unwrap_or_default()
@@ -373,18 +325,6 @@ mod tests {
         assert!(TareFile::load(&path, &b, &p).is_err());
     }
 
-    #[test]
-    fn matches_its_schema() {
-        let v = serde_json::to_value(tare()).unwrap();
-        TareFile::schema().check(&v).unwrap();
-        let mut load_cell = [[0.0; 10]; 6];
-        load_cell[5][3] = 0.25;
-        let t = tare().with_bias_effects(None, 1e-3, Some(&load_cell), 4.0);
-        TareFile::schema()
-            .check(&serde_json::to_value(t).unwrap())
-            .unwrap();
-    }
-
     /// Effects go in per sigma and come out per the sigma of the run that uses the file; a
     /// file written before the sensitivities existed still loads, with none.
     #[test]
@@ -426,7 +366,7 @@ mod tests {
         assert!(bad.check(&b, &p).is_err());
     }
 
-    /// A tare with the budget's effects round-trips through its file and its schema; one
+    /// A tare with the budget's effects round-trips through its file; one
     /// without them (an older file, no `budget` key) loads with none.
     #[test]
     fn keeps_the_budget_and_loads_files_without_it() {
@@ -451,9 +391,6 @@ mod tests {
                 peak_hz: 1.1,
             }),
         }));
-        TareFile::schema()
-            .check(&serde_json::to_value(&t).unwrap())
-            .unwrap();
         t.save(&path).unwrap();
         let back = TareFile::load(&path, &b, &p).unwrap();
         assert_eq!(back, t);

@@ -4,7 +4,7 @@
 
 use anyhow::{Context, Result};
 
-use measure::schema::Schema;
+use crate::schema::Schema;
 
 /// One channel of the log.
 #[derive(Clone, Debug)]
@@ -23,8 +23,8 @@ pub struct ChannelSpec {
 
 impl ChannelSpec {
     /// The schema record's data: the JSON schema document of a JSON channel, the
-    /// `FileDescriptorSet` of a protobuf one. The log and the live view ([`crate::live`])
-    /// advertise the same bytes.
+    /// `FileDescriptorSet` of a protobuf one. The log and a live view (crate `live`) advertise
+    /// the same bytes.
     pub fn schema_data(&self) -> Result<Vec<u8>> {
         Ok(match self.encoding {
             Encoding::Json => serde_json::to_vec(&self.schema.document(self.schema_name))?,

@@ -18,7 +18,7 @@ use foxglove::messages::{
 };
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
-use measure::schema::{array, boolean, int, num, object, string, Schema};
+use crate::schema::{array, boolean, int, num, object, string, Schema};
 
 /// Name of the fixed frame.
 pub const BASE_FRAME: &str = "base";

@@ -1,6 +1,8 @@
 //! The run log: every measurement streamed to an MCAP file that opens in Foxglove and that
 //! `stewart estimate` re-reads.
 //!
+//! - [`schema`]: the JSON-schema builder and checker of the log's JSON messages, and the schemas
+//!   of measure's saved records ([`schema::tare`]).
 //! - [`messages`]: the channel catalogue and the `stewart.*` message types with their JSON
 //!   schemas; [`metadata`] the run's metadata, estimator settings and (simulation) truth;
 //!   [`link`] the rig link's records.
@@ -8,8 +10,8 @@
 //! - [`foxglove`]: the 3D scene and transforms in Foxglove's well-known schemas.
 //! - [`mcap_log`] (the MCAP writer on its own thread) and [`run_log`] (topics and time);
 //!   [`observer`]: the [`measure::Observer`] that writes a measurement into it.
-//! - [`live`] (feature `live`, on by default): the same channels served over the Foxglove
-//!   WebSocket protocol while the log is written (`--live`).
+//! - [`tap`]: a second reader of every message the log writes, on the writer thread, and the
+//!   pace the log keeps for it (the live view, crate `live`, is one).
 //! - [`read`]: a log read back, tolerant of a file cut short; [`reestimate`]: its
 //!   measurements re-estimated (`stewart estimate`); [`import`]: another rig's CSV data
 //!   written as a log (`stewart import`).
@@ -23,8 +25,6 @@ pub mod compact;
 pub mod foxglove;
 pub mod import;
 pub mod link;
-#[cfg(feature = "live")]
-pub mod live;
 pub mod mcap_log;
 pub mod messages;
 pub mod metadata;
@@ -33,7 +33,10 @@ pub mod proto;
 pub mod read;
 pub mod reestimate;
 pub mod run_log;
+pub mod schema;
+pub mod tap;
 
 pub use observer::LogObserver;
 pub use read::LogContents;
 pub use run_log::RunLog;
+pub use tap::{Pace, Tap};

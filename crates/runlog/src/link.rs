@@ -3,7 +3,7 @@
 
 use serde::Serialize;
 
-use measure::schema::{int, nullable, num, object, string, Schema};
+use crate::schema::{int, nullable, num, object, string, Schema};
 
 /// Topic of the link records.
 pub const LINK: &str = "/rig/link";

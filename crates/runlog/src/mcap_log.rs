@@ -14,10 +14,9 @@
 //! batch is dropped and its messages counted ([`McapLog::dropped`]), so a slow disk never
 //! stalls the control loop. Dropped messages leave gaps in the MCAP sequence numbers.
 //!
-//! **The live view** ([`McapLog::create_live`], feature `live`) is served from the writer
-//! thread too: it hands each message of a batch to [`crate::live::LiveServer::log`] before
-//! writing the batch, so the caller's thread never calls the Foxglove SDK (see
-//! [`crate::live`] for the threads and the pace).
+//! **A tap** ([`McapLog::create_tapped`], the live view) is served from the writer thread
+//! too: it hands each message of a batch to [`Tap::message`] before writing the batch, so the
+//! caller's thread never calls into it (see [`crate::tap`] for the threads and the pace).
 //!
 //! **Integrity.** Every chunk carries the CRC-32 of its records (`uncompressed_crc`, the mcap
 //! crate's default, checked by [`crate::read`]), so a damaged chunk is recognised and skipped.
@@ -41,6 +40,7 @@ use anyhow::{anyhow, Context, Result};
 use serde::Serialize;
 
 use crate::proto::{Encode, Encoder};
+use crate::tap::{Pace, Tap};
 
 pub use crate::channel::{well_known_schema, ChannelSpec, Encoding};
 
@@ -68,13 +68,13 @@ pub const BATCH_MESSAGES: usize = 64;
 /// Batches the queue to the writer thread holds: about 28 s of a 1 kHz run's log, a few MB.
 pub const QUEUE_BATCHES: usize = 256;
 
-/// With a live view, a batch goes to the writer (and so to the view) once its messages span
+/// With a tap (the live view), a batch goes to the writer (and so to the view) once its messages span
 /// this much log time, ns, even with fewer than [`BATCH_MESSAGES`]: the view is at most 40 ms
 /// behind the log and moves 25 times a second, where batches of 64 messages (about 0.11 s)
 /// would move it 9 times a second.
 pub const LIVE_BATCH_SPAN_NS: u64 = 40_000_000;
 
-/// Batches the queue holds with a live view: [`QUEUE_BATCHES`] times the ratio of a full
+/// Batches the queue holds with a tap: [`QUEUE_BATCHES`] times the ratio of a full
 /// batch's span to [`LIVE_BATCH_SPAN_NS`] (0.11 s / 0.04 s), so that the queue holds as many
 /// seconds of log (about 28 s) as without one before [`Delivery::DropWhenFull`] drops.
 pub const QUEUE_BATCHES_LIVE: usize = 3 * QUEUE_BATCHES;
@@ -112,44 +112,25 @@ impl Batch {
     }
 }
 
-/// The live view as the writer thread holds it: the server and each channel's topic.
-#[cfg(feature = "live")]
+/// The tap as the writer thread holds it: the tap and each channel's topic.
 struct Forward {
-    server: crate::live::LiveServer,
+    tap: Box<dyn Tap>,
     topics: HashMap<u16, &'static str>,
 }
 
-/// Without the `live` feature there is no live view: no value of this type exists.
-#[cfg(not(feature = "live"))]
-enum Forward {}
-
 impl Forward {
-    /// Hands every message of `batch` to the live view, with its log time.
-    #[cfg(feature = "live")]
+    /// Hands every message of `batch` to the tap, with its log time.
     fn batch(&self, batch: &Batch) {
         let mut start = 0;
         for e in &batch.entries {
             if let (Some(topic), Some(bytes)) =
                 (self.topics.get(&e.channel_id), batch.data.get(start..e.end))
             {
-                self.server.log(topic, bytes, e.log_time_ns);
+                self.tap.message(topic, bytes, e.log_time_ns);
             }
             start = e.end;
         }
     }
-
-    #[cfg(not(feature = "live"))]
-    fn batch(&self, _: &Batch) {
-        match *self {}
-    }
-}
-
-/// What the caller's side of the log knows of its live view.
-#[cfg(feature = "live")]
-#[derive(Clone, Copy, Debug)]
-struct LiveSide {
-    addr: std::net::SocketAddr,
-    pace: crate::live::Pace,
 }
 
 /// Work for the writer thread.
@@ -185,10 +166,8 @@ pub struct McapLog {
     dropped: u64,
     delivery: Delivery,
     path: PathBuf,
-    /// The live view's address and pace, when one is served (the server itself is the
-    /// writer thread's).
-    #[cfg(feature = "live")]
-    live: Option<LiveSide>,
+    /// The tap's pace, when the log has one (the tap itself is the writer thread's).
+    tapped: Option<Pace>,
 }
 
 impl McapLog {
@@ -203,30 +182,25 @@ impl McapLog {
         Self::create_queued(path, specs, delivery, QUEUE_BATCHES, None)
     }
 
-    /// [`Self::create_with`], and every message written is served by `live` as well: the same
-    /// bytes at the same log time, handed to it by the writer thread (a message dropped for a
+    /// [`Self::create_with`], and every message written is handed to `tap` as well: the same
+    /// bytes at the same log time, handed over by the writer thread (a message dropped for a
     /// full queue is dropped from both). Batches are handed over every
     /// [`LIVE_BATCH_SPAN_NS`] of log time at least, in a queue of [`QUEUE_BATCHES_LIVE`];
-    /// with [`crate::live::Pace::WallClock`] each write waits for its log time
-    /// ([`crate::live::Pace::hold`]).
-    #[cfg(feature = "live")]
-    pub fn create_live(
+    /// with [`Pace::WallClock`] each write waits for its log time ([`Pace::hold`]).
+    pub fn create_tapped(
         path: &Path,
         specs: &[ChannelSpec],
         delivery: Delivery,
-        live: crate::live::LiveServer,
+        tap: Box<dyn Tap>,
     ) -> Result<Self> {
-        let side = LiveSide {
-            addr: live.addr(),
-            pace: live.pace(),
-        };
+        let pace = tap.pace();
         let forward = Forward {
-            server: live,
+            tap,
             topics: HashMap::new(),
         };
         let mut log =
             Self::create_queued(path, specs, delivery, QUEUE_BATCHES_LIVE, Some(forward))?;
-        log.live = Some(side);
+        log.tapped = Some(pace);
         Ok(log)
     }
 
@@ -235,7 +209,7 @@ impl McapLog {
         specs: &[ChannelSpec],
         delivery: Delivery,
         queue_batches: usize,
-        #[cfg_attr(not(feature = "live"), allow(unused_mut))] mut forward: Option<Forward>,
+        mut forward: Option<Forward>,
     ) -> Result<Self> {
         if let Some(dir) = path.parent() {
             if !dir.as_os_str().is_empty() {
@@ -278,7 +252,6 @@ impl McapLog {
                     schema_name: spec.schema_name,
                 },
             );
-            #[cfg(feature = "live")]
             if let Some(f) = forward.as_mut() {
                 f.topics.insert(id, spec.topic);
             }
@@ -323,15 +296,8 @@ impl McapLog {
             dropped: 0,
             delivery,
             path: path.to_path_buf(),
-            #[cfg(feature = "live")]
-            live: None,
+            tapped: None,
         })
-    }
-
-    /// The live view's address, when one is served ([`Self::create_live`]).
-    #[cfg(feature = "live")]
-    pub fn live_addr(&self) -> Option<std::net::SocketAddr> {
-        self.live.map(|l| l.addr)
     }
 
     /// The file being written.
@@ -442,22 +408,19 @@ impl McapLog {
     }
 
     /// Records the message just appended to the batch and hands a full batch to the writer:
-    /// [`BATCH_MESSAGES`] messages, or with a live view [`LIVE_BATCH_SPAN_NS`] of log time.
-    /// With a live view held to the wall clock, first waits for the message's log time. No
-    /// call into the live view here: the writer thread makes them.
+    /// [`BATCH_MESSAGES`] messages, or with a tap [`LIVE_BATCH_SPAN_NS`] of log time. With a
+    /// tap held to the wall clock, first waits for the message's log time. No call into the
+    /// tap here: the writer thread makes them.
     fn queued(&mut self, channel_id: u16, log_time_ns: u64) -> Result<()> {
-        #[cfg(feature = "live")]
-        let span_full = match self.live {
-            Some(live) => {
-                live.pace.hold(log_time_ns);
+        let span_full = match self.tapped {
+            Some(pace) => {
+                pace.hold(log_time_ns);
                 self.batch.entries.first().is_some_and(|first| {
                     log_time_ns.saturating_sub(first.log_time_ns) >= LIVE_BATCH_SPAN_NS
                 })
             }
             None => false,
         };
-        #[cfg(not(feature = "live"))]
-        let span_full = false;
         self.sequence = self.sequence.wrapping_add(1);
         self.batch.entries.push(Entry {
             channel_id,
@@ -595,7 +558,7 @@ fn write_jobs(
         let mut ack = None;
         let result = match job {
             Job::Messages(batch) => {
-                // The view first: the SDK only queues, the file may wait on compression.
+                // The tap first: it only queues, the file may wait on compression.
                 if let Some(f) = forward {
                     f.batch(&batch);
                 }
@@ -652,7 +615,7 @@ pub fn utc_stamp(unix_s: u64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use measure::schema::{num, object};
+    use crate::schema::{num, object};
 
     #[test]
     fn utc_stamps() {
@@ -800,59 +763,36 @@ mod tests {
         assert_eq!(v["v"], 999.0);
     }
 
-    /// A sink subscribed to every channel, as a client subscribed to all of them is: it
-    /// records what the SDK hands it, with the name of the thread that handed it.
-    #[cfg(feature = "live")]
+    /// A tap that records what the log hands it, with the name of the thread that handed it.
+    #[derive(Clone, Default)]
     struct Recorder {
-        id: foxglove::SinkId,
-        got: Mutex<Vec<Recorded>>,
+        got: Arc<Mutex<Vec<Recorded>>>,
     }
 
     /// Topic, bytes, log time and the name of the thread that handed them over.
-    #[cfg(feature = "live")]
     type Recorded = (String, Vec<u8>, u64, Option<String>);
 
-    #[cfg(feature = "live")]
-    impl foxglove::Sink for Recorder {
-        fn id(&self) -> foxglove::SinkId {
-            self.id
-        }
-        fn log(
-            &self,
-            channel: &foxglove::RawChannel,
-            msg: &[u8],
-            metadata: &foxglove::Metadata,
-        ) -> Result<(), foxglove::FoxgloveError> {
+    impl Tap for Recorder {
+        fn message(&self, topic: &'static str, bytes: &[u8], log_time_ns: u64) {
             let thread = std::thread::current().name().map(String::from);
-            let record = (
-                channel.topic().into(),
-                msg.to_vec(),
-                metadata.log_time,
-                thread,
-            );
+            let record = (topic.into(), bytes.to_vec(), log_time_ns, thread);
             self.got.lock().unwrap().push(record);
-            Ok(())
         }
     }
 
-    /// The writer thread, not the writing one, hands the messages to the live view: with the
+    /// The writer thread, not the writing one, hands the messages to the tap: with the
     /// writer stalled, a write (and the hand-over of its batch) returns with nothing sent to
-    /// the subscribed sink; once the writer runs, the sink has each message, the file's bytes
-    /// at the file's log time, handed over on the writer's thread.
-    #[cfg(feature = "live")]
+    /// the tap; once the writer runs, the tap has each message, the file's bytes at the
+    /// file's log time, handed over on the writer's thread.
     #[test]
-    fn the_writer_thread_serves_the_live_view_not_the_caller() {
+    fn the_writer_thread_serves_the_tap_not_the_caller() {
         use crate::messages as topics;
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("x.mcap");
         let specs = crate::messages::channels();
-        let live = crate::live::LiveServer::start("127.0.0.1:0".parse().unwrap(), &specs).unwrap();
-        let recorder = Arc::new(Recorder {
-            id: foxglove::SinkId::next(),
-            got: Mutex::default(),
-        });
-        assert!(live.context().add_sink(recorder.clone()));
-        let mut log = McapLog::create_live(&path, &specs, Delivery::DropWhenFull, live).unwrap();
+        let recorder = Recorder::default();
+        let tap = Box::new(recorder.clone());
+        let mut log = McapLog::create_tapped(&path, &specs, Delivery::DropWhenFull, tap).unwrap();
         let release = stall(&log);
         let t0 = 1_700_000_000_000_000_000;
         log.write(topics::METADATA, t0, &serde_json::json!({"command": "rig"}))
@@ -898,7 +838,7 @@ mod tests {
             .iter()
             .map(|(topic, data, time, _)| (topic.clone(), data.clone(), *time))
             .collect();
-        assert_eq!(sent, in_file, "the view gets the file's messages");
+        assert_eq!(sent, in_file, "the tap gets the file's messages");
         assert!(
             got.iter()
                 .all(|(.., thread)| thread.as_deref() == Some("mcap-writer")),

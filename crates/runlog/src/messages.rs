@@ -14,7 +14,7 @@ use serde::Serialize;
 use crate::channel::{ChannelSpec, Encoding};
 use crate::foxglove;
 use crate::proto::{Encode, Encoder};
-use measure::schema::{array, boolean, int, nullable, num, numbers, object, string, Schema};
+use crate::schema::{array, boolean, int, nullable, num, numbers, object, string, Schema};
 
 /// Raw sensor frames, every sample.
 pub const SENSORS: &str = "/sensors";
@@ -511,7 +511,7 @@ pub fn channels() -> Vec<ChannelSpec> {
             topic: TARE,
             encoding: Encoding::Json,
             schema_name: "stewart.Tare",
-            schema: measure::tare::TareFile::schema(),
+            schema: crate::schema::tare::tare_file(),
         },
         ChannelSpec {
             topic: TRUTH,

@@ -6,8 +6,8 @@ use anyhow::{bail, Result};
 use nalgebra::{Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
+use crate::schema::{array, int, nullable, num, numbers, object, string, Schema};
 use measure::calibration::CalibrationDocument;
-use measure::schema::{array, int, nullable, num, numbers, object, string, Schema};
 
 /// `stewart.RunMetadata` on `/run/metadata`, written at the start, twice
 /// ([`crate::run_log::RunLog::write_metadata`]).

@@ -10,6 +10,7 @@ use serde::Serialize;
 use crate::compact::{CommandBlock, CommandCounts, SensorBlock, SensorCounts, BLOCK_FRAMES};
 use crate::mcap_log::{Delivery, McapLog};
 use crate::messages::{self as topics, channels};
+use crate::tap::Tap;
 
 /// Rates of the decimated channels, Hz (sensors and commands are logged at every sample).
 pub mod rates {
@@ -62,18 +63,17 @@ impl RunLog {
         ))
     }
 
-    /// [`Self::create_with`], every message served live by `live` as well when it is given
-    /// ([`McapLog::create_live`]: the log's writer thread hands the messages to the view, so
-    /// the thread writing the log never calls into it; see [`crate::live`]).
-    #[cfg(feature = "live")]
-    pub fn create_live(
+    /// [`Self::create_with`], every message handed to `tap` as well when it is given (the
+    /// live view; [`McapLog::create_tapped`]: the log's writer thread hands the messages to
+    /// it, so the thread writing the log never calls into it; see [`crate::tap`]).
+    pub fn create_tapped(
         path: &Path,
         start_unix_ns: u64,
         delivery: Delivery,
-        live: Option<crate::live::LiveServer>,
+        tap: Option<Box<dyn Tap>>,
     ) -> Result<Self> {
-        let log = match live {
-            Some(live) => McapLog::create_live(path, &channels(), delivery, live)?,
+        let log = match tap {
+            Some(tap) => McapLog::create_tapped(path, &channels(), delivery, tap)?,
             None => McapLog::create_with(path, &channels(), delivery)?,
         };
         Ok(Self::around(log, start_unix_ns))
@@ -96,12 +96,6 @@ impl RunLog {
                 last_ns: 0,
             },
         }
-    }
-
-    /// The address of the live view, when one is served.
-    #[cfg(feature = "live")]
-    pub fn live_addr(&self) -> Option<std::net::SocketAddr> {
-        self.log.live_addr()
     }
 
     /// Messages dropped because the writer fell behind ([`Delivery::DropWhenFull`]).

@@ -64,12 +64,14 @@ pub fn rig_with_abort(
     let log_path = common::log_path(&common.run, start_ns);
     // The log's writer thread must never stall the control loop: when it falls behind (a disk
     // that blocks), messages are dropped and counted instead.
-    let live = runlog::live::serve(common.run.shared.live, runlog::live::Pace::AsRun)
-        .map_err(CommandError::Input)?;
+    let live =
+        live::serve(common.run.shared.live, live::Pace::AsRun).map_err(CommandError::Input)?;
+    let live_addr = live.as_ref().map(live::LiveServer::addr);
     // The live view is served from the log's writer thread: the control loop never calls it.
-    let mut log = RunLog::create_live(&log_path, start_ns, Delivery::DropWhenFull, live)
+    let tap = live.map(live::LiveServer::into_tap);
+    let mut log = RunLog::create_tapped(&log_path, start_ns, Delivery::DropWhenFull, tap)
         .map_err(CommandError::Run)?;
-    common::announce_live(&log, common.run.shared.quiet);
+    common::announce_live(live_addr, common.run.shared.quiet);
     let mut runs = Vec::new();
     if matches!(tare, TarePlan::Measure(_)) {
         runs.push("tare".to_string());

@@ -120,64 +120,6 @@ pub struct RunBudget {
 }
 
 impl RunBudget {
-    /// JSON schema (inside a tare file and `/run/tare`).
-    pub fn schema() -> crate::schema::Schema {
-        use crate::schema::{array, boolean, int, nullable, num, numbers, object, string};
-        object(
-            vec![
-                (
-                    "effects",
-                    array(
-                        object(
-                            vec![
-                                ("source", string("error source id")),
-                                (
-                                    "per_run",
-                                    boolean("the errors are this run's own, not shared with the other run"),
-                                ),
-                                (
-                                    "effects",
-                                    array(
-                                        numbers(10, ""),
-                                        None,
-                                        "change of theta from one sigma of each elementary error",
-                                    ),
-                                ),
-                            ],
-                            "one source's effects",
-                        ),
-                        None,
-                        "per systematic source",
-                    ),
-                ),
-                ("used", int("samples used")),
-                ("lost", int("frames lost")),
-                (
-                    "jitter_share",
-                    num("timestamp jitter's share of the statistical variance"),
-                ),
-                (
-                    "rigid_body",
-                    nullable(object(
-                        vec![
-                            ("ok", boolean("the rigid-body model explains the data")),
-                            (
-                                "residual_ratio",
-                                nullable(num("residual rms over the expected rms")),
-                            ),
-                            (
-                                "peak_hz",
-                                nullable(num("largest peak of the residual spectrum, Hz")),
-                            ),
-                        ],
-                        "rigid-body check",
-                    )),
-                ),
-            ],
-            "the run's error-budget inputs",
-        )
-    }
-
     /// True when `source`'s effects are this run's own errors ([`SourceEffects::per_run`]).
     pub fn per_run(&self, source: ErrorSource) -> bool {
         self.effects

@@ -95,63 +95,6 @@ pub struct StaticWeighing {
     pub drift_per_s: Vec<[f64; 3]>,
 }
 
-impl StaticWeighing {
-    /// JSON schema (in the tare file and on `/run/tare`).
-    pub fn schema() -> crate::schema::Schema {
-        use crate::schema::{array, int, num, numbers, object, string};
-        let triples = |d| array(numbers(3, ""), None, d);
-        object(
-            vec![
-                ("samples", int("hold samples averaged")),
-                ("time_s", num("backend time of the hold's middle, s")),
-                ("gravity_m_s2", num("gravity used, m/s^2")),
-                ("up_in_p", numbers(3, "up in P axes at the hold's pose")),
-                (
-                    "wrench",
-                    numbers(
-                        6,
-                        "mean static wrench Fx Fy Fz (N) tx ty tz (N m), P origin, P axes",
-                    ),
-                ),
-                ("values", numbers(3, "m (kg), h_x, h_y (kg m) for h_z = 0")),
-                ("tilt", numbers(2, "d(h_x, h_y)/d h_z")),
-                (
-                    "noise_covariance",
-                    array(
-                        numbers(3, ""),
-                        Some(3),
-                        "covariance of values from the noise",
-                    ),
-                ),
-                (
-                    "effects",
-                    array(
-                        object(
-                            vec![
-                                ("source", string("error source id")),
-                                (
-                                    "effects",
-                                    triples(
-                                        "change of values from one sigma of each elementary error",
-                                    ),
-                                ),
-                            ],
-                            "one source's effects",
-                        ),
-                        None,
-                        "the rig's shared errors",
-                    ),
-                ),
-                (
-                    "drift_per_s",
-                    triples("change of values per second of one sigma of each cell's zero drift"),
-                ),
-            ],
-            "The brake hold's static weighing of everything on the plate",
-        )
-    }
-}
-
 /// (m, h_x, h_y) of a static wrench `w` at up vector `up` (P axes), gravity `g`, for a centre
 /// of mass height h_z = `h_z` kg·m (see the [module docs](self)).
 pub fn mass_and_moments(w: &Vector6<f64>, up: &Vector3<f64>, g: f64, h_z: f64) -> [f64; 3] {

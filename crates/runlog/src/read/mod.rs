@@ -14,7 +14,8 @@
 //! [`LogContents::read`] keeps every record of the channels it knows.
 
 pub mod records;
-pub mod scan;
+/// The damage-tolerant MCAP reader under this one (crate `mcap-scan`).
+pub use mcap_scan as scan;
 
 use std::collections::BTreeMap;
 use std::io::{BufReader, Read, Seek};

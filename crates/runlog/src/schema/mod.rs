@@ -3,6 +3,12 @@
 //!
 //! Only the JSON-schema subset the log needs: objects with required properties, fixed or free
 //! length arrays, numbers, integers, strings, booleans, and nullable values.
+//!
+//! Each message type's schema is beside its type ([`crate::messages`], [`crate::metadata`],
+//! [`crate::link`], [`crate::foxglove`]); the schemas of measure's saved records the log carries
+//! are in [`tare`].
+
+pub mod tare;
 
 use serde_json::{json, Map, Value};
 

@@ -1,12 +1,11 @@
 //! The live view: the run log's channels served over the Foxglove WebSocket protocol while the
 //! log is written (`--live` of `stewart simulate` and `stewart rig`), by Foxglove's own SDK.
 //!
-//! **One message, two sinks.** The observer builds each message once; [`crate::mcap_log`]
-//! serializes it into its batch, and the log's writer thread hands the same bytes, with the
-//! same log time, to [`LiveServer::log`] before it writes them to the file. So the live view
-//! has exactly the log's channels (topic, schema name, schema, encoding) at the log's rates
-//! ([`crate::run_log::rates`]), and a channel added to the catalogue
-//! ([`crate::messages::channels`]) is served without a change here.
+//! **One message, two sinks.** The server is the run log's [`Tap`]: the log's writer thread
+//! hands it each message, the same bytes at the same log time, before it writes them to the
+//! file ([`runlog::tap`]). So the live view has exactly the log's channels (topic, schema name,
+//! schema, encoding) at the log's rates ([`runlog::run_log::rates`]), and a channel added to
+//! the catalogue ([`runlog::messages::channels`]) is served without a change here.
 //!
 //! **Which thread does what.**
 //!
@@ -15,13 +14,13 @@
 //!   SDK. The SDK allocates a frame per message per subscribed client and takes locks; a rig's
 //!   control loop is allocation-free once warm (`tests/no_heap_tick.rs`) and must not wait on a
 //!   lock a socket thread holds, so none of that happens on it. With a live view a batch is
-//!   handed over once it spans [`crate::mcap_log::LIVE_BATCH_SPAN_NS`] of log time (the view
+//!   handed over once it spans [`runlog::mcap_log::LIVE_BATCH_SPAN_NS`] of log time (the view
 //!   runs at most that far behind the log, and moves in steps of 25 a second), and the queue
 //!   is longer in proportion, so that it holds as many seconds of log as without one.
 //! - The log's writer thread (`mcap-writer`) gets every batch queued and, for each message,
-//!   calls [`LiveServer::log`] (the SDK copies the message to each subscribed client's queue,
+//!   calls [`Tap::message`] (the SDK copies the message to each subscribed client's queue,
 //!   and keeps the [`LATCHED`] records), then writes the batch to the file. A batch the log
-//!   drops for a full queue ([`crate::mcap_log::Delivery::DropWhenFull`]) is missing from the
+//!   drops for a full queue ([`runlog::mcap_log::Delivery::DropWhenFull`]) is missing from the
 //!   live view too: the view is the log's messages, never more.
 //! - The SDK's own threads (a tokio runtime) write the sockets.
 //!
@@ -31,15 +30,14 @@
 //! falls behind). So a stalled client holds neither the writer thread nor, through it, the log
 //! or the run. Stopping the server detaches its connections instead of waiting for them.
 //!
-//! **Pace.** A simulation served live is held to the wall clock ([`Pace::WallClock`]) on the
-//! caller's thread: a message is not queued before its log time (within [`PACE_SLACK_NS`]), so
-//! the simulation runs at real speed and the view shows the motion as it happens. That is the
-//! log's pace, not a call into the live view; without `--live`, or on a rig
-//! ([`Pace::AsRun`]), nothing is held.
+//! **Pace.** A simulation served live is held to the wall clock ([`Pace::WallClock`]) by the
+//! log, on the caller's thread ([`runlog::tap`]); on a rig ([`Pace::AsRun`]) nothing is held.
 //!
 //! **Late clients.** The run-level records written once ([`LATCHED`]: metadata, truth,
 //! estimator settings, tare) are kept, and a client subscribing to one of those channels
 //! after it was written gets its latest message.
+
+#![warn(missing_docs)]
 
 use std::collections::HashMap;
 use std::net::SocketAddr;
@@ -49,8 +47,9 @@ use anyhow::{Context as _, Result};
 use foxglove::websocket::{ChannelView, Client, ServerListener};
 use foxglove::{PartialMetadata, RawChannel, Schema, WebSocketServer, WebSocketServerHandle};
 
-use crate::channel::ChannelSpec;
-use crate::messages as topics;
+use runlog::channel::ChannelSpec;
+use runlog::messages as topics;
+pub use runlog::tap::{Pace, Tap};
 
 /// `--live`'s address when none is given: loopback only, Foxglove's default port.
 pub const DEFAULT_ADDR: &str = "127.0.0.1:8765";
@@ -93,46 +92,16 @@ impl ServerListener for Replay {
     }
 }
 
-/// How the live view keeps time with the run.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Pace {
-    /// As the run goes: a rig runs in real time by itself.
-    #[default]
-    AsRun,
-    /// No message goes out ahead of its log time on the wall clock: a simulation, which runs
-    /// many times faster than real time, is held to it so that the view shows the motion at
-    /// its real speed (log time = the run's start on the wall clock + the sample time).
-    WallClock,
-}
-
 /// The live view of `--live ADDR`: a server with the log's catalogue bound to `addr`, or
 /// `None` without the flag. Called before the log is created, so that a refused address
 /// leaves no log behind.
 pub fn serve(addr: Option<SocketAddr>, pace: Pace) -> Result<Option<LiveServer>> {
     addr.map(|a| {
-        let mut server = LiveServer::start(a, &crate::messages::channels())?;
+        let mut server = LiveServer::start(a, &runlog::messages::channels())?;
         server.pace = pace;
         Ok(server)
     })
     .transpose()
-}
-
-/// How far a message may run ahead of the wall clock before [`Pace::WallClock`] sleeps, ns:
-/// a sleep per message of a 1 kHz run would cost more than it keeps.
-pub const PACE_SLACK_NS: u64 = 2_000_000;
-
-impl Pace {
-    /// [`Pace::WallClock`]: sleeps until `log_time_ns` (ns since the Unix epoch) on the wall
-    /// clock when the message is more than [`PACE_SLACK_NS`] ahead of it, so that
-    /// `now ≥ log_time_ns − PACE_SLACK_NS` on return. [`Pace::AsRun`]: returns at once.
-    pub fn hold(self, log_time_ns: u64) {
-        if self == Pace::WallClock {
-            let ahead_ns = log_time_ns.saturating_sub(crate::clock::unix_now_ns());
-            if ahead_ns > PACE_SLACK_NS {
-                std::thread::sleep(std::time::Duration::from_nanos(ahead_ns));
-            }
-        }
-    }
 }
 
 /// A Foxglove WebSocket server with every channel of the log. See the [module docs](self).
@@ -147,7 +116,7 @@ pub struct LiveServer {
 }
 
 impl LiveServer {
-    /// Binds `addr` and serves `specs` (the log's catalogue, [`crate::messages::channels`]).
+    /// Binds `addr` and serves `specs` (the log's catalogue, [`runlog::messages::channels`]).
     /// Errors: the address cannot be bound (taken, not local, no permission), a channel's
     /// schema does not build.
     pub fn start(addr: SocketAddr, specs: &[ChannelSpec]) -> Result<Self> {
@@ -216,10 +185,9 @@ impl LiveServer {
         self.pace
     }
 
-    /// The SDK's context of the channels: tests add a sink of their own to it.
-    #[cfg(test)]
-    pub(crate) fn context(&self) -> &Arc<foxglove::Context> {
-        &self._context
+    /// The server as the tap a log is created with ([`runlog::RunLog::create_tapped`]).
+    pub fn into_tap(self) -> Box<dyn Tap> {
+        Box::new(self)
     }
 
     /// Clients connected now.
@@ -230,7 +198,7 @@ impl LiveServer {
     /// Sends `bytes` (one message in its channel's encoding) on `topic` at `log_time_ns` to the
     /// clients subscribed to it; an unknown topic is ignored (the log refuses it). Never waits
     /// for a client (nor for the wall clock: see [`Pace::hold`]). The log calls it on its
-    /// writer thread (see the [module docs](self)); it allocates.
+    /// writer thread, as [`Tap::message`] (see the [module docs](self)); it allocates.
     pub fn log(&self, topic: &str, bytes: &[u8], log_time_ns: u64) {
         let Some((&topic, channel)) = self.channels.get_key_value(topic) else {
             return;
@@ -240,6 +208,16 @@ impl LiveServer {
             latest.insert(topic, (bytes.to_vec(), log_time_ns));
         }
         channel.log_with_meta(bytes, PartialMetadata::with_log_time(log_time_ns));
+    }
+}
+
+impl Tap for LiveServer {
+    fn message(&self, topic: &'static str, bytes: &[u8], log_time_ns: u64) {
+        self.log(topic, bytes, log_time_ns);
+    }
+
+    fn pace(&self) -> Pace {
+        self.pace
     }
 }
 
@@ -259,7 +237,7 @@ mod tests {
 
     #[test]
     fn a_taken_port_is_refused_with_the_address() {
-        let specs = crate::messages::channels();
+        let specs = runlog::messages::channels();
         let first = LiveServer::start("127.0.0.1:0".parse().unwrap(), &specs).unwrap();
         assert_ne!(first.addr().port(), 0);
         let err = LiveServer::start(first.addr(), &specs)
@@ -271,23 +249,8 @@ mod tests {
     }
 
     #[test]
-    fn wall_clock_pace_holds_until_the_time_and_as_run_does_not() {
-        let due = crate::clock::unix_now_ns() + 30_000_000;
-        Pace::WallClock.hold(due);
-        assert!(
-            crate::clock::unix_now_ns() >= due,
-            "released before its time"
-        );
-        // A time that has passed is not held; nor is anything as the run goes.
-        let start = std::time::Instant::now();
-        Pace::WallClock.hold(due);
-        Pace::AsRun.hold(due + 10_000_000_000);
-        assert!(start.elapsed() < std::time::Duration::from_secs(5));
-    }
-
-    #[test]
     fn logging_without_clients_returns_and_latches_the_run_records() {
-        let specs = crate::messages::channels();
+        let specs = runlog::messages::channels();
         let server = LiveServer::start("127.0.0.1:0".parse().unwrap(), &specs).unwrap();
         assert_eq!(server.client_count(), 0);
         server.log(topics::METADATA, b"{}", 5);

@@ -20,6 +20,8 @@
 //! when the footer is intact, so a damaged chunk that held a channel's definition loses only
 //! that chunk's messages.
 
+#![warn(missing_docs)]
+
 use std::collections::HashMap;
 use std::io::{Read, Seek, SeekFrom};
 use std::sync::Arc;
