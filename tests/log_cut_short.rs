@@ -43,7 +43,7 @@ fn a_log_cut_short_opens_and_estimate_uses_what_is_there() {
 
     // The mcap crate's own stream gives the same messages before the cut chunk, and also those
     // it decompresses from the cut chunk's start before its error; the reader keeps only
-    // chunks whose CRC it checked, so it gives fewer, by less than a chunk (512 KiB of JSON).
+    // chunks whose CRC it checked, so it gives fewer, by less than a chunk (160 KiB).
     let ok = support::readable_records(&bytes[..n]);
     let read = log.channels.values().map(|c| c.count).sum::<u64>();
     assert!(

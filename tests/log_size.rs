@@ -1,4 +1,4 @@
-//! A 1 kHz log stays under 10 MB a minute of data (issue 11, "Bounded and compact"): a short
+//! A 1 kHz log stays under 10 MB a minute of data (docs/log-schema.md): a short
 //! `simulate` run with the datasheet's noise, every frame logged, measured in bytes of the
 //! whole file per minute of log time. The file's fixed part (metadata, schemas, summary) counts
 //! against the short run, so the bound holds with room for the default run's longer one.

@@ -1,4 +1,4 @@
-//! Can the rig's own data calibrate its joints? A dev-only analysis (issue 13): which
+//! Can the rig's own data calibrate its joints? A dev-only analysis: which
 //! combinations of the 36 joint coordinates the IMU and the load cells observe, and what
 //! knowing them would do to the error budget's `geometry` line of the payload's estimate.
 //!

@@ -24,7 +24,7 @@ struct Parameter {
     kind: Kind,
 }
 
-/// Which acceptance applies (issue 4).
+/// Which acceptance applies (mass 0.2 %, centre of mass 1 mm, J_C 0.5 %: docs/accuracy.md).
 #[derive(Clone, Copy)]
 enum Kind {
     Mass,

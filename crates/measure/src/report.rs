@@ -183,8 +183,8 @@ pub struct CovarianceBasis {
     pub block_s: f64,
     /// Degrees of freedom of each quantity's variance in the loaded run, in the order of
     /// [`Quantities::flat`] (mass, c, J_C xx, yy, zz, xy, xz, yz): how many the residual
-    /// blocks give along that quantity (`estimator::dof`; about G/1.5 for equal blocks, fewer
-    /// where a few blocks carry most of its information). Each sigma is scaled by its
+    /// windows give along that quantity (`estimator::dof`; about G/1.2 for G equal windows, fewer
+    /// where a few windows carry most of its information). Each sigma is scaled by its
     /// ν/(ν − 2); `null` where none were measured.
     #[serde(default)]
     pub loaded_degrees_of_freedom: [Option<f64>; 10],

@@ -1071,7 +1071,7 @@ fn after_a_pause_of_the_caller_the_host_skips_to_the_newest_frame() {
     let rig = start(config());
     let mut host = RigBackend::connect(&rig.address, RigOptions::default()).unwrap();
     // Longer than the 50 ms silence limit, but the rig kept sending: not a silent link. And
-    // more frames than one drain used to look at (64): still one read catches up.
+    // about 150 frames queued, more than a drain of 64 would reach: one read catches up.
     std::thread::sleep(Duration::from_millis(150));
     let first = host.read().unwrap();
     let stats = *host.stats();
