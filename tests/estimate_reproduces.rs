@@ -51,7 +51,12 @@ fn report_numbers(r: &Report) -> Vec<(String, f64)> {
 }
 
 fn assert_reproduces(online: &Report, offline: &Report) {
-    for ((name, a), (_, b)) in report_numbers(online).iter().zip(report_numbers(offline)) {
+    let (online_numbers, offline_numbers) = (report_numbers(online), report_numbers(offline));
+    // Same names in the same order (the budget's lines included), so the zip below pairs every
+    // number with its counterpart and leaves none out.
+    let names = |v: &[(String, f64)]| v.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+    assert_eq!(names(&online_numbers), names(&offline_numbers));
+    for ((name, a), (_, b)) in online_numbers.iter().zip(offline_numbers) {
         assert!(close(*a, b, 1e-9), "{name}: online {a:e}, offline {b:e}");
     }
     assert_eq!(online.samples, offline.samples);

@@ -27,11 +27,12 @@ fn text(out: &Output) -> String {
     )
 }
 
-/// A child `stewart emulate` and the address it listens on.
+/// A child `stewart emulate`, the address it listens on and the lines of its standard output.
 struct Emulator {
     child: Child,
     address: String,
     stderr: std::process::ChildStderr,
+    lines: std::sync::mpsc::Receiver<String>,
 }
 
 impl Emulator {
@@ -57,13 +58,33 @@ impl Emulator {
             .find(|w| w.starts_with("udp://"))
             .unwrap_or_else(|| panic!("no address in {first:?}"))
             .to_string();
-        // Keep draining its output so that it never blocks on a full pipe.
-        std::thread::spawn(move || for _ in lines {});
+        // Keep draining its output so that it never blocks on a full pipe; the lines go to
+        // `wait_for_line` (or nowhere once the receiver is gone).
+        let (sender, receiver) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            for line in lines.map_while(Result::ok) {
+                let _ = sender.send(line);
+            }
+        });
         let stderr = child.stderr.take().unwrap();
         Self {
             child,
             address,
             stderr,
+            lines: receiver,
+        }
+    }
+
+    /// Waits (at most 30 s) for a line of its standard output that contains `what`.
+    fn wait_for_line(&self, what: &str) -> String {
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(30);
+        loop {
+            let left = deadline.saturating_duration_since(std::time::Instant::now());
+            match self.lines.recv_timeout(left) {
+                Ok(line) if line.contains(what) => return line,
+                Ok(_) => {}
+                Err(e) => panic!("the emulator printed no line with {what:?}: {e}"),
+            }
         }
     }
 
@@ -177,8 +198,10 @@ fn emulate_makes_the_key_rig_uses_it_and_a_keyless_host_is_told_how_to_pair() {
     assert_eq!(paired.status.code(), Some(0), "{}", text(&paired));
 
     // A host that goes without a key is refused by the keyed rig, with how to pair (once the
-    // paired host's session has timed out: until then any other host is told BUSY).
-    std::thread::sleep(std::time::Duration::from_millis(1500));
+    // paired host's session has timed out, which the emulator prints: until then any other
+    // host is told BUSY).
+    let ended = emulator.wait_for_line("the host was silent");
+    assert!(ended.starts_with("session 1 "), "{ended}");
     let insecure = stewart(xdg.path())
         .args([
             "rig",

@@ -300,9 +300,15 @@ fn with_a_key_only_correctly_keyed_frames_count() {
     );
     // Sensor frames come back tagged for this session only.
     assert!(matches!(peer.recv(Some(&good)), Some(Message::Sensor(_))));
-    std::thread::sleep(Duration::from_millis(20));
-    // The hand-made session ends (its host goes quiet) before the CLI's keyed run below.
-    std::thread::sleep(Duration::from_millis(1200));
+    // The hand-made session ends when its host goes quiet (the rig's session timeout), before
+    // the CLI's keyed run below: the rig's frames to it stop (`recv` gives up after 500 ms).
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while peer.recv(Some(&good)).is_some() {
+        assert!(
+            Instant::now() < deadline,
+            "the hand-made session did not end"
+        );
+    }
 
     // The CLI with the scenario's key: a whole run.
     let outcome = run_rig(&rig_tare(&scratch, emulator.address(), &[]))
@@ -313,8 +319,10 @@ fn with_a_key_only_correctly_keyed_frames_count() {
     let stats = stopped.stats().core;
     // Two refused Hellos and three bad commands.
     assert!(stats.auth_failed >= 5, "{stats:?}");
-    // The hand-made session's only applied command was the keyed one: its watchdog then
-    // braked the platform (a fault of that session, not of the CLI's).
+    // No fault of the CLI's session: any fault is the hand-made session's watchdog on its one
+    // applied command. The list is empty in every run here (`faults_sent` 0: the hand-made
+    // session's driven command 1 does not trip the rig's watchdog before the session times
+    // out), so these two checks hold vacuously; the watchdog's part is not shown by this test.
     let faults = stopped.faults();
     assert!(
         faults.iter().all(|f| f.code == FaultCode::WATCHDOG),

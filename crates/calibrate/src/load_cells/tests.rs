@@ -187,11 +187,15 @@ fn the_accelerometers_rest_offset_is_taken_out() {
     assert!(shift.abs() > 0.5 * 2e-3 / 9.81, "{shift:e}");
 }
 
-/// With a default rig's noise averaged over 10 samples, over 12 seeds every gain's mean z² lies
-/// in [0.3, 2.5] and no error passes 4 sigma.
+/// With a default rig's noise averaged over 10 samples, over 80 seeds every gain's mean z² is
+/// below 1.60 and no error passes 4 sigma: for honest sigmas 80·(mean z²) is χ² with 80
+/// degrees of freedom, below 1.60 × 80 with probability 99.95 %, so sigmas √2 too narrow (mean
+/// z² 2) fail. The sigmas rest on the setup's `equation_sigma` (5 N, 2 N·m), not on the
+/// simulated noise, and over-cover: these 80 seeds read 0.46–0.84 (gain 3 the lowest), so the
+/// lower bound is only that they are not wider than 2.5 times the errors (mean z² above 0.16).
 #[test]
 fn reported_sigmas_cover_the_errors_of_noisy_readings() {
-    let seeds = 12;
+    let seeds = 80;
     let mut z2 = [0.0; 6];
     for seed in 0..seeds {
         let f = fitted([4.0 / 10f64.sqrt(), 1.6e-4, 1.3e-3], 10 * seed, &setup(0.0));
@@ -202,7 +206,7 @@ fn reported_sigmas_cover_the_errors_of_noisy_readings() {
         }
     }
     for (i, z) in z2.iter().enumerate() {
-        assert!((0.3..2.5).contains(z), "gain {i}: mean z² {z}");
+        assert!((0.16..1.60).contains(z), "gain {i}: mean z² {z}");
     }
 }
 
