@@ -39,6 +39,7 @@ pub fn is_measured(gyro_noise_rad_s: f64) -> bool {
 /// change as errors of ω̇ ([`RegressorSignals::angular_acceleration_error`], the
 /// accelerometer at `lever_m`), each `None` where the conditioning gave none or the error is
 /// not measured ([`is_measured`]).
+#[inline]
 pub fn signals(
     measured: bool,
     excess_rad_s: Option<Vector3<f64>>,
@@ -85,6 +86,7 @@ impl<const N: usize, const R: usize> GyroError<N, R> {
     /// (`change_rows`) where measured, and whether the conditioning started a new stretch
     /// with it ([`RateEnds::add`]). Returns Φᵀψ(n̂) and Φᵀψ(ṅ̂), formed once for the run's
     /// sums and the windows'.
+    #[inline]
     pub fn add(
         &mut self,
         rows: &SMatrix<f64, R, N>,
@@ -178,6 +180,7 @@ impl<const N: usize> WindowSums<N> {
     /// Adds one sample to the rising window's sums and the falling one's, at weights
     /// (`rise`, `fall`); the slopes are `slope_scale` times (fall, −rise)
     /// ([`crate::window::slope_scale`]).
+    #[inline]
     pub fn add(
         rising: &mut Self,
         falling: &mut Self,
@@ -203,6 +206,7 @@ impl<const N: usize> WindowSums<N> {
     /// splits off: g_ω = −(U − n_u C_ω̇ + E) θ, the rest g_o = T (b − (A − U + n_u C_ω̇) θ);
     /// otherwise the gyro's noise is the fit's like any other, only its slopes' share taken
     /// out, g_o = T (b − (A + E) θ), g_ω = 0.
+    #[inline]
     pub fn scores(
         &self,
         b: &SVector<f64, N>,
