@@ -10,9 +10,8 @@
 //!   [`observer`]: the [`measure::Observer`] that writes a measurement into it.
 //! - [`live`] (feature `live`, on by default): the same channels served over the Foxglove
 //!   WebSocket protocol while the log is written (`--live`).
-//! - [`read`]: a log read back, tolerant of a file cut short; [`reestimate`]: its
-//!   measurements re-estimated (`stewart estimate`); [`import`]: another rig's CSV data
-//!   written as a log (`stewart import`).
+//! - [`read`]: a log read back, tolerant of a file cut short (`stewart estimate` re-estimates
+//!   its measurements with the operations library's `ops::estimate`).
 //!
 //! docs/log-schema.md documents every channel.
 #![warn(missing_docs)]
@@ -21,7 +20,6 @@ pub mod channel;
 pub mod clock;
 pub mod compact;
 pub mod foxglove;
-pub mod import;
 pub mod link;
 #[cfg(feature = "live")]
 pub mod live;
@@ -31,7 +29,6 @@ pub mod metadata;
 pub mod observer;
 pub mod proto;
 pub mod read;
-pub mod reestimate;
 pub mod run_log;
 
 pub use observer::LogObserver;

@@ -92,7 +92,7 @@ pub fn write_figures(dir: &Path, f: &Figures) -> Result<Vec<PathBuf>> {
             &|a| sigma_course(a, c, &f.parameters),
         )?;
         let csv = dir.join("sigma_course.csv");
-        std::fs::write(&csv, super::course::course_csv(c, &f.parameters))
+        std::fs::write(&csv, ops::plot::course_csv(c, &f.parameters))
             .with_context(|| format!("cannot write {}", csv.display()))?;
         written.push(csv);
     }
