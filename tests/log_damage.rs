@@ -192,7 +192,7 @@ fn cutoff_hz_refuses_negative_and_non_finite_values_and_takes_none() {
         assert!(err.contains("0 or `none`"), "{bad}: {err}");
     }
     for (good, hz) in [("none", 0.0), ("0", 0.0), ("12.5", 12.5)] {
-        assert_eq!(stewart_cli::estimate::parse_cutoff(good), Ok(hz));
+        assert_eq!(ops::estimate::parse_cutoff_hz(good), Ok(hz));
     }
 }
 

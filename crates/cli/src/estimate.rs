@@ -35,7 +35,7 @@ pub struct EstimateArgs {
     #[arg(long, value_name = "FILE.html")]
     pub html: Option<PathBuf>,
     /// Low-pass cut-off of the signal conditioning, Hz (0 or `none`: no filter).
-    #[arg(long, value_name = "HZ", value_parser = parse_cutoff, allow_negative_numbers = true)]
+    #[arg(long, value_name = "HZ", value_parser = ops::estimate::parse_cutoff_hz, allow_negative_numbers = true)]
     pub cutoff_hz: Option<f64>,
     /// RLS forgetting factor λ in (0, 1].
     #[arg(long, value_name = "LAMBDA")]
@@ -44,7 +44,7 @@ pub struct EstimateArgs {
     /// either end may be empty (e.g. `5:` or `:30`). A short window gets residual half-blocks
     /// short enough for a measured sigma, as a measurement of that length would (at least
     /// 1.8 s with the default settings).
-    #[arg(long, value_name = "START:END", value_parser = parse_window)]
+    #[arg(long, value_name = "START:END", value_parser = str::parse::<Window>)]
     pub window: Option<Window>,
     /// Write SVG and PNG figures (estimates with ±σ and truth, tracking error, excitation) here.
     #[arg(long, value_name = "DIR")]
@@ -64,69 +64,18 @@ pub struct EstimateArgs {
     pub quiet: bool,
 }
 
-/// Parses `--cutoff-hz`: a positive number of Hz, or `0` / `none` for no filter (0.0).
-pub fn parse_cutoff(text: &str) -> Result<f64, String> {
-    let t = text.trim();
-    if t.eq_ignore_ascii_case("none") {
-        return Ok(0.0);
-    }
-    match t.parse::<f64>() {
-        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
-        _ => Err(format!(
-            "`{text}` is not a cut-off frequency: give a positive number of Hz, or 0 or `none` \
-             for no filter"
-        )),
-    }
-}
-
-/// Parses `START:END` with either side optional.
-pub fn parse_window(text: &str) -> Result<Window, String> {
-    let (a, b) = text
-        .split_once(':')
-        .ok_or_else(|| format!("expected START:END in seconds, got `{text}`"))?;
-    let num = |s: &str| -> Result<Option<f64>, String> {
-        let s = s.trim();
-        if s.is_empty() {
-            return Ok(None);
-        }
-        let v: f64 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
-        if v.is_finite() {
-            Ok(Some(v))
-        } else {
-            Err(format!("`{s}` is not finite"))
-        }
-    };
-    let w = Window {
-        start_s: num(a)?,
-        end_s: num(b)?,
-    };
-    if let (Some(s), Some(e)) = (w.start_s, w.end_s) {
-        if s >= e {
-            return Err(format!(
-                "the window's start {s} s is not before its end {e} s"
-            ));
-        }
-    }
-    Ok(w)
-}
-
-/// The settings changes of the command line.
-pub fn settings_override(args: &EstimateArgs) -> SettingsOverride {
-    SettingsOverride {
-        params: args.params.as_deref().map(crate::common::parse_params),
-        cutoff_hz: args.cutoff_hz,
-        forgetting_factor: args.forgetting_factor,
-        window: args.window,
-    }
-}
-
 /// The options of the command line.
 pub fn options(args: &EstimateArgs) -> EstimateOptions {
     EstimateOptions {
         log: args.log.clone(),
         tare: args.tare.clone(),
         rig: args.rig.clone(),
-        settings: settings_override(args),
+        settings: SettingsOverride {
+            params: args.params.as_deref().map(crate::common::parse_params),
+            cutoff_hz: args.cutoff_hz,
+            forgetting_factor: args.forgetting_factor,
+            window: args.window,
+        },
         report: args.report.clone(),
         html: args.html.clone(),
     }
@@ -279,28 +228,5 @@ mod tests {
         );
         let gyro = loaded.replay.config.gyro_noise_rad_s;
         assert!((gyro - 2e-4 * 1000f64.sqrt()).abs() < 1e-12, "{gyro}");
-    }
-
-    #[test]
-    fn windows_parse() {
-        assert_eq!(
-            parse_window("5:30"),
-            Ok(Window {
-                start_s: Some(5.0),
-                end_s: Some(30.0)
-            })
-        );
-        assert_eq!(
-            parse_window(":12.5"),
-            Ok(Window {
-                start_s: None,
-                end_s: Some(12.5)
-            })
-        );
-        assert_eq!(parse_window("2:").unwrap().end_s, None);
-        assert!(parse_window("5").is_err());
-        assert!(parse_window("9:3").is_err());
-        assert!(parse_window("a:3").is_err());
-        assert!(parse_window("1:inf").is_err());
     }
 }

@@ -42,18 +42,7 @@ pub fn main(args: &ImportArgs) -> u8 {
         Ok(imported) => {
             if !args.quiet {
                 for r in &imported.runs {
-                    let [a, b] = r.time_s;
-                    let [ws, we] = r.window_s;
-                    let end = if we.is_finite() {
-                        format!("{we} s")
-                    } else {
-                        "the end".into()
-                    };
-                    println!(
-                        "{}: {} rows, {a} s to {b} s, fit window {ws} s to {end}",
-                        r.run.name(),
-                        r.rows
-                    );
+                    println!("{r}");
                 }
                 println!("log: {}", imported.log.display());
             }

@@ -1,13 +1,5 @@
-//! `stewart key new`'s flags, and the shared key of `stewart rig` and `stewart emulate`
-//! ([`ops::key`]).
-//!
-//! A link is authenticated unless both sides say `--insecure`: every frame carries an
-//! HMAC-SHA256 tag under a key both sides hold (docs/protocol.md, section 3). The key is found,
-//! in this order, in `--key FILE`, the rig description's `rig.key_file`, and the user's key
-//! file `$XDG_CONFIG_HOME/stewart/rig.key` (else `~/.config/stewart/rig.key`, the XDG Base
-//! Directory default). `stewart key new` writes that file (mode 0600); `stewart emulate`
-//! writes it when it is missing and says so; `stewart rig` without it refuses, saying how to
-//! pair.
+//! `stewart key new`'s flags. Where the shared key of `stewart rig` and `stewart emulate` is
+//! found, and how it is made, is [`ops::key`]'s (docs/protocol.md, section 3).
 
 use std::path::{Path, PathBuf};
 

@@ -5,8 +5,7 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use measure::report::Quantities;
-use ops::plan::{Error, PlanOptions, PlanOutcome};
+use ops::plan::{Error, PlanOptions};
 
 /// Flags of `stewart plan`.
 #[derive(Clone, Debug, Default, Args)]
@@ -71,8 +70,8 @@ fn run(args: &PlanArgs) -> Result<(), Error> {
             serde_json::to_string_pretty(&outcome.summary()).unwrap_or_default()
         );
     } else {
-        print!("{}", table(&outcome));
-        if let Some(line) = degrees_line(&outcome.degrees_of_freedom) {
+        print!("{}", outcome.table());
+        if let Some(line) = outcome.degrees_line() {
             println!("{line}");
         }
         if let Some(path) = &args.out {
@@ -84,67 +83,4 @@ fn run(args: &PlanArgs) -> Result<(), Error> {
         }
     }
     Ok(())
-}
-
-/// The line on the sigmas' degrees of freedom: the fewest, and a warning when a quantity's
-/// falls below [`measure::quality::HEAVY_TAIL_DEGREES_OF_FREEDOM`].
-fn degrees_line(degrees: &[Option<f64>; 10]) -> Option<String> {
-    let (name, fewest) = measure::quality::fewest_degrees_of_freedom(&Quantities::NAMES, degrees)?;
-    Some(
-        match measure::quality::heavy_tailed(&Quantities::NAMES, degrees) {
-            Some((name, nu)) => format!(
-                "residual windows: {name}'s sigma will rest on {nu:.1} degrees of freedom (fewer \
-                 than {:.0}: its error can reach several sigmas more often than a normal one's); \
-                 a longer excitation gives more",
-                measure::quality::HEAVY_TAIL_DEGREES_OF_FREEDOM
-            ),
-            None => format!(
-                "residual windows: every sigma will rest on at least {fewest:.1} degrees of freedom ({name})"
-            ),
-        },
-    )
-}
-
-fn table(outcome: &PlanOutcome) -> String {
-    let (plan, duration_s) = (&outcome.plan, outcome.duration_s);
-    let mut out = format!(
-        "planned excitation: {} sines, base {:.4} Hz, {} harmonics per axis, {duration_s} s \
-         ({} candidates scored)\n",
-        plan.loaded.components().len(),
-        plan.base_frequency_hz,
-        plan.harmonics_per_axis,
-        plan.evaluated
-    );
-    out.push_str(&format!(
-        "limits used: leg force {:.0} %, payload acceleration {:.0} %, leg speed {:.0} %, stroke {:.0} %; binding: {}\n\n",
-        100.0 * plan.usage.force,
-        100.0 * plan.usage.acceleration,
-        100.0 * plan.usage.leg_speed,
-        100.0 * plan.usage.stroke,
-        plan.binding
-    ));
-    out.push_str(&format!(
-        "{:<8} {:>12} {:>12} {:>7}   {:>14}\n",
-        "", "predicted σ", "target σ", "σ/target", "configured σ"
-    ));
-    let sigma = plan.prediction.sigma.flat();
-    let conf = outcome.configured.as_ref().map(|p| p.sigma.flat());
-    for i in 0..10 {
-        let unit = match i {
-            0 => "kg",
-            1..=3 => "mm",
-            _ => "kg·m²",
-        };
-        let scale = if (1..=3).contains(&i) { 1e3 } else { 1.0 };
-        out.push_str(&format!(
-            "{:<8} {:>9.4} {:<5} {:>9.4} {:>7.2}   {:>14}\n",
-            Quantities::NAMES[i],
-            sigma[i] * scale,
-            unit,
-            outcome.targets[i] * scale,
-            plan.prediction.ratios[i],
-            conf.map_or("-".into(), |c| format!("{:.4}", c[i] * scale)),
-        ));
-    }
-    out
 }

@@ -330,3 +330,110 @@ pub fn figures_of_estimate(
         &estimate.tare,
     ))
 }
+
+/// The smallest and largest finite value, if any.
+pub fn finite_range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
+    values
+        .filter(|v| v.is_finite())
+        .fold(None, |acc, v| match acc {
+            None => Some((v, v)),
+            Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
+        })
+}
+
+/// A range around `(lo, hi)` padded by 10 %, never empty.
+pub fn padded((lo, hi): (f64, f64)) -> (f64, f64) {
+    let span = hi - lo;
+    let pad = if span > 0.0 {
+        0.1 * span
+    } else {
+        0.05 * lo.abs().max(1e-6)
+    };
+    (lo - pad, hi + pad)
+}
+
+/// The time axis: the finite times' range, never empty.
+pub fn time_range(t: &[f64]) -> (f64, f64) {
+    match finite_range(t.iter().copied()) {
+        Some((a, b)) if b > a => (a, b),
+        Some((a, _)) => (a, a + 1.0),
+        None => (0.0, 1.0),
+    }
+}
+
+/// The value axis: the settled half of the estimate with its band, and the truth, so the
+/// first samples' wild values (the estimator starts from a weak prior) are clipped at the
+/// frame instead of squashing the converged curve flat.
+pub fn value_range(p: &ParameterSeries) -> (f64, f64) {
+    let n = p.value.len();
+    let from = n / 2;
+    let band = (from..n).flat_map(|i| {
+        let (v, s) = (p.value[i], p.sigma.get(i).copied().unwrap_or(0.0));
+        let s = if s.is_finite() { s } else { 0.0 };
+        [v - s, v + s]
+    });
+    let r = finite_range(band.chain(p.truth))
+        .or_else(|| finite_range(p.value.iter().copied()))
+        .unwrap_or((0.0, 1.0));
+    padded(r)
+}
+
+/// The ±σ band of `p` as quads between consecutive picked samples, at most about
+/// `max_quads` (every sample, or every n-th and the last), each corner clamped into
+/// `[lo, hi]`; a quad with a non-finite end is left out.
+pub fn band_quads(
+    p: &ParameterSeries,
+    (lo, hi): (f64, f64),
+    max_quads: usize,
+) -> Vec<[(f64, f64); 4]> {
+    let clamp = |v: f64| v.clamp(lo, hi);
+    let step = (p.value.len() / max_quads.max(1)).max(1);
+    let finite = |i: usize| {
+        let s = p.sigma.get(i).copied().unwrap_or(f64::NAN);
+        (p.time_s[i].is_finite() && p.value[i].is_finite() && s.is_finite())
+            .then(|| (p.time_s[i], clamp(p.value[i] - s), clamp(p.value[i] + s)))
+    };
+    let picks: Vec<usize> = (0..p.value.len())
+        .step_by(step)
+        .chain(p.value.len().checked_sub(1))
+        .collect();
+    picks
+        .windows(2)
+        .filter_map(|w| {
+            let ((t0, lo0, hi0), (t1, lo1, hi1)) = (finite(w[0])?, finite(w[1])?);
+            Some([(t0, lo0), (t0, hi0), (t1, hi1), (t1, lo1)])
+        })
+        .collect()
+}
+
+/// The estimate of `p` as a line: its finite samples, clamped into `[lo, hi]`.
+pub fn estimate_line(p: &ParameterSeries, (lo, hi): (f64, f64)) -> Vec<(f64, f64)> {
+    p.time_s
+        .iter()
+        .zip(&p.value)
+        .filter(|(t, v)| t.is_finite() && v.is_finite())
+        .map(|(t, v)| (*t, v.clamp(lo, hi)))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ranges_follow_the_settled_half() {
+        let p = ParameterSeries {
+            value: vec![1e6, -1e6, 10.0, 10.0],
+            sigma: vec![1e6, 1e6, 1.0, 1.0],
+            time_s: vec![0.0, 1.0, 2.0, 3.0],
+            truth: Some(10.5),
+            ..ParameterSeries::default()
+        };
+        let (lo, hi) = value_range(&p);
+        assert!(lo < 9.0 && lo > 8.0, "{lo}");
+        assert!(hi > 11.0 && hi < 12.0, "{hi}");
+        let empty = ParameterSeries::default();
+        let (lo, hi) = value_range(&empty);
+        assert!(hi > lo);
+    }
+}

@@ -42,6 +42,57 @@ pub struct Window {
     pub end_s: Option<f64>,
 }
 
+/// Parses a cut-off frequency (`--cutoff-hz`): a positive number of Hz, or `0` / `none` for
+/// no filter (0.0).
+pub fn parse_cutoff_hz(text: &str) -> Result<f64, String> {
+    let t = text.trim();
+    if t.eq_ignore_ascii_case("none") {
+        return Ok(0.0);
+    }
+    match t.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!(
+            "`{text}` is not a cut-off frequency: give a positive number of Hz, or 0 or `none` \
+             for no filter"
+        )),
+    }
+}
+
+/// `START:END` in seconds, either side optional (`5:`, `:30`); the start before the end.
+impl std::str::FromStr for Window {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        let (a, b) = text
+            .split_once(':')
+            .ok_or_else(|| format!("expected START:END in seconds, got `{text}`"))?;
+        let num = |s: &str| -> Result<Option<f64>, String> {
+            let s = s.trim();
+            if s.is_empty() {
+                return Ok(None);
+            }
+            let v: f64 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
+            if v.is_finite() {
+                Ok(Some(v))
+            } else {
+                Err(format!("`{s}` is not finite"))
+            }
+        };
+        let w = Self {
+            start_s: num(a)?,
+            end_s: num(b)?,
+        };
+        if let (Some(s), Some(e)) = (w.start_s, w.end_s) {
+            if s >= e {
+                return Err(format!(
+                    "the window's start {s} s is not before its end {e} s"
+                ));
+            }
+        }
+        Ok(w)
+    }
+}
+
 /// Changes to the recorded estimator settings.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SettingsOverride {
@@ -587,4 +638,33 @@ pub fn save_tare(options: &EstimateOptions, out: &Path) -> Result<stream::Stream
         stream::tare_of_file(&options.log, &options.settings, rig.as_ref()).map_err(Error::Log)?;
     saved.tare.save(out).map_err(Error::SaveTare)?;
     Ok(saved)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn windows_parse() {
+        let w = |t: &str| t.parse::<Window>();
+        assert_eq!(
+            w("5:30"),
+            Ok(Window {
+                start_s: Some(5.0),
+                end_s: Some(30.0)
+            })
+        );
+        assert_eq!(
+            w(":12.5"),
+            Ok(Window {
+                start_s: None,
+                end_s: Some(12.5)
+            })
+        );
+        assert_eq!(w("2:").unwrap().end_s, None);
+        assert!(w("5").is_err());
+        assert!(w("9:3").is_err());
+        assert!(w("a:3").is_err());
+        assert!(w("1:inf").is_err());
+    }
 }

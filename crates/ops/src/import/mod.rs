@@ -259,6 +259,25 @@ pub fn import(plan: &ImportPlan<'_>) -> Result<Imported> {
     })
 }
 
+/// The line `stewart import` prints for a measurement: its rows, times and fit window.
+impl std::fmt::Display for RunSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [a, b] = self.time_s;
+        let [ws, we] = self.window_s;
+        let end = if we.is_finite() {
+            format!("{we} s")
+        } else {
+            "the end".into()
+        };
+        write!(
+            f,
+            "{}: {} rows, {a} s to {b} s, fit window {ws} s to {end}",
+            self.run.name(),
+            self.rows
+        )
+    }
+}
+
 /// Options of `stewart import`.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ImportOptions {
