@@ -3,7 +3,7 @@
 //!
 //! The stream: 4096 sensor frames recorded from the simulator 2 s into the default excitation
 //! (realistic noise), with the controller and estimator state just before the first frame
-//! (`stewart_cli::bench::record`, on the production tick `measure::tick::Tick`). Each benchmark replays the ring through a copy of that state
+//! (`ops::bench::record`, on the production tick `measure::tick::Tick`). Each benchmark replays the ring through a copy of that state
 //! and restores the copy (outside the timed window) when the ring wraps, so every timed tick
 //! is a real tick of a real run: FK warm-started one sample away, a moving set-point, PIDs
 //! tracking, an estimator with thousands of samples behind it.
@@ -35,15 +35,15 @@ use control::io::SensorFrame;
 use control::supervisor::{Phase, Supervisor};
 use criterion::{criterion_group, criterion_main, Criterion};
 use estimator::{OnlineEstimator, Sample};
+use ops::bench::{record, Recording};
 use sim::scenario::Scenario;
-use stewart_cli::bench::{record, Recording};
 
 const FRAMES: usize = 4096;
 
 fn recording() -> Recording {
     let loaded = measure::load::load(None).expect("embedded default config");
-    let world = Scenario::new(loaded, None, None).expect("the default world");
-    record(&world, FRAMES, 2.0).expect("record the default scenario")
+    let scenario = Scenario::new(loaded, None, None).expect("the default world");
+    record(&scenario, FRAMES, 2.0).expect("record the default scenario")
 }
 
 #[derive(Clone, Copy)]

@@ -7,9 +7,8 @@
 mod support;
 
 use measure::report::{Quantities, Report};
-use runlog::reestimate::{reestimate, SettingsOverride, Window};
+use ops::estimate::{reestimate, EstimateOptions, SettingsOverride, Window};
 use runlog::LogContents;
-use stewart_cli::estimate::EstimateArgs;
 use support::close;
 
 fn numbers(q: &Quantities) -> Vec<f64> {
@@ -72,11 +71,10 @@ fn estimate_reproduces_the_online_report_and_refuses_a_missing_channel() {
     let run = support::simulate();
     let dir = run.dir.path();
     let report_path = dir.join("offline.json");
-    let outcome = stewart_cli::estimate::estimate(&EstimateArgs {
+    let outcome = ops::estimate::run(&EstimateOptions {
         log: run.log.clone(),
         report: Some(report_path.clone()),
-        quiet: true,
-        ..EstimateArgs::default()
+        ..EstimateOptions::default()
     })
     .unwrap();
     assert_reproduces(&run.report, &outcome.report);
@@ -88,10 +86,9 @@ fn estimate_reproduces_the_online_report_and_refuses_a_missing_channel() {
     // naming the channel, what it is and what this version reads.
     let json_log = dir.join("json.mcap");
     support::copy_as_json(&run.log, &json_log);
-    let err = stewart_cli::estimate::estimate(&EstimateArgs {
+    let err = ops::estimate::run(&EstimateOptions {
         log: json_log,
-        quiet: true,
-        ..EstimateArgs::default()
+        ..EstimateOptions::default()
     })
     .unwrap_err();
     let text = format!("{err:#}");
@@ -146,10 +143,9 @@ fn estimate_reproduces_the_online_report_and_refuses_a_missing_channel() {
     for topic in ["/sensors", "/run/estimator", "/run/metadata"] {
         let cut = dir.join(format!("without{}.mcap", topic.replace('/', "_")));
         support::copy_without(&run.log, &cut, topic);
-        let err = stewart_cli::estimate::estimate(&EstimateArgs {
+        let err = ops::estimate::run(&EstimateOptions {
             log: cut,
-            quiet: true,
-            ..EstimateArgs::default()
+            ..EstimateOptions::default()
         })
         .unwrap_err();
         let text = format!("{err:#}");

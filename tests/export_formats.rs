@@ -7,7 +7,7 @@ mod support;
 use std::sync::atomic::AtomicBool;
 
 use inertial_export::Format;
-use stewart_cli::export::{run, ExportArgs};
+use ops::export::{run, ExportOptions};
 
 /// |a − b| ≤ 1e-9·max(|b|, scale).
 fn assert_close(what: &str, got: &[f64], want: &[f64], scale: f64) {
@@ -45,7 +45,7 @@ fn a_simulated_report_exports_to_every_format() {
 
     for format in Format::ALL {
         let output = scratch.path(&format!("payload.{}", format.name()));
-        run(&ExportArgs {
+        run(&ExportOptions {
             report: report_path.clone(),
             format,
             output: Some(output.clone()),

@@ -10,12 +10,11 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use measure::report::{Quantities, Report};
-use runlog::import::table::required_columns;
-use runlog::reestimate::stream::reestimate_file;
-use runlog::reestimate::SettingsOverride;
+use ops::estimate::stream::reestimate_file;
+use ops::estimate::{EstimateOptions, SettingsOverride};
+use ops::import::table::required_columns;
+use ops::import::ImportOptions;
 use runlog::LogContents;
-use stewart_cli::estimate::EstimateArgs;
-use stewart_cli::import::ImportArgs;
 use support::close;
 
 /// Which optional columns the exported table has.
@@ -100,12 +99,11 @@ fn estimate(log: &Path) -> Report {
 }
 
 fn import(csv: &Path, rig: &Path, tare: Option<&Path>, out: &Path) {
-    stewart_cli::import::import(&ImportArgs {
+    ops::import::run(&ImportOptions {
         csv: csv.to_path_buf(),
         rig: rig.to_path_buf(),
         out: Some(out.to_path_buf()),
         tare: tare.map(Path::to_path_buf),
-        quiet: true,
     })
     .unwrap_or_else(|e| panic!("import {}: {e:#}", csv.display()));
 }
@@ -170,14 +168,14 @@ fn an_imported_simulate_run_gives_the_same_estimate() {
     let tare_log = dir.join("tare.mcap");
     import(&tare_csv, &rig, None, &tare_log);
     let tare_file = dir.join("tare.json");
-    let saved = stewart_cli::estimate::save_tare(&EstimateArgs {
-        log: tare_log,
-        save_tare: Some(tare_file.clone()),
-        quiet: true,
-        ..EstimateArgs::default()
-    })
-    .unwrap()
-    .expect("a tare saved");
+    let saved = ops::estimate::save_tare(
+        &EstimateOptions {
+            log: tare_log,
+            ..EstimateOptions::default()
+        },
+        &tare_file,
+    )
+    .unwrap();
     assert!(!saved.has_loaded);
     let loaded_csv = dir.join("loaded.csv");
     export(&log, &["loaded"], all, &loaded_csv);

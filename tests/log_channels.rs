@@ -132,7 +132,7 @@ fn a_simulate_log_reads_back_as_documented() {
     // Per channel, the fewest and the most messages the runs allow: derived channels start
     // after the brake hold (with half a second in hand), the estimate with the excitation,
     // and each run may add one final estimate and a message at either end.
-    let hold_s = runlog::reestimate::rig_description_of(meta, None)
+    let hold_s = ops::estimate::rig_description_of(meta, None)
         .unwrap()
         .config
         .run

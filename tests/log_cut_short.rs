@@ -4,9 +4,8 @@
 
 mod support;
 
-use runlog::reestimate::{reestimate_run, rig_description, SettingsOverride};
+use ops::estimate::{reestimate_run, rig_description, EstimateOptions, SettingsOverride};
 use runlog::LogContents;
-use stewart_cli::estimate::EstimateArgs;
 use support::close;
 
 #[test]
@@ -77,10 +76,9 @@ fn a_log_cut_short_opens_and_estimate_uses_what_is_there() {
     // The command itself opens the cut file and reports on the part that is there.
     let path = run.dir.path().join("cut.mcap");
     std::fs::write(&path, &bytes[..n]).unwrap();
-    let outcome = stewart_cli::estimate::estimate(&EstimateArgs {
+    let outcome = ops::estimate::run(&EstimateOptions {
         log: path,
-        quiet: true,
-        ..EstimateArgs::default()
+        ..EstimateOptions::default()
     })
     .unwrap();
     assert!(outcome.report.samples < run.report.samples);

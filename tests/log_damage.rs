@@ -8,7 +8,7 @@ use std::sync::OnceLock;
 
 use clap::Parser;
 use measure::quality::QualityError;
-use stewart_cli::estimate::{estimate, EstimateArgs};
+use ops::estimate::{run as estimate, EstimateOptions, SettingsOverride};
 
 /// One short simulate run shared by the tests of this file.
 fn run() -> &'static (support::Simulated, Vec<u8>) {
@@ -40,12 +40,23 @@ fn write(name: &str, bytes: &[u8]) -> PathBuf {
     path
 }
 
-fn args(log: &Path) -> EstimateArgs {
-    EstimateArgs {
+fn args(log: &Path) -> EstimateOptions {
+    EstimateOptions {
         log: log.to_path_buf(),
-        quiet: true,
-        ..EstimateArgs::default()
+        ..EstimateOptions::default()
     }
+}
+
+/// The exit code of `stewart estimate --quiet` with `extra` flags.
+fn exit_code(log: &Path, extra: &[&std::ffi::OsStr]) -> Option<i32> {
+    std::process::Command::new(env!("CARGO_BIN_EXE_stewart"))
+        .arg("estimate")
+        .arg(log)
+        .arg("--quiet")
+        .args(extra)
+        .status()
+        .expect("the binary runs")
+        .code()
 }
 
 /// The crash: one flipped byte in a chunk's uncompressed size made the mcap crate
@@ -59,7 +70,7 @@ fn a_flipped_chunk_size_byte_that_aborted_estimate_costs_one_chunk() {
     // The uncompressed size's sixth byte: a size of about 2^40 bytes.
     d[at + 9 + 16 + 5] ^= 0xff;
     let path = write("flipped.mcap", &d);
-    let outcome = estimate(&EstimateArgs {
+    let outcome = estimate(&EstimateOptions {
         report: Some(run.dir.path().join("flipped.json")),
         ..args(&path)
     })
@@ -151,7 +162,7 @@ fn a_log_without_finite_forces_measured_nothing_and_exits_non_zero() {
     let path = run.dir.path().join("nan.mcap");
     without_forces(&run.log, &path);
     let report = run.dir.path().join("nan.json");
-    let a = EstimateArgs {
+    let a = EstimateOptions {
         report: Some(report.clone()),
         ..args(&path)
     };
@@ -163,9 +174,10 @@ fn a_log_without_finite_forces_measured_nothing_and_exits_non_zero() {
     );
     assert!(!report.exists(), "no report of nothing");
     assert_eq!(
-        stewart_cli::estimate::main(&a),
-        stewart_cli::common::EXIT_NOT_MEASURED
+        exit_code(&path, &["--report".as_ref(), report.as_os_str()]),
+        Some(i32::from(stewart_cli::common::EXIT_NOT_MEASURED))
     );
+    assert!(!report.exists(), "no report of nothing");
 }
 
 /// `--cutoff-hz -1` and `nan` were taken as "no filter": refused, saying how to ask for none.
@@ -180,7 +192,7 @@ fn cutoff_hz_refuses_negative_and_non_finite_values_and_takes_none() {
         assert!(err.contains("0 or `none`"), "{bad}: {err}");
     }
     for (good, hz) in [("none", 0.0), ("0", 0.0), ("12.5", 12.5)] {
-        assert_eq!(stewart_cli::estimate::parse_cutoff(good), Ok(hz));
+        assert_eq!(ops::estimate::parse_cutoff_hz(good), Ok(hz));
     }
 }
 
@@ -190,8 +202,11 @@ fn cutoff_hz_refuses_negative_and_non_finite_values_and_takes_none() {
 fn params_6_on_a_10_parameter_log_uses_the_recorded_known_mass() {
     let (run, _) = run();
     assert_eq!(run.report.run.params, 10);
-    let outcome = estimate(&EstimateArgs {
-        params: Some("6".into()),
+    let outcome = estimate(&EstimateOptions {
+        settings: SettingsOverride {
+            params: Some(measure::config::ParamCount::Six),
+            ..SettingsOverride::default()
+        },
         ..args(&run.log)
     })
     .unwrap();
@@ -280,7 +295,7 @@ fn a_damaged_metadata_chunk_costs_nothing_but_its_report() {
         err.contains("/run/metadata") && err.contains("--rig FILE"),
         "{err}"
     );
-    let with_rig = |log: &Path| EstimateArgs {
+    let with_rig = |log: &Path| EstimateOptions {
         rig: Some(run.dir.path().join("scenario.toml")),
         ..args(log)
     };
@@ -461,22 +476,24 @@ fn with_the_metadata_lost_the_runs_listed_are_the_ones_the_frames_hold() {
         assert!(contents.metadata.is_none());
         contents.or_metadata_of(Some(&rig_config)).unwrap();
         assert_eq!(contents.require_metadata().unwrap().runs, runs, "{log:?}");
-        let saved = stewart_cli::estimate::save_tare(&EstimateArgs {
-            rig: Some(rig.clone()),
-            save_tare: Some(run.dir.path().join("saved_tare.json")),
-            ..args(log)
-        })
-        .unwrap()
-        .expect("a tare saved");
+        let saved = ops::estimate::save_tare(
+            &EstimateOptions {
+                rig: Some(rig.clone()),
+                ..args(log)
+            },
+            &run.dir.path().join("saved_tare.json"),
+        )
+        .unwrap();
         assert_eq!(saved.has_loaded, runs.contains(&"loaded"), "{log:?}");
     }
 
     let tare = run.dir.path().join("tare_only.json");
-    let a = EstimateArgs {
-        rig: Some(rig),
-        save_tare: Some(tare.clone()),
-        ..args(&tare_only)
-    };
-    assert_eq!(stewart_cli::estimate::main(&a), 0);
+    let flags = [
+        "--rig".as_ref(),
+        rig.as_os_str(),
+        "--save-tare".as_ref(),
+        tare.as_os_str(),
+    ];
+    assert_eq!(exit_code(&tare_only, &flags), Some(0));
     assert!(tare.exists());
 }

@@ -261,15 +261,15 @@ fn six_parameter_measurement_never_touches_the_heap() {
 /// read and write between them not.
 #[test]
 fn the_tick_alone_never_touches_the_heap() {
-    let world = support::default_world();
-    let mut scenario =
-        stewart_cli::bench::Scenario::new(&world, EXCITATION_S).expect("bench scenario");
+    let scenario = support::default_world();
+    let mut closed_loop =
+        ops::bench::ClosedLoop::new(&scenario, EXCITATION_S).expect("bench closed loop");
     let (mut ticks, mut excite_ticks, mut events, mut used) = (0u64, 0u64, 0u64, 0u64);
     let mut phases = Vec::new();
     for _ in 0..100_000 {
-        let frame = scenario.sim.read().expect("read");
-        let (step, n) = counted(|| scenario.tick.step(&frame));
-        scenario.sim.write(&step.control.command).expect("write");
+        let frame = closed_loop.sim.read().expect("read");
+        let (step, n) = counted(|| closed_loop.tick.step(&frame));
+        closed_loop.sim.write(&step.control.command).expect("write");
         ticks += 1;
         events += n;
         if step.estimator == Some(Ok(Outcome::Used)) {
@@ -291,6 +291,6 @@ fn the_tick_alone_never_touches_the_heap() {
         "the run must pass through every active phase"
     );
     assert!(ticks > 9_000, "only {ticks} ticks");
-    check_used(used, excite_ticks, &world.loaded);
+    check_used(used, excite_ticks, &scenario.loaded);
     assert_eq!(events, 0, "{events} heap events in {ticks} ticks");
 }

@@ -8,7 +8,7 @@ mod support;
 use measure::report::{Quantities, Report};
 use measure::End;
 use measure::TareFile;
-use runlog::reestimate::{reestimate, SettingsOverride};
+use ops::estimate::{reestimate, SettingsOverride};
 use runlog::LogContents;
 use std::path::Path;
 use support::*;

@@ -8,7 +8,7 @@
 mod support;
 
 use measure::sources::ErrorSource;
-use stewart_cli::estimate::EstimateArgs;
+use ops::estimate::EstimateOptions;
 
 /// |static − truth| ≤ k σ for mass, c_x and c_y of `report`.
 fn assert_within(report: &measure::Report, k: f64, what: &str) {
@@ -48,10 +48,9 @@ fn heavy_legs_and_the_default_world_weigh_the_payload_within_sigma() {
     assert_within(&world.report, 3.0, "default world");
 
     // The log's brake-hold frames give the same weighing offline.
-    let offline = stewart_cli::estimate::estimate(&EstimateArgs {
+    let offline = ops::estimate::run(&EstimateOptions {
         log: world.log.clone(),
-        quiet: true,
-        ..EstimateArgs::default()
+        ..EstimateOptions::default()
     })
     .unwrap_or_else(|e| panic!("{e:#}"));
     let (a, b) = (

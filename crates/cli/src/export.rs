@@ -1,14 +1,13 @@
 //! `stewart export REPORT.json --format urdf|sdf|mjcf|csv`: the payload's measured inertial
 //! element (mass, centre of mass, J_C, optionally its principal axes) for a robot or vehicle
-//! model, with the sigmas as comments (columns in CSV). The formats and their conventions are
-//! [`inertial_export`]'s (docs/export.md); this module turns the flags into its options.
+//! model, with the sigmas as comments (columns in CSV): the flags of [`ops::export`]
+//! (docs/export.md).
 
 use std::path::PathBuf;
 
 use clap::Args;
-use inertial_export::{ExportError, Format, Options};
-
-use crate::common::{refuse, CommandError};
+use inertial_export::Format;
+use ops::export::{Error, ExportOptions};
 
 /// `stewart export` arguments.
 #[derive(Clone, Debug, Args)]
@@ -47,86 +46,28 @@ pub fn main(args: &ExportArgs) -> u8 {
         Ok(()) => 0,
         Err(e) => {
             eprintln!("error: {e}");
-            e.exit_code()
+            match e {
+                Error::Report(_) => 2,
+                Error::Write(_) => 1,
+            }
         }
     }
 }
 
-/// Reads and checks the report, renders the document, writes it to `-o FILE` or stdout.
-pub fn run(args: &ExportArgs) -> Result<(), CommandError> {
-    let payload = inertial_export::input::load(&args.report).map_err(|e| refuse(e.to_string()))?;
-    let text = inertial_export::render(
-        &payload,
-        Options {
-            format: args.format,
-            principal_axes: args.principal_axes,
-        },
-    );
-    match &args.output {
-        Some(path) => inertial_export::file::write_atomically(path, &text)
-            .map_err(|e: ExportError| CommandError::Run(anyhow::anyhow!(e.to_string()))),
-        None => {
-            use std::io::Write;
-            let mut out = std::io::stdout().lock();
-            out.write_all(text.as_bytes())
-                .and_then(|()| out.flush())
-                .map_err(|e| CommandError::Run(anyhow::anyhow!("cannot write the output: {e}")))
-        }
+/// The export of `args`, to `-o FILE` or standard output.
+fn run(args: &ExportArgs) -> Result<(), Error> {
+    let text = ops::export::run(&ExportOptions {
+        report: args.report.clone(),
+        format: args.format,
+        output: args.output.clone(),
+        principal_axes: args.principal_axes,
+    })?;
+    if args.output.is_none() {
+        use std::io::Write;
+        let mut out = std::io::stdout().lock();
+        out.write_all(text.as_bytes())
+            .and_then(|()| out.flush())
+            .map_err(|e| Error::Write(format!("cannot write the output: {e}")))?;
     }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use measure::report::{Quantities, Report};
-
-    fn report(mass: f64) -> String {
-        Report {
-            estimate: Quantities {
-                mass,
-                com: [0.1, -0.05, 0.6],
-                inertia_com: [
-                    [600.0, -20.0, 40.0],
-                    [-20.0, 2400.0, 5.0],
-                    [40.0, 5.0, 2700.0],
-                ],
-            },
-            ..Report::default()
-        }
-        .to_json()
-    }
-
-    fn args(report: PathBuf, output: PathBuf) -> ExportArgs {
-        ExportArgs {
-            report,
-            format: Format::Urdf,
-            output: Some(output),
-            principal_axes: false,
-        }
-    }
-
-    #[test]
-    fn a_report_is_written_to_the_output_file() {
-        let dir = tempfile::tempdir().unwrap();
-        let (input, output) = (dir.path().join("r.json"), dir.path().join("p.urdf"));
-        std::fs::write(&input, report(1500.0)).unwrap();
-        assert_eq!(main(&args(input, output.clone())), 0);
-        let text = std::fs::read_to_string(&output).unwrap();
-        assert!(text.contains("<mass value=\"1500\"/>"), "{text}");
-    }
-
-    #[test]
-    fn a_refused_report_exits_2_and_writes_nothing() {
-        let dir = tempfile::tempdir().unwrap();
-        let (input, output) = (dir.path().join("r.json"), dir.path().join("p.urdf"));
-        std::fs::write(&input, report(-1.0)).unwrap();
-        let e = run(&args(input.clone(), output.clone())).unwrap_err();
-        assert_eq!(e.exit_code(), 2);
-        assert!(e.to_string().contains("estimate.mass"), "{e}");
-        assert!(!output.exists());
-        let missing = run(&args(dir.path().join("none.json"), output.clone())).unwrap_err();
-        assert_eq!(missing.exit_code(), 2);
-        assert!(!output.exists());
-        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
-    }
+    Ok(())
 }

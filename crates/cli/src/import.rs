@@ -1,12 +1,11 @@
 //! `stewart import --rig RIG.toml DATA.csv -o LOG.mcap`: another rig's sensor samples (leg
 //! lengths, load-cell forces, gyro, accelerometer, in CSV) written as a log that `stewart
-//! estimate` measures. The work is [`runlog::import`]; docs/import.md gives the columns.
+//! estimate` measures: the flags of [`ops::import`]; docs/import.md gives the columns.
 
 use std::path::PathBuf;
 
-use anyhow::{anyhow, Result};
 use clap::Args;
-use runlog::import::{import as write_log, ImportPlan, Imported};
+use ops::import::ImportOptions;
 
 /// `stewart import` arguments.
 #[derive(Clone, Debug, Default, Args)]
@@ -31,39 +30,19 @@ pub struct ImportArgs {
     pub quiet: bool,
 }
 
-/// Writes the log of `args`.
-pub fn import(args: &ImportArgs) -> Result<Imported> {
-    let rig = measure::load::load(Some(&args.rig)).map_err(|e| anyhow!("{e}"))?;
-    let out = args
-        .out
-        .clone()
-        .unwrap_or_else(|| args.csv.with_extension("mcap"));
-    write_log(&ImportPlan {
-        rig: &rig,
-        csv: &args.csv,
-        tare: args.tare.as_deref(),
-        out: &out,
-    })
-}
-
 /// `stewart import` as a command: 0 written, 2 refused (the reason on standard error).
 pub fn main(args: &ImportArgs) -> u8 {
-    match import(args) {
+    let options = ImportOptions {
+        csv: args.csv.clone(),
+        rig: args.rig.clone(),
+        out: args.out.clone(),
+        tare: args.tare.clone(),
+    };
+    match ops::import::run(&options) {
         Ok(imported) => {
             if !args.quiet {
                 for r in &imported.runs {
-                    let [a, b] = r.time_s;
-                    let [ws, we] = r.window_s;
-                    let end = if we.is_finite() {
-                        format!("{we} s")
-                    } else {
-                        "the end".into()
-                    };
-                    println!(
-                        "{}: {} rows, {a} s to {b} s, fit window {ws} s to {end}",
-                        r.run.name(),
-                        r.rows
-                    );
+                    println!("{r}");
                 }
                 println!("log: {}", imported.log.display());
             }

@@ -4,3 +4,12 @@
 //! calibration or a rig session without the binary. The `stewart` binary turns flags into these
 //! options, calls, and prints.
 #![warn(missing_docs)]
+
+pub mod bench;
+pub mod estimate;
+pub mod export;
+pub mod import;
+pub mod key;
+pub mod plan;
+pub mod plot;
+pub mod report;

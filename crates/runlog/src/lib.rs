@@ -12,9 +12,8 @@
 //!   [`observer`]: the [`measure::Observer`] that writes a measurement into it.
 //! - [`tap`]: a second reader of every message the log writes, on the writer thread, and the
 //!   pace the log keeps for it (the live view, crate `live`, is one).
-//! - [`read`]: a log read back, tolerant of a file cut short; [`reestimate`]: its
-//!   measurements re-estimated (`stewart estimate`); [`import`]: another rig's CSV data
-//!   written as a log (`stewart import`).
+//! - [`read`]: a log read back, tolerant of a file cut short (`stewart estimate` re-estimates
+//!   its measurements with the operations library's `ops::estimate`).
 //!
 //! docs/log-schema.md documents every channel.
 #![warn(missing_docs)]
@@ -23,7 +22,6 @@ pub mod channel;
 pub mod clock;
 pub mod compact;
 pub mod foxglove;
-pub mod import;
 pub mod link;
 pub mod mcap_log;
 pub mod messages;
@@ -31,7 +29,6 @@ pub mod metadata;
 pub mod observer;
 pub mod proto;
 pub mod read;
-pub mod reestimate;
 pub mod run_log;
 pub mod schema;
 pub mod tap;

@@ -102,7 +102,7 @@ impl RunMetadata {
     /// run's own facts unknown (`command`, `backend` and `noise` say `unknown`; no seed, no
     /// start time). `runs` is empty: what was planned is lost with the metadata, and the
     /// reader lists the measurements whose frames the log holds
-    /// ([`crate::LogContents::or_metadata_of`], [`crate::reestimate::stream::tare_of_file`]).
+    /// ([`crate::LogContents::or_metadata_of`], `ops::estimate::stream::tare_of_file`).
     /// Errors: `rig`'s platform is refused.
     pub fn of_rig(rig: &measure::LoadedConfig) -> Result<Self> {
         let geometry = measure::setup::geometry(rig)

@@ -11,6 +11,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::{ExcitationSeries, Figures, ParameterSeries, TrackingSeries};
+use ops::plot::{band_quads, estimate_line, finite_range, padded, time_range, value_range};
 
 mod course;
 use course::sigma_course;
@@ -92,7 +93,7 @@ pub fn write_figures(dir: &Path, f: &Figures) -> Result<Vec<PathBuf>> {
             &|a| sigma_course(a, c, &f.parameters),
         )?;
         let csv = dir.join("sigma_course.csv");
-        std::fs::write(&csv, super::course::course_csv(c, &f.parameters))
+        std::fs::write(&csv, ops::plot::course_csv(c, &f.parameters))
             .with_context(|| format!("cannot write {}", csv.display()))?;
         written.push(csv);
     }
@@ -132,49 +133,6 @@ where
     root.present().map_err(fail)
 }
 
-fn finite_range(values: impl Iterator<Item = f64>) -> Option<(f64, f64)> {
-    values
-        .filter(|v| v.is_finite())
-        .fold(None, |acc, v| match acc {
-            None => Some((v, v)),
-            Some((lo, hi)) => Some((lo.min(v), hi.max(v))),
-        })
-}
-
-/// A range around `(lo, hi)` padded by 10 %, never empty.
-fn padded((lo, hi): (f64, f64)) -> (f64, f64) {
-    let span = hi - lo;
-    let pad = if span > 0.0 {
-        0.1 * span
-    } else {
-        0.05 * lo.abs().max(1e-6)
-    };
-    (lo - pad, hi + pad)
-}
-
-fn time_range(t: &[f64]) -> (f64, f64) {
-    match finite_range(t.iter().copied()) {
-        Some((a, b)) if b > a => (a, b),
-        Some((a, _)) => (a, a + 1.0),
-        None => (0.0, 1.0),
-    }
-}
-
-/// y range: the settled half of the estimate with its band, and the truth.
-fn value_range(p: &ParameterSeries) -> (f64, f64) {
-    let n = p.value.len();
-    let from = n / 2;
-    let band = (from..n).flat_map(|i| {
-        let (v, s) = (p.value[i], p.sigma.get(i).copied().unwrap_or(0.0));
-        let s = if s.is_finite() { s } else { 0.0 };
-        [v - s, v + s]
-    });
-    let r = finite_range(band.chain(p.truth))
-        .or_else(|| finite_range(p.value.iter().copied()))
-        .unwrap_or((0.0, 1.0));
-    padded(r)
-}
-
 fn parameter<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     p: &ParameterSeries,
@@ -182,7 +140,6 @@ fn parameter<DB: DrawingBackend>(
 ) -> DrawResult<(), DB> {
     let (x0, x1) = time_range(&p.time_s);
     let (y0, y1) = value_range(p);
-    let clamp = |v: f64| v.clamp(y0, y1);
     let mut chart = ChartBuilder::on(area)
         .caption(format!("{} ({})", p.title, p.unit), (FONT, font + 4))
         .margin(8)
@@ -199,34 +156,14 @@ fn parameter<DB: DrawingBackend>(
         .draw()?;
     // The ±σ band as opaque quads between consecutive samples (one large polygon trips the
     // bitmap backend's scanline fill; opaque quads leave no seams where they meet).
-    let step = (p.value.len() / MAX_BAND_QUADS).max(1);
-    let finite = |i: usize| {
-        let s = p.sigma.get(i).copied().unwrap_or(f64::NAN);
-        (p.time_s[i].is_finite() && p.value[i].is_finite() && s.is_finite())
-            .then(|| (p.time_s[i], clamp(p.value[i] - s), clamp(p.value[i] + s)))
-    };
-    let picks: Vec<usize> = (0..p.value.len())
-        .step_by(step)
-        .chain(p.value.len().checked_sub(1))
-        .collect();
-    let quads = picks.windows(2).filter_map(|w| {
-        let ((t0, lo0, hi0), (t1, lo1, hi1)) = (finite(w[0])?, finite(w[1])?);
-        Some(Polygon::new(
-            vec![(t0, lo0), (t0, hi0), (t1, hi1), (t1, lo1)],
-            BAND.filled(),
-        ))
-    });
+    let quads = band_quads(p, (y0, y1), MAX_BAND_QUADS)
+        .into_iter()
+        .map(|q| Polygon::new(q.to_vec(), BAND.filled()));
     chart
         .draw_series(quads)?
         .label("±1σ")
         .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 18, y + 5)], BAND.filled()));
-    let line: Vec<(f64, f64)> = p
-        .time_s
-        .iter()
-        .zip(&p.value)
-        .filter(|(t, v)| t.is_finite() && v.is_finite())
-        .map(|(t, v)| (*t, clamp(*v)))
-        .collect();
+    let line = estimate_line(p, (y0, y1));
     chart
         // One pixel wide: the bitmap backend draws wider lines as polygons, whose fill spikes
         // out of the frame on the near-vertical steps of the first samples.
@@ -439,22 +376,5 @@ mod tests {
         assert!(svg.contains("truth") && svg.contains("estimate"));
         let png = std::fs::read(dir.path().join("tracking_error.png")).unwrap();
         assert_eq!(&png[1..4], b"PNG");
-    }
-
-    #[test]
-    fn ranges_follow_the_settled_half() {
-        let p = ParameterSeries {
-            value: vec![1e6, -1e6, 10.0, 10.0],
-            sigma: vec![1e6, 1e6, 1.0, 1.0],
-            time_s: vec![0.0, 1.0, 2.0, 3.0],
-            truth: Some(10.5),
-            ..ParameterSeries::default()
-        };
-        let (lo, hi) = value_range(&p);
-        assert!(lo < 9.0 && lo > 8.0, "{lo}");
-        assert!(hi > 11.0 && hi < 12.0, "{hi}");
-        let empty = ParameterSeries::default();
-        let (lo, hi) = value_range(&empty);
-        assert!(hi > lo);
     }
 }

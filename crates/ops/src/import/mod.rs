@@ -1,4 +1,5 @@
-//! Another rig's data into a log `stewart estimate` measures (`stewart import`, docs/import.md):
+//! `stewart import`'s work: another rig's data into a log `stewart estimate` measures
+//! ([`run`], docs/import.md):
 //! the sensor frames of a CSV table ([`table`]) with the rig description that says what the
 //! rig is.
 //!
@@ -28,9 +29,9 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use measure::{setup, LoadedConfig, Measurement, TareFile};
 
-use crate::messages::{self as topics};
-use crate::metadata::{EstimatorSettings, RunMetadata};
-use crate::run_log::{unix_now_ns, RunLog};
+use runlog::messages::{self as topics};
+use runlog::metadata::{EstimatorSettings, RunMetadata};
+use runlog::run_log::{unix_now_ns, RunLog};
 use table::{Row, Table};
 
 /// What to import.
@@ -256,4 +257,63 @@ pub fn import(plan: &ImportPlan<'_>) -> Result<Imported> {
         runs,
         tare,
     })
+}
+
+/// The line `stewart import` prints for a measurement: its rows, times and fit window.
+impl std::fmt::Display for RunSummary {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [a, b] = self.time_s;
+        let [ws, we] = self.window_s;
+        let end = if we.is_finite() {
+            format!("{we} s")
+        } else {
+            "the end".into()
+        };
+        write!(
+            f,
+            "{}: {} rows, {a} s to {b} s, fit window {ws} s to {end}",
+            self.run.name(),
+            self.rows
+        )
+    }
+}
+
+/// Options of `stewart import`.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ImportOptions {
+    /// The sensor table (docs/import.md).
+    pub csv: PathBuf,
+    /// The rig description of the rig that recorded it, laid over the embedded default.
+    pub rig: PathBuf,
+    /// The log to write (`None`: DATA.mcap beside the table).
+    pub out: Option<PathBuf>,
+    /// A saved tare (JSON) for a table with loaded rows only.
+    pub tare: Option<PathBuf>,
+}
+
+/// Why no log was written.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// The rig description was refused.
+    #[error("{0}")]
+    Rig(#[from] measure::load::ConfigError),
+    /// The table, the tare or the log was refused or could not be written.
+    #[error("{0:#}")]
+    Import(anyhow::Error),
+}
+
+/// Runs `import`: writes the log of `options`.
+pub fn run(options: &ImportOptions) -> Result<Imported, Error> {
+    let rig = measure::load::load(Some(&options.rig))?;
+    let out = options
+        .out
+        .clone()
+        .unwrap_or_else(|| options.csv.with_extension("mcap"));
+    import(&ImportPlan {
+        rig: &rig,
+        csv: &options.csv,
+        tare: options.tare.as_deref(),
+        out: &out,
+    })
+    .map_err(Error::Import)
 }

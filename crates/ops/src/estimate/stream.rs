@@ -19,10 +19,10 @@ use super::{
     build_report, logged_tare, measured_tare, no_settings, rig_description_of, run_estimate,
     settings_of, start_replay, tare_file, LogFacts, RunEstimate, SettingsOverride, TareOrigin,
 };
-use crate::messages as topics;
-use crate::metadata::{EstimatorSettings, RunMetadata, TruthMsg};
-use crate::proto;
-use crate::read::{decode, no_metadata, visit, Channels, Damage, Message, Visitor};
+use runlog::messages as topics;
+use runlog::metadata::{EstimatorSettings, RunMetadata, TruthMsg};
+use runlog::proto;
+use runlog::read::{decode, no_metadata, visit, Channels, Damage, Message, Visitor};
 
 /// Frames of a measurement held while its estimator settings have not been read: two minutes
 /// at 1 kHz (about 20 MB). Beyond, the oldest are dropped (they only warm the conditioning).
@@ -239,7 +239,7 @@ impl Stream<'_> {
 
     /// A `/sensors` block, decoded into a reused message.
     fn sensor(&mut self, m: &Message<'_>) -> Result<Option<String>> {
-        let frames = match crate::read::sensor_block(m, &mut self.scratch)? {
+        let frames = match runlog::read::sensor_block(m, &mut self.scratch)? {
             Ok(frames) => frames,
             Err(e) => return Ok(Some(e)),
         };

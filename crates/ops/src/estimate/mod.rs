@@ -1,12 +1,24 @@
-//! A log's measurements re-estimated offline ([`measure::replay`]) with the settings the log
-//! recorded or others, and the report built as the online run builds it. The datasheet
-//! figures (the estimator's gyro and accelerometer noise, the IMU's mounting, the systematic
-//! part of sigma) come from the rig description the log recorded, or from another one.
+//! `stewart estimate`'s work: a log's measurements re-estimated offline
+//! ([`measure::replay`]) with the settings the log recorded or others, and the report built as
+//! the online run builds it ([`run`]). The datasheet figures (the estimator's gyro and
+//! accelerometer noise, the IMU's mounting, the systematic part of sigma) come from the rig
+//! description the log recorded, or from another one.
+//!
+//! Options change the settings of every measurement alike ([`SettingsOverride`]): the
+//! cut-off, the forgetting factor, the parameter model and a [`Window`] (seconds from the
+//! start of each measurement's recorded window, its excitation; either end may be left open; a
+//! window shorter than the recorded one gets the residual half-blocks a measurement of its
+//! length would, `measure::quality::block_samples_for`). With the recorded settings the
+//! result is the online report, to rounding (JSON keeps every f64 exactly, so in practice bit
+//! for bit).
+//!
+//! [`save_tare`] writes the tare of the log's tare run; a log with a tare run only (as
+//! `stewart import` writes from a tare-only table) gives that file and no report.
 
 pub mod stream;
 
 use measure::calibration::CalibrationDocument;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
 use estimator::{EstimatorConfig, ParameterSet};
@@ -16,13 +28,13 @@ use measure::replay::{BiasSigmas, Replay, ReplayOutcome};
 use measure::report::{Quantities, Report, ReportInputs, RunInfo, TareKind};
 use measure::{setup, LoadedConfig, TareFile};
 
-use crate::messages as topics;
-use crate::metadata::{EstimatorSettings, RunMetadata, TruthMsg};
-use crate::read::{geometry_of, Damage, LogContents};
-use crate::run_log::rates;
+use runlog::messages as topics;
+use runlog::metadata::{EstimatorSettings, RunMetadata, TruthMsg};
+use runlog::read::{geometry_of, Damage, LogContents};
+use runlog::run_log::rates;
 
 /// A time window relative to the excitation's start, s.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Window {
     /// Start, s (`None`: the recorded start).
     pub start_s: Option<f64>,
@@ -30,8 +42,59 @@ pub struct Window {
     pub end_s: Option<f64>,
 }
 
+/// Parses a cut-off frequency (`--cutoff-hz`): a positive number of Hz, or `0` / `none` for
+/// no filter (0.0).
+pub fn parse_cutoff_hz(text: &str) -> Result<f64, String> {
+    let t = text.trim();
+    if t.eq_ignore_ascii_case("none") {
+        return Ok(0.0);
+    }
+    match t.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!(
+            "`{text}` is not a cut-off frequency: give a positive number of Hz, or 0 or `none` \
+             for no filter"
+        )),
+    }
+}
+
+/// `START:END` in seconds, either side optional (`5:`, `:30`); the start before the end.
+impl std::str::FromStr for Window {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        let (a, b) = text
+            .split_once(':')
+            .ok_or_else(|| format!("expected START:END in seconds, got `{text}`"))?;
+        let num = |s: &str| -> Result<Option<f64>, String> {
+            let s = s.trim();
+            if s.is_empty() {
+                return Ok(None);
+            }
+            let v: f64 = s.parse().map_err(|_| format!("`{s}` is not a number"))?;
+            if v.is_finite() {
+                Ok(Some(v))
+            } else {
+                Err(format!("`{s}` is not finite"))
+            }
+        };
+        let w = Self {
+            start_s: num(a)?,
+            end_s: num(b)?,
+        };
+        if let (Some(s), Some(e)) = (w.start_s, w.end_s) {
+            if s >= e {
+                return Err(format!(
+                    "the window's start {s} s is not before its end {e} s"
+                ));
+            }
+        }
+        Ok(w)
+    }
+}
+
 /// Changes to the recorded estimator settings.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SettingsOverride {
     /// Parameter model.
     pub params: Option<ParamCount>,
@@ -438,4 +501,170 @@ pub fn reestimate(
     };
     let report = build_report(&facts, &rig, &loaded, &tare, &origin)?;
     Ok((report, loaded, tare, origin))
+}
+
+/// Options of `stewart estimate`.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct EstimateOptions {
+    /// MCAP log of a `simulate`, `rig` or `import` run (a log cut short is read up to its
+    /// last chunk).
+    pub log: PathBuf,
+    /// Subtract this saved tare (JSON) instead of the log's tare run or tare.
+    pub tare: Option<PathBuf>,
+    /// Take the datasheet figures from this rig description instead of the one the log
+    /// recorded; and the platform too when the log's metadata was lost to damage.
+    pub rig: Option<PathBuf>,
+    /// Changes to the recorded settings, alike for every measurement.
+    pub settings: SettingsOverride,
+    /// Write the JSON report here (only when something was measured).
+    pub report: Option<PathBuf>,
+    /// Write the report as one self-contained HTML page here (only when something was
+    /// measured).
+    pub html: Option<PathBuf>,
+}
+
+/// Why `estimate` failed; every case is a refused input (nothing measured).
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// `--rig FILE` was refused.
+    #[error("{0}")]
+    Rig(#[from] measure::load::ConfigError),
+    /// The log could not be read or re-estimated.
+    #[error("{0:#}")]
+    Log(anyhow::Error),
+    /// The report could not be written.
+    #[error("cannot write the report {}: {source}", path.display())]
+    WriteReport {
+        /// The report's path.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// The HTML page could not be written.
+    #[error("cannot write the page {}: {message}", path.display())]
+    WritePage {
+        /// The page's path.
+        path: PathBuf,
+        /// Why.
+        message: String,
+    },
+    /// The saved tare could not be written.
+    #[error("{0:#}")]
+    SaveTare(anyhow::Error),
+}
+
+/// What `estimate` produced.
+#[derive(Clone, Debug)]
+pub struct EstimateOutcome {
+    /// The report, as `simulate` writes it.
+    pub report: Report,
+    /// The loaded measurement's re-run.
+    pub loaded: RunEstimate,
+    /// The tare subtracted.
+    pub tare: TareFile,
+    /// Where it came from.
+    pub tare_origin: TareOrigin,
+    /// What the log lost.
+    pub damage: Damage,
+    /// Whether anything was measured ([`measure::quality`]): when not, no report or page was
+    /// written.
+    pub quality: Result<(), measure::quality::QualityError>,
+    /// The rig description of [`EstimateOptions::rig`], when given.
+    pub rig: Option<LoadedConfig>,
+}
+
+/// The rig description of `--rig FILE`, when given.
+fn rig_of(options: &EstimateOptions) -> Result<Option<LoadedConfig>, Error> {
+    Ok(match &options.rig {
+        Some(path) => Some(measure::load::load(Some(path))?),
+        None => None,
+    })
+}
+
+/// Runs `estimate`: streams the log once (memory bounded whatever its length) and, when
+/// something was measured, writes the report and the page of `options`. A measurement that
+/// measured nothing (see [`measure::quality`]) is not an error here but in
+/// [`EstimateOutcome::quality`], with nothing written.
+pub fn run(options: &EstimateOptions) -> Result<EstimateOutcome, Error> {
+    let rig = rig_of(options)?;
+    let stream::Streamed {
+        report,
+        loaded,
+        tare,
+        tare_origin,
+        damage,
+        ..
+    } = stream::reestimate_file(
+        &options.log,
+        &options.settings,
+        options.tare.as_deref(),
+        rig.as_ref(),
+    )
+    .map_err(Error::Log)?;
+    let quality = report.check_quality();
+    if quality.is_ok() {
+        if let Some(path) = &options.report {
+            std::fs::write(path, report.to_json()).map_err(|source| Error::WriteReport {
+                path: path.clone(),
+                source,
+            })?;
+        }
+        if let Some(path) = &options.html {
+            let source = format!("stewart estimate {}", options.log.display());
+            crate::report::write_page(&report.to_json(), path, &source, rig.as_ref()).map_err(
+                |e| Error::WritePage {
+                    path: path.clone(),
+                    message: e.to_string(),
+                },
+            )?;
+        }
+    }
+    Ok(EstimateOutcome {
+        report,
+        loaded,
+        tare,
+        tare_origin,
+        damage,
+        quality,
+        rig,
+    })
+}
+
+/// The log's tare run re-estimated (streamed once, its loaded run not replayed) and written
+/// to `out` (JSON, for later `--tare` runs).
+pub fn save_tare(options: &EstimateOptions, out: &Path) -> Result<stream::StreamedTare, Error> {
+    let rig = rig_of(options)?;
+    let saved =
+        stream::tare_of_file(&options.log, &options.settings, rig.as_ref()).map_err(Error::Log)?;
+    saved.tare.save(out).map_err(Error::SaveTare)?;
+    Ok(saved)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn windows_parse() {
+        let w = |t: &str| t.parse::<Window>();
+        assert_eq!(
+            w("5:30"),
+            Ok(Window {
+                start_s: Some(5.0),
+                end_s: Some(30.0)
+            })
+        );
+        assert_eq!(
+            w(":12.5"),
+            Ok(Window {
+                start_s: None,
+                end_s: Some(12.5)
+            })
+        );
+        assert_eq!(w("2:").unwrap().end_s, None);
+        assert!(w("5").is_err());
+        assert!(w("9:3").is_err());
+        assert!(w("a:3").is_err());
+        assert!(w("1:inf").is_err());
+    }
 }
