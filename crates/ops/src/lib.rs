@@ -4,3 +4,10 @@
 //! calibration or a rig session without the binary. The `stewart` binary turns flags into these
 //! options, calls, and prints.
 #![warn(missing_docs)]
+
+pub mod calibrate;
+pub mod campaign;
+pub mod emulate;
+pub mod rig;
+pub mod session;
+pub mod simulate;

@@ -1,80 +1,8 @@
-//! What `stewart rig` produces: the tare file, the report (the `simulate` report without
-//! `truth`, plus the link counters and loop timing of each measurement) and what is printed.
+//! What `stewart rig` prints: the link's lines, the tare, the calibration or the report.
 
-use std::path::PathBuf;
-
-use measure::{End, Report, TareFile};
-use runlog::link::{LinkCounters, TimingSummary};
-use serde::Serialize;
+use ops::session::{LinkReport, Outcome};
 
 use super::RigArgs;
-use rig::link::Failure;
-
-/// What the metadata and the report give as the noise preset: the rig's sensors are what they
-/// are.
-pub const NOISE: &str = "rig";
-
-/// The link over one measurement.
-#[derive(Clone, Debug, Serialize)]
-pub struct LinkReport {
-    /// `"tare"` or `"loaded"`.
-    pub run: String,
-    /// Counters over the measurement.
-    pub counters: LinkCounters,
-    /// The loop's timing.
-    pub timing: TimingSummary,
-}
-
-/// What a `stewart rig` run produced.
-#[derive(Debug)]
-pub struct RigOutcome {
-    /// The report of the loaded run (`None` for `rig tare` and runs that ended early).
-    pub report: Option<Report>,
-    /// The MCAP log written.
-    pub log_path: PathBuf,
-    /// How the run ended (anything but `Completed` is a non-zero exit).
-    pub end: End,
-    /// The measured tare, when a tare run completed.
-    pub tare: Option<TareFile>,
-    /// The link and loop timing of each measurement made, in order.
-    pub link: Vec<LinkReport>,
-    /// The link, sensor or rig failure that ended the run, with when the host noticed it.
-    pub failure: Option<Failure>,
-    /// The rig as it described itself in the (last) handshake.
-    pub rig: rig::host::RigInfo,
-    /// The counters of the whole link, from the first handshake to the closing safe stop:
-    /// unlike [`link`](Self::link) (each measurement's window) they include the brake
-    /// heartbeats sent between measurements and while the log is finished.
-    pub link_total: rig::LinkStats,
-    /// The IMU calibration written (`rig calibrate-imu`).
-    pub calibration: Option<measure::calibration::CalibrationFile>,
-    /// The load-cell calibration written (`rig calibrate-load-cells`).
-    pub load_cell_calibration: Option<measure::calibration::LoadCellFile>,
-}
-
-impl RigOutcome {
-    /// The report as JSON with the rig's extras: `link` (per measurement: counters and loop
-    /// timing) and `rig` (address, identity).
-    pub fn report_json(&self) -> Option<serde_json::Value> {
-        let report = self.report.as_ref()?;
-        let mut value = serde_json::to_value(report).ok()?;
-        if let Some(map) = value.as_object_mut() {
-            map.insert(
-                "link".into(),
-                serde_json::to_value(&self.link).unwrap_or_default(),
-            );
-            map.insert(
-                "rig".into(),
-                serde_json::json!({
-                    "address": self.rig.address,
-                    "identity": self.rig.identity,
-                    "sample_period_s": self.rig.sample_period_s,
-                }),
-            );
-        }
-        Some(value)
-    }
-}
 
 /// One line per measurement: the link counters and the loop's timing.
 pub fn link_lines(link: &[LinkReport]) -> Vec<String> {
@@ -109,7 +37,7 @@ pub fn link_lines(link: &[LinkReport]) -> Vec<String> {
 }
 
 /// Prints the outcome, writes the report and the tare; returns the exit code.
-pub fn finish(args: &RigArgs, outcome: &RigOutcome) -> u8 {
+pub fn finish(args: &RigArgs, outcome: &Outcome) -> u8 {
     let (plan, common) = match super::resolve(args) {
         Ok(x) => x,
         Err(e) => return e.exit_code(),
@@ -156,10 +84,7 @@ pub fn finish(args: &RigArgs, outcome: &RigOutcome) -> u8 {
             println!("tare saved: {}", path.display());
         }
     }
-    let json = outcome
-        .report_json()
-        .and_then(|v| serde_json::to_string_pretty(&v).ok())
-        .unwrap_or_default();
+    let json = outcome.report_json().unwrap_or_default();
     let report = outcome.report.as_ref().map(|r| (r, json));
     crate::output::finish_measurement(run_args, report, &outcome.log_path, code)
 }
