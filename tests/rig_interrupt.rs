@@ -25,7 +25,7 @@ fn tare_args(
 }
 
 /// Waits (at most 10 s) until the host has opened a session with the emulator.
-fn wait_for_session(emulator: &stewart_cli::emulate::RunningEmulator) {
+fn wait_for_session(emulator: &ops::emulate::RunningEmulator) {
     let deadline = Instant::now() + Duration::from_secs(10);
     while emulator.sessions().is_empty() {
         assert!(Instant::now() < deadline, "no session");
@@ -44,7 +44,7 @@ fn ctrl_c_parks_the_platform_and_finishes_the_log() {
     static INTERRUPT: AtomicBool = AtomicBool::new(false);
     let host = std::thread::spawn({
         let args = args.clone();
-        move || stewart_cli::rig::rig(&args, &INTERRUPT)
+        move || support::run_rig_with(&args, &INTERRUPT, &AtomicBool::new(false))
     });
     wait_for_session(&emulator);
     // Into the excitation (brake hold 0.5 s, ramp 1 s, settle 0.5 s), then Ctrl-C.
@@ -91,7 +91,7 @@ fn a_second_ctrl_c_brakes_at_once_and_finishes_the_log() {
     static ABORT: AtomicBool = AtomicBool::new(false);
     let host = std::thread::spawn({
         let args = args.clone();
-        move || stewart_cli::rig::rig_with_abort(&args, &INTERRUPT, &ABORT)
+        move || support::run_rig_with(&args, &INTERRUPT, &ABORT)
     });
     wait_for_session(&emulator);
     std::thread::sleep(Duration::from_millis(3000));

@@ -9,14 +9,8 @@
 //! loaded run; docs/calibration.md). Each measurement is one session of the protocol: the tare's session ends
 //! braked, and the loaded run opens a new one once the operator confirms the payload is on.
 //!
-//! Before anything moves: the configuration, the trajectories, the tare file and the key are
-//! checked, then the handshake (protocol version, sensor layout, sample period, accelerometer
-//! position, and the rig's stroke and speed limits against the configuration). After that,
-//! any link silence longer than `rig.link_silence_ms`, an invalid sensor value, a fault
-//! reported by the rig or a supervisor limit ends the measurement with a safe stop, a message
-//! naming the cause, the log finished, and exit code 3. Ctrl-C parks, finishes the log and
-//! exits with 130. Commands are clamped to the tighter of the rig's force limits and
-//! `control.max_force_n` whatever the controller computes.
+//! A refusal before anything moved exits with 2, a fault (safe stop, the log finished) with 3,
+//! Ctrl-C (parked) with 130.
 //!
 //! The session itself is [`ops::rig`]; here are the command line and its plan (`args`), the
 //! operator at the terminal (the prompt, the key), and what is printed (`outcome`).
@@ -27,28 +21,23 @@ mod outcome;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
-use ops::rig::{Attendant, LinkOptions, RigPlan, RigSessionOptions};
+use ops::rig::{Attendant, LinkOptions, RigSessionOptions};
 use ops::session::Outcome;
 
 use crate::common::CommandError;
 use crate::progress::Terminal;
 
 pub use args::{
-    parse, resolve, LinkArgs, Plan, RigArgs, RigMeasureArgs, RigMode, RigRunArgs, RigTareArgs,
+    parse, resolve, LinkArgs, RigArgs, RigMeasureArgs, RigMode, RigRunArgs, RigTareArgs,
 };
-pub use outcome::{finish, link_lines};
+pub use ops::rig::link_lines;
+pub use outcome::finish;
 
 /// The session's options from the flags, or why the flags do not go together.
 pub fn options(args: &RigArgs) -> Result<RigSessionOptions, CommandError> {
     let (plan, common) = resolve(args)?;
     Ok(RigSessionOptions {
-        plan: match plan {
-            Plan::Both => RigPlan::Both,
-            Plan::TareOnly(p) => RigPlan::TareOnly(p),
-            Plan::CalibrateImu(p) => RigPlan::CalibrateImu(p),
-            Plan::CalibrateLoadCells(p) => RigPlan::CalibrateLoadCells(p),
-            Plan::MeasureOnly => RigPlan::MeasureOnly,
-        },
+        plan,
         measure: common.run.options(),
         link: LinkOptions {
             connect: common.link.connect.clone(),
@@ -65,6 +54,16 @@ pub struct AtTheTerminal {
     pub bar: indicatif::ProgressBar,
     /// The link flags.
     pub link: LinkArgs,
+}
+
+impl AtTheTerminal {
+    /// The operator with no bar on the screen.
+    pub fn without_bar(link: LinkArgs) -> Self {
+        Self {
+            bar: indicatif::ProgressBar::hidden(),
+            link,
+        }
+    }
 }
 
 impl Attendant for AtTheTerminal {

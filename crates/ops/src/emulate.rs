@@ -383,6 +383,71 @@ impl Drop for RunningEmulator {
     }
 }
 
+/// One line for an emulator event: the session, its host, and the cause.
+pub fn event_line(event: &EmulatorEvent) -> String {
+    match event {
+        EmulatorEvent::Fault {
+            session,
+            peer,
+            fault,
+        } => {
+            let cause = match fault.code {
+                rig::wire::FaultCode::WATCHDOG => format!(
+                    "no valid command for {:.1} ms (the watchdog)",
+                    fault.value * 1e3
+                ),
+                _ => {
+                    let leg = if fault.leg == rig::wire::NO_LEG {
+                        String::new()
+                    } else {
+                        format!(" on leg {}", fault.leg)
+                    };
+                    format!("{}{leg}, value {}", fault.code.name(), fault.value)
+                }
+            };
+            format!(
+                "session {session} from {peer}: fault: {cause}, after command {}; braked until \
+                 the host opens a new session",
+                fault.command_sequence
+            )
+        }
+        EmulatorEvent::SessionTimedOut {
+            session,
+            peer,
+            silent_for,
+        } => format!(
+            "session {session} from {peer}: ended, the host was silent for {:.2} s (session \
+             timeout); the next Hello from anyone opens a new one",
+            silent_for.as_secs_f64()
+        ),
+    }
+}
+
+/// The emulator's counters in one line.
+pub fn summary(s: &EmulatorStats) -> String {
+    format!(
+        "{} ticks ({} overruns), {} sessions, {} sensor frames sent ({} dropped, {} corrupted, \
+         {} delayed by injection; {} refused by the link), {} commands accepted ({} lost, {} duplicate, {} out of \
+         sequence), {} foreign, {} auth failed, {} corrupt, {} faults reported",
+        s.ticks,
+        s.overruns,
+        s.core.sessions,
+        s.sent,
+        s.dropped_injected,
+        s.corrupted_injected,
+        s.delayed_injected,
+        s.send_failed,
+        s.core.commands_accepted,
+        s.core.commands_lost,
+        s.core.duplicate,
+        s.core.out_of_sequence,
+        s.core.foreign_sender,
+        s.core.auth_failed,
+        s.core.corrupt,
+        s.core.faults_sent
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -463,5 +528,34 @@ mod tests {
         .expect("refused");
         assert!(e.to_string().contains("drop_fraction"), "{e}");
         assert!(matches!(e, Error::Config(_) | Error::Input(_)), "{e}");
+    }
+
+    /// The emulator prints a line when its watchdog trips or a session times out.
+    #[test]
+    fn watchdog_trips_and_timeouts_are_one_line_each_naming_the_session_and_cause() {
+        let peer = rig::transport::Peer::Udp("127.0.0.1:5000".parse().unwrap());
+        let trip = event_line(&EmulatorEvent::Fault {
+            session: 3,
+            peer,
+            fault: rig::wire::Fault {
+                code: rig::wire::FaultCode::WATCHDOG,
+                leg: rig::wire::NO_LEG,
+                value: 0.0213,
+                command_sequence: 1234,
+            },
+        });
+        assert_eq!(
+            trip,
+            "session 3 from udp://127.0.0.1:5000: fault: no valid command for 21.3 ms (the \
+             watchdog), after command 1234; braked until the host opens a new session"
+        );
+        let timeout = event_line(&EmulatorEvent::SessionTimedOut {
+            session: 3,
+            peer,
+            silent_for: Duration::from_millis(1004),
+        });
+        assert!(timeout.starts_with("session 3 from udp://127.0.0.1:5000: ended"));
+        assert!(timeout.contains("silent for 1.00 s (session timeout)"));
+        assert!(!trip.contains('\n') && !timeout.contains('\n'));
     }
 }

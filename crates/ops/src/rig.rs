@@ -32,7 +32,8 @@ use runlog::mcap_log::Delivery;
 use serde::{Deserialize, Serialize};
 
 use crate::session::{
-    self, flag_issue, refuse, Calibrate, Error, MeasureOptions, Message, Operator, Outcome, Spec,
+    self, flag_issue, refuse, Calibrate, Error, LinkReport, MeasureOptions, Message, Operator,
+    Outcome, Spec,
 };
 
 /// What the noise preset of a rig's metadata and report says: the rig's sensors are what they
@@ -304,4 +305,36 @@ pub fn run(
         operator,
         interrupt,
     )
+}
+
+/// One line per measurement: the link counters and the loop's timing.
+pub fn link_lines(link: &[LinkReport]) -> Vec<String> {
+    link.iter()
+        .map(|l| {
+            let c = &l.counters;
+            let t = &l.timing;
+            format!(
+                "link ({}): accepted {}, lost {}, late {}, duplicate {}, out of sequence {}, \
+                 corrupt {}, foreign {}, auth failed {}, clamped commands {}; loop period median \
+                 {:.3} ms, jitter median {:.0} µs, p99 {:.0} µs, max {:.1} ms; work per tick \
+                 median {:.0} µs, p99 {:.0} µs",
+                l.run,
+                c.accepted,
+                c.lost,
+                c.late,
+                c.duplicate,
+                c.out_of_sequence,
+                c.corrupt,
+                c.foreign,
+                c.auth_failed,
+                c.commands_clamped,
+                t.median_period_s * 1e3,
+                t.jitter_median_s * 1e6,
+                t.jitter_p99_s * 1e6,
+                t.jitter_max_s * 1e3,
+                t.work_median_s * 1e6,
+                t.work_p99_s * 1e6,
+            )
+        })
+        .collect()
 }
