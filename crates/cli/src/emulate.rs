@@ -104,31 +104,6 @@ pub struct EmulateArgs {
     pub quiet: bool,
 }
 
-impl Default for EmulateArgs {
-    fn default() -> Self {
-        Self {
-            listen: None,
-            config: None,
-            seed: None,
-            noise: None,
-            payload: PayloadMode::TareFirst,
-            reference: false,
-            key: None,
-            insecure: false,
-            no_realtime: false,
-            watchdog_ms: None,
-            drop: 0.0,
-            corrupt: 0.0,
-            delay_ms: None,
-            delay_fraction: 1.0,
-            stop_after: None,
-            lockstep: false,
-            fast_forward: false,
-            quiet: false,
-        }
-    }
-}
-
 impl EmulateArgs {
     /// The emulator's options.
     pub fn options(&self) -> EmulateOptions {
@@ -157,18 +132,14 @@ impl EmulateArgs {
         &self,
         configured: Option<PathBuf>,
     ) -> Result<Option<rig::Key>, ops::session::Error> {
-        let chosen = crate::key::choose(
-            self.key.as_deref(),
+        let (key, insecure) = (self.key.as_deref(), self.insecure);
+        crate::common::shared_key(
+            key,
             configured,
-            crate::key::user_key_path,
-            self.insecure,
+            insecure,
             crate::key::Side::Rig,
+            "emulator: ",
         )
-        .map_err(ops::session::Error::from)?;
-        if let Some(notice) = &chosen.notice {
-            eprintln!("emulator: {notice}");
-        }
-        Ok(chosen.key)
     }
 
     /// Where the emulator's news goes: its sessions and timeouts on standard output (not with

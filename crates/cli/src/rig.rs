@@ -77,18 +77,8 @@ impl Attendant for AtTheTerminal {
         &mut self,
         configured: Option<PathBuf>,
     ) -> Result<Option<rig::Key>, ops::session::Error> {
-        let chosen = crate::key::choose(
-            self.link.key.as_deref(),
-            configured,
-            crate::key::user_key_path,
-            self.link.insecure,
-            crate::key::Side::Host,
-        )
-        .map_err(ops::session::Error::from)?;
-        if let Some(notice) = &chosen.notice {
-            eprintln!("{notice}");
-        }
-        Ok(chosen.key)
+        let (key, insecure) = (self.link.key.as_deref(), self.link.insecure);
+        crate::common::shared_key(key, configured, insecure, crate::key::Side::Host, "")
     }
 }
 
