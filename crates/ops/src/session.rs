@@ -337,7 +337,7 @@ pub(crate) struct Spec<'a> {
     pub command: &'a str,
     /// `"sim"` or `"rig"`.
     pub backend: &'static str,
-    /// The world's seed (0 on a rig) and the noise preset's name.
+    /// The world's seed (0 on a rig).
     pub seed: u64,
     /// The noise preset's name (`"rig"` on a rig).
     pub noise: &'a str,
