@@ -186,19 +186,3 @@ pub fn end_code(end: &End, fault_detail: &str) -> u8 {
         }
     }
 }
-
-/// The shared key of `flag` (`--key`), `configured` (`rig.key_file`) or the user's key file
-/// (`insecure`: none) for `side`, its notice on standard error after `prefix`.
-pub fn shared_key(
-    flag: Option<&std::path::Path>,
-    configured: Option<PathBuf>,
-    insecure: bool,
-    side: crate::key::Side,
-    prefix: &str,
-) -> Result<Option<rig::Key>, ops::session::Error> {
-    let chosen = crate::key::choose(flag, configured, crate::key::user_key_path, insecure, side)?;
-    if let Some(notice) = &chosen.notice {
-        eprintln!("{prefix}{notice}");
-    }
-    Ok(chosen.key)
-}

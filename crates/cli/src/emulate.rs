@@ -133,7 +133,7 @@ impl EmulateArgs {
         configured: Option<PathBuf>,
     ) -> Result<Option<rig::Key>, ops::session::Error> {
         let (key, insecure) = (self.key.as_deref(), self.insecure);
-        crate::common::shared_key(
+        crate::rig::shared_key(
             key,
             configured,
             insecure,

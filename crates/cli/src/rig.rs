@@ -78,7 +78,7 @@ impl Attendant for AtTheTerminal {
         configured: Option<PathBuf>,
     ) -> Result<Option<rig::Key>, ops::session::Error> {
         let (key, insecure) = (self.link.key.as_deref(), self.link.insecure);
-        crate::common::shared_key(key, configured, insecure, crate::key::Side::Host, "")
+        shared_key(key, configured, insecure, crate::key::Side::Host, "")
     }
 }
 
@@ -126,4 +126,20 @@ pub fn main(args: &RigArgs, interrupt: &AtomicBool, abort: &AtomicBool) -> u8 {
             e.exit_code()
         }
     }
+}
+
+/// The shared key of `flag` (`--key`), `configured` (`rig.key_file`) or the user's key file
+/// (`insecure`: none) for `side`, its notice on standard error after `prefix`.
+pub fn shared_key(
+    flag: Option<&std::path::Path>,
+    configured: Option<PathBuf>,
+    insecure: bool,
+    side: crate::key::Side,
+    prefix: &str,
+) -> Result<Option<rig::Key>, ops::session::Error> {
+    let chosen = crate::key::choose(flag, configured, crate::key::user_key_path, insecure, side)?;
+    if let Some(notice) = &chosen.notice {
+        eprintln!("{prefix}{notice}");
+    }
+    Ok(chosen.key)
 }
