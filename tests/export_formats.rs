@@ -4,7 +4,6 @@
 
 mod support;
 
-
 use inertial_export::Format;
 use stewart_cli::export::{run, ExportArgs};
 

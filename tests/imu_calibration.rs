@@ -5,7 +5,6 @@
 
 mod support;
 
-
 use measure::calibration::{CalibrationDocument, CalibrationFile};
 use measure::sources::ErrorSource;
 use support::*;

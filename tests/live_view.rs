@@ -145,8 +145,7 @@ fn a_taken_live_address_refuses_the_run_before_the_log() {
     let log = scratch.path("run.mcap");
     let mut args = simulate_args(Some(scratch.config.clone()), log.clone());
     args.measure.live = Some(addr);
-    let err = support::run_simulate(&args)
-        .expect_err("a taken port refuses the run");
+    let err = support::run_simulate(&args).expect_err("a taken port refuses the run");
     assert_eq!(err.exit_code(), 2, "refused before anything ran: {err}");
     let text = err.to_string();
     assert!(text.contains(&addr.to_string()), "{text}");
@@ -165,8 +164,8 @@ fn a_client_that_stops_reading_does_not_hold_the_run() {
     args.measure.live = Some(addr);
     let run = std::thread::spawn(move || {
         let started = Instant::now();
-        let outcome = support::run_simulate(&args)
-            .unwrap_or_else(|e| panic!("simulate --live failed: {e}"));
+        let outcome =
+            support::run_simulate(&args).unwrap_or_else(|e| panic!("simulate --live failed: {e}"));
         (outcome, started.elapsed())
     });
     // Subscribe to everything advertised, then stop reading.

@@ -17,12 +17,12 @@ use std::sync::atomic::AtomicBool;
 use std::sync::{Mutex, MutexGuard};
 
 use measure::LoadedConfig;
-use sim::scenario::Scenario;
-use sim::NoisePreset;
 pub use ops::emulate::EmulateOptions;
 use ops::emulate::RunningEmulator;
 pub use ops::session::{MeasureOptions, Outcome, Silent};
 pub use ops::simulate::SimulateOptions;
+use sim::scenario::Scenario;
+use sim::NoisePreset;
 use stewart_cli::rig::{self, RigArgs};
 
 // ---------------------------------------------------------------------------------------------
@@ -261,7 +261,9 @@ pub fn emulate_args_fast(scratch: &Scratch) -> EmulateOptions {
 
 /// The shared key of the test's rig: the file the scenario names (`rig.key_file`, a
 /// [`Scratch`]'s `rig.key`), none when it names none.
-pub fn scenario_key(configured: Option<PathBuf>) -> Result<Option<::rig::Key>, ops::session::Error> {
+pub fn scenario_key(
+    configured: Option<PathBuf>,
+) -> Result<Option<::rig::Key>, ops::session::Error> {
     configured
         .map(|path| ::rig::Key::from_file(&path).map_err(ops::session::refuse))
         .transpose()
