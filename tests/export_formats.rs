@@ -4,8 +4,6 @@
 
 mod support;
 
-use std::sync::atomic::AtomicBool;
-
 use inertial_export::Format;
 use ops::export::{run, ExportOptions};
 
@@ -29,12 +27,9 @@ fn numbers(text: &str) -> Vec<f64> {
 fn a_simulated_report_exports_to_every_format() {
     let scratch = support::Scratch::new(support::SHORT);
     let report_path = scratch.path("report.json");
-    let mut args = support::simulate_args(Some(scratch.config.clone()), scratch.path("run.mcap"));
-    args.measure.report = Some(report_path.clone());
-    assert_eq!(
-        stewart_cli::simulate::main(&args, &AtomicBool::new(false)),
-        0
-    );
+    let args = support::simulate_args(Some(scratch.config.clone()), scratch.path("run.mcap"));
+    let outcome = support::run_simulate(&args).expect("the run");
+    std::fs::write(&report_path, outcome.report_json().expect("a report")).unwrap();
     let report: measure::Report =
         serde_json::from_str(&std::fs::read_to_string(&report_path).expect("the report"))
             .expect("a report");

@@ -5,8 +5,6 @@
 
 mod support;
 
-use std::sync::atomic::AtomicBool;
-
 use measure::calibration::{CalibrationDocument, CalibrationFile};
 use measure::sources::ErrorSource;
 use support::*;
@@ -23,7 +21,7 @@ fn calibrate(seed: u64, only: Option<ErrorSource>) -> (CalibrationFile, sim::Imu
     let scenario = args.scenario().unwrap();
     let geometry = measure::setup::geometry(&scenario.loaded).unwrap();
     let built = scenario.simulator(geometry, false).unwrap().imu_as_built();
-    stewart_cli::simulate::simulate(&args, &AtomicBool::new(false)).unwrap();
+    support::run_simulate(&args).unwrap();
     (CalibrationFile::read(&file).unwrap(), built)
 }
 

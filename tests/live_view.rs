@@ -26,7 +26,7 @@ fn a_foxglove_client_watches_a_simulation_live() {
     let log = scratch.path("run.mcap");
     let addr = free_port();
     let mut args = simulate_args(Some(scratch.config.clone()), log.clone());
-    args.measure.shared.live = Some(addr);
+    args.measure.live = Some(addr);
     // Watched live, the simulation keeps to the wall clock: the client has time to connect,
     // and Ctrl-C (the interrupt flag) ends the run once the client has what it checks.
     let interrupt = Arc::new(AtomicBool::new(false));
@@ -34,7 +34,7 @@ fn a_foxglove_client_watches_a_simulation_live() {
         let interrupt = Arc::clone(&interrupt);
         std::thread::spawn(move || {
             let started = Instant::now();
-            let outcome = stewart_cli::simulate::simulate(&args, &interrupt)
+            let outcome = ops::simulate::run(&args, &mut support::Silent, &interrupt)
                 .unwrap_or_else(|e| panic!("simulate --live failed: {e}"));
             (outcome, started.elapsed())
         })
@@ -144,10 +144,12 @@ fn a_taken_live_address_refuses_the_run_before_the_log() {
     let scratch = Scratch::new(SHORT);
     let log = scratch.path("run.mcap");
     let mut args = simulate_args(Some(scratch.config.clone()), log.clone());
-    args.measure.shared.live = Some(addr);
-    let err = stewart_cli::simulate::simulate(&args, &AtomicBool::new(false))
-        .expect_err("a taken port refuses the run");
-    assert_eq!(err.exit_code(), 2, "refused before anything ran: {err}");
+    args.measure.live = Some(addr);
+    let err = support::run_simulate(&args).expect_err("a taken port refuses the run");
+    assert!(
+        matches!(err, ops::session::Error::Input(_)),
+        "refused before anything ran: {err}"
+    );
     let text = err.to_string();
     assert!(text.contains(&addr.to_string()), "{text}");
     assert!(!log.exists(), "no log is started for a refused run");
@@ -162,11 +164,11 @@ fn a_client_that_stops_reading_does_not_hold_the_run() {
     let log = scratch.path("run.mcap");
     let addr = free_port();
     let mut args = simulate_args(Some(scratch.config.clone()), log.clone());
-    args.measure.shared.live = Some(addr);
+    args.measure.live = Some(addr);
     let run = std::thread::spawn(move || {
         let started = Instant::now();
-        let outcome = stewart_cli::simulate::simulate(&args, &AtomicBool::new(false))
-            .unwrap_or_else(|e| panic!("simulate --live failed: {e}"));
+        let outcome =
+            support::run_simulate(&args).unwrap_or_else(|e| panic!("simulate --live failed: {e}"));
         (outcome, started.elapsed())
     });
     // Subscribe to everything advertised, then stop reading.

@@ -39,7 +39,7 @@ fn rig_calibrate_imu_agrees_with_the_simulated_calibration_of_the_same_world() {
     let sim_file = scratch.path("sim-imu.toml");
     let mut sim_args = simulate_args(Some(scratch.config.clone()), scratch.path("sim.mcap"));
     sim_args.calibrate_imu = Some(sim_file.clone());
-    stewart_cli::simulate::simulate(&sim_args, &std::sync::atomic::AtomicBool::new(false)).unwrap();
+    support::run_simulate(&sim_args).unwrap();
     let sim = CalibrationFile::read(&sim_file).unwrap();
     // Same world, same motion: the two fits differ by the noise of two runs at most.
     let (a, b) = (&rig.imu, &sim.imu);
@@ -75,7 +75,7 @@ fn rig_calibrate_imu_agrees_with_the_simulated_calibration_of_the_same_world() {
 fn rig_calibrate_load_cells_agrees_with_the_simulated_calibration_of_the_same_world() {
     let _lock = real_time();
     let scratch = Scratch::new(&format!("[calibration]\nmeasure_imu = false\n{RIG_SHORT}"));
-    let emulator = start(&EmulateArgs {
+    let emulator = start(&EmulateOptions {
         reference: true,
         ..emulate_args_fast(&scratch)
     });
@@ -111,7 +111,7 @@ fn rig_calibrate_load_cells_agrees_with_the_simulated_calibration_of_the_same_wo
     let sim_file = scratch.path("sim-cells.toml");
     let mut sim_args = simulate_args(Some(scratch.config.clone()), scratch.path("sim.mcap"));
     sim_args.calibrate_load_cells = Some(sim_file.clone());
-    stewart_cli::simulate::simulate(&sim_args, &std::sync::atomic::AtomicBool::new(false)).unwrap();
+    support::run_simulate(&sim_args).unwrap();
     let sim = LoadCellFile::read(&sim_file).unwrap();
     // Same world, same motions: the two fits differ by the noise of two pairs of runs, within
     // two combined sigmas (the joints' share of each sigma is the same world's on both sides,
@@ -175,7 +175,7 @@ fn rig_calibrate_load_cells_agrees_with_the_simulated_calibration_of_the_same_wo
 fn a_load_cell_calibration_cut_short_brakes_and_writes_nothing() {
     let _lock = real_time();
     let scratch = Scratch::new(&quick());
-    let emulator = start(&EmulateArgs {
+    let emulator = start(&EmulateOptions {
         reference: true,
         stop_after: Some(1000),
         ..emulate_args(&scratch)

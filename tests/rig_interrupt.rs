@@ -149,7 +149,7 @@ fn ctrl_c_parks_the_platform_and_finishes_the_log() {
     static INTERRUPT: AtomicBool = AtomicBool::new(false);
     let host = std::thread::spawn({
         let args = args.clone();
-        move || stewart_cli::rig::rig(&args, &INTERRUPT)
+        move || support::run_rig_with(&args, &INTERRUPT, &AtomicBool::new(false))
     });
     // Into the excitation, then Ctrl-C.
     relay.wait_for_frames(INTO_THE_EXCITATION);
@@ -195,7 +195,7 @@ fn a_second_ctrl_c_brakes_at_once_and_finishes_the_log() {
     static ABORT: AtomicBool = AtomicBool::new(false);
     let host = std::thread::spawn({
         let args = args.clone();
-        move || stewart_cli::rig::rig_with_abort(&args, &INTERRUPT, &ABORT)
+        move || support::run_rig_with(&args, &INTERRUPT, &ABORT)
     });
     relay.wait_for_frames(INTO_THE_EXCITATION);
     INTERRUPT.store(true, Ordering::SeqCst);

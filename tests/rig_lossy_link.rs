@@ -80,7 +80,7 @@ fn socket_of(address: &str) -> SocketAddr {
 fn dropped_and_corrupted_frames_are_counted_and_the_run_completes() {
     let _lock = real_time();
     let scratch = Scratch::new(&quick());
-    let emulator = start(&EmulateArgs {
+    let emulator = start(&EmulateOptions {
         drop: 0.10,
         corrupt: 0.01,
         ..emulate_args_fast(&scratch)

@@ -52,9 +52,7 @@ fn a_rig_measurement_agrees_with_truth_as_well_as_simulate() {
     // The reference: simulate on the same scenario.
     let sim_report = scratch.path("sim.json");
     let sim_args = simulate_args(Some(scratch.config.clone()), scratch.path("sim.mcap"));
-    let sim =
-        stewart_cli::simulate::simulate(&sim_args, &std::sync::atomic::AtomicBool::new(false))
-            .unwrap();
+    let sim = support::run_simulate(&sim_args).unwrap();
     let sim_json = serde_json::to_value(sim.report.as_ref().unwrap()).unwrap();
     std::fs::write(&sim_report, sim_json.to_string()).unwrap();
 

@@ -102,7 +102,11 @@ fn a_protocol_version_mismatch_is_refused_before_any_motion() {
     let message = error.to_string();
     assert!(message.contains("protocol version mismatch"), "{message}");
     assert!(message.contains("v2") && message.contains(&format!("v{PROTOCOL_VERSION}")));
-    assert_eq!(error.exit_code(), 2, "refused before anything ran");
+    assert_eq!(
+        stewart_cli::CommandError::from(error).exit_code(),
+        2,
+        "refused before anything ran"
+    );
     // The rig heard Hellos only: not one command.
     assert!(!heard.is_empty());
     assert!(
@@ -133,7 +137,7 @@ fn a_rig_that_does_not_fit_the_scenario_is_refused_before_any_motion() {
         error.to_string().contains("platform.max_leg_length_m"),
         "{error}"
     );
-    assert_eq!(error.exit_code(), 2);
+    assert_eq!(stewart_cli::CommandError::from(error).exit_code(), 2);
     let faster =
         Scratch::new(&quick().replace("sample_rate_hz = 500.0", "sample_rate_hz = 1000.0"));
     let error = run_rig(&rig_tare(&faster, emulator.address(), &[]))
@@ -143,7 +147,7 @@ fn a_rig_that_does_not_fit_the_scenario_is_refused_before_any_motion() {
         error.to_string().contains("samples every 0.002 s"),
         "{error}"
     );
-    assert_eq!(error.exit_code(), 2);
+    assert_eq!(stewart_cli::CommandError::from(error).exit_code(), 2);
     let stopped = emulator.stop().unwrap();
     assert_eq!(stopped.stats().core.sessions, 2);
     // At most the safe stop of the host that got as far as checking the limits.
@@ -245,7 +249,7 @@ fn with_a_key_only_correctly_keyed_frames_count() {
         error.to_string().contains("copy the rig's key file"),
         "{error}"
     );
-    assert_eq!(error.exit_code(), 2);
+    assert_eq!(stewart_cli::CommandError::from(error).exit_code(), 2);
     let wrong = scratch.path("wrong.key");
     let error = run_rig(&rig_tare(
         &plain,

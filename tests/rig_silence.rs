@@ -18,7 +18,7 @@ fn the_emulator_going_silent_is_a_fault_the_host_notices() {
     // 500 Hz: 1000 frames are 2 s, past the brake hold (0.5 s) and into the ramp home, settle
     // and the start of the excitation: the platform is being driven.
     let stop_after = 1000u64;
-    let emulator = start(&EmulateArgs {
+    let emulator = start(&EmulateOptions {
         stop_after: Some(stop_after),
         ..emulate_args(&scratch)
     });

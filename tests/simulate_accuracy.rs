@@ -13,28 +13,27 @@ use std::sync::atomic::AtomicBool;
 use measure::report::{Quantities, Report};
 use measure::End;
 use sim::NoisePreset;
-use stewart_cli::simulate::{simulate, SimulateOutcome};
-use support::{simulate_args, Scratch, SimulateArgs, IDEAL_LEGS};
+use support::{simulate_args, Outcome, Scratch, SimulateOptions, IDEAL_LEGS};
 
 /// Runs `simulate` on `scenario` (laid over the default) in a fresh directory.
 fn run(
     scenario: &str,
-    extra: impl FnOnce(&mut SimulateArgs, &Path),
-) -> (tempfile::TempDir, SimulateOutcome) {
+    extra: impl FnOnce(&mut SimulateOptions, &Path),
+) -> (tempfile::TempDir, Outcome) {
     let scratch = Scratch::new(scenario);
     let mut args = simulate_args(Some(scratch.config.clone()), scratch.path("run.mcap"));
     extra(&mut args, scratch.dir.path());
-    let outcome = simulate(&args, &AtomicBool::new(false)).unwrap_or_else(|e| panic!("{e}"));
+    let outcome = support::run_simulate(&args).unwrap_or_else(|e| panic!("{e}"));
     (scratch.dir, outcome)
 }
 
 /// `--noise GRADE`: the rig description's datasheet scaled (0 for `none`), for the simulated
 /// sensors and the estimator alike.
-fn noise(grade: NoisePreset) -> impl FnOnce(&mut SimulateArgs, &Path) {
+fn noise(grade: NoisePreset) -> impl FnOnce(&mut SimulateOptions, &Path) {
     move |a, _| a.noise = Some(grade)
 }
 
-fn report(outcome: &SimulateOutcome) -> &Report {
+fn report(outcome: &Outcome) -> &Report {
     outcome
         .report
         .as_ref()
@@ -265,8 +264,11 @@ fn tare_is_subtracted_saved_and_reused() {
     std::fs::write(&cfg, other).unwrap();
     let mut args = simulate_args(Some(cfg), dir.path().join("never.mcap"));
     args.measure.tare = Some(saved);
-    let err = simulate(&args, &AtomicBool::new(false)).expect_err("another rig's tare");
-    assert_eq!(err.exit_code(), 2);
+    let err = support::run_simulate(&args).expect_err("another rig's tare");
+    assert!(
+        matches!(err, ops::session::Error::Input(_)),
+        "refused as an input (exit 2): {err}"
+    );
     assert!(err.to_string().contains("tare.json"), "{err}");
     assert!(err.to_string().contains("joint"), "{err}");
     assert!(
@@ -280,7 +282,7 @@ fn interrupt_parks_and_finishes_the_log() {
     let dir = tempfile::tempdir().unwrap();
     let log = dir.path().join("run.mcap");
     let mut args = simulate_args(None, log.clone());
-    args.measure.duration = Some(30.0);
+    args.measure.duration_s = Some(30.0);
     let stop = AtomicBool::new(false);
     let outcome = std::thread::scope(|s| {
         s.spawn(|| {
@@ -296,7 +298,7 @@ fn interrupt_parks_and_finishes_the_log() {
             }
             stop.store(true, std::sync::atomic::Ordering::SeqCst);
         });
-        simulate(&args, &stop).unwrap()
+        ops::simulate::run(&args, &mut support::Silent, &stop).unwrap()
     });
     assert_eq!(outcome.end, End::Interrupted);
     assert!(outcome.report.is_none());

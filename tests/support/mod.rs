@@ -1,6 +1,6 @@
 //! What the end-to-end tests share, in one place: scenario files and the configurations built
-//! from them, the reference geometry, `stewart simulate` and `stewart rig` run through the CLI
-//! library, an in-process emulator, and the one MCAP reader of the tests.
+//! from them, the reference geometry, the simulator's and the rig's sessions run through the
+//! operations library, an in-process emulator, and the one MCAP reader of the tests.
 //!
 //! Real-time tests on a busy two-core machine: the emulator runs in lockstep (it waits for the
 //! host's answer to each frame before simulating the next, so a descheduled host pauses the
@@ -17,14 +17,13 @@ use std::sync::atomic::AtomicBool;
 use std::sync::{Mutex, MutexGuard};
 
 use measure::LoadedConfig;
+pub use ops::emulate::EmulateOptions;
+use ops::emulate::RunningEmulator;
+pub use ops::session::{MeasureOptions, Outcome, Silent};
+pub use ops::simulate::SimulateOptions;
 use sim::scenario::Scenario;
 use sim::NoisePreset;
-pub use stewart_cli::common::{MeasureArgs, SharedArgs};
-pub use stewart_cli::emulate::EmulateArgs;
-use stewart_cli::emulate::{self, RunningEmulator};
-use stewart_cli::rig::{self, RigArgs, RigOutcome};
-pub use stewart_cli::simulate::SimulateArgs;
-use stewart_cli::CommandError;
+use stewart_cli::rig::{self, RigArgs};
 
 // ---------------------------------------------------------------------------------------------
 // Scenarios and configurations
@@ -187,20 +186,21 @@ impl Scratch {
 // ---------------------------------------------------------------------------------------------
 // `stewart simulate`
 
-/// `simulate` flags for `config`, logging to `log`, quiet.
-pub fn simulate_args(config: Option<PathBuf>, log: PathBuf) -> SimulateArgs {
-    SimulateArgs {
-        measure: MeasureArgs {
-            shared: SharedArgs {
-                config,
-                log: Some(log),
-                quiet: true,
-                ..SharedArgs::default()
-            },
-            ..MeasureArgs::default()
+/// The simulation's options for `config`, logging to `log`.
+pub fn simulate_args(config: Option<PathBuf>, log: PathBuf) -> SimulateOptions {
+    SimulateOptions {
+        measure: MeasureOptions {
+            config,
+            log: Some(log),
+            ..MeasureOptions::default()
         },
-        ..SimulateArgs::default()
+        ..SimulateOptions::default()
     }
+}
+
+/// Runs the simulation of `options`, watched by nobody.
+pub fn run_simulate(options: &SimulateOptions) -> Result<Outcome, ops::session::Error> {
+    ops::simulate::run(options, &mut Silent, &AtomicBool::new(false))
 }
 
 /// A finished simulate run: its directory (kept alive), log and report.
@@ -210,14 +210,13 @@ pub struct Simulated {
     pub report: measure::Report,
 }
 
-/// Runs `stewart simulate` on `scenario` with `extra` applied to the arguments.
-pub fn simulate_with(scenario: &str, extra: impl FnOnce(&mut SimulateArgs, &Path)) -> Simulated {
+/// Runs the simulation of `scenario` with `extra` applied to the options.
+pub fn simulate_with(scenario: &str, extra: impl FnOnce(&mut SimulateOptions, &Path)) -> Simulated {
     let scratch = Scratch::new(scenario);
     let log = scratch.path("run.mcap");
     let mut args = simulate_args(Some(scratch.config.clone()), log.clone());
     extra(&mut args, scratch.dir.path());
-    let outcome = stewart_cli::simulate::simulate(&args, &AtomicBool::new(false))
-        .unwrap_or_else(|e| panic!("simulate failed: {e}"));
+    let outcome = run_simulate(&args).unwrap_or_else(|e| panic!("simulate failed: {e}"));
     let report = outcome.report.expect("a completed run has a report");
     Simulated {
         dir: scratch.dir,
@@ -241,29 +240,40 @@ pub fn real_time() -> MutexGuard<'static, ()> {
     REAL_TIME.lock().unwrap_or_else(|e| e.into_inner())
 }
 
-/// Emulator flags for `scratch`'s scenario on a free loopback port, in lockstep, quiet.
-pub fn emulate_args(scratch: &Scratch) -> EmulateArgs {
-    EmulateArgs {
+/// Emulator options for `scratch`'s scenario on a free loopback port, in lockstep.
+pub fn emulate_args(scratch: &Scratch) -> EmulateOptions {
+    EmulateOptions {
         listen: Some("udp://127.0.0.1:0".into()),
         config: Some(scratch.config.clone()),
         lockstep: true,
-        quiet: true,
-        ..EmulateArgs::default()
+        ..EmulateOptions::default()
     }
 }
 
 /// [`emulate_args`], fast-forwarding (`--fast-forward`): the run takes as long as host and
 /// emulator compute. For tests whose other threads do not act on the run's real time.
-pub fn emulate_args_fast(scratch: &Scratch) -> EmulateArgs {
-    EmulateArgs {
+pub fn emulate_args_fast(scratch: &Scratch) -> EmulateOptions {
+    EmulateOptions {
         fast_forward: true,
         ..emulate_args(scratch)
     }
 }
 
-/// Starts an emulator on its own thread.
-pub fn start(args: &EmulateArgs) -> RunningEmulator {
-    emulate::spawn(args).unwrap_or_else(|e| panic!("emulator: {e}"))
+/// The shared key of the test's rig: the file the scenario names (`rig.key_file`, a
+/// [`Scratch`]'s `rig.key`), none when it names none.
+pub fn scenario_key(
+    configured: Option<PathBuf>,
+) -> Result<Option<::rig::Key>, ops::session::Error> {
+    configured
+        .map(|path| ::rig::Key::from_file(&path).map_err(ops::session::refuse))
+        .transpose()
+}
+
+/// Starts an emulator of `options` on its own thread, with the scenario's key, saying nothing.
+pub fn start(options: &EmulateOptions) -> RunningEmulator {
+    let prepared = ops::emulate::prepare(options, &mut scenario_key, std::sync::Arc::new(|_| {}))
+        .unwrap_or_else(|e| panic!("emulator: {e}"));
+    ops::emulate::spawn(prepared).unwrap_or_else(|e| panic!("emulator: {e}"))
 }
 
 /// `stewart rig ARGS` parsed as the command line would be.
@@ -300,10 +310,26 @@ pub fn rig_tare(scratch: &Scratch, address: &str, own: &[&str]) -> RigArgs {
     rig_against(&scratch.config, address, &scratch.path("rig.mcap"), &args)
 }
 
-/// Runs `stewart rig` through the library.
-pub fn run_rig(args: &RigArgs) -> Result<RigOutcome, CommandError> {
+/// Runs the rig session of `stewart rig ARGS` through the library (the flags turned into the
+/// session's options as the binary turns them, the key chosen as it chooses it), `interrupt`
+/// and `abort` its Ctrl-C flags.
+pub fn run_rig_with(
+    args: &RigArgs,
+    interrupt: &AtomicBool,
+    abort: &AtomicBool,
+) -> Result<Outcome, ops::session::Error> {
+    let options = rig::options(args)?;
+    let (_, common) = rig::resolve(args)?;
+    // The terminal's hands: the key as the binary chooses it, the payload on at once
+    // (`--no-prompt`).
+    let mut hands = rig::AtTheTerminal::without_bar(common.link);
+    ops::rig::run(&options, &mut Silent, &mut hands, interrupt, abort)
+}
+
+/// [`run_rig_with`], never interrupted.
+pub fn run_rig(args: &RigArgs) -> Result<Outcome, ops::session::Error> {
     static NEVER: AtomicBool = AtomicBool::new(false);
-    rig::rig(args, &NEVER)
+    run_rig_with(args, &NEVER, &NEVER)
 }
 
 /// A free UDP port's address on loopback nobody listens on.

@@ -1,10 +1,10 @@
 //! What the measurement commands (`simulate`, `rig`) share: their common flags, the error type
 //! of every command and its exit codes, and the end of a command (table, report, log, figures).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use clap::Args;
-use measure::load::{ConfigError, LoadedConfig, Overrides};
+use measure::load::{ConfigError, LoadedConfig};
 use measure::End;
 
 /// Exit code after Ctrl-C (128 + SIGINT, as shells report it).
@@ -78,17 +78,24 @@ pub struct MeasureArgs {
 }
 
 impl MeasureArgs {
+    /// The measurement's options: the flags that act on the run (not on what is printed).
+    pub fn options(&self) -> ops::session::MeasureOptions {
+        ops::session::MeasureOptions {
+            config: self.shared.config.clone(),
+            params: self.shared.params.as_deref().map(parse_params),
+            excitation: self.shared.excitation.clone(),
+            duration_s: self.duration,
+            log: self.shared.log.clone(),
+            live: self.shared.live,
+            tare: self.tare.clone(),
+            save_tare: self.save_tare.clone(),
+        }
+    }
+
     /// The rig description of `--config` with `--excitation`, `--duration` and `--params`
     /// applied, validated.
     pub fn load_config(&self) -> Result<LoadedConfig, ConfigError> {
-        let mut loaded = measure::load::load(self.shared.config.as_deref())?;
-        if let Some(path) = &self.shared.excitation {
-            loaded = loaded.with_excitation_file(path)?;
-        }
-        loaded.with_overrides(&Overrides {
-            duration_s: self.duration,
-            params: self.shared.params.as_deref().map(parse_params),
-        })
+        self.options().load_config()
     }
 }
 
@@ -139,42 +146,30 @@ impl From<ConfigError> for CommandError {
     }
 }
 
-/// The session's tare: the saved tare of `--tare FILE` (checked against the design), or a tare
-/// run whose controller is built and checked now, before anything moves.
-pub fn tare_plan(
-    loaded: &LoadedConfig,
-    geometry: &kinematics::Geometry,
-    tare: Option<&Path>,
-) -> Result<measure::TarePlan, CommandError> {
-    Ok(match tare {
-        Some(path) => {
-            let (base, plate) = measure::session::joints(geometry);
-            let file = measure::TareFile::load(path, &base, &plate).map_err(CommandError::Input)?;
-            measure::TarePlan::File(Box::new(file), path.display().to_string())
+impl From<ops::session::Error> for CommandError {
+    fn from(e: ops::session::Error) -> Self {
+        match e {
+            ops::session::Error::Config(e) => Self::Config(e),
+            ops::session::Error::Input(e) => Self::Input(e),
+            ops::session::Error::Run(e) => Self::Run(e),
         }
-        None => {
-            let t = measure::setup::tare_trajectory(loaded, geometry)?;
-            measure::TarePlan::Measure(Box::new(measure::setup::controller(
-                loaded,
-                geometry,
-                t,
-                measure::Measurement::Tare,
-            )?))
+    }
+}
+
+/// A command's refusal handed back to the operation that asked (the key's choice).
+impl From<CommandError> for ops::session::Error {
+    fn from(e: CommandError) -> Self {
+        match e {
+            CommandError::Config(e) => Self::Config(e),
+            CommandError::Input(e) => Self::Input(e),
+            CommandError::Run(e) => Self::Run(e),
         }
-    })
+    }
 }
 
 /// A refusal of an input, in words.
 pub fn refuse(message: String) -> CommandError {
     CommandError::Input(anyhow::anyhow!(message))
-}
-
-/// `--log`, or `runs/<UTC time>.mcap`.
-pub fn log_path(args: &MeasureArgs, start_ns: u64) -> PathBuf {
-    match &args.shared.log {
-        Some(p) => p.clone(),
-        None => runlog::mcap_log::default_log_path(Path::new("runs"), start_ns / 1_000_000_000),
-    }
 }
 
 /// The exit code of `end`, with its message on standard error.
@@ -189,22 +184,5 @@ pub fn end_code(end: &End, fault_detail: &str) -> u8 {
             eprintln!("fault: {cause}{fault_detail}; a safe stop was commanded; no report");
             EXIT_FAULT
         }
-    }
-}
-
-/// Says where `--live` serves the run (standard error, unless `quiet`): the address a Foxglove
-/// client opens (docs/live.md).
-pub fn announce_live(addr: Option<std::net::SocketAddr>, quiet: bool) {
-    if let (Some(addr), false) = (addr, quiet) {
-        eprintln!("live view: ws://{addr} (Foxglove: Open connection → Foxglove WebSocket)");
-    }
-}
-
-/// Warns on standard error about each applied calibration older than the rig description's
-/// `calibration.max_age_days`.
-pub fn warn_old_calibrations(config: &measure::Config) {
-    let now_s = runlog::run_log::unix_now_ns() / 1_000_000_000;
-    for w in config.calibration.age_warnings(now_s) {
-        eprintln!("warning: {w}");
     }
 }

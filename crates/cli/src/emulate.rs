@@ -1,51 +1,18 @@
-//! `stewart emulate`: the simulator behind the rig protocol, in real time, so that
-//! `stewart rig` can be run and tested without hardware.
-//!
-//! The same scenario file as `simulate` builds the simulated platform (platform, fixture,
-//! payload, actuator, sensors, seed); the rig's limits sent in the handshake and enforced are
-//! the platform's stroke, `control.max_leg_speed_m_s` and the actuators' `max_force_n`. The
-//! emulator serves one host session after another, as a rig does.
-//!
-//! **The payload.** A real rig's operator puts the vehicle on between the tare and the
-//! loaded measurement; the emulator does it when a session opens, by `--payload`:
-//! `tare-first` (default) leaves the fixture empty for the first session and loads the payload
-//! for every later one, which is what `stewart rig` (tare session, then loaded session) and
-//! `rig tare` followed by `rig measure` need; `on` and `off` fix it for every session (use
-//! `on` for a `rig measure --tare FILE` against a fresh emulator). Loading happens while the
-//! platform is braked between sessions: the brakes take the new static load and the plate
-//! settles for 2 s before the session's first frame. `--reference`
-//! puts the world's reference weight (`[world.reference]`) on instead of the payload, as the
-//! rig's owner does for `rig calibrate-load-cells`.
-//!
-//! Fault injection for tests: `--drop F`, `--corrupt F` (fractions of sensor frames),
-//! `--delay-ms N` (with `--delay-fraction F`, default all frames), `--stop-after N` (stop
-//! answering after N sensor frames of a session, as a rig whose link died). `--lockstep`
-//! trades real time for robustness on a busy machine: the emulated world waits for the
-//! host's answer to each frame (up to the watchdog time); `--fast-forward` then goes on as
-//! soon as the answer came, faster than real time.
+//! `stewart emulate`: the flags of the emulator ([`ops::emulate`]) and what it prints.
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Mutex};
-use std::thread::JoinHandle;
-use std::time::Duration;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 
-use anyhow::anyhow;
 use clap::{Args, ValueEnum};
-use rig::emulator::{
-    Emulator, EmulatorConfig, EmulatorEvent, EmulatorStats, FaultInjection, SessionStart,
-};
-use rig::wire::{Limits, SensorLayout, LEG_COUNT};
-use rig::RigError;
-
-use measure::load::{ConfigError, LoadedConfig};
-use measure::Config;
-
-use crate::common::CommandError;
-use sim::scenario::{Scenario, World};
+use ops::emulate::{event_line, summary};
+use ops::emulate::{EmulateOptions, News};
+use rig::emulator::{EmulatorEvent, EmulatorStats};
 use sim::NoisePreset;
 
-/// Whether the emulated fixture carries the payload.
+use crate::common::CommandError;
+
+/// Whether the emulated fixture carries the payload (`--payload`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, ValueEnum)]
 pub enum PayloadMode {
     /// Empty for the first session, loaded for every later one (tare, then measure).
@@ -57,13 +24,12 @@ pub enum PayloadMode {
     Off,
 }
 
-impl PayloadMode {
-    /// Whether session `number` (1-based) sees the payload.
-    pub fn loaded_in_session(self, number: u64) -> bool {
-        match self {
-            Self::TareFirst => number > 1,
-            Self::On => true,
-            Self::Off => false,
+impl From<PayloadMode> for ops::emulate::PayloadMode {
+    fn from(m: PayloadMode) -> Self {
+        match m {
+            PayloadMode::TareFirst => Self::TareFirst,
+            PayloadMode::On => Self::On,
+            PayloadMode::Off => Self::Off,
         }
     }
 }
@@ -138,273 +104,80 @@ pub struct EmulateArgs {
     pub quiet: bool,
 }
 
-impl Default for EmulateArgs {
-    fn default() -> Self {
-        Self {
-            listen: None,
-            config: None,
-            seed: None,
-            noise: None,
-            payload: PayloadMode::TareFirst,
-            reference: false,
-            key: None,
-            insecure: false,
-            no_realtime: false,
-            watchdog_ms: None,
-            drop: 0.0,
-            corrupt: 0.0,
-            delay_ms: None,
-            delay_fraction: 1.0,
-            stop_after: None,
-            lockstep: false,
-            fast_forward: false,
-            quiet: false,
+impl EmulateArgs {
+    /// The emulator's options.
+    pub fn options(&self) -> EmulateOptions {
+        EmulateOptions {
+            listen: self.listen.clone(),
+            config: self.config.clone(),
+            seed: self.seed,
+            noise: self.noise,
+            payload: self.payload.into(),
+            reference: self.reference,
+            watchdog_ms: self.watchdog_ms,
+            drop: self.drop,
+            corrupt: self.corrupt,
+            delay_ms: self.delay_ms,
+            delay_fraction: self.delay_fraction,
+            stop_after: self.stop_after,
+            lockstep: self.lockstep,
+            fast_forward: self.fast_forward,
         }
     }
-}
 
-/// An emulator ready to run, and what it was built from.
-pub struct Prepared {
-    /// The emulator, bound.
-    pub emulator: Emulator<sim::Simulator>,
-    /// The address hosts connect to (`udp://IP:PORT` with the port actually bound).
-    pub address: String,
-    /// The configuration used.
-    pub loaded: LoadedConfig,
-    sessions: Arc<Mutex<Vec<SessionStart>>>,
-}
+    /// The shared key of `--key`, `configured` (`rig.key_file`) or the user's key file, written
+    /// when missing; its notice on standard error (even with `--quiet`: a key file written, or
+    /// no key at all, is for the user to know).
+    pub fn key(
+        &self,
+        configured: Option<PathBuf>,
+    ) -> Result<Option<rig::Key>, ops::session::Error> {
+        let (key, insecure) = (self.key.as_deref(), self.insecure);
+        crate::rig::shared_key(
+            key,
+            configured,
+            insecure,
+            crate::key::Side::Rig,
+            "emulator: ",
+        )
+    }
 
-/// The rig limits the emulator announces and enforces: the rig description's stroke and leg
-/// speed, the simulated actuators' force.
-pub fn limits(config: &Config, world: &World) -> Limits {
-    Limits {
-        stroke_min_m: config.platform.min_leg_length_m,
-        stroke_max_m: config.platform.max_leg_length_m,
-        speed_max_m_s: config.control.max_leg_speed_m_s,
-        force_min_n: -world.actuator.max_force_n,
-        force_max_n: world.actuator.max_force_n,
-    }
-}
-
-fn refused(e: impl std::fmt::Display) -> CommandError {
-    CommandError::Input(anyhow!("{e}"))
-}
-
-/// Loads the configuration, builds the simulator and binds the emulator (nothing runs yet).
-pub fn prepare(args: &EmulateArgs) -> Result<Prepared, CommandError> {
-    let mut scenario = Scenario::new(
-        measure::load::load(args.config.as_deref())?,
-        args.seed,
-        args.noise,
-    )?;
-    if args.reference {
-        // The rig's owner's calibrated weight in the payload's place: one rigid body.
-        scenario.world.payload = scenario.world.reference;
-        scenario.world.suspension.enabled = false;
-    }
-    let scenario = scenario;
-    if scenario.noise != NoisePreset::Realistic && !args.quiet {
-        eprintln!(
-            "note: the emulated sensors are `{}` (the rig description's datasheet × {}); give \
-             `stewart rig` a rig description with those figures, or its sigmas describe other \
-             sensors than these",
-            scenario.noise.name(),
-            scenario.noise.scale()
-        );
-    }
-    let loaded = scenario.loaded.clone();
-    let config = &loaded.config;
-    let mut rig_config = config.rig.clone();
-    // Flags are checked as flags: a bad value is blamed on the flag, not on `rig.watchdog_ms`
-    // at a line of the embedded configuration that the user never wrote.
-    let mut flag_issues = Vec::new();
-    if let Some(ms) = args.watchdog_ms {
-        if !(ms.is_finite() && (1.0..=10_000.0).contains(&ms)) {
-            flag_issues.push(crate::rig::flag_issue(
-                "--watchdog-ms",
-                format!("must be between 1 and 10000 ms, got {ms}"),
-            ));
-        }
-        rig_config.watchdog_ms = ms;
-    }
-    if let Some(listen) = &args.listen {
-        if let Err(e) = listen.parse::<rig::transport::Address>() {
-            flag_issues.push(crate::rig::flag_issue("--listen", e.to_string()));
-        }
-        rig_config.address = listen.clone();
-    }
-    if !flag_issues.is_empty() {
-        return Err(CommandError::Config(ConfigError {
-            issues: flag_issues,
-        }));
-    }
-    let problems = rig_config.problems();
-    if !problems.is_empty() {
-        return Err(CommandError::Config(ConfigError {
-            issues: problems
-                .into_iter()
-                .map(|(key, problem)| loaded.issue(&key, problem))
-                .collect(),
-        }));
-    }
-    let geometry = measure::setup::geometry(&loaded)?;
-    // Both worlds must be accepted before a host connects.
-    scenario.simulator(geometry, true)?;
-    let simulator = scenario.simulator(geometry, args.payload.loaded_in_session(1))?;
-    let payload = scenario.world.payload.to_sim();
-
-    let chosen = crate::key::choose(
-        args.key.as_deref(),
-        rig_config.key_path(&loaded.directory()),
-        crate::key::user_key_path,
-        args.insecure,
-        crate::key::Side::Rig,
-    )?;
-    // Even with --quiet: a key file written, or no key at all, is for the user to know.
-    if let Some(notice) = &chosen.notice {
-        eprintln!("emulator: {notice}");
-    }
-    let key = chosen.key;
-    let faults = FaultInjection {
-        drop_fraction: args.drop,
-        corrupt_fraction: args.corrupt,
-        delay_fraction: if args.delay_ms.is_some() {
-            args.delay_fraction
-        } else {
-            0.0
-        },
-        delay: match args.delay_ms {
-            Some(ms) if ms.is_finite() && ms >= 0.0 => Duration::from_secs_f64(ms * 1e-3),
-            Some(ms) => return Err(refused(format!("--delay-ms must be 0 or more, got {ms}"))),
-            None => Duration::ZERO,
-        },
-        stop_after_frames: args.stop_after,
-    };
-    let watchdog = Duration::from_secs_f64(rig_config.watchdog_ms * 1e-3);
-    let emulator_config = EmulatorConfig {
-        identity: "stewart-emulator".into(),
-        layout: SensorLayout {
-            leg_count: LEG_COUNT as u8,
-            imu_present: true,
-            accel_position_m: config.sensors.imu.position_m,
-        },
-        limits: limits(config, &scenario.world),
-        watchdog,
-        key,
-        faults,
-        lockstep: args.lockstep.then_some(watchdog),
-        fast_forward: args.fast_forward,
-        seed: scenario.world.seed,
-        ..EmulatorConfig::new(limits(config, &scenario.world))
-    };
-    let mut emulator =
-        Emulator::bind(&rig_config.address, simulator, emulator_config).map_err(refused)?;
-    let address = match emulator.local_addr() {
-        Some(addr) if rig_config.address.starts_with("udp://") => format!("udp://{addr}"),
-        _ => rig_config.address.clone(),
-    };
-    let sessions = Arc::new(Mutex::new(Vec::new()));
-    let seen = Arc::clone(&sessions);
-    let mode = args.payload;
-    let quiet = args.quiet;
-    emulator.set_session_hook(Box::new(
-        move |sim: &mut sim::Simulator, start: &SessionStart| {
-            let on = mode.loaded_in_session(start.number);
-            if on != sim.true_payload().is_some() {
-                if let Err(e) = put_payload(sim, on.then_some(payload)) {
-                    eprintln!("emulator: cannot change the payload: {e}");
-                }
+    /// Where the emulator's news goes: its sessions and timeouts on standard output (not with
+    /// `--quiet`), its faults on standard error (always: they are errors of the session).
+    pub fn newsroom(&self) -> ops::emulate::Newsroom {
+        let quiet = self.quiet;
+        Arc::new(move |news: News<'_>| match news {
+            News::Note(text) if !quiet => eprintln!("note: {text}"),
+            News::Note(_) => {}
+            News::PayloadFailed(e) => eprintln!("emulator: cannot change the payload: {e}"),
+            News::Session(start, on) if !quiet => println!(
+                "session {} from {}: payload {}",
+                start.number,
+                start.peer,
+                if on { "on" } else { "off (tare)" }
+            ),
+            News::Session(..) => {}
+            News::Event(event @ EmulatorEvent::Fault { .. }) => eprintln!("{}", event_line(event)),
+            News::Event(event @ EmulatorEvent::SessionTimedOut { .. }) if !quiet => {
+                println!("{}", event_line(event))
             }
-            if !quiet {
-                println!(
-                    "session {} from {}: payload {}",
-                    start.number,
-                    start.peer,
-                    if sim.true_payload().is_some() {
-                        "on"
-                    } else {
-                        "off (tare)"
-                    }
-                );
-            }
-            if let Ok(mut list) = seen.lock() {
-                list.push(*start);
-            }
-        },
-    ));
-    // A fault is printed even with --quiet (it is an error of the session); a timeout is news.
-    emulator.set_event_hook(Box::new(move |event: &EmulatorEvent| match event {
-        EmulatorEvent::Fault { .. } => eprintln!("{}", event_line(event)),
-        EmulatorEvent::SessionTimedOut { .. } if !quiet => println!("{}", event_line(event)),
-        EmulatorEvent::SessionTimedOut { .. } => {}
-    }));
-    Ok(Prepared {
-        emulator,
-        address,
-        loaded,
-        sessions,
-    })
-}
-
-/// One line for an emulator event: the session, its host, and the cause.
-pub fn event_line(event: &EmulatorEvent) -> String {
-    match event {
-        EmulatorEvent::Fault {
-            session,
-            peer,
-            fault,
-        } => {
-            let cause = match fault.code {
-                rig::wire::FaultCode::WATCHDOG => format!(
-                    "no valid command for {:.1} ms (the watchdog)",
-                    fault.value * 1e3
-                ),
-                _ => {
-                    let leg = if fault.leg == rig::wire::NO_LEG {
-                        String::new()
-                    } else {
-                        format!(" on leg {}", fault.leg)
-                    };
-                    format!("{}{leg}, value {}", fault.code.name(), fault.value)
-                }
-            };
-            format!(
-                "session {session} from {peer}: fault: {cause}, after command {}; braked until \
-                 the host opens a new session",
-                fault.command_sequence
-            )
-        }
-        EmulatorEvent::SessionTimedOut {
-            session,
-            peer,
-            silent_for,
-        } => format!(
-            "session {session} from {peer}: ended, the host was silent for {:.2} s (session \
-             timeout); the next Hello from anyone opens a new one",
-            silent_for.as_secs_f64()
-        ),
+            News::Event(EmulatorEvent::SessionTimedOut { .. }) => {}
+        })
     }
-}
 
-/// What an operator does between sessions: the payload goes on (or off) the braked platform,
-/// whose brakes take the new static load, and the plate settles for
-/// [`crate::simulate::PAYLOAD_SETTLE_S`] before the session's brake hold (as `simulate` does
-/// between its runs): a hold that begins on a plate still sagging onto its brakes takes the
-/// sag into the accelerometer's offset it measures, and so into the payload's mass.
-fn put_payload(
-    sim: &mut sim::Simulator,
-    payload: Option<sim::BodyProperties>,
-) -> Result<(), sim::SimError> {
-    sim.change_payload_and_settle(payload, crate::simulate::PAYLOAD_SETTLE_S)
-}
-
-fn backend_failed(e: RigError) -> CommandError {
-    CommandError::Run(anyhow!("the emulator stopped: {e}"))
+    /// The emulator of these flags, bound (nothing runs yet).
+    pub fn prepare(&self) -> Result<ops::emulate::Prepared, CommandError> {
+        Ok(ops::emulate::prepare(
+            &self.options(),
+            &mut |configured| self.key(configured),
+            self.newsroom(),
+        )?)
+    }
 }
 
 /// Runs `stewart emulate` until `stop` is set. Returns the emulator's counters.
 pub fn emulate(args: &EmulateArgs, stop: &AtomicBool) -> Result<EmulatorStats, CommandError> {
-    let mut prepared = prepare(args)?;
+    let prepared = args.prepare()?;
     if !args.quiet {
         println!(
             "emulating the rig of {} on {} (payload: {}); Ctrl-C stops",
@@ -417,8 +190,7 @@ pub fn emulate(args: &EmulateArgs, stop: &AtomicBool) -> Result<EmulatorStats, C
             }
         );
     }
-    prepared.emulator.run(stop).map_err(backend_failed)?;
-    Ok(*prepared.emulator.stats())
+    Ok(prepared.run(stop)?)
 }
 
 /// `stewart emulate` from the command line; returns the exit code.
@@ -442,196 +214,5 @@ pub fn main(args: &EmulateArgs, stop: &AtomicBool) -> u8 {
             eprintln!("error: {e}");
             e.exit_code()
         }
-    }
-}
-
-/// The emulator's counters in one line.
-pub fn summary(s: &EmulatorStats) -> String {
-    format!(
-        "{} ticks ({} overruns), {} sessions, {} sensor frames sent ({} dropped, {} corrupted, \
-         {} delayed by injection; {} refused by the link), {} commands accepted ({} lost, {} duplicate, {} out of \
-         sequence), {} foreign, {} auth failed, {} corrupt, {} faults reported",
-        s.ticks,
-        s.overruns,
-        s.core.sessions,
-        s.sent,
-        s.dropped_injected,
-        s.corrupted_injected,
-        s.delayed_injected,
-        s.send_failed,
-        s.core.commands_accepted,
-        s.core.commands_lost,
-        s.core.duplicate,
-        s.core.out_of_sequence,
-        s.core.foreign_sender,
-        s.core.auth_failed,
-        s.core.corrupt,
-        s.core.faults_sent
-    )
-}
-
-/// An emulator running on its own thread (for tests and tools): stops and joins on
-/// [`stop`](Self::stop) or drop.
-pub struct RunningEmulator {
-    address: String,
-    stop: Arc<AtomicBool>,
-    sessions: Arc<Mutex<Vec<SessionStart>>>,
-    thread: Option<JoinHandle<Result<Emulator<sim::Simulator>, RigError>>>,
-}
-
-/// Prepares and starts an emulator on a thread of its own.
-pub fn spawn(args: &EmulateArgs) -> Result<RunningEmulator, CommandError> {
-    let prepared = prepare(args)?;
-    let stop = Arc::new(AtomicBool::new(false));
-    let flag = Arc::clone(&stop);
-    let mut emulator = prepared.emulator;
-    let thread = std::thread::Builder::new()
-        .name("emulator".into())
-        .spawn(move || emulator.run(&flag).map(|()| emulator))
-        .map_err(|e| CommandError::Run(anyhow!("cannot start the emulator thread: {e}")))?;
-    Ok(RunningEmulator {
-        address: prepared.address,
-        stop,
-        sessions: prepared.sessions,
-        thread: Some(thread),
-    })
-}
-
-impl RunningEmulator {
-    /// The address to connect to.
-    pub fn address(&self) -> &str {
-        &self.address
-    }
-
-    /// The sessions opened so far.
-    pub fn sessions(&self) -> Vec<SessionStart> {
-        self.sessions.lock().map(|l| l.clone()).unwrap_or_default()
-    }
-
-    /// Stops the emulator and gives it back (its counters, faults, last command, simulator).
-    pub fn stop(mut self) -> Result<Emulator<sim::Simulator>, CommandError> {
-        self.stop.store(true, Ordering::SeqCst);
-        let thread = self
-            .thread
-            .take()
-            .ok_or_else(|| CommandError::Run(anyhow!("the emulator was already stopped")))?;
-        thread
-            .join()
-            .map_err(|_| CommandError::Run(anyhow!("the emulator thread panicked")))?
-            .map_err(backend_failed)
-    }
-}
-
-impl Drop for RunningEmulator {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::SeqCst);
-        if let Some(thread) = self.thread.take() {
-            let _ = thread.join();
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn payload_modes_follow_the_sessions() {
-        assert!(!PayloadMode::TareFirst.loaded_in_session(1));
-        assert!(PayloadMode::TareFirst.loaded_in_session(2));
-        assert!(PayloadMode::TareFirst.loaded_in_session(7));
-        assert!(PayloadMode::On.loaded_in_session(1));
-        assert!(!PayloadMode::Off.loaded_in_session(3));
-    }
-
-    #[test]
-    fn limits_come_from_the_scenario() {
-        let s = Scenario::new(measure::load::load(None).unwrap(), None, None).unwrap();
-        let c = &s.loaded.config;
-        let l = limits(c, &s.world);
-        assert_eq!(l.stroke_min_m, c.platform.min_leg_length_m);
-        assert_eq!(l.stroke_max_m, c.platform.max_leg_length_m);
-        assert_eq!(l.speed_max_m_s, c.control.max_leg_speed_m_s);
-        assert_eq!(l.force_max_n, s.world.actuator.max_force_n);
-        assert_eq!(l.force_min_n, -s.world.actuator.max_force_n);
-    }
-
-    /// The emulator prints a line when its watchdog trips or a session times out.
-    #[test]
-    fn watchdog_trips_and_timeouts_are_one_line_each_naming_the_session_and_cause() {
-        let peer = rig::transport::Peer::Udp("127.0.0.1:5000".parse().unwrap());
-        let trip = event_line(&EmulatorEvent::Fault {
-            session: 3,
-            peer,
-            fault: rig::wire::Fault {
-                code: rig::wire::FaultCode::WATCHDOG,
-                leg: rig::wire::NO_LEG,
-                value: 0.0213,
-                command_sequence: 1234,
-            },
-        });
-        assert_eq!(
-            trip,
-            "session 3 from udp://127.0.0.1:5000: fault: no valid command for 21.3 ms (the \
-             watchdog), after command 1234; braked until the host opens a new session"
-        );
-        let timeout = event_line(&EmulatorEvent::SessionTimedOut {
-            session: 3,
-            peer,
-            silent_for: Duration::from_millis(1004),
-        });
-        assert!(timeout.starts_with("session 3 from udp://127.0.0.1:5000: ended"));
-        assert!(timeout.contains("silent for 1.00 s (session timeout)"));
-        assert!(!trip.contains('\n') && !timeout.contains('\n'));
-    }
-
-    /// `emulate --watchdog-ms 0` is blamed on the flag, not on `rig.watchdog_ms` at a line of
-    /// the embedded configuration.
-    #[test]
-    fn a_bad_watchdog_flag_is_blamed_on_the_flag() {
-        for (args, flag) in [
-            (
-                EmulateArgs {
-                    watchdog_ms: Some(0.0),
-                    listen: Some("udp://127.0.0.1:0".into()),
-                    quiet: true,
-                    ..EmulateArgs::default()
-                },
-                "--watchdog-ms",
-            ),
-            (
-                EmulateArgs {
-                    listen: Some("tcp://x:1".into()),
-                    quiet: true,
-                    ..EmulateArgs::default()
-                },
-                "--listen",
-            ),
-        ] {
-            let e = prepare(&args).err().expect("refused");
-            let message = e.to_string();
-            assert!(message.contains(flag), "{message}");
-            assert!(
-                message.contains(measure::load::COMMAND_LINE_NAME),
-                "{message}"
-            );
-            assert!(!message.contains("rig.watchdog_ms"), "{message}");
-            assert_eq!(e.exit_code(), 2);
-        }
-    }
-
-    #[test]
-    fn bad_fault_injection_is_refused_before_binding() {
-        let args = EmulateArgs {
-            listen: Some("udp://127.0.0.1:0".into()),
-            drop: 1.5,
-            // Keyless, so that the test never writes the user's key file.
-            insecure: true,
-            quiet: true,
-            ..EmulateArgs::default()
-        };
-        let e = prepare(&args).err().expect("refused");
-        assert!(e.to_string().contains("drop_fraction"), "{e}");
-        assert_eq!(e.exit_code(), 2);
     }
 }

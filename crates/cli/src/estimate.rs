@@ -176,7 +176,7 @@ mod tests {
     #[test]
     fn another_rig_description_changes_the_estimators_settings_and_the_systematic_sigma() {
         use crate::common::MeasureArgs;
-        use crate::simulate::{simulate, SimulateArgs};
+        use crate::simulate::SimulateArgs;
         let dir = tempfile::tempdir().unwrap();
         let short = dir.path().join("short.toml");
         // The accelerometer's offset left in the readings: its datasheet bias is the budget's
@@ -200,10 +200,14 @@ mod tests {
             },
             ..SimulateArgs::default()
         };
-        let online = simulate(&args, &std::sync::atomic::AtomicBool::new(false))
-            .unwrap()
-            .report
-            .unwrap();
+        let online = ops::simulate::run(
+            &args.options(),
+            &mut ops::session::Silent,
+            &std::sync::atomic::AtomicBool::new(false),
+        )
+        .unwrap()
+        .report
+        .unwrap();
         let log = LogContents::read(&log_path).unwrap();
         let o = SettingsOverride::default();
         let (same, ..) = reestimate(&log, &o, None, None).unwrap();

@@ -9,46 +9,100 @@
 //! loaded run; docs/calibration.md). Each measurement is one session of the protocol: the tare's session ends
 //! braked, and the loaded run opens a new one once the operator confirms the payload is on.
 //!
-//! Before anything moves: the configuration, the trajectories, the tare file and the key are
-//! checked, then the handshake (protocol version, sensor layout, sample period, accelerometer
-//! position, and the rig's stroke and speed limits against the configuration). After that,
-//! any link silence longer than `rig.link_silence_ms`, an invalid sensor value, a fault
-//! reported by the rig or a supervisor limit ends the measurement with a safe stop, a message
-//! naming the cause, the log finished, and exit code 3. Ctrl-C parks, finishes the log and
-//! exits with 130. Commands are clamped to the tighter of the rig's force limits and
-//! `control.max_force_n` whatever the controller computes.
+//! A refusal before anything moved exits with 2, a fault (safe stop, the log finished) with 3,
+//! Ctrl-C (parked) with 130.
 //!
-//! The modules: the command line and its plan (`args`), reaching the rig (`connection`), one
-//! invocation from flags to outcome (`session`), the sessions' station on the link
-//! (`station`), the calibration commands (`calibration`), and what is produced and printed
-//! (`outcome`).
+//! The session itself is [`ops::rig`]; here are the command line and its plan (`args`), the
+//! operator at the terminal (the prompt, the key), and what is printed (`outcome`).
 
 mod args;
-mod calibration;
-mod connection;
 mod outcome;
-mod session;
-mod station;
 
+use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
+use ops::rig::{Attendant, LinkOptions, RigSessionOptions};
+use ops::session::Outcome;
+
 use crate::common::CommandError;
+use crate::progress::Terminal;
 
 pub use args::{
-    parse, resolve, LinkArgs, Plan, RigArgs, RigMeasureArgs, RigMode, RigRunArgs, RigTareArgs,
+    parse, resolve, LinkArgs, RigArgs, RigMeasureArgs, RigMode, RigRunArgs, RigTareArgs,
 };
-pub(crate) use connection::flag_issue;
-pub use connection::{check_rig, link_settings, LinkSettings};
-pub use outcome::{finish, link_lines, LinkReport, RigOutcome};
-pub use session::rig_with_abort;
+pub use ops::rig::link_lines;
+pub use outcome::finish;
 
-/// Runs `stewart rig`. `interrupt` is the Ctrl-C flag: when set, the platform parks, the log
-/// is finished and the outcome says [`measure::End::Interrupted`]. A refused input or handshake
-/// is an error (nothing moved); a fault is an outcome with [`measure::End::Fault`] naming the
-/// cause.
-pub fn rig(args: &RigArgs, interrupt: &AtomicBool) -> Result<RigOutcome, CommandError> {
-    static NEVER: AtomicBool = AtomicBool::new(false);
-    rig_with_abort(args, interrupt, &NEVER)
+/// The session's options from the flags, or why the flags do not go together.
+pub fn options(args: &RigArgs) -> Result<RigSessionOptions, CommandError> {
+    let (plan, common) = resolve(args)?;
+    Ok(RigSessionOptions {
+        plan,
+        measure: common.run.options(),
+        link: LinkOptions {
+            connect: common.link.connect.clone(),
+            link_silence_ms: common.link.link_silence_ms,
+        },
+    })
+}
+
+/// The operator at the terminal: asked to put the payload on (the bar off the screen while
+/// asked; `--no-prompt`: at once), and the shared key of `--key`, `rig.key_file` or the user's
+/// key file (`--insecure`: none), its notice on standard error.
+pub struct AtTheTerminal {
+    /// The progress bar to take off the screen during the prompt.
+    pub bar: indicatif::ProgressBar,
+    /// The link flags.
+    pub link: LinkArgs,
+}
+
+impl AtTheTerminal {
+    /// The operator with no bar on the screen.
+    pub fn without_bar(link: LinkArgs) -> Self {
+        Self {
+            bar: indicatif::ProgressBar::hidden(),
+            link,
+        }
+    }
+}
+
+impl Attendant for AtTheTerminal {
+    fn put_on(&mut self, body: &str, stop: &AtomicBool) -> anyhow::Result<bool> {
+        let no_prompt = self.link.no_prompt;
+        self.bar
+            .suspend(|| crate::prompt::operator_loads_payload(body, no_prompt, stop))
+    }
+
+    fn shared_key(
+        &mut self,
+        configured: Option<PathBuf>,
+    ) -> Result<Option<rig::Key>, ops::session::Error> {
+        let (key, insecure) = (self.link.key.as_deref(), self.link.insecure);
+        shared_key(key, configured, insecure, crate::key::Side::Host, "")
+    }
+}
+
+/// Runs `stewart rig` at the terminal: `interrupt` parks, `abort` (a second Ctrl-C) brakes at
+/// once ([`ops::rig::run`]).
+pub fn rig(
+    args: &RigArgs,
+    interrupt: &AtomicBool,
+    abort: &AtomicBool,
+) -> Result<Outcome, CommandError> {
+    let options = options(args)?;
+    let (_, common) = resolve(args)?;
+    let mut terminal = Terminal::new(common.run.shared.quiet);
+    let mut attendant = AtTheTerminal {
+        bar: terminal.handle(),
+        link: common.link,
+    };
+    Ok(ops::rig::run(
+        &options,
+        &mut terminal,
+        &mut attendant,
+        interrupt,
+        abort,
+    )?)
 }
 
 /// `stewart rig` from the command line: runs, prints, writes the report; returns the exit
@@ -65,11 +119,27 @@ pub fn main(args: &RigArgs, interrupt: &AtomicBool, abort: &AtomicBool) -> u8 {
             }
         }
     }
-    match rig_with_abort(args, interrupt, abort) {
+    match rig(args, interrupt, abort) {
         Ok(outcome) => outcome::finish(args, &outcome),
         Err(e) => {
             eprintln!("error: {e}");
             e.exit_code()
         }
     }
+}
+
+/// The shared key of `flag` (`--key`), `configured` (`rig.key_file`) or the user's key file
+/// (`insecure`: none) for `side`, its notice on standard error after `prefix`.
+pub fn shared_key(
+    flag: Option<&std::path::Path>,
+    configured: Option<PathBuf>,
+    insecure: bool,
+    side: crate::key::Side,
+    prefix: &str,
+) -> Result<Option<rig::Key>, ops::session::Error> {
+    let chosen = crate::key::choose(flag, configured, crate::key::user_key_path, insecure, side)?;
+    if let Some(notice) = &chosen.notice {
+        eprintln!("{prefix}{notice}");
+    }
+    Ok(chosen.key)
 }

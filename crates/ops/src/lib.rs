@@ -6,6 +6,9 @@
 #![warn(missing_docs)]
 
 pub mod bench;
+pub mod calibration;
+pub mod campaign;
+pub mod emulate;
 pub mod estimate;
 pub mod export;
 pub mod import;
@@ -13,3 +16,6 @@ pub mod key;
 pub mod plan;
 pub mod plot;
 pub mod report;
+pub mod rig;
+pub mod session;
+pub mod simulate;

@@ -7,8 +7,8 @@ use std::path::PathBuf;
 
 use control::trajectory::Trajectory;
 use measure::load::{ConfigError, LoadedConfig, Overrides};
-use planner::{self as plan, Planner, Prediction};
 use measure::report::Quantities;
+use planner::{self as plan, Planner, Prediction};
 use serde::Serialize;
 
 /// Options of `stewart plan`.

@@ -4,6 +4,7 @@
 use std::path::PathBuf;
 
 use clap::{Args, Subcommand};
+use ops::rig::RigPlan;
 
 use crate::common::{refuse, CommandError, MeasureArgs, SharedArgs};
 
@@ -133,29 +134,13 @@ pub fn parse(args: &[&str]) -> Result<RigArgs, clap::Error> {
     }
 }
 
-/// What a `stewart rig` invocation will do.
-#[derive(Clone, Debug, PartialEq)]
-pub enum Plan {
-    /// Tare run, payload on, loaded run.
-    Both,
-    /// Tare run only, saved to the path.
-    TareOnly(PathBuf),
-    /// The empty fixture's run, fitted as the IMU calibration written to the path.
-    CalibrateImu(PathBuf),
-    /// Tare run, reference weight on, loaded run, fitted as the load-cell calibration written
-    /// to the path.
-    CalibrateLoadCells(PathBuf),
-    /// Loaded run with the saved tare of `--tare`.
-    MeasureOnly,
-}
-
 /// The plan and flags of `args`, or why they do not go together.
-pub fn resolve(args: &RigArgs) -> Result<(Plan, RigRunArgs), CommandError> {
+pub fn resolve(args: &RigArgs) -> Result<(RigPlan, RigRunArgs), CommandError> {
     let (plan, common) = match &args.mode {
-        None if args.common.run.tare.is_some() => (Plan::MeasureOnly, args.common.clone()),
-        None => (Plan::Both, args.common.clone()),
+        None if args.common.run.tare.is_some() => (RigPlan::MeasureOnly, args.common.clone()),
+        None => (RigPlan::Both, args.common.clone()),
         Some(RigMode::Tare(t)) => (
-            Plan::TareOnly(t.out.clone()),
+            RigPlan::TareOnly(t.out.clone()),
             RigRunArgs {
                 link: t.link.clone(),
                 run: MeasureArgs {
@@ -166,8 +151,8 @@ pub fn resolve(args: &RigArgs) -> Result<(Plan, RigRunArgs), CommandError> {
         ),
         Some(RigMode::CalibrateImu(t) | RigMode::CalibrateLoadCells(t)) => (
             match &args.mode {
-                Some(RigMode::CalibrateImu(_)) => Plan::CalibrateImu(t.out.clone()),
-                _ => Plan::CalibrateLoadCells(t.out.clone()),
+                Some(RigMode::CalibrateImu(_)) => RigPlan::CalibrateImu(t.out.clone()),
+                _ => RigPlan::CalibrateLoadCells(t.out.clone()),
             },
             RigRunArgs {
                 link: t.link.clone(),
@@ -178,7 +163,7 @@ pub fn resolve(args: &RigArgs) -> Result<(Plan, RigRunArgs), CommandError> {
             },
         ),
         Some(RigMode::Measure(m)) => (
-            Plan::MeasureOnly,
+            RigPlan::MeasureOnly,
             RigRunArgs {
                 link: m.link.clone(),
                 run: MeasureArgs {
@@ -193,7 +178,7 @@ pub fn resolve(args: &RigArgs) -> Result<(Plan, RigRunArgs), CommandError> {
             },
         ),
     };
-    if plan == Plan::MeasureOnly && common.run.save_tare.is_some() {
+    if plan == RigPlan::MeasureOnly && common.run.save_tare.is_some() {
         return Err(refuse(
             "--save-tare needs a tare run; this run uses --tare".into(),
         ));
@@ -221,7 +206,7 @@ mod tests {
     #[test]
     fn modes_and_flags_parse() {
         let a = parse(&[]).unwrap();
-        assert_eq!(resolve(&a).unwrap().0, Plan::Both);
+        assert_eq!(resolve(&a).unwrap().0, RigPlan::Both);
         let a = parse(&[
             "--connect",
             "udp://10.0.0.2:7700",
@@ -231,7 +216,7 @@ mod tests {
         ])
         .unwrap();
         let (plan, c) = resolve(&a).unwrap();
-        assert_eq!(plan, Plan::Both);
+        assert_eq!(plan, RigPlan::Both);
         assert_eq!(c.link.connect.as_deref(), Some("udp://10.0.0.2:7700"));
         assert!(c.link.no_prompt);
         assert_eq!(c.run.duration, Some(5.0));
@@ -239,15 +224,15 @@ mod tests {
         assert!(resolve(&a).unwrap().1.run.shared.quiet);
         assert_eq!(
             resolve(&a).unwrap().0,
-            Plan::TareOnly(PathBuf::from("t.json"))
+            RigPlan::TareOnly(PathBuf::from("t.json"))
         );
         let a = parse(&["measure", "--tare", "t.json", "--report", "r.json"]).unwrap();
-        assert_eq!(resolve(&a).unwrap().0, Plan::MeasureOnly);
+        assert_eq!(resolve(&a).unwrap().0, RigPlan::MeasureOnly);
         let a = parse(&["--tare", "t.json"]).unwrap();
-        assert_eq!(resolve(&a).unwrap().0, Plan::MeasureOnly);
+        assert_eq!(resolve(&a).unwrap().0, RigPlan::MeasureOnly);
         let a = parse(&["calibrate-load-cells", "--out", "c.toml", "--no-prompt"]).unwrap();
         let (plan, c) = resolve(&a).unwrap();
-        assert_eq!(plan, Plan::CalibrateLoadCells(PathBuf::from("c.toml")));
+        assert_eq!(plan, RigPlan::CalibrateLoadCells(PathBuf::from("c.toml")));
         assert!(c.link.no_prompt);
         assert!(
             parse(&["calibrate-load-cells"]).is_err(),

@@ -13,15 +13,15 @@ use measure::{End, LoadedConfig, MeasureOutcome};
 use runlog::link::{LinkCounters, LinkMsg, LINK};
 use runlog::messages::{self as topics, SupervisorMsg};
 
-use super::outcome::LinkReport;
+use super::Attendant;
+use crate::session::{Closed, LinkReport};
 use rig::link::{Failure, Link, LoopTiming, Monitored};
 
 /// See the [module docs](self).
-pub struct RigStation<'a> {
-    link: &'a Link,
+pub(super) struct RigStation<'a> {
+    link: Link,
     loaded: &'a LoadedConfig,
-    progress: indicatif::ProgressBar,
-    no_prompt: bool,
+    attendant: &'a mut dyn Attendant,
     body: &'static str,
     abort: &'a AtomicBool,
     reports: Vec<LinkReport>,
@@ -29,32 +29,25 @@ pub struct RigStation<'a> {
 }
 
 impl<'a> RigStation<'a> {
-    /// The station on `link` for the rig `loaded` describes; `progress` leaves the screen while
-    /// the operator is asked to put `body` on; `no_prompt` goes on without asking; `abort` (a
-    /// second Ctrl-C) brakes at once and ends the measurement as interrupted, without the park
-    /// ramp.
-    pub fn new(
-        link: &'a Link,
+    /// The station on `link` for the rig `loaded` describes; `attendant` puts `body` on between
+    /// the runs; `abort` (a second Ctrl-C) brakes at once and ends the measurement as
+    /// interrupted, without the park ramp.
+    pub(super) fn new(
+        link: Link,
         loaded: &'a LoadedConfig,
-        progress: indicatif::ProgressBar,
-        (body, no_prompt): (&'static str, bool),
+        body: &'static str,
+        attendant: &'a mut dyn Attendant,
         abort: &'a AtomicBool,
     ) -> Self {
         Self {
             link,
             loaded,
-            progress,
-            no_prompt,
+            attendant,
             body,
             abort,
             reports: Vec::new(),
             failure: None,
         }
-    }
-
-    /// The link over each measurement made, and the failure that ended the session, if any.
-    pub fn into_reports(self) -> (Vec<LinkReport>, Option<Failure>) {
-        (self.reports, self.failure)
     }
 }
 
@@ -89,7 +82,7 @@ impl Station for RigStation<'_> {
         record(observer, 0.0, &msg)?;
         let mut timing = LoopTiming::default();
         let (result, failure, last_time_s, lateness) = {
-            let mut monitored = Monitored::new(self.link, &mut timing).abort(self.abort);
+            let mut monitored = Monitored::new(&self.link, &mut timing).abort(self.abort);
             // Read at the log's resolution: the estimator uses the numbers the log holds.
             let result = job.run(&mut AtLogResolution(&mut monitored), observer);
             (
@@ -173,9 +166,7 @@ impl Station for RigStation<'_> {
         // The tare's session ends braked; the payload (or the reference) goes on; a new
         // session begins.
         self.link.lock().safe_stop()?;
-        let confirmed = self
-            .progress
-            .suspend(|| crate::prompt::operator_loads_payload(self.body, self.no_prompt, stop))?;
+        let confirmed = self.attendant.put_on(self.body, stop)?;
         if !confirmed {
             return Ok(false);
         }
@@ -185,5 +176,24 @@ impl Station for RigStation<'_> {
             .map_err(|e| anyhow!("cannot open the loaded run's session: {e}"))?;
         super::check_rig(held.rig.info(), self.loaded).map_err(|e| anyhow!("{e}"))?;
         Ok(true)
+    }
+}
+
+impl crate::session::Station for RigStation<'_> {
+    /// Whatever happened, the rig is left braked.
+    fn measured(&mut self, completed: bool) {
+        if !completed {
+            let _ = self.link.lock().safe_stop();
+        }
+    }
+
+    fn close(self) -> Closed {
+        let (info, link_total) = self.link.close();
+        Closed {
+            link: self.reports,
+            failure: self.failure,
+            rig: Some(info),
+            link_total,
+        }
     }
 }
