@@ -5,7 +5,7 @@ mod support;
 
 use std::path::Path;
 
-use stewart_cli::plot::{COURSE_SIZE, FIGURE_SIZE, OVERVIEW_SIZE};
+use figures::{COURSE_SIZE, FIGURE_SIZE, OVERVIEW_SIZE};
 
 const STEMS: [&str; 14] = [
     "parameters",
@@ -123,7 +123,7 @@ fn simulate_and_estimate_plot_valid_svg_and_png() {
 
     // The library call the rig command uses writes the same set, and the course's numbers.
     let again = d.join("figures-again");
-    let files = stewart_cli::plot::plot_log(&log, &again).unwrap();
+    let files = figures::plot_log(&log, &again).unwrap();
     assert_eq!(files.len(), 2 * STEMS.len() + 1);
     let csv = std::fs::read_to_string(again.join("sigma_course.csv")).unwrap();
     assert!(

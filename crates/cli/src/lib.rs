@@ -1,7 +1,7 @@
-//! The `stewart` command line: one module per command, each turning its arguments into the
-//! options of a library operation (the measurement in `measure`, the log in `runlog`, the
-//! simulator in `sim`, the link in `rig`), and the terminal's own concerns (table, progress,
-//! plots, the operator's prompt) in modules of their own.
+//! The `stewart` command line: one module per command, each turning its flags into the options
+//! of an operation of the `ops` library, calling it and printing its outcome; the terminal's
+//! own concerns (table, progress bar, the operator's prompt, Ctrl-C) in modules of their own.
+//! The figures of `--plot` are crate `figures`'.
 #![warn(missing_docs)]
 
 pub mod bench;
@@ -15,7 +15,6 @@ pub mod import;
 pub mod key;
 pub mod output;
 pub mod plan;
-pub mod plot;
 pub mod progress;
 pub mod prompt;
 pub mod report;

@@ -60,7 +60,7 @@ pub fn finish_measurement(
     }
     println!("log: {}", log.display());
     if let Some(dir) = &args.shared.plot {
-        match crate::plot::plot_log(log, dir) {
+        match figures::plot_log(log, dir) {
             Ok(files) => println!("figures: {} ({} files)", dir.display(), files.len()),
             Err(e) => {
                 eprintln!("error: cannot plot the log: {e:#}");

@@ -307,7 +307,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::plot::PredictedCourse;
+    use crate::PredictedCourse;
 
     fn figures() -> Figures {
         let time_s: Vec<f64> = (0..200).map(|i| i as f64 * 0.05 - 1.0).collect();

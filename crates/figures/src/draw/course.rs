@@ -4,7 +4,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::{fail, finite_range, DrawResult, FONT, LEG_COLOURS};
-use crate::plot::{ParameterSeries, PredictedCourse, NAMES};
+use crate::{ParameterSeries, PredictedCourse, NAMES};
 use anyhow::Result;
 
 /// The quantity groups of `sigma_course`: title, unit, scale into it, and their indices in the

@@ -1,5 +1,6 @@
 //! `--plot DIR`: figures for a test report, as SVG and PNG, in the manner of the paper's
 //! Figures 3–8, drawn ([`write_figures`]) from the series of [`ops::plot`].
+#![warn(missing_docs)]
 
 mod draw;
 
