@@ -84,7 +84,7 @@ fn every_logged_message_matches_its_channel_schema() {
 
     // Every `stewart.*` channel a simulate run writes was seen (the rig link is the rig's).
     for (topic, (name, _)) in &validators {
-        if name.starts_with("stewart.") && *topic != runlog::link::LINK {
+        if name.starts_with("stewart.") && *topic != runlog::rig_record::LINK {
             assert!(
                 checked.get(topic).copied().unwrap_or(0) > 0,
                 "no message on {topic} ({name}) to validate"

@@ -125,7 +125,7 @@ fn dropped_and_corrupted_frames_are_counted_and_the_run_completes() {
         lines[0]
     );
     let messages = read_log(&scratch.path("rig.mcap"));
-    let end = on(&messages, runlog::link::LINK)
+    let end = on(&messages, runlog::rig_record::LINK)
         .last()
         .copied()
         .unwrap()

@@ -5,7 +5,7 @@
 mod support;
 
 use measure::End;
-use runlog::link::LINK;
+use runlog::rig_record::LINK;
 use support::*;
 
 /// (name, estimate, sigma) of every reported quantity.

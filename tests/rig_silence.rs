@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use measure::End;
 use rig::transport::Peer;
-use runlog::link::LINK;
+use runlog::rig_record::LINK;
 use support::*;
 
 #[test]

@@ -26,7 +26,7 @@ use control::io::Backend;
 use measure::load::{ConfigError, LoadedConfig};
 use measure::session::TarePlan;
 use measure::setup;
-use rig::link::Link;
+use rig::monitored::Link;
 use rig::{RigBackend, RigOptions as HostOptions};
 use runlog::mcap_log::Delivery;
 use serde::{Deserialize, Serialize};

@@ -20,9 +20,9 @@ use measure::observer::{Both, Observer, TickEvent};
 use measure::report::{Quantities, RunInfo};
 use measure::session::{SessionPlan, TarePlan};
 use measure::{End, Report, TareFile};
-use runlog::link::{LinkCounters, TimingSummary};
 use runlog::mcap_log::Delivery;
 use runlog::metadata::{RunMetadata, TruthMsg};
+use runlog::rig_record::{LinkCounters, TimingSummary};
 use runlog::{LogObserver, RunLog};
 use serde::{Deserialize, Serialize};
 
@@ -223,7 +223,7 @@ pub struct Closed {
     /// The link and loop timing of each measurement made, in order.
     pub link: Vec<LinkReport>,
     /// The link, sensor or rig failure that ended the run, with when the host noticed it.
-    pub failure: Option<rig::link::Failure>,
+    pub failure: Option<rig::monitored::Failure>,
     /// The rig as it described itself in the (last) handshake.
     pub rig: Option<rig::host::RigInfo>,
     /// The counters of the whole link, from the first handshake to the closing safe stop.
@@ -250,7 +250,7 @@ pub struct Outcome {
     /// simulator).
     pub link: Vec<LinkReport>,
     /// The link, sensor or rig failure that ended a rig's run, with when the host noticed it.
-    pub failure: Option<rig::link::Failure>,
+    pub failure: Option<rig::monitored::Failure>,
     /// The rig as it described itself in the (last) handshake (`None` on the simulator).
     pub rig: Option<rig::host::RigInfo>,
     /// A rig's whole link, from the first handshake to the closing safe stop: unlike

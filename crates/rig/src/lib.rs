@@ -31,7 +31,7 @@ pub mod host;
 #[cfg(feature = "std")]
 pub mod key;
 #[cfg(feature = "std")]
-pub mod link;
+pub mod monitored;
 #[cfg(feature = "std")]
 pub mod realtime;
 #[cfg(feature = "std")]

@@ -580,10 +580,10 @@ pub fn channels() -> Vec<ChannelSpec> {
             schema: foxglove::scene_update_schema(),
         },
         ChannelSpec {
-            topic: crate::link::LINK,
+            topic: crate::rig_record::LINK,
             encoding: Encoding::Json,
-            schema_name: crate::link::LINK_SCHEMA_NAME,
-            schema: crate::link::LinkMsg::schema(),
+            schema_name: crate::rig_record::LINK_SCHEMA_NAME,
+            schema: crate::rig_record::LinkMsg::schema(),
         },
     ]
 }

@@ -247,7 +247,7 @@ impl Observer for LogObserver<'_> {
         time_s: f64,
         value: &serde_json::Value,
     ) -> anyhow::Result<()> {
-        if topic == crate::link::LINK {
+        if topic == crate::rig_record::LINK {
             // Only the log knows how many of its messages it dropped so far.
             let mut value = value.clone();
             if let Some(map) = value.as_object_mut() {

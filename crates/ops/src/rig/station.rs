@@ -10,12 +10,12 @@ use control::io::Backend;
 use measure::observer::Observer;
 use measure::session::{Job, Station};
 use measure::{End, LoadedConfig, MeasureOutcome};
-use runlog::link::{LinkCounters, LinkMsg, LINK};
 use runlog::messages::{self as topics, SupervisorMsg};
+use runlog::rig_record::{LinkCounters, LinkMsg, LINK};
 
 use super::Attendant;
 use crate::session::{Closed, LinkReport};
-use rig::link::{Failure, Link, LoopTiming, Monitored};
+use rig::monitored::{Failure, Link, LoopTiming, Monitored};
 
 /// See the [module docs](self).
 pub(super) struct RigStation<'a> {

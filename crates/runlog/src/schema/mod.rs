@@ -5,7 +5,7 @@
 //! length arrays, numbers, integers, strings, booleans, and nullable values.
 //!
 //! Each message type's schema is beside its type ([`crate::messages`], [`crate::metadata`],
-//! [`crate::link`], [`crate::foxglove`]); the schemas of measure's saved records the log carries
+//! [`crate::rig_record`], [`crate::foxglove`]); the schemas of measure's saved records the log carries
 //! are in [`tare`].
 
 pub mod tare;

@@ -11,7 +11,7 @@ pub const LINK: &str = "/rig/link";
 /// Schema name of [`LinkMsg`].
 pub const LINK_SCHEMA_NAME: &str = "stewart.RigLink";
 
-pub use rig::link::TimingSummary;
+pub use rig::monitored::TimingSummary;
 
 /// The link counters in the log and the report (`rig::LinkStats` with names that say what
 /// each counts).
