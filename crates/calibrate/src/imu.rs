@@ -14,7 +14,7 @@
 //!
 //! The truth comes from forward kinematics of the leg lengths: R, ω = 2 Im(q̄ ⊗ q̇), ω̇ and a_O
 //! from the record's mean poses by zero-phase derivatives ([`measure::record::derivative`]). Both fits
-//! are linear least squares ([`crate::normal`]): (G, b_g, τ), then (r, b_a) with A and τ fixed. The
+//! are linear least squares (`normal`): (G, b_g, τ), then (r, b_a) with A and τ fixed. The
 //! encoders and the load cells are taken to sample at the same instant (one controller tick),
 //! so τ is also the IMU's delay against the cells.
 //!
@@ -35,7 +35,7 @@
 
 use kinematics::{Geometry, Pose};
 use measure::budget::perturb::moved_poses;
-pub use measure::calibration::imu::{rotation_of, ImuAlignment, GYRO_PARAMETERS};
+use measure::calibration::imu::{rotation_of, ImuAlignment};
 use nalgebra::{DMatrix, Matrix3, Quaternion, SVector, UnitQuaternion, Vector3, Vector6};
 
 use crate::normal::Normal;

@@ -19,7 +19,7 @@
 //! 4 N is twice what a 5e-4 gain does to a 4 kN leg force, so they cannot be left out). Linear
 //! least squares in [g (6), θ_F (10), θ_R without m (9), o (6)], each equation weighted by the
 //! estimator's
-//! equation sigma and smoothed alike on both sides ([`crate::normal`]); the accelerometer's
+//! equation sigma and smoothed alike on both sides (`normal`); the accelerometer's
 //! offset measured at rest before each run ([`estimator::hold`]) is taken out of its
 //! specific force, as the estimator does.
 //!
@@ -31,7 +31,7 @@
 //! differences come mostly from the motion's dynamic forces.
 //!
 //! **Uncertainty.** The noise's part is the sandwich covariance over blocks of the record
-//! ([`crate::normal`]). To it add, each as one more independent error whose change of the fit
+//! (`normal`). To it add, each as one more independent error whose change of the fit
 //! counts: each of the 36 joint coordinates moved by the joints' tolerance (the poses the same
 //! leg lengths would have had, and the wrench map of the moved rig), each `[legs]` figure moved
 //! by its tolerance ([`measure::budget::legs::tolerance`]), each cell's zero drift at its

@@ -494,13 +494,7 @@ mod tests {
                 "--listen",
             ),
         ] {
-            let e = prepare(
-                &args,
-                &mut |_| Ok(None),
-                std::sync::Arc::new(|_: News<'_>| {}),
-            )
-            .err()
-            .expect("refused");
+            let e = refused(&args);
             let message = e.to_string();
             assert!(message.contains(flag), "{message}");
             assert!(
@@ -512,6 +506,17 @@ mod tests {
         }
     }
 
+    /// `prepare`'s refusal of `options` (no key, no news), which the test expects.
+    fn refused(options: &EmulateOptions) -> Error {
+        prepare(
+            options,
+            &mut |_| Ok(None),
+            std::sync::Arc::new(|_: News<'_>| {}),
+        )
+        .err()
+        .expect("refused")
+    }
+
     #[test]
     fn bad_fault_injection_is_refused_before_binding() {
         let args = EmulateOptions {
@@ -519,13 +524,7 @@ mod tests {
             drop: 1.5,
             ..EmulateOptions::default()
         };
-        let e = prepare(
-            &args,
-            &mut |_| Ok(None),
-            std::sync::Arc::new(|_: News<'_>| {}),
-        )
-        .err()
-        .expect("refused");
+        let e = refused(&args);
         assert!(e.to_string().contains("drop_fraction"), "{e}");
         assert!(matches!(e, Error::Config(_) | Error::Input(_)), "{e}");
     }

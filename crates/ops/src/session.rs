@@ -441,30 +441,22 @@ pub(crate) fn run<S: Station>(
     let session = result.map_err(Error::Run)?;
     finished.map_err(Error::Run)?;
     let completed = session.end == End::Completed;
+    // Each fit is written as it is made: a later failure does not lose it.
+    fn written<D: CalibrationDocument>(file: anyhow::Result<D>, path: &Path) -> Result<D, Error> {
+        let file = file.map_err(Error::Run)?;
+        file.write(path).map_err(Error::Run)?;
+        Ok(file)
+    }
+    use crate::calibration::{imu_calibration, load_cell_calibration};
+    let (backend, log) = (spec.backend, log_path.as_path());
     let (calibration, load_cell_calibration) = match &spec.calibrate {
         Calibrate::Imu(path) if completed => {
-            let file = crate::calibration::imu_calibration(
-                &session,
-                loaded,
-                spec.backend,
-                start_ns,
-                &log_path,
-            )
-            .map_err(Error::Run)?;
-            file.write(path).map_err(Error::Run)?;
-            (Some(file), None)
+            let file = imu_calibration(&session, loaded, backend, start_ns, log);
+            (Some(written(file, path)?), None)
         }
         Calibrate::LoadCells(path) if completed => {
-            let file = crate::calibration::load_cell_calibration(
-                &session,
-                loaded,
-                spec.backend,
-                start_ns,
-                &log_path,
-            )
-            .map_err(Error::Run)?;
-            file.write(path).map_err(Error::Run)?;
-            (None, Some(file))
+            let file = load_cell_calibration(&session, loaded, backend, start_ns, log);
+            (None, Some(written(file, path)?))
         }
         _ => (None, None),
     };

@@ -4,6 +4,7 @@
 //! with a known G, A, r, τ and biases.
 
 use super::*;
+use measure::calibration::imu::GYRO_PARAMETERS;
 use nalgebra::{Rotation3, UnitQuaternion};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal as Gauss};
