@@ -133,13 +133,7 @@ impl EmulateArgs {
         configured: Option<PathBuf>,
     ) -> Result<Option<rig::Key>, ops::session::Error> {
         let (key, insecure) = (self.key.as_deref(), self.insecure);
-        crate::rig::shared_key(
-            key,
-            configured,
-            insecure,
-            crate::key::Side::Rig,
-            "emulator: ",
-        )
+        crate::rig::shared_key(key, configured, insecure, ops::key::Side::Rig, "emulator: ")
     }
 
     /// Where the emulator's news goes: its sessions and timeouts on standard output (not with

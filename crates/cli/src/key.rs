@@ -7,7 +7,7 @@ use clap::{Args, Subcommand};
 
 use crate::common::CommandError;
 
-pub use ops::key::{insecure_warning, user_key_path, user_key_path_from, Chosen, Side, KEY_FILE};
+use ops::key::{Chosen, Side};
 
 /// `stewart key`.
 #[derive(Clone, Debug, Args)]

@@ -48,7 +48,7 @@ pub fn finish_measurement(
                 Some(p) => p.display().to_string(),
                 None => "written with the page (no --report)".into(),
             };
-            match crate::report::write_page(&json, path, &source, rig.as_ref()) {
+            match ops::report::write_page(&json, path, &source, rig.as_ref()) {
                 Ok(()) if !args.shared.quiet => println!("page: {}", path.display()),
                 Ok(()) => {}
                 Err(e) => {

@@ -23,9 +23,6 @@ pub struct ReportArgs {
     pub rig: Option<PathBuf>,
 }
 
-/// The page of a report, as `--html FILE` writes it on `simulate`, `rig` and `estimate`.
-pub use ops::report::write_page;
-
 /// Runs `stewart report`: 0 written, 2 the report or rig description refused (nothing
 /// written), 1 the page could not be written.
 pub fn main(args: &ReportArgs) -> u8 {

@@ -78,7 +78,7 @@ impl Attendant for AtTheTerminal {
         configured: Option<PathBuf>,
     ) -> Result<Option<rig::Key>, ops::session::Error> {
         let (key, insecure) = (self.link.key.as_deref(), self.link.insecure);
-        shared_key(key, configured, insecure, crate::key::Side::Host, "")
+        shared_key(key, configured, insecure, ops::key::Side::Host, "")
     }
 }
 
@@ -134,10 +134,10 @@ pub fn shared_key(
     flag: Option<&std::path::Path>,
     configured: Option<PathBuf>,
     insecure: bool,
-    side: crate::key::Side,
+    side: ops::key::Side,
     prefix: &str,
 ) -> Result<Option<rig::Key>, ops::session::Error> {
-    let chosen = crate::key::choose(flag, configured, crate::key::user_key_path, insecure, side)?;
+    let chosen = crate::key::choose(flag, configured, ops::key::user_key_path, insecure, side)?;
     if let Some(notice) = &chosen.notice {
         eprintln!("{prefix}{notice}");
     }

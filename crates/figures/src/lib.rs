@@ -10,7 +10,7 @@ use anyhow::Result;
 use runlog::read::LogContents;
 
 pub use draw::{write_figures, COURSE_SIZE, FIGURE_SIZE, OVERVIEW_SIZE};
-pub use ops::plot::*;
+use ops::plot::*;
 
 /// Reads the finished (or cut short) log at `log_path` and writes its figures into `dir`; what
 /// `simulate --plot` and `rig --plot` call after the run. Returns the files written.
