@@ -41,7 +41,7 @@ use sim::scenario::Scenario;
 const FRAMES: usize = 4096;
 
 fn recording() -> Recording {
-    let loaded = measure::load::load(None).expect("embedded default config");
+    let loaded = rig_description::load::load(None).expect("embedded default config");
     let scenario = Scenario::new(loaded, None, None).expect("the default world");
     record(&scenario, FRAMES, 2.0).expect("record the default scenario")
 }

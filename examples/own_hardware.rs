@@ -57,8 +57,10 @@ impl Observer for Display {
 
 fn main() -> anyhow::Result<()> {
     // The rig description: the embedded default with a shorter excitation.
-    let rig =
-        measure::load::load_str("[run]\nduration_s = 20.0\ntare_duration_s = 20.0\n", "mine")?;
+    let rig = rig_description::load::load_str(
+        "[run]\nduration_s = 20.0\ntare_duration_s = 20.0\n",
+        "mine",
+    )?;
     let geometry = setup::geometry(&rig)?;
     let controller = |s, m| {
         setup::trajectory(&rig, &geometry, s).and_then(|t| setup::controller(&rig, &geometry, t, m))

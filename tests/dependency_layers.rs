@@ -95,3 +95,27 @@ fn the_check_sees_a_forbidden_crate_where_there_is_one() {
         2
     );
 }
+
+/// The end-to-end tests, benchmarks and examples run the commands' work through the operations
+/// library: none names the binary's crate (its flags are tested in crates/cli/tests).
+#[test]
+fn tests_benches_and_examples_call_the_library_not_the_binary() {
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut offenders = Vec::new();
+    for dir in ["tests", "tests/support", "benches", "examples"] {
+        let Ok(entries) = std::fs::read_dir(root.join(dir)) else {
+            continue;
+        };
+        for entry in entries.flatten() {
+            let path = entry.path();
+            if path.extension().is_some_and(|e| e == "rs") {
+                let text = std::fs::read_to_string(&path).unwrap_or_default();
+                // The needle split so that this file does not find itself.
+                if text.contains(concat!("stewart", "_cli")) {
+                    offenders.push(path.display().to_string());
+                }
+            }
+        }
+    }
+    assert!(offenders.is_empty(), "{offenders:?}");
+}

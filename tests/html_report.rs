@@ -321,31 +321,3 @@ fn a_simulated_reports_page_renders_clean_with_the_reports_numbers() {
         }
     }
 }
-
-/// `--html FILE` is offered where a report of one measurement is written (`simulate`, `rig`,
-/// `rig measure`, `estimate`, `report`), not by `rig tare` (no report), and `report` needs it.
-#[test]
-fn html_is_offered_by_every_command_that_writes_a_report() {
-    use clap::{CommandFactory, Parser};
-    use stewart_cli::Cli;
-    for args in [
-        &["stewart", "simulate", "--html", "p.html"][..],
-        &["stewart", "rig", "--html", "p.html"],
-        &[
-            "stewart", "rig", "measure", "--tare", "t.json", "--html", "p.html",
-        ],
-        &["stewart", "estimate", "l.mcap", "--html", "p.html"],
-        &["stewart", "report", "r.json", "--html", "p.html"],
-    ] {
-        assert!(Cli::try_parse_from(args).is_ok(), "{args:?}");
-    }
-    assert!(Cli::try_parse_from(["stewart", "report", "r.json"]).is_err());
-    let cli = Cli::command();
-    let mut tare = cli
-        .find_subcommand("rig")
-        .and_then(|r| r.find_subcommand("tare"))
-        .expect("rig tare")
-        .clone();
-    tare.build();
-    assert!(!tare.get_arguments().any(|a| a.get_long() == Some("html")));
-}

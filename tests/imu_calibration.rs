@@ -5,8 +5,8 @@
 
 mod support;
 
-use measure::calibration::{CalibrationDocument, CalibrationFile};
-use measure::sources::ErrorSource;
+use rig_description::calibration::{CalibrationDocument, CalibrationFile};
+use rig_description::sources::ErrorSource;
 use support::*;
 
 /// Calibrates the world of `seed` (only `source` when given) and returns the file and the
@@ -44,7 +44,7 @@ fn check(file: &CalibrationFile, built: &sim::ImuAsBuilt, k: f64) -> f64 {
     }
     within("tau".into(), a.imu_delay_s - built.delay_s, a.gyro_sigma(9));
     // The accelerometer takes the gyro's axes: its rotation, not its scales, is the built one's.
-    let turned = measure::calibration::imu::rotation_of(&built.accel_matrix);
+    let turned = rig_description::calibration::imu::rotation_of(&built.accel_matrix);
     let e = (a.accel() - turned).amax();
     within(
         "A's axes".into(),

@@ -14,9 +14,10 @@ use estimator::{Estimate, EstimatorConfig};
 use kinematics::FkOptions;
 use measure::observer::{EstimatorStarted, Observer, TickEvent};
 use measure::replay::{replay, BiasSigmas};
-use measure::{LoadedConfig, Measurement};
+use measure::Measurement;
 use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
+use rig_description::LoadedConfig;
 use sim::scenario::Scenario;
 use stewart_types::{parallel_axis, InertialParameters};
 

@@ -21,7 +21,8 @@ use control::io::{Backend, CommandFrame, SensorFrame};
 use control::supervisor::Phase;
 use estimator::Outcome;
 use measure::observer::{EstimatorStarted, MeasurementEnded, Observer, TickEvent};
-use measure::{End, LoadedConfig, MeasureSetup, Measurement};
+use measure::{End, MeasureSetup, Measurement};
+use rig_description::LoadedConfig;
 use sim::scenario::Scenario;
 
 struct Counting;

@@ -6,8 +6,8 @@
 
 mod support;
 
-use measure::calibration::{CalibrationDocument, CalibrationFile, LoadCellFile};
 use measure::End;
+use rig_description::calibration::{CalibrationDocument, CalibrationFile, LoadCellFile};
 use support::*;
 
 #[test]
@@ -20,7 +20,7 @@ fn rig_calibrate_imu_agrees_with_the_simulated_calibration_of_the_same_world() {
         &scratch.config,
         emulator.address(),
         &scratch.path("rig.mcap"),
-        &["calibrate-imu", "--out", file.to_str().unwrap()],
+        ops::rig::RigPlan::CalibrateImu(file.clone()),
     );
     let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));
     let sessions = emulator.sessions();
@@ -61,7 +61,7 @@ fn rig_calibrate_imu_agrees_with_the_simulated_calibration_of_the_same_world() {
         format!("{RIG_SHORT}\n[calibration]\nimu = \"rig-imu.toml\"\n"),
     )
     .unwrap();
-    let loaded = measure::load::load(Some(&described)).unwrap();
+    let loaded = rig_description::load::load(Some(&described)).unwrap();
     let p = measure::setup::accelerometer_position(&loaded.config);
     assert_eq!([p.x, p.y, p.z], rig.imu.accelerometer_position_m);
 }
@@ -85,7 +85,7 @@ fn rig_calibrate_load_cells_agrees_with_the_simulated_calibration_of_the_same_wo
         &scratch.config,
         emulator.address(),
         &log,
-        &["calibrate-load-cells", "--out", file.to_str().unwrap()],
+        ops::rig::RigPlan::CalibrateLoadCells(file.clone()),
     );
     let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));
     let sessions = emulator.sessions();
@@ -118,7 +118,7 @@ fn rig_calibrate_load_cells_agrees_with_the_simulated_calibration_of_the_same_wo
     // so they agree far closer: 2e-4 at most per gain). An emulator that put the reference on
     // without letting the plate settle scattered the rig's gains by up to 2e-3.
     let (a, b) = (&rig.load_cells, &sim.load_cells);
-    for l in stewart_cli::rig::link_lines(&outcome.link) {
+    for l in ops::rig::link_lines(&outcome.link) {
         println!("{l}");
     }
     println!(
@@ -139,7 +139,7 @@ fn rig_calibrate_load_cells_agrees_with_the_simulated_calibration_of_the_same_wo
     // 7–9e-4 (six sigmas) with the unsettled plate.
     let mean = |g: &[f64; 6]| g.iter().sum::<f64>() / 6.0;
     let ones = nalgebra::DVector::from_element(6, 1.0 / 6.0);
-    let mean_sigma = |c: &measure::calibration::LoadCellGains| {
+    let mean_sigma = |c: &rig_description::calibration::LoadCellGains| {
         (ones.transpose() * c.covariance_matrix() * &ones)[(0, 0)].sqrt()
     };
     println!(
@@ -162,7 +162,7 @@ fn rig_calibrate_load_cells_agrees_with_the_simulated_calibration_of_the_same_wo
         format!("[calibration]\nload_cells = \"rig-cells.toml\"\n{RIG_SHORT}"),
     )
     .unwrap();
-    let loaded = measure::load::load(Some(&described)).unwrap();
+    let loaded = rig_description::load::load(Some(&described)).unwrap();
     assert_eq!(
         loaded.config.calibration.load_cell_gains(),
         Some(&rig.load_cells)
@@ -181,18 +181,13 @@ fn a_load_cell_calibration_cut_short_brakes_and_writes_nothing() {
         ..emulate_args(&scratch)
     });
     let file = scratch.path("cells.toml");
-    let args = rig_against(
+    let mut args = rig_against(
         &scratch.config,
         emulator.address(),
         &scratch.path("rig.mcap"),
-        &[
-            "calibrate-load-cells",
-            "--out",
-            file.to_str().unwrap(),
-            "--link-silence-ms",
-            "50",
-        ],
+        ops::rig::RigPlan::CalibrateLoadCells(file.clone()),
     );
+    args.options.link.link_silence_ms = Some(50.0);
     let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));
     // Give the safe stop time to arrive before the emulator is stopped.
     std::thread::sleep(std::time::Duration::from_millis(50));
@@ -201,10 +196,7 @@ fn a_load_cell_calibration_cut_short_brakes_and_writes_nothing() {
         panic!("expected a fault, got {:?}", outcome.end)
     };
     assert!(cause.contains("link silent"), "{cause}");
-    assert_eq!(
-        stewart_cli::rig::finish(&args, &outcome),
-        stewart_cli::EXIT_FAULT
-    );
+    assert_eq!(outcome.exit_code(), ops::exit::FAULT);
     let last = stopped.last_command().expect("commands were sent");
     assert!(!last.enable, "{last:?}");
     assert!(outcome.load_cell_calibration.is_none());

@@ -17,12 +17,12 @@ fn tare_args(
     address: &str,
     log: &std::path::Path,
     out: &std::path::Path,
-) -> stewart_cli::rig::RigArgs {
+) -> RigRun {
     rig_against(
         &scratch.config,
         address,
         log,
-        &["tare", "--out", out.to_str().unwrap()],
+        ops::rig::RigPlan::TareOnly(out.to_path_buf()),
     )
 }
 
@@ -158,10 +158,7 @@ fn ctrl_c_parks_the_platform_and_finishes_the_log() {
     let stopped = emulator.stop().unwrap();
 
     assert_eq!(outcome.end, End::Interrupted);
-    assert_eq!(
-        stewart_cli::rig::finish(&args, &outcome),
-        stewart_cli::EXIT_INTERRUPTED
-    );
+    assert_eq!(outcome.exit_code(), ops::exit::INTERRUPTED);
     assert!(!out.exists(), "an interrupted tare is not saved");
     assert!(stopped.faults().is_empty(), "{:?}", stopped.faults());
     // Parked: the last command brakes.
@@ -206,10 +203,7 @@ fn a_second_ctrl_c_brakes_at_once_and_finishes_the_log() {
     let stopped = emulator.stop().unwrap();
 
     assert_eq!(outcome.end, End::Interrupted);
-    assert_eq!(
-        stewart_cli::rig::finish(&args, &outcome),
-        stewart_cli::EXIT_INTERRUPTED
-    );
+    assert_eq!(outcome.exit_code(), ops::exit::INTERRUPTED);
     assert!(!out.exists(), "an interrupted tare is not saved");
     // The rig's watchdog had nothing to do: the host braked it.
     assert!(stopped.faults().is_empty(), "{:?}", stopped.faults());

@@ -27,12 +27,13 @@ fn a_foxglove_client_watches_a_rig_run_live() {
     let emulator = start(&emulate_args(&scratch));
     let log = scratch.path("rig.mcap");
     let addr = free_port();
-    let args = rig_against(
+    let mut args = rig_against(
         &scratch.config,
         emulator.address(),
         &log,
-        &["--live", &addr.to_string()],
+        ops::rig::RigPlan::Both,
     );
+    args.options.measure.live = Some(addr);
     let started = Instant::now();
     let run = std::thread::spawn(move || run_rig(&args).map_err(|e| e.to_string()));
 

@@ -85,11 +85,11 @@ fn dropped_and_corrupted_frames_are_counted_and_the_run_completes() {
         corrupt: 0.01,
         ..emulate_args_fast(&scratch)
     });
-    let args = rig_tare(&scratch, emulator.address(), &[]);
+    let args = rig_tare(&scratch, emulator.address());
     let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));
     let stopped = emulator.stop().unwrap();
     assert_eq!(outcome.end, End::Completed, "{:?}", outcome.failure);
-    assert_eq!(stewart_cli::rig::finish(&args, &outcome), 0);
+    assert_eq!(outcome.exit_code(), ops::exit::DONE);
     assert!(scratch.path("tare.json").exists());
 
     let c = outcome.link[0].counters;
@@ -113,7 +113,7 @@ fn dropped_and_corrupted_frames_are_counted_and_the_run_completes() {
     assert!(stopped.faults().is_empty(), "{:?}", stopped.faults());
 
     // Reported: in the printed lines and in the log.
-    let lines = stewart_cli::rig::link_lines(&outcome.link);
+    let lines = ops::rig::link_lines(&outcome.link);
     assert!(
         lines[0].contains(&format!("lost {}", c.lost)),
         "{}",
@@ -140,7 +140,7 @@ fn random_datagrams_at_both_sockets_are_counted_and_harmless() {
     let scratch = Scratch::new(&quick());
     let emulator = start(&emulate_args(&scratch));
     let rig_addr = socket_of(emulator.address());
-    let args = rig_tare(&scratch, emulator.address(), &[]);
+    let args = rig_tare(&scratch, emulator.address());
     let host = std::thread::spawn({
         let args = args.clone();
         move || run_rig(&args)
@@ -201,5 +201,5 @@ fn random_datagrams_at_both_sockets_are_counted_and_harmless() {
         outcome.link_total
     );
     assert!(stopped.faults().is_empty(), "{:?}", stopped.faults());
-    assert_eq!(stewart_cli::rig::finish(&args, &outcome), 0);
+    assert_eq!(outcome.exit_code(), ops::exit::DONE);
 }

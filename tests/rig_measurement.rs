@@ -59,25 +59,20 @@ fn a_rig_measurement_agrees_with_truth_as_well_as_simulate() {
     // The rig, against the emulator: tare session, payload on, loaded session.
     let emulator = start(&emulate_args_fast(&scratch));
     let log = scratch.path("rig.mcap");
-    let report_path = scratch.path("rig.json");
     let args = rig_against(
         &scratch.config,
         emulator.address(),
         &log,
-        &[
-            "--report",
-            report_path.to_str().unwrap(),
-            "--plot",
-            scratch.path("figures").to_str().unwrap(),
-        ],
+        ops::rig::RigPlan::Both,
     );
     let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));
     let sessions = emulator.sessions();
     let stopped = emulator.stop().unwrap();
     assert_eq!(outcome.end, End::Completed, "{:?}", outcome.failure);
-    assert_eq!(stewart_cli::rig::finish(&args, &outcome), 0);
-    let figures = std::fs::read_dir(scratch.path("figures")).unwrap().count();
-    assert!(figures > 0, "--plot wrote no figures");
+    assert_eq!(outcome.exit_code(), ops::exit::DONE);
+    // The rig's log draws as simulate's does (`--plot`).
+    let figures = figures::plot_log(&log, &scratch.path("figures")).unwrap();
+    assert!(!figures.is_empty(), "the rig's log drew no figures");
     // Two sessions from one host: the tare with the fixture empty, then loaded.
     assert_eq!(sessions.len(), 2, "{sessions:?}");
     assert_eq!(sessions[0].peer, sessions[1].peer);
@@ -85,7 +80,7 @@ fn a_rig_measurement_agrees_with_truth_as_well_as_simulate() {
 
     // The report: simulate's shape, no truth, plus the link of both measurements.
     let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&report_path).unwrap()).unwrap();
+        serde_json::from_str(&outcome.report_json().expect("a report")).unwrap();
     assert!(report.get("truth").is_none());
     assert_eq!(report["run"]["backend"], "rig");
     let link = report["link"].as_array().unwrap();

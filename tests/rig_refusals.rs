@@ -96,15 +96,15 @@ fn a_protocol_version_mismatch_is_refused_before_any_motion() {
         }
         kinds
     });
-    let args = rig_tare(&scratch, &address, &[]);
+    let args = rig_tare(&scratch, &address);
     let error = run_rig(&args).expect_err("refused");
     let heard = rig.join().unwrap();
     let message = error.to_string();
     assert!(message.contains("protocol version mismatch"), "{message}");
     assert!(message.contains("v2") && message.contains(&format!("v{PROTOCOL_VERSION}")));
     assert_eq!(
-        stewart_cli::CommandError::from(error).exit_code(),
-        2,
+        error.exit_code(),
+        ops::exit::REFUSED,
         "refused before anything ran"
     );
     // The rig heard Hellos only: not one command.
@@ -129,7 +129,7 @@ fn a_rig_that_does_not_fit_the_scenario_is_refused_before_any_motion() {
         "{}\n[platform]\nmax_leg_length_m = 2.35\n",
         quick()
     ));
-    let error = run_rig(&rig_tare(&longer, emulator.address(), &[]))
+    let error = run_rig(&rig_tare(&longer, emulator.address()))
         .err()
         .unwrap();
     assert!(error.to_string().contains("stroke"), "{error}");
@@ -137,17 +137,17 @@ fn a_rig_that_does_not_fit_the_scenario_is_refused_before_any_motion() {
         error.to_string().contains("platform.max_leg_length_m"),
         "{error}"
     );
-    assert_eq!(stewart_cli::CommandError::from(error).exit_code(), 2);
+    assert_eq!(error.exit_code(), ops::exit::REFUSED);
     let faster =
         Scratch::new(&quick().replace("sample_rate_hz = 500.0", "sample_rate_hz = 1000.0"));
-    let error = run_rig(&rig_tare(&faster, emulator.address(), &[]))
+    let error = run_rig(&rig_tare(&faster, emulator.address()))
         .err()
         .unwrap();
     assert!(
         error.to_string().contains("samples every 0.002 s"),
         "{error}"
     );
-    assert_eq!(stewart_cli::CommandError::from(error).exit_code(), 2);
+    assert_eq!(error.exit_code(), ops::exit::REFUSED);
     let stopped = emulator.stop().unwrap();
     assert_eq!(stopped.stats().core.sessions, 2);
     // At most the safe stop of the host that got as far as checking the limits.
@@ -165,7 +165,7 @@ fn a_second_sender_cannot_move_the_platform_during_a_session() {
     let scratch = Scratch::new(&quick());
     let emulator = start(&emulate_args(&scratch));
     let rig_addr = socket_of(emulator.address());
-    let args = rig_tare(&scratch, emulator.address(), &[]);
+    let args = rig_tare(&scratch, emulator.address());
     let host = std::thread::spawn({
         let args = args.clone();
         move || run_rig(&args)
@@ -238,9 +238,11 @@ fn with_a_key_only_correctly_keyed_frames_count() {
 
     // No key (--insecure), or the wrong one: refused by name, saying how to pair.
     let plain = Scratch::new(&quick().replace("key_file = \"rig.key\"\n", ""));
-    let error = run_rig(&rig_tare(&plain, emulator.address(), &["--insecure"]))
-        .err()
-        .unwrap();
+    let insecure = RigRun {
+        insecure: true,
+        ..rig_tare(&plain, emulator.address())
+    };
+    let error = run_rig(&insecure).err().unwrap();
     assert!(
         error.to_string().contains("requires a shared key"),
         "{error}"
@@ -249,15 +251,13 @@ fn with_a_key_only_correctly_keyed_frames_count() {
         error.to_string().contains("copy the rig's key file"),
         "{error}"
     );
-    assert_eq!(stewart_cli::CommandError::from(error).exit_code(), 2);
+    assert_eq!(error.exit_code(), ops::exit::REFUSED);
     let wrong = scratch.path("wrong.key");
-    let error = run_rig(&rig_tare(
-        &plain,
-        emulator.address(),
-        &["--key", wrong.to_str().unwrap()],
-    ))
-    .err()
-    .unwrap();
+    let wrongly_keyed = RigRun {
+        key: Some(wrong.clone()),
+        ..rig_tare(&plain, emulator.address())
+    };
+    let error = run_rig(&wrongly_keyed).err().unwrap();
     assert!(error.to_string().contains("key differs"), "{error}");
     assert!(error.to_string().contains("stewart key new"), "{error}");
 
@@ -315,8 +315,8 @@ fn with_a_key_only_correctly_keyed_frames_count() {
     }
 
     // The CLI with the scenario's key: a whole run.
-    let outcome = run_rig(&rig_tare(&scratch, emulator.address(), &[]))
-        .unwrap_or_else(|e| panic!("rig: {e}"));
+    let outcome =
+        run_rig(&rig_tare(&scratch, emulator.address())).unwrap_or_else(|e| panic!("rig: {e}"));
     let stopped = emulator.stop().unwrap();
     assert_eq!(outcome.end, End::Completed, "{:?}", outcome.failure);
     assert_eq!(outcome.link[0].counters.auth_failed, 0);

@@ -23,7 +23,8 @@ fn the_emulator_going_silent_is_a_fault_the_host_notices() {
         ..emulate_args(&scratch)
     });
     let log = scratch.path("rig.mcap");
-    let args = rig_tare(&scratch, emulator.address(), &["--link-silence-ms", "50"]);
+    let mut args = rig_tare(&scratch, emulator.address());
+    args.options.link.link_silence_ms = Some(50.0);
     let outcome = run_rig(&args).unwrap_or_else(|e| panic!("rig: {e}"));
     let sessions = emulator.sessions();
     // Give the safe stop time to arrive before the emulator is stopped.
@@ -39,10 +40,7 @@ fn the_emulator_going_silent_is_a_fault_the_host_notices() {
         cause.contains(&format!("last sequence {stop_after}")),
         "{cause}"
     );
-    assert_eq!(
-        stewart_cli::rig::finish(&args, &outcome),
-        stewart_cli::EXIT_FAULT
-    );
+    assert_eq!(outcome.exit_code(), ops::exit::FAULT);
     assert!(
         !scratch.path("tare.json").exists(),
         "no tare from a failed run"

@@ -28,11 +28,23 @@ fn budget_numbers(r: &Report) -> Vec<f64> {
         .collect()
 }
 
-/// Runs `rig OWN…` against the rig at `address` with the scenario `config`, logged to `log`
-/// ([`rig_against`]), to completion and returns its report.
-fn rig_report(config: &Path, address: &str, log: &Path, own: &[&str]) -> Report {
-    let outcome =
-        run_rig(&rig_against(config, address, log, own)).unwrap_or_else(|e| panic!("rig: {e}"));
+/// Runs the rig session `plan` against the rig at `address` with the scenario `config`,
+/// logged to `log` ([`rig_against`]), the measured tare saved to `save_tare` (or the saved
+/// tare subtracted, with [`ops::rig::RigPlan::MeasureOnly`]), to completion and returns its
+/// report.
+fn rig_report(
+    config: &Path,
+    address: &str,
+    log: &Path,
+    plan: ops::rig::RigPlan,
+    tare: Option<&Path>,
+) -> Report {
+    let mut run = rig_against(config, address, log, plan.clone());
+    match plan {
+        ops::rig::RigPlan::MeasureOnly => run.options.measure.tare = tare.map(Path::to_path_buf),
+        _ => run.options.measure.save_tare = tare.map(Path::to_path_buf),
+    }
+    let outcome = run_rig(&run).unwrap_or_else(|e| panic!("rig: {e}"));
     assert_eq!(outcome.end, End::Completed, "{:?}", outcome.failure);
     outcome
         .report
@@ -95,7 +107,8 @@ fn the_rig_reports_the_systematic_part_estimate_computes() {
         &scratch.config,
         emulator.address(),
         &log,
-        &["--save-tare", tare_path.to_str().unwrap()],
+        ops::rig::RigPlan::Both,
+        Some(&tare_path),
     );
     assert!(report.systematic.load_cell_bias_sigma_n > 0.0);
     assert!(report.systematic.accel_bias_sigma_m_s2 > 0.0);
@@ -118,7 +131,8 @@ fn the_rig_reports_the_systematic_part_estimate_computes() {
         &scratch.config,
         emulator.address(),
         &log,
-        &["measure", "--tare", tare_path.to_str().unwrap()],
+        ops::rig::RigPlan::MeasureOnly,
+        Some(&tare_path),
     );
     assert_eq!(with_file.tare.source, "file");
     assert_systematic_as_estimate(&with_file, &log);
@@ -172,7 +186,13 @@ fn a_datasheet_figure_in_the_rig_description_reaches_the_rig_report() {
         // A fresh emulator each: its first session is the empty fixture, the second loaded.
         let emulator = start(&emulate_args_fast(&scratch));
         let log = scratch.path(&format!("{name}.mcap"));
-        let report = rig_report(config, emulator.address(), &log, &[]);
+        let report = rig_report(
+            config,
+            emulator.address(),
+            &log,
+            ops::rig::RigPlan::Both,
+            None,
+        );
         let settings = LogContents::read(&log).unwrap();
         let gyro = settings.settings_of("loaded").unwrap().gyro_noise_rad_s;
         reports.push((report, gyro));

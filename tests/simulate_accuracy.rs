@@ -336,7 +336,7 @@ fn an_accelerometer_offset_measured_at_rest_does_not_reach_the_mass() {
              [estimator]\nlocal_gravity_m_s2 = {local_gravity}\n"
         );
         let (_dir, outcome) = run(&scenario, |a, _| {
-            a.only = Some(measure::sources::ErrorSource::AccelBias)
+            a.only = Some(rig_description::sources::ErrorSource::AccelBias)
         });
         let r = report(&outcome);
         let truth = r.truth.as_ref().expect("truth");

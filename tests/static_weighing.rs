@@ -7,8 +7,8 @@
 
 mod support;
 
-use measure::sources::ErrorSource;
 use ops::estimate::EstimateOptions;
+use rig_description::sources::ErrorSource;
 
 /// |static − truth| ≤ k σ for mass, c_x and c_y of `report`.
 fn assert_within(report: &measure::Report, k: f64, what: &str) {

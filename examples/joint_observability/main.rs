@@ -28,15 +28,15 @@ use std::sync::atomic::AtomicBool;
 
 use anyhow::Context;
 use estimator::{Estimate, InertialParameters, ParameterCovariance, ParameterVector};
-use measure::load::Overrides;
 use measure::observer::{Ignore, Observer};
 use measure::report::{sigmas, Quantities};
 use measure::session::{self, Job, SessionPlan, Station, TarePlan, TareSource};
-use measure::sources::ErrorSource;
 use measure::Measurement;
 use measure::{setup, MeasureOutcome};
 use nalgebra::{DMatrix, SMatrix, SymmetricEigen, Vector3};
 use observe::{Datasheet, Dynamic, Information, JOINTS};
+use rig_description::load::Overrides;
+use rig_description::sources::ErrorSource;
 use runlog::compact::AtLogResolution;
 
 /// The simulator as the session's station, as `stewart simulate` runs it.
@@ -122,7 +122,7 @@ fn main() -> anyhow::Result<()> {
     };
     // A scenario laid over the default (another tare excitation, other sensors).
     let scenario = std::env::args().nth(3).map(std::path::PathBuf::from);
-    let rig = measure::load::load(scenario.as_deref())?.with_overrides(&Overrides {
+    let rig = rig_description::load::load(scenario.as_deref())?.with_overrides(&Overrides {
         duration_s: Some(20.0),
         params: None,
     })?;

@@ -16,14 +16,13 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::{Mutex, MutexGuard};
 
-use measure::LoadedConfig;
 pub use ops::emulate::EmulateOptions;
 use ops::emulate::RunningEmulator;
 pub use ops::session::{MeasureOptions, Outcome, Silent};
 pub use ops::simulate::SimulateOptions;
+use rig_description::LoadedConfig;
 use sim::scenario::Scenario;
 use sim::NoisePreset;
-use stewart_cli::rig::{self, RigArgs};
 
 // ---------------------------------------------------------------------------------------------
 // Scenarios and configurations
@@ -81,12 +80,12 @@ pub fn quick() -> String {
 
 /// The embedded default rig description (configs/default.toml).
 pub fn default_config() -> LoadedConfig {
-    measure::load::load(None).expect("the embedded default loads")
+    rig_description::load::load(None).expect("the embedded default loads")
 }
 
 /// `text` laid over the default, as a scenario file named `name` would be.
 pub fn config_str(text: &str, name: &str) -> LoadedConfig {
-    measure::load::load_str(text, name).unwrap_or_else(|e| panic!("{name}: {e}"))
+    rig_description::load::load_str(text, name).unwrap_or_else(|e| panic!("{name}: {e}"))
 }
 
 /// One measurement of `scenario`'s world through `measure::measure`, told to `observer`: the
@@ -146,7 +145,7 @@ pub fn geometry() -> kinematics::Geometry {
 /// The payload of the scenario file at `path` (what the simulator and the emulator carry):
 /// mass, com, J_C.
 pub fn truth(path: &Path) -> (f64, [f64; 3], [[f64; 3]; 3]) {
-    let loaded = measure::load::load(Some(path)).unwrap_or_else(|e| panic!("{e}"));
+    let loaded = rig_description::load::load(Some(path)).unwrap_or_else(|e| panic!("{e}"));
     let p = world(loaded, None).world.payload;
     (p.mass_kg, p.com_m, p.inertia_com_kg_m2)
 }
@@ -276,60 +275,95 @@ pub fn start(options: &EmulateOptions) -> RunningEmulator {
     ops::emulate::spawn(prepared).unwrap_or_else(|e| panic!("emulator: {e}"))
 }
 
-/// `stewart rig ARGS` parsed as the command line would be.
-pub fn rig_args(args: &[&str]) -> RigArgs {
-    rig::parse(args).unwrap_or_else(|e| panic!("{e}"))
+/// A rig session as the end-to-end rig tests run it through the library: its options and
+/// how the host's key is chosen.
+#[derive(Clone, Debug)]
+pub struct RigRun {
+    /// The session's options.
+    pub options: ops::rig::RigSessionOptions,
+    /// A key file instead of the scenario's `rig.key_file` (`--key`).
+    pub key: Option<PathBuf>,
+    /// No key at all (`--insecure`).
+    pub insecure: bool,
 }
 
-/// `stewart rig` against the rig at `address` as every end-to-end rig test starts it: the
-/// scenario `config` (a [`Scratch`]'s, which names the shared key [`TEST_KEY_HEX`]), logged to
-/// `log`, quiet, and never waiting for an operator (`--no-prompt`: the payload change between
-/// a tare and a loaded run goes on at once; a single-run mode has none). `own` is the test's
-/// own part: the mode (a subcommand first, or nothing for the two-run mode) and its flags.
-pub fn rig_against(config: &Path, address: &str, log: &Path, own: &[&str]) -> RigArgs {
-    let mut args = own.to_vec();
-    args.extend([
-        "--config",
-        config.to_str().unwrap(),
-        "--connect",
+/// The rig session `plan` against the rig at `address` as every end-to-end rig test starts
+/// it: the scenario `config` (a [`Scratch`]'s, which names the shared key [`TEST_KEY_HEX`]),
+/// logged to `log`, the payload change between a tare and a loaded run at once (no operator).
+pub fn rig_against(config: &Path, address: &str, log: &Path, plan: ops::rig::RigPlan) -> RigRun {
+    RigRun {
+        options: ops::rig::RigSessionOptions {
+            plan,
+            measure: MeasureOptions {
+                config: Some(config.to_path_buf()),
+                log: Some(log.to_path_buf()),
+                ..MeasureOptions::default()
+            },
+            link: ops::rig::LinkOptions {
+                connect: Some(address.into()),
+                link_silence_ms: None,
+            },
+        },
+        key: None,
+        insecure: false,
+    }
+}
+
+/// The tare-only session (saved to `tare.json`) against the rig at `address`, logged to
+/// `rig.mcap`, both in `scratch` ([`rig_against`]).
+pub fn rig_tare(scratch: &Scratch, address: &str) -> RigRun {
+    rig_against(
+        &scratch.config,
         address,
-        "--log",
-        log.to_str().unwrap(),
-        "--no-prompt",
-        "--quiet",
-    ]);
-    rig_args(&args)
+        &scratch.path("rig.mcap"),
+        ops::rig::RigPlan::TareOnly(scratch.path("tare.json")),
+    )
 }
 
-/// `stewart rig tare --out tare.json OWN…` against the rig at `address`, logged to `rig.mcap`,
-/// both in `scratch` ([`rig_against`]).
-pub fn rig_tare(scratch: &Scratch, address: &str, own: &[&str]) -> RigArgs {
-    let out = scratch.path("tare.json");
-    let mut args = vec!["tare", "--out", out.to_str().unwrap()];
-    args.extend_from_slice(own);
-    rig_against(&scratch.config, address, &scratch.path("rig.mcap"), &args)
+/// The attendant of the tests: the payload on at once, the key chosen as `stewart rig`
+/// chooses it ([`ops::key::choose`]: `--key`, `rig.key_file`, the user's key file).
+struct NoOperator<'a>(&'a RigRun);
+
+impl ops::rig::Attendant for NoOperator<'_> {
+    fn put_on(&mut self, _body: &str, _stop: &AtomicBool) -> anyhow::Result<bool> {
+        Ok(true)
+    }
+
+    fn shared_key(
+        &mut self,
+        configured: Option<PathBuf>,
+    ) -> Result<Option<::rig::Key>, ops::session::Error> {
+        let chosen = ops::key::choose(
+            self.0.key.as_deref(),
+            configured,
+            ops::key::user_key_path,
+            self.0.insecure,
+            ops::key::Side::Host,
+        )
+        .map_err(ops::session::refuse)?;
+        Ok(chosen.key)
+    }
 }
 
-/// Runs the rig session of `stewart rig ARGS` through the library (the flags turned into the
-/// session's options as the binary turns them, the key chosen as it chooses it), `interrupt`
-/// and `abort` its Ctrl-C flags.
+/// Runs the rig session `run` through the library, `interrupt` and `abort` its Ctrl-C flags.
 pub fn run_rig_with(
-    args: &RigArgs,
+    run: &RigRun,
     interrupt: &AtomicBool,
     abort: &AtomicBool,
 ) -> Result<Outcome, ops::session::Error> {
-    let options = rig::options(args)?;
-    let (_, common) = rig::resolve(args)?;
-    // The terminal's hands: the key as the binary chooses it, the payload on at once
-    // (`--no-prompt`).
-    let mut hands = rig::AtTheTerminal::without_bar(common.link);
-    ops::rig::run(&options, &mut Silent, &mut hands, interrupt, abort)
+    ops::rig::run(
+        &run.options,
+        &mut Silent,
+        &mut NoOperator(run),
+        interrupt,
+        abort,
+    )
 }
 
 /// [`run_rig_with`], never interrupted.
-pub fn run_rig(args: &RigArgs) -> Result<Outcome, ops::session::Error> {
+pub fn run_rig(run: &RigRun) -> Result<Outcome, ops::session::Error> {
     static NEVER: AtomicBool = AtomicBool::new(false);
-    run_rig_with(args, &NEVER, &NEVER)
+    run_rig_with(run, &NEVER, &NEVER)
 }
 
 /// A free UDP port's address on loopback nobody listens on.

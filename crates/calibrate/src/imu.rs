@@ -35,8 +35,8 @@
 
 use kinematics::{Geometry, Pose};
 use measure::budget::perturb::moved_poses;
-use measure::calibration::imu::{rotation_of, ImuAlignment};
 use nalgebra::{DMatrix, Matrix3, Quaternion, SVector, UnitQuaternion, Vector3, Vector6};
+use rig_description::calibration::imu::{rotation_of, ImuAlignment};
 
 use crate::normal::Normal;
 pub use crate::normal::BLOCK_ENTRIES;

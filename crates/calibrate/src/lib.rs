@@ -1,5 +1,5 @@
 //! The rig's calibrations fitted from its own data, each with its uncertainty, into the dated
-//! files a rig description applies (`rig_description::calibration`, re-exported as [`measure::calibration`]). docs/calibration.md
+//! files a rig description applies (`rig_description::calibration`, re-exported as [`rig_description::calibration`]). docs/calibration.md
 //! says when to run each and what it reaches.
 //!
 //! - [`imu`]: the IMU's alignment against the forward kinematics (its axes' rotation and

@@ -70,11 +70,11 @@ use crate::normal::{Normal, BLOCK_ENTRIES};
 use measure::budget::fit::{Data, Mode, Model};
 use measure::budget::legs::{self, LegEffects};
 use measure::budget::perturb::moved_poses;
-use measure::config::LegsConfig;
 use measure::record::derivative::interior;
 use measure::record::Entry;
+use rig_description::config::LegsConfig;
 
-pub use measure::calibration::load_cells::LoadCellGains;
+pub use rig_description::calibration::load_cells::LoadCellGains;
 
 /// Fewest interior entries each run needs (two seconds at 100 Hz).
 pub const MIN_ENTRIES: usize = 200;
@@ -443,7 +443,7 @@ pub fn fit(
     })
 }
 
-pub use measure::calibration::load_cells::{joint_index, JOINT_COORDINATES};
+pub use rig_description::calibration::load_cells::{joint_index, JOINT_COORDINATES};
 
 /// The applied gains from the fit: ĝ' = T ĝ and C' = C − K C with K = C (C + σ² I)⁻¹ and the
 /// transfer T = I − K.

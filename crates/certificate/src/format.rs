@@ -83,7 +83,7 @@ pub fn cell(quantity: &str, value: f64, text: &str) -> String {
 
 /// The UTC date and time of `unix_s` seconds after the epoch, `YYYY-MM-DD hh:mm UTC`.
 pub fn utc(unix_s: u64) -> String {
-    let t = measure::calendar::UtcTime::from_unix_s(unix_s);
+    let t = rig_description::calendar::UtcTime::from_unix_s(unix_s);
     format!(
         "{:04}-{:02}-{:02} {:02}:{:02} UTC",
         t.year, t.month, t.day, t.hour, t.minute

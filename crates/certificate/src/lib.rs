@@ -127,7 +127,7 @@ pub struct Context<'a> {
     /// Where the report came from (its file, or the command that measured it).
     pub report_source: &'a str,
     /// The rig description, when the writer has it.
-    pub rig: Option<&'a measure::Config>,
+    pub rig: Option<&'a rig_description::Config>,
     /// Where that rig description came from (its file, or the embedded default).
     pub rig_source: Option<&'a str>,
     /// When the page was written, s since the Unix epoch (UTC); `None` leaves the date out.

@@ -133,7 +133,7 @@ fn the_page_lists_the_applied_calibrations_with_their_dates() {
     assert!(html.contains("None applied"), "no calibration");
     assert!(html.contains("not recorded in the report"), "no tool");
     r.run.tool = "stewart 9.9.9".into();
-    r.run.calibrations = vec![measure::calibration::AppliedCalibration {
+    r.run.calibrations = vec![rig_description::calibration::AppliedCalibration {
         kind: "imu".into(),
         source: "cal/<imu>.toml".into(),
         calibrated_utc: "2026-11-18T11:06:40Z".into(),

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use measure::calibration::{CalibrationFile, LoadCellFile};
+use rig_description::calibration::{CalibrationFile, LoadCellFile};
 
 /// Prints what a load-cell calibration found (unless `quiet`) and where it was written.
 pub fn print_load_cell_calibration(file: &LoadCellFile, path: &Path, quiet: bool) {

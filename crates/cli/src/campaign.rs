@@ -5,7 +5,6 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use ops::campaign::{render, CampaignOptions};
 
-use crate::common::CommandError;
 use crate::simulate::SimulateArgs;
 
 /// The campaign's options from the flags.
@@ -60,7 +59,7 @@ pub fn main(args: &SimulateArgs, interrupt: &AtomicBool) -> u8 {
             result
         }
     };
-    let report = match result.map_err(CommandError::from) {
+    let report = match result {
         Ok(r) => r,
         Err(e) => {
             eprintln!("error: {e}");

@@ -4,16 +4,12 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use measure::load::{ConfigError, LoadedConfig};
 use measure::End;
+use rig_description::load::{ConfigError, LoadedConfig};
 
-/// Exit code after Ctrl-C (128 + SIGINT, as shells report it).
-pub const EXIT_INTERRUPTED: u8 = 130;
-/// Exit code after a supervisor fault.
-pub const EXIT_FAULT: u8 = 3;
-/// Exit code when a measurement measured nothing trustworthy ([`measure::quality`]: no
-/// samples used, or most rejected).
-pub const EXIT_NOT_MEASURED: u8 = 4;
+pub use ops::exit::{
+    FAULT as EXIT_FAULT, INTERRUPTED as EXIT_INTERRUPTED, NOT_MEASURED as EXIT_NOT_MEASURED,
+};
 
 /// The flags of every run, whatever it measures (`rig tare` takes only these and `--out`).
 #[derive(Clone, Debug, Default, Args)]
@@ -100,11 +96,11 @@ impl MeasureArgs {
 }
 
 /// `--params` as the schema's value (the parser admits only "10" and "6").
-pub fn parse_params(p: &str) -> measure::config::ParamCount {
+pub fn parse_params(p: &str) -> rig_description::config::ParamCount {
     if p == "6" {
-        measure::config::ParamCount::Six
+        rig_description::config::ParamCount::Six
     } else {
-        measure::config::ParamCount::Ten
+        rig_description::config::ParamCount::Ten
     }
 }
 
@@ -115,67 +111,19 @@ pub fn noise_preset() -> impl clap::builder::TypedValueParser<Value = sim::Noise
         .map(|name| name.parse().unwrap_or(sim::NoisePreset::Realistic))
 }
 
-/// Why a command failed.
-#[derive(Debug, thiserror::Error)]
-pub enum CommandError {
-    /// The configuration was refused before anything ran.
-    #[error("{0}")]
-    Config(ConfigError),
-    /// An input other than the configuration (a tare file, a key, the rig's handshake) was
-    /// refused before anything moved.
-    #[error("{0:#}")]
-    Input(anyhow::Error),
-    /// The run failed (backend, log).
-    #[error("{0:#}")]
-    Run(anyhow::Error),
-}
-
-impl CommandError {
-    /// Process exit code: 2 for refused inputs (nothing ran), 1 for a failed run.
-    pub fn exit_code(&self) -> u8 {
-        match self {
-            Self::Config(_) | Self::Input(_) => 2,
-            Self::Run(_) => 1,
-        }
-    }
-}
-
-impl From<ConfigError> for CommandError {
-    fn from(e: ConfigError) -> Self {
-        Self::Config(e)
-    }
-}
-
-impl From<ops::session::Error> for CommandError {
-    fn from(e: ops::session::Error) -> Self {
-        match e {
-            ops::session::Error::Config(e) => Self::Config(e),
-            ops::session::Error::Input(e) => Self::Input(e),
-            ops::session::Error::Run(e) => Self::Run(e),
-        }
-    }
-}
-
-/// A command's refusal handed back to the operation that asked (the key's choice).
-impl From<CommandError> for ops::session::Error {
-    fn from(e: CommandError) -> Self {
-        match e {
-            CommandError::Config(e) => Self::Config(e),
-            CommandError::Input(e) => Self::Input(e),
-            CommandError::Run(e) => Self::Run(e),
-        }
-    }
-}
+/// Why a command failed: the operations' error ([`ops::session::Error`]), its exit code
+/// from [`ops::exit`].
+pub type CommandError = ops::session::Error;
 
 /// A refusal of an input, in words.
 pub fn refuse(message: String) -> CommandError {
-    CommandError::Input(anyhow::anyhow!(message))
+    ops::session::refuse(message)
 }
 
 /// The exit code of `end`, with its message on standard error.
 pub fn end_code(end: &End, fault_detail: &str) -> u8 {
     match end {
-        End::Completed => 0,
+        End::Completed => ops::exit::DONE,
         End::Interrupted => {
             eprintln!("interrupted: the platform was parked and braked; no report");
             EXIT_INTERRUPTED

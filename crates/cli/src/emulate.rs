@@ -161,11 +161,11 @@ impl EmulateArgs {
 
     /// The emulator of these flags, bound (nothing runs yet).
     pub fn prepare(&self) -> Result<ops::emulate::Prepared, CommandError> {
-        Ok(ops::emulate::prepare(
+        ops::emulate::prepare(
             &self.options(),
             &mut |configured| self.key(configured),
             self.newsroom(),
-        )?)
+        )
     }
 }
 
@@ -184,7 +184,7 @@ pub fn emulate(args: &EmulateArgs, stop: &AtomicBool) -> Result<EmulatorStats, C
             }
         );
     }
-    Ok(prepared.run(stop)?)
+    prepared.run(stop)
 }
 
 /// `stewart emulate` from the command line; returns the exit code.

@@ -221,7 +221,7 @@ mod tests {
              [estimator]\nlocal_gravity_m_s2 = 0.0\n",
         )
         .unwrap();
-        let rig = measure::load::load(Some(&other)).unwrap();
+        let rig = rig_description::load::load(Some(&other)).unwrap();
         let (changed, loaded, ..) = reestimate(&log, &o, None, Some(&rig)).unwrap();
         assert_eq!(changed.systematic.accel_bias_sigma_m_s2, 0.01);
         let bias = |r: &Report| r.budget_line("accel_bias").map_or(0.0, |q| q.mass);

@@ -113,7 +113,7 @@ pub fn main_entry() -> std::process::ExitCode {
         Err(e) => {
             // clap echoes a bad value whole; a 50 MB argument must not become a 50 MB message.
             let text = e.render().to_string();
-            let text = measure::load::abbreviate_echo(&text);
+            let text = rig_description::load::abbreviate_echo(&text);
             if e.use_stderr() {
                 eprint!("{text}");
             } else {

@@ -27,10 +27,7 @@ use ops::session::Outcome;
 use crate::common::CommandError;
 use crate::progress::Terminal;
 
-pub use args::{
-    parse, resolve, LinkArgs, RigArgs, RigMeasureArgs, RigMode, RigRunArgs, RigTareArgs,
-};
-pub use ops::rig::link_lines;
+pub use args::{resolve, LinkArgs, RigArgs, RigMeasureArgs, RigMode, RigRunArgs, RigTareArgs};
 pub use outcome::finish;
 
 /// The session's options from the flags, or why the flags do not go together.
@@ -54,16 +51,6 @@ pub struct AtTheTerminal {
     pub bar: indicatif::ProgressBar,
     /// The link flags.
     pub link: LinkArgs,
-}
-
-impl AtTheTerminal {
-    /// The operator with no bar on the screen.
-    pub fn without_bar(link: LinkArgs) -> Self {
-        Self {
-            bar: indicatif::ProgressBar::hidden(),
-            link,
-        }
-    }
 }
 
 impl Attendant for AtTheTerminal {
@@ -96,13 +83,7 @@ pub fn rig(
         bar: terminal.handle(),
         link: common.link,
     };
-    Ok(ops::rig::run(
-        &options,
-        &mut terminal,
-        &mut attendant,
-        interrupt,
-        abort,
-    )?)
+    ops::rig::run(&options, &mut terminal, &mut attendant, interrupt, abort)
 }
 
 /// `stewart rig` from the command line: runs, prints, writes the report; returns the exit

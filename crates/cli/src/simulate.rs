@@ -5,11 +5,11 @@ use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
 use clap::Args;
-use measure::sources::ErrorSource;
 use ops::simulate::SimulateOptions;
+use rig_description::sources::ErrorSource;
 use sim::NoisePreset;
 
-use crate::common::{self, CommandError, MeasureArgs};
+use crate::common::{self, MeasureArgs};
 use crate::progress::Terminal;
 
 /// Flags of `stewart simulate`.
@@ -117,7 +117,6 @@ pub fn main(args: &SimulateArgs, interrupt: &AtomicBool) -> u8 {
             crate::output::finish_measurement(&args.measure, report, &outcome.log_path, code)
         }
         Err(e) => {
-            let e = CommandError::from(e);
             eprintln!("error: {e}");
             e.exit_code()
         }

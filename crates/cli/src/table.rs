@@ -297,7 +297,7 @@ mod tests {
     fn the_budget_table_has_a_row_per_source_and_the_total() {
         let mut report = Report::default();
         report.sigma.mass = 0.5;
-        report.error_budget = measure::sources::ErrorSource::ALL
+        report.error_budget = rig_description::sources::ErrorSource::ALL
             .iter()
             .map(|s| measure::report::BudgetLine {
                 source: s.id().into(),
@@ -308,7 +308,7 @@ mod tests {
             })
             .collect();
         let text = render_budget(&report);
-        for s in measure::sources::ErrorSource::ALL {
+        for s in rig_description::sources::ErrorSource::ALL {
             assert!(text.lines().any(|l| l.starts_with(s.id())), "{s}");
         }
         let total = text.lines().find(|l| l.starts_with("total")).unwrap();

@@ -12,12 +12,12 @@
 //!   IMU's axes into P by the rig description's mounting rotation (`sensors.imu.orientation_deg`;
 //!   none when it is zero, so an aligned IMU's numbers pass bit for bit).
 //! - **IMU alignment** (when the rig description applies a calibration,
-//!   [`crate::calibration::imu`]): the readings in P are taken back through the fitted
+//!   [`rig_description::calibration::imu`]): the readings in P are taken back through the fitted
 //!   matrices, ω = G⁻¹ ω_m and f = A⁻¹ f_m, and moved forward by the IMU's delay τ to first
 //!   order from the previous frame, x(t) ≈ x_k + (τ/T)(x_k − x_{k−1}) (the frame after a lost
 //!   one, more than 1.5 T after its predecessor, keeps its reading).
 //! - **Load-cell gains** (when the rig description applies a calibration,
-//!   [`crate::calibration::load_cells`]): each cell's reading is divided by its fitted
+//!   [`rig_description::calibration::load_cells`]): each cell's reading is divided by its fitted
 //!   1 + ĝ_i, t_i = f_i / (1 + ĝ_i). Only the estimator's sample is corrected: the controller
 //!   reads the frame itself, and its force feed-forward and the supervisor's force limits do
 //!   not need 0.05 % (the position loop takes up the rest).
@@ -29,8 +29,8 @@ use control::io::SensorFrame;
 use estimator::Sample;
 use kinematics::{FkOptions, Geometry, Matrix3, Pose, Rotation3, Vector3, Vector6};
 
-use crate::calibration::ImuAlignment;
-use crate::config::ImuMounting;
+use rig_description::calibration::ImuAlignment;
+use rig_description::config::ImuMounting;
 
 /// A fitted IMU alignment as the feed applies it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -81,7 +81,7 @@ impl Feed {
     /// calibration file's gains are checked when it is read).
     pub fn with_load_cell_gains(
         mut self,
-        gains: Option<&crate::calibration::LoadCellGains>,
+        gains: Option<&rig_description::calibration::LoadCellGains>,
     ) -> Self {
         self.force_scale = gains.and_then(|c| {
             let scale = Vector6::from(c.gains).map(|g| 1.0 / (1.0 + g));

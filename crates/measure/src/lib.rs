@@ -48,8 +48,6 @@ pub mod weigh;
 pub use measurement::{measure, End, MeasureOutcome, MeasureSetup};
 pub use observer::{Observer, TickEvent};
 pub use report::Report;
-pub use rig_description::{calendar, calibration, config, link, load, sources, validate};
-pub use rig_description::{Config, ConfigError, ConfigIssue, LoadedConfig};
 pub use session::{Station, TarePlan};
 pub use setup::Measurement;
 pub use tare::TareFile;

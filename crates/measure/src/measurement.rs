@@ -27,12 +27,12 @@ use control::trajectory::Trajectory;
 use estimator::{Estimate, EstimatorConfig, Outcome, Sample};
 use kinematics::Geometry;
 
-use crate::config::Config;
 use crate::observer::{EstimatorStarted, MeasurementEnded, Observer, TickEvent};
 use crate::report::ThetaHistory;
 use crate::setup::{self, Measurement};
 use crate::tick::Tick;
 use crate::TareEstimate;
+use rig_description::config::Config;
 
 /// What a measurement needs besides the backend and the controller.
 #[derive(Clone, Copy, Debug)]
@@ -85,7 +85,7 @@ pub struct MeasureOutcome {
     /// `None` without an excitation.
     pub budget: Option<crate::budget::RunBudget>,
     /// The run's record of the samples the estimator used (~100 Hz block means,
-    /// [`crate::record`]): what the IMU calibration fits ([`crate::calibration::imu`]);
+    /// [`crate::record`]): what the IMU calibration fits ([`rig_description::calibration::imu`]);
     /// `None` without an excitation.
     pub record: Option<crate::record::RunRecord>,
     /// The accelerometer's offset measured at rest before the excitation and subtracted from
@@ -436,8 +436,8 @@ pub fn payload_estimate(loaded: &Estimate, tare: Option<&TareEstimate>) -> Estim
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::load::load;
     use crate::observer::TickEvent;
+    use rig_description::load::load;
 
     /// A platform resting at home whatever it is told, recording the commands.
     struct Resting {

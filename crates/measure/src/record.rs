@@ -1,6 +1,6 @@
 //! A bounded record of one run: the estimator's samples, averaged over blocks of about 10 ms
 //! (100 Hz), for the error budget's offline fit ([`crate::budget::fit`]) and the IMU
-//! calibration ([`crate::calibration::imu`]).
+//! calibration ([`rig_description::calibration::imu`]).
 //!
 //! **Why averaging, not striding.** The rigid-body equations are linear in ω̇, the products
 //! ωᵢωⱼ, the specific force and the wrench ([`estimator::regressor`]); a block mean of each of

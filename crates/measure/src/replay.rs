@@ -10,10 +10,10 @@ use control::io::SensorFrame;
 use estimator::{Estimate, EstimatorConfig, OnlineEstimator, Outcome, Sample};
 use kinematics::FkOptions;
 
-use crate::config::ImuMounting;
 use crate::feed::Feed;
 use crate::reorder::{Reorder, ReorderCounts};
 use crate::report::ThetaHistory;
+use rig_description::config::ImuMounting;
 
 /// One estimate along the way.
 #[derive(Clone, Copy, Debug)]
@@ -148,7 +148,7 @@ impl Replay {
 
     /// Also weighs the load statically over the measurement's first frames, its brake hold
     /// (`run.brake_hold_s` of `config`), as the online measurement does ([`crate::weigh`]).
-    pub fn with_weighing(mut self, config: &crate::Config) -> Self {
+    pub fn with_weighing(mut self, config: &rig_description::Config) -> Self {
         let hold =
             ((config.run.brake_hold_s * config.sensors.sample_rate_hz).round() as u64).max(1);
         let weigher = crate::weigh::Weigher::new(
@@ -162,7 +162,10 @@ impl Replay {
 
     /// Applies a fitted IMU alignment ([`Feed::aligned`]), as the online measurement does
     /// when the rig description references a calibration.
-    pub fn with_alignment(mut self, alignment: Option<&crate::calibration::ImuAlignment>) -> Self {
+    pub fn with_alignment(
+        mut self,
+        alignment: Option<&rig_description::calibration::ImuAlignment>,
+    ) -> Self {
         self.feed = self.feed.aligned(alignment, self.config.sample_period_s);
         self
     }
@@ -171,7 +174,7 @@ impl Replay {
     /// measurement does when the rig description references a calibration.
     pub fn with_load_cell_gains(
         mut self,
-        gains: Option<&crate::calibration::LoadCellGains>,
+        gains: Option<&rig_description::calibration::LoadCellGains>,
     ) -> Self {
         self.feed = self.feed.with_load_cell_gains(gains);
         self

@@ -11,9 +11,9 @@ use estimator::Estimate;
 use serde::{Deserialize, Serialize};
 
 use crate::budget::{RunBudget, SourceEffects};
-use crate::config::ParamCount;
-use crate::sources::ErrorSource;
 use crate::tare::TareFile;
+use rig_description::config::ParamCount;
+use rig_description::sources::ErrorSource;
 
 pub use rig_description::quantities::Quantities;
 
@@ -78,7 +78,7 @@ pub struct TareUsed {
 /// One source's line of the error budget.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct BudgetLine {
-    /// The source's id ([`crate::sources::ErrorSource::id`]).
+    /// The source's id ([`rig_description::sources::ErrorSource::id`]).
     pub source: String,
     /// One sigma of each reported quantity from this source alone.
     pub sigma: Quantities,
@@ -118,7 +118,7 @@ pub struct RunInfo {
     pub tool: String,
     /// The calibrations the measurement applied, with their dates.
     #[serde(default)]
-    pub calibrations: Vec<crate::calibration::AppliedCalibration>,
+    pub calibrations: Vec<rig_description::calibration::AppliedCalibration>,
 }
 
 /// A span of the log lost to damage.
@@ -217,7 +217,7 @@ pub struct Report {
     pub consistency: Consistency,
     /// The tare subtracted.
     pub tare: TareUsed,
-    /// The error budget: one line per source of [`crate::sources::ErrorSource::ALL`], in that
+    /// The error budget: one line per source of [`rig_description::sources::ErrorSource::ALL`], in that
     /// order; `sigma` is their sum in quadrature (covariances added).
     #[serde(default)]
     pub error_budget: Vec<BudgetLine>,

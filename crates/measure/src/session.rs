@@ -20,12 +20,12 @@ use control::controller::Controller;
 use control::io::Backend;
 use kinematics::Geometry;
 
-use crate::load::LoadedConfig;
 use crate::measurement::{measure, End, MeasureOutcome, MeasureSetup};
 use crate::observer::Observer;
 use crate::report::{self, Quantities, Report, ReportInputs, RunInfo, TareKind};
 use crate::setup::{self, Measurement};
 use crate::tare::TareFile;
+use rig_description::load::LoadedConfig;
 
 /// One measurement to run: what it measures, its controller (checked beforehand) and the stop
 /// flag. A [`Station`] runs it on its backend with [`Job::run`].
@@ -83,7 +83,7 @@ pub struct TareEffects {
     pub load_cell: Option<[[f64; 10]; 6]>,
     /// The tare run's error-budget inputs ([`crate::budget`]).
     pub budget: Option<crate::budget::RunBudget>,
-    /// The tare run's record, for the IMU calibration ([`crate::calibration::imu`]).
+    /// The tare run's record, for the IMU calibration ([`rig_description::calibration::imu`]).
     pub record: Option<crate::record::RunRecord>,
     /// The accelerometer's offset the tare run measured at rest ([`MeasureOutcome`]).
     pub accel_offset_m_s2: Option<[f64; 3]>,
@@ -148,7 +148,7 @@ impl SessionOutcome {
     /// run was made (`run`) and the truth where it is known.
     pub fn report(
         &self,
-        config: &crate::config::Config,
+        config: &rig_description::config::Config,
         run: RunInfo,
         truth: Option<Quantities>,
     ) -> Option<Report> {

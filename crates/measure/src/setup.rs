@@ -14,8 +14,8 @@ use kinematics::{FkOptions, Geometry};
 use nalgebra::{Vector3, Vector6};
 pub use rig_description::derived::{accelerometer_position, geometry};
 
-use crate::config::{AxisName, Config, ExcitationKind, ParamCount, SpectrumConfig};
-use crate::load::{ConfigError, ConfigIssue, LoadedConfig};
+use rig_description::config::{AxisName, Config, ExcitationKind, ParamCount, SpectrumConfig};
+use rig_description::load::{ConfigError, ConfigIssue, LoadedConfig};
 
 /// The tare run's excitation (`[tare_excitation]` when given, else `[excitation]`;
 /// `run.tare_duration_s` long), refusals said of those keys.
@@ -397,7 +397,7 @@ pub fn estimator_config(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::load::{load, load_str};
+    use rig_description::load::{load, load_str};
 
     #[test]
     fn default_config_passes_preflight() {

@@ -397,7 +397,7 @@ mod tests {
         assert_eq!(
             back.budget
                 .unwrap()
-                .effects_of(crate::sources::ErrorSource::Geometry)[35][4],
+                .effects_of(rig_description::sources::ErrorSource::Geometry)[35][4],
             0.125
         );
         let mut old = serde_json::to_value(tare()).unwrap();

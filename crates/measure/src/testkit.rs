@@ -19,8 +19,8 @@ pub fn geometry() -> Geometry {
 }
 
 /// A gains table with these gains and a small diagonal covariance (other modules' tests).
-pub fn gains_with(gains: [f64; 6]) -> crate::calibration::LoadCellGains {
-    crate::calibration::LoadCellGains {
+pub fn gains_with(gains: [f64; 6]) -> rig_description::calibration::LoadCellGains {
+    rig_description::calibration::LoadCellGains {
         gains,
         covariance: (0..6)
             .map(|i| (0..6).map(|j| if i == j { 1e-8 } else { 0.0 }).collect())

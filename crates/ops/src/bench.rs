@@ -59,7 +59,7 @@ impl Default for BenchOptions {
 pub enum Error {
     /// The configuration was refused before anything ran.
     #[error("{0}")]
-    Config(#[from] measure::load::ConfigError),
+    Config(#[from] rig_description::load::ConfigError),
     /// The closed loop failed.
     #[error("{0:#}")]
     Run(anyhow::Error),
@@ -67,7 +67,7 @@ pub enum Error {
 
 /// Runs `bench`: loads the scenario of `options` and measures it ([`measure`]).
 pub fn run(options: &BenchOptions) -> Result<BenchReport, Error> {
-    let loaded = measure::load::load(options.config.as_deref())?;
+    let loaded = rig_description::load::load(options.config.as_deref())?;
     let scenario = Scenario::new(loaded, options.seed, options.noise)?;
     measure(&scenario, options.duration_s).map_err(Error::Run)
 }
@@ -397,7 +397,8 @@ mod tests {
 
     #[test]
     fn replaying_a_recording_reproduces_the_run_bit_for_bit() {
-        let scenario = Scenario::new(measure::load::load(None).unwrap(), None, None).unwrap();
+        let scenario =
+            Scenario::new(rig_description::load::load(None).unwrap(), None, None).unwrap();
         let rec = record(&scenario, 200, 0.5).unwrap();
         let mut replay = rec.start;
         let steps: Vec<TickStep> = rec.frames.iter().map(|f| replay.step(f)).collect();

@@ -1,14 +1,14 @@
 //! The calibrations fitted on a session's runs: the IMU's alignment on the empty fixture's run
-//! ([`measure::calibration::imu`]) and the load cells' gains on a tare run and a loaded run with
+//! ([`rig_description::calibration::imu`]) and the load cells' gains on a tare run and a loaded run with
 //! the reference body ([`calibrate::load_cells`]), on the simulator or on a rig alike.
 
 use std::path::Path;
 
 use calibrate::load_cells::{self as reference_mass, Run, Setup};
-use measure::calibration::LoadCellFile;
-use measure::load::{ConfigError, LoadedConfig};
 use measure::session::{SessionOutcome, TareSource};
 use nalgebra::Vector3;
+use rig_description::calibration::LoadCellFile;
+use rig_description::load::{ConfigError, LoadedConfig};
 
 /// The reference's mass the rig description gives (`calibration.reference_mass_kg`), or the
 /// refusal naming the key.
@@ -38,7 +38,7 @@ pub fn prepare_reference_runs(loaded: &mut LoadedConfig) -> Result<(), ConfigErr
     const STEEL_KG_M3: f64 = 7850.0;
     let side_m = (mass_kg / STEEL_KG_M3).cbrt();
     let moment = mass_kg * side_m * side_m / 6.0;
-    c.plan.payload = measure::config::BodyPrior {
+    c.plan.payload = rig_description::config::BodyPrior {
         mass_kg,
         com_m: [0.0, 0.0, side_m / 2.0],
         inertia_com_kg_m2: [[moment, 0.0, 0.0], [0.0, moment, 0.0], [0.0, 0.0, moment]],
@@ -115,7 +115,7 @@ pub fn imu_calibration(
     backend: &str,
     start_ns: u64,
     log_path: &Path,
-) -> anyhow::Result<measure::calibration::CalibrationFile> {
+) -> anyhow::Result<rig_description::calibration::CalibrationFile> {
     let record = match &outcome.tare {
         Some(measure::session::TareSource::Measured(_, effects)) => effects.record.as_ref(),
         _ => None,
@@ -135,7 +135,7 @@ pub fn imu_calibration(
         loaded.config.platform.joint_position_tolerance_m,
     )
     .map_err(|e| anyhow::anyhow!("IMU calibration: {e}"))?;
-    let mut file = measure::calibration::CalibrationFile::new(
+    let mut file = rig_description::calibration::CalibrationFile::new(
         alignment,
         start_ns / 1_000_000_000,
         &loaded.source,
@@ -201,7 +201,7 @@ pub fn load_cell_lines(file: &LoadCellFile) -> Vec<String> {
 }
 
 /// What an IMU calibration found, with one sigma, in lines for the operator.
-pub fn imu_lines(file: &measure::calibration::CalibrationFile) -> Vec<String> {
+pub fn imu_lines(file: &rig_description::calibration::CalibrationFile) -> Vec<String> {
     let a = &file.imu;
     let mut lines = Vec::new();
     let g = a.gyro();
@@ -257,7 +257,7 @@ mod tests {
     /// description without the reference's mass is refused naming the key.
     #[test]
     fn the_reference_runs_feed_forward_a_steel_cube_of_the_certified_mass() {
-        let mut loaded = measure::load::load_str("", "default").unwrap();
+        let mut loaded = rig_description::load::load_str("", "default").unwrap();
         super::prepare_reference_runs(&mut loaded).unwrap();
         let c = &loaded.config;
         let load = measure::setup::feedforward_load(c, measure::Measurement::Loaded, None)
@@ -271,7 +271,7 @@ mod tests {
         assert!((moment - 42.2).abs() < 0.1, "{moment}");
         assert!(c.calibration.load_cells.is_none());
 
-        let mut without = measure::load::load_str("", "default").unwrap();
+        let mut without = rig_description::load::load_str("", "default").unwrap();
         without.config.calibration.reference_mass_kg = None;
         let err = super::prepare_reference_runs(&mut without).unwrap_err();
         assert!(

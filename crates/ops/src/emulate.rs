@@ -37,8 +37,8 @@ use rig::wire::{Limits, SensorLayout, LEG_COUNT};
 use rig::RigError;
 use serde::{Deserialize, Serialize};
 
-use measure::load::{ConfigError, LoadedConfig};
-use measure::Config;
+use rig_description::load::{ConfigError, LoadedConfig};
+use rig_description::Config;
 
 use crate::session::{flag_issue, refuse, Error};
 use sim::scenario::{Scenario, World};
@@ -171,7 +171,7 @@ pub fn prepare(
     news: Newsroom,
 ) -> Result<Prepared, Error> {
     let mut scenario = Scenario::new(
-        measure::load::load(options.config.as_deref())?,
+        rig_description::load::load(options.config.as_deref())?,
         options.seed,
         options.noise,
     )?;
@@ -463,7 +463,7 @@ mod tests {
 
     #[test]
     fn limits_come_from_the_scenario() {
-        let s = Scenario::new(measure::load::load(None).unwrap(), None, None).unwrap();
+        let s = Scenario::new(rig_description::load::load(None).unwrap(), None, None).unwrap();
         let c = &s.loaded.config;
         let l = limits(c, &s.world);
         assert_eq!(l.stroke_min_m, c.platform.min_leg_length_m);
@@ -498,7 +498,7 @@ mod tests {
             let message = e.to_string();
             assert!(message.contains(flag), "{message}");
             assert!(
-                message.contains(measure::load::COMMAND_LINE_NAME),
+                message.contains(rig_description::load::COMMAND_LINE_NAME),
                 "{message}"
             );
             assert!(!message.contains("rig.watchdog_ms"), "{message}");

@@ -10,6 +10,7 @@ pub mod calibration;
 pub mod campaign;
 pub mod emulate;
 pub mod estimate;
+pub mod exit;
 pub mod export;
 pub mod import;
 pub mod key;

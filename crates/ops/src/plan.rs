@@ -6,9 +6,9 @@
 use std::path::PathBuf;
 
 use control::trajectory::Trajectory;
-use measure::load::{ConfigError, LoadedConfig, Overrides};
 use measure::report::Quantities;
 use planner::{self as plan, Planner, Prediction};
+use rig_description::load::{ConfigError, LoadedConfig, Overrides};
 use serde::Serialize;
 
 /// Options of `stewart plan`.
@@ -141,7 +141,7 @@ pub fn run(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<PlanOutcome, Error> {
     let mut loaded =
-        measure::load::load(options.config.as_deref())?.with_overrides(&Overrides {
+        rig_description::load::load(options.config.as_deref())?.with_overrides(&Overrides {
             duration_s: options.duration_s,
             params: None,
         })?;

@@ -4,7 +4,7 @@
 
 use std::path::{Path, PathBuf};
 
-use measure::load::LoadedConfig;
+use rig_description::load::LoadedConfig;
 
 /// Options of `stewart report`.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -26,7 +26,7 @@ pub enum Error {
     Report(String),
     /// The rig description of [`ReportOptions::rig`] was refused (nothing written).
     #[error("{0}")]
-    Rig(#[from] measure::load::ConfigError),
+    Rig(#[from] rig_description::load::ConfigError),
     /// The page could not be written.
     #[error("{0}")]
     Write(String),
@@ -40,10 +40,10 @@ pub fn tool() -> String {
 /// The rig description a report names (`run.config`): the embedded default, or the file when
 /// it can still be read; `None` otherwise (the page then says no rig figures were given).
 pub fn rig_of_report(config: &str) -> Option<LoadedConfig> {
-    if config == measure::load::DEFAULT_CONFIG_NAME {
-        measure::load::load(None).ok()
+    if config == rig_description::load::DEFAULT_CONFIG_NAME {
+        rig_description::load::load(None).ok()
     } else if Path::new(config).is_file() {
-        measure::load::load(Some(Path::new(config))).ok()
+        rig_description::load::load(Some(Path::new(config))).ok()
     } else {
         None
     }
@@ -91,7 +91,7 @@ pub fn run(options: &ReportOptions) -> Result<(), Error> {
     })?;
     inertial_certificate::parse(&text).map_err(|e| Error::Report(e.to_string()))?;
     let rig = match &options.rig {
-        Some(p) => Some(measure::load::load(Some(p))?),
+        Some(p) => Some(rig_description::load::load(Some(p))?),
         None => None,
     };
     write_page(
@@ -115,7 +115,7 @@ mod tests {
         let report = dir.path().join("r.json");
         let mut r = measure::Report::default();
         r.estimate.mass = 12.5;
-        r.run.config = measure::load::DEFAULT_CONFIG_NAME.into();
+        r.run.config = rig_description::load::DEFAULT_CONFIG_NAME.into();
         std::fs::write(&report, r.to_json()).unwrap();
         let html = dir.path().join("r.html");
         let options = ReportOptions {

@@ -23,11 +23,11 @@ use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use control::io::Backend;
-use measure::load::{ConfigError, LoadedConfig};
 use measure::session::TarePlan;
 use measure::setup;
 use rig::monitored::Link;
 use rig::{RigBackend, RigOptions as HostOptions};
+use rig_description::load::{ConfigError, LoadedConfig};
 use runlog::mcap_log::Delivery;
 use serde::{Deserialize, Serialize};
 

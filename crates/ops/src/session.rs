@@ -13,13 +13,13 @@ use std::sync::atomic::AtomicBool;
 
 use control::controller::Controller;
 use kinematics::Geometry;
-use measure::calibration::{CalibrationDocument, CalibrationFile, LoadCellFile};
-use measure::config::ParamCount;
-use measure::load::{ConfigError, ConfigIssue, LoadedConfig, Overrides};
 use measure::observer::{Both, Observer, TickEvent};
 use measure::report::{Quantities, RunInfo};
 use measure::session::{SessionPlan, TarePlan};
 use measure::{End, Report, TareFile};
+use rig_description::calibration::{CalibrationDocument, CalibrationFile, LoadCellFile};
+use rig_description::config::ParamCount;
+use rig_description::load::{ConfigError, ConfigIssue, LoadedConfig, Overrides};
 use runlog::mcap_log::Delivery;
 use runlog::metadata::{RunMetadata, TruthMsg};
 use runlog::rig_record::{LinkCounters, TimingSummary};
@@ -51,7 +51,7 @@ pub fn refuse(message: impl std::fmt::Display) -> Error {
 /// flag), blamed on the option by its name `flag`, not on a line of a file.
 pub fn flag_issue(flag: &str, problem: String) -> ConfigIssue {
     ConfigIssue {
-        file: measure::load::COMMAND_LINE_NAME.into(),
+        file: rig_description::load::COMMAND_LINE_NAME.into(),
         line: None,
         key: flag.into(),
         problem,
@@ -156,7 +156,7 @@ impl MeasureOptions {
     /// The rig description with the excitation, duration and parameter model applied,
     /// validated.
     pub fn load_config(&self) -> Result<LoadedConfig, ConfigError> {
-        let mut loaded = measure::load::load(self.config.as_deref())?;
+        let mut loaded = rig_description::load::load(self.config.as_deref())?;
         if let Some(path) = &self.excitation {
             loaded = loaded.with_excitation_file(path)?;
         }
@@ -199,7 +199,7 @@ impl MeasureOptions {
 
 /// Tells `operator` about each calibration `config` applies that is older than its
 /// `calibration.max_age_days`.
-pub(crate) fn warn_old_calibrations(config: &measure::Config, operator: &mut dyn Operator) {
+pub(crate) fn warn_old_calibrations(config: &rig_description::Config, operator: &mut dyn Operator) {
     let now_s = runlog::run_log::unix_now_ns() / 1_000_000_000;
     for w in config.calibration.age_warnings(now_s) {
         operator.tell(Message::Warning(&w));
@@ -470,7 +470,7 @@ pub(crate) fn run<S: Station>(
                 params: config.estimator.params.into(),
                 log: Some(log_path.display().to_string()),
                 backend: spec.backend.into(),
-                tool: measure::calibration::tool(),
+                tool: rig_description::calibration::tool(),
                 calibrations: config.calibration.applied(),
             },
             spec.truth,

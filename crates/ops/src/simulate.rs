@@ -15,11 +15,11 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
 use anyhow::anyhow;
-use measure::calibration::CalibrationFile;
 use measure::observer::Observer;
 use measure::session::{Job, TarePlan};
-use measure::sources::ErrorSource;
 use measure::{setup, End, MeasureOutcome};
+use rig_description::calibration::CalibrationFile;
+use rig_description::sources::ErrorSource;
 use runlog::compact::AtLogResolution;
 use runlog::mcap_log::Delivery;
 use runlog::metadata::{BodyTruth, TruthMsg};
@@ -60,7 +60,7 @@ pub struct SimulateOptions {
 
 /// An error source as its id in the error budget (`"geometry"`, …).
 mod source_id {
-    use measure::sources::ErrorSource;
+    use rig_description::sources::ErrorSource;
     use serde::{de::Error as _, Deserialize, Deserializer, Serialize, Serializer};
 
     pub fn serialize<S: Serializer>(v: &Option<ErrorSource>, s: S) -> Result<S::Ok, S::Error> {
@@ -349,8 +349,8 @@ pub fn run(
 mod tests {
     use super::*;
     use crate::session::Silent;
-    use measure::calibration::CalibrationDocument;
     use measure::Report;
+    use rig_description::calibration::CalibrationDocument;
 
     /// A short simulate run of `extra` laid over a short default, in `dir`.
     fn short_run(dir: &std::path::Path, name: &str, extra: &str) -> Outcome {
@@ -388,14 +388,14 @@ mod tests {
         let outcome = run(&args, &mut Silent, &AtomicBool::new(false)).unwrap();
         assert!(outcome.report.is_none(), "no payload is measured");
         let written = outcome.calibration.expect("a calibration");
-        let read = measure::calibration::CalibrationFile::read(&file).unwrap();
+        let read = rig_description::calibration::CalibrationFile::read(&file).unwrap();
         assert_eq!(read, written);
         // The default IMU sits at the P origin within its 1 mm tolerance.
         let r = read.imu.accelerometer_position_m;
         assert!(r.iter().all(|v| v.abs() < 5e-3), "{r:?}");
         let rig = dir.path().join("rig.toml");
         std::fs::write(&rig, "[calibration]\nimu = \"imu.toml\"\n").unwrap();
-        let loaded = measure::load::load(Some(&rig)).unwrap();
+        let loaded = rig_description::load::load(Some(&rig)).unwrap();
         let p = measure::setup::accelerometer_position(&loaded.config);
         assert_eq!([p.x, p.y, p.z], r);
     }
@@ -413,7 +413,7 @@ mod tests {
         );
         let (pass_log, pass_file) = pass_paths(Pass::LoadCells, &outcome.log_path);
         assert!(pass_log.exists());
-        let file = measure::calibration::LoadCellFile::read(&pass_file).unwrap();
+        let file = rig_description::calibration::LoadCellFile::read(&pass_file).unwrap();
         assert_eq!(file.load_cells.joint_sensitivity.len(), 36);
         let report = outcome.report.unwrap();
         let applied: Vec<&str> = report
@@ -556,7 +556,7 @@ mod tests {
         let outcome = run(&args, &mut Silent, &AtomicBool::new(false)).unwrap();
         let written = outcome.load_cell_calibration.expect("a calibration");
         assert_eq!(
-            measure::calibration::LoadCellFile::read(&file).unwrap(),
+            rig_description::calibration::LoadCellFile::read(&file).unwrap(),
             written
         );
         // The simulator's truth, read here only to check the calibration.

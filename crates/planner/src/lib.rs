@@ -30,10 +30,10 @@ use estimator::{LegModel, ParameterVector};
 use kinematics::Geometry;
 use nalgebra::{SMatrix, Vector3};
 
-use measure::config::{Config, ParamCount};
-use measure::load::{ConfigError, LoadedConfig};
 use measure::report::Quantities;
 pub use predict::{ChannelNoise, Conditioning};
+use rig_description::config::{Config, ParamCount};
+use rig_description::load::{ConfigError, LoadedConfig};
 pub use search::{design, Plan, PlanError};
 
 /// What a plan is computed from: the rig description's geometry, limits, datasheet and

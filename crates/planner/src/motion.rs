@@ -116,7 +116,7 @@ mod tests {
     use nalgebra::Matrix3;
 
     fn geometry() -> Geometry {
-        measure::setup::geometry(&measure::load::load(None).expect("default loads"))
+        measure::setup::geometry(&rig_description::load::load(None).expect("default loads"))
             .expect("default geometry")
     }
 

@@ -20,7 +20,7 @@ use control::trajectory::{MultiSineConfig, SineComponent, Spectrum, Trajectory};
 use rayon::prelude::*;
 
 use super::{Binding, Planner, Prediction, Usage};
-use measure::config::{AxisName, ExcitationConfig, ExcitationKind, SineConfig};
+use rig_description::config::{AxisName, ExcitationConfig, ExcitationKind, SineConfig};
 
 /// Largest rotation peak searched, rad (about 17°).
 const MAX_SCALE_RAD: f64 = 0.3;
@@ -392,7 +392,7 @@ pub fn excitation_of(base: &ExcitationConfig, trajectory: &Trajectory) -> Excita
 
 /// The excitation file `stewart plan --out` writes: `header` as comments, then the
 /// `[excitation]` table of `excitation` (its unused `multisine` table left out: the file is
-/// laid over the rig description, [`measure::load::LoadedConfig::with_excitation_file`]).
+/// laid over the rig description, [`rig_description::load::LoadedConfig::with_excitation_file`]).
 pub fn excitation_file(excitation: &ExcitationConfig, header: &str) -> String {
     let mut table = toml::Table::new();
     if let Ok(toml::Value::Table(mut e)) = toml::Value::try_from(excitation) {

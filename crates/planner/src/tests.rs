@@ -1,13 +1,13 @@
 use super::*;
 use control::trajectory::{MultiSineConfig, Spectrum};
 use estimator::{OnlineEstimator, Sample};
-use measure::config::ExcitationKind;
 use nalgebra::Vector6;
 use rand::{rngs::StdRng, SeedableRng};
 use rand_distr::{Distribution, Normal};
+use rig_description::config::ExcitationKind;
 
 fn default_planner() -> (crate::LoadedConfig, Planner) {
-    let loaded = measure::load::load(None).expect("default loads");
+    let loaded = rig_description::load::load(None).expect("default loads");
     let planner = Planner::new(&loaded).expect("planner");
     (loaded, planner)
 }
@@ -294,12 +294,14 @@ fn an_excitation_file_lays_the_planned_sines_over_the_rig_description() {
 fn a_prior_that_is_not_a_body_is_refused_naming_the_key() {
     let bad = "[plan.payload]\nmass_kg = 1500.0\ncom_m = [0.0, 0.0, 0.5]\n\
                inertia_com_kg_m2 = [[100.0, 0.0, 0.0], [0.0, 100.0, 0.0], [0.0, 0.0, 900.0]]\n";
-    let err = measure::load::load_str(bad, "prior.toml").expect_err("triangle inequality broken");
+    let err =
+        rig_description::load::load_str(bad, "prior.toml").expect_err("triangle inequality broken");
     assert!(
         err.to_string().contains("plan.payload.inertia_com_kg_m2"),
         "{err}"
     );
-    let err = measure::load::load_str("[plan]\ntarget_com_m = 0.0\n", "t.toml").expect_err("zero");
+    let err = rig_description::load::load_str("[plan]\ntarget_com_m = 0.0\n", "t.toml")
+        .expect_err("zero");
     assert!(err.to_string().contains("plan.target_com_m"), "{err}");
 }
 

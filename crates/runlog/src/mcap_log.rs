@@ -605,7 +605,7 @@ pub fn default_log_path(dir: &Path, unix_s: u64) -> PathBuf {
 
 /// `YYYYMMDDTHHMMSSZ` for a Unix time.
 pub fn utc_stamp(unix_s: u64) -> String {
-    let t = measure::calendar::UtcTime::from_unix_s(unix_s);
+    let t = rig_description::calendar::UtcTime::from_unix_s(unix_s);
     format!(
         "{:04}{:02}{:02}T{:02}{:02}{:02}Z",
         t.year, t.month, t.day, t.hour, t.minute, t.second

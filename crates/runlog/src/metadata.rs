@@ -7,7 +7,7 @@ use nalgebra::{Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
 use crate::schema::{array, int, nullable, num, numbers, object, string, Schema};
-use measure::calibration::CalibrationDocument;
+use rig_description::calibration::CalibrationDocument;
 
 /// `stewart.RunMetadata` on `/run/metadata`, written at the start, twice
 /// ([`crate::run_log::RunLog::write_metadata`]).
@@ -63,7 +63,7 @@ impl RunMetadata {
     /// gives. The run's own facts start empty (seed 0, `noise` [`UNKNOWN`], start time 0, no
     /// runs, no tare file): the caller sets what it knows.
     pub fn describing(
-        rig: &measure::LoadedConfig,
+        rig: &rig_description::LoadedConfig,
         geometry: &kinematics::Geometry,
         command: &str,
         backend: &str,
@@ -104,7 +104,7 @@ impl RunMetadata {
     /// reader lists the measurements whose frames the log holds
     /// ([`crate::LogContents::or_metadata_of`], `ops::estimate::stream::tare_of_file`).
     /// Errors: `rig`'s platform is refused.
-    pub fn of_rig(rig: &measure::LoadedConfig) -> Result<Self> {
+    pub fn of_rig(rig: &rig_description::LoadedConfig) -> Result<Self> {
         let geometry = measure::setup::geometry(rig)
             .map_err(|e| anyhow::anyhow!("the rig description's platform is refused: {e}"))?;
         Ok(Self::describing(rig, &geometry, UNKNOWN, UNKNOWN))
@@ -229,7 +229,7 @@ pub struct EstimatorSettings {
     pub fk_max_jump_rad: f64,
     /// The legs the estimator compensated (`[legs]` figures; `null`: none).
     #[serde(default)]
-    pub legs: Option<measure::config::LegsConfig>,
+    pub legs: Option<rig_description::config::LegsConfig>,
     /// The site's gravity that the readings before the window are held against for the
     /// accelerometer's offset, m/s² (0: no offset measured).
     #[serde(default)]
@@ -342,7 +342,10 @@ impl EstimatorSettings {
             fk_max_iterations: fk.max_iterations,
             fk_max_jump_m: fk.max_jump_m,
             fk_max_jump_rad: fk.max_jump_rad,
-            legs: c.legs.as_ref().map(measure::config::LegsConfig::from_model),
+            legs: c
+                .legs
+                .as_ref()
+                .map(rig_description::config::LegsConfig::from_model),
             local_gravity_m_s2: c.local_gravity_m_s2,
         }
     }

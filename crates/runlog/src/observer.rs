@@ -11,7 +11,8 @@ use kinematics::{Geometry, Pose};
 use measure::measurement::payload_estimate;
 use measure::observer::{EstimatorStarted, MeasurementEnded, Observer, TickEvent};
 use measure::tare::TareFile;
-use measure::{Config, Measurement, TareEstimate};
+use measure::{Measurement, TareEstimate};
+use rig_description::Config;
 
 use crate::foxglove::{self, InertiaEllipsoid, SceneGeometry};
 use crate::messages::{

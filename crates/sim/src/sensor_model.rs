@@ -205,7 +205,7 @@ impl SensorModel {
         self.mount_m
     }
 
-    /// The IMU as built, in the IMU calibration's terms (`measure::calibration::imu`): ground
+    /// The IMU as built, in the IMU calibration's terms (`rig_description::calibration::imu`): ground
     /// truth for tests, never read by the estimator.
     pub fn imu_as_built(&self) -> ImuAsBuilt {
         let described = rig_description::config::ImuMounting {

@@ -4,10 +4,10 @@
 //! with a known G, A, r, τ and biases.
 
 use super::*;
-use measure::calibration::imu::GYRO_PARAMETERS;
 use nalgebra::{Rotation3, UnitQuaternion};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal as Gauss};
+use rig_description::calibration::imu::GYRO_PARAMETERS;
 
 const H: f64 = 0.01;
 

@@ -9,9 +9,9 @@ use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion};
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal as Gauss};
 
-use measure::calibration::CalibrationDocument;
-use measure::calibration::LoadCellFile;
 use measure::testkit;
+use rig_description::calibration::CalibrationDocument;
+use rig_description::calibration::LoadCellFile;
 
 const H: f64 = 0.01;
 const TRUE_GAINS: [f64; 6] = [4e-4, -6e-4, 2e-4, 8e-4, -3e-4, -5e-4];
@@ -372,7 +372,7 @@ fn a_rig_description_applies_its_load_cell_file_or_refuses_a_missing_one() {
         .unwrap();
     let rig = dir.path().join("car.toml");
     std::fs::write(&rig, "[calibration]\nload_cells = \"cells.toml\"\n").unwrap();
-    let loaded = measure::load::load(Some(&rig)).unwrap();
+    let loaded = rig_description::load::load(Some(&rig)).unwrap();
     let c = &loaded.config.calibration;
     assert_eq!(c.load_cell_gains().map(|g| g.gains), Some(TRUE_GAINS));
     assert!(measure::budget::Figures::of(&loaded.config)
@@ -381,7 +381,7 @@ fn a_rig_description_applies_its_load_cell_file_or_refuses_a_missing_one() {
     assert_eq!(c.age_warnings(0).len(), 0);
     assert_eq!(c.age_warnings(91 * 86_400).len(), 1);
     std::fs::write(&rig, "[calibration]\n\nload_cells = \"gone.toml\"\n").unwrap();
-    let err = measure::load::load(Some(&rig)).unwrap_err();
+    let err = rig_description::load::load(Some(&rig)).unwrap_err();
     assert_eq!(err.issues[0].key, "calibration.load_cells");
     assert_eq!(err.issues[0].line, Some(3));
     assert!(err.issues[0].problem.contains("cannot read"), "{err}");

@@ -121,19 +121,6 @@ pub struct RigMeasureArgs {
     pub shared: SharedArgs,
 }
 
-/// `stewart rig ARGS` parsed as the command line parses it (for tests and tools).
-pub fn parse(args: &[&str]) -> Result<RigArgs, clap::Error> {
-    use clap::Parser;
-    let all = ["stewart", "rig"].iter().chain(args);
-    match crate::Cli::try_parse_from(all)?.command {
-        crate::Command::Rig(a) => Ok(*a),
-        _ => Err(clap::Error::raw(
-            clap::error::ErrorKind::InvalidSubcommand,
-            "not a rig command",
-        )),
-    }
-}
-
 /// The plan and flags of `args`, or why they do not go together.
 pub fn resolve(args: &RigArgs) -> Result<(RigPlan, RigRunArgs), CommandError> {
     let (plan, common) = match &args.mode {

@@ -19,7 +19,7 @@ pub struct CalibratedImu {
 
 impl CalibratedImu {
     /// The modes of `alignment`'s covariances.
-    pub fn of(alignment: &crate::calibration::ImuAlignment) -> Self {
+    pub fn of(alignment: &rig_description::calibration::ImuAlignment) -> Self {
         let gyro = alignment.gyro_covariance_matrix();
         let g9 = gyro.view((0, 0), (9, 9)).into_owned();
         let eig = g9.symmetric_eigen();
@@ -57,21 +57,21 @@ impl CalibratedImu {
 ///
 /// The calibration's gains are blurred by the same built joints the `geometry` line moves in
 /// the measurement. When the file gives each joint coordinate's change of the gains s_k
-/// ([`crate::calibration::LoadCellGains::joint_sensitivity`]), the modes are those of the
+/// ([`rig_description::calibration::LoadCellGains::joint_sensitivity`]), the modes are those of the
 /// covariance without the joints' part, and the `geometry` line's joint k moves the applied
 /// gains by s_k with the joint ([`super::perturb::Scalar::Joint`]): one correlated effect per joint.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CalibratedGains {
     /// Unit δg along each eigenvector, and its sigma.
     pub modes: Vec<(f64, Vector6<f64>)>,
-    /// s_k per metre of joint coordinate k ([`crate::calibration::load_cells::joint_index`] order);
+    /// s_k per metre of joint coordinate k ([`rig_description::calibration::load_cells::joint_index`] order);
     /// empty when the file does not give them (the joints then count in the modes).
     pub joint_per_m: Vec<Vector6<f64>>,
 }
 
 impl CalibratedGains {
     /// The modes of `gains`' covariance, without the joints' part when the file gives it.
-    pub fn of(gains: &crate::calibration::LoadCellGains) -> Self {
+    pub fn of(gains: &rig_description::calibration::LoadCellGains) -> Self {
         let (cov, joint_per_m) = match gains.joint_share() {
             Some((without, per_m)) => (without, per_m),
             None => (gains.covariance_matrix(), Vec::new()),
@@ -99,7 +99,7 @@ impl CalibratedGains {
         offset_m: f64,
     ) -> Vector6<f64> {
         self.joint_per_m
-            .get(crate::calibration::load_cells::joint_index(
+            .get(rig_description::calibration::load_cells::joint_index(
                 plate, leg, coord,
             ))
             .map_or_else(Vector6::zeros, |s| s * offset_m)

@@ -8,7 +8,7 @@
 use estimator::{ParameterCovariance, ParameterVector};
 
 use super::RunBudget;
-use crate::sources::ErrorSource;
+use rig_description::sources::ErrorSource;
 
 /// One source's covariance of the payload's θ.
 #[derive(Clone, Debug, PartialEq)]

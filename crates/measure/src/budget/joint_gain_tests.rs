@@ -97,7 +97,7 @@ fn a_file_without_sensitivities_counts_its_whole_covariance() {
     gains.joint_sensitivity = (0..36).map(|k| [k as f64 * 1e-6; 6]).collect();
     let c = CalibratedGains::of(&gains);
     assert!((sigma(&c) - 2.4e-8).abs() < 1e-20);
-    let k = crate::calibration::load_cells::joint_index(true, 2, 1);
+    let k = rig_description::calibration::load_cells::joint_index(true, 2, 1);
     let want = k as f64 * 1e-6 / gains.joint_tolerance_m * 1e-3;
     assert!((c.joint_change(true, 2, 1, 1e-3)[0] - want).abs() < 1e-15);
 }

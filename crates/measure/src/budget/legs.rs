@@ -14,8 +14,8 @@ use nalgebra::{Vector3, Vector6};
 use stewart_types::GRAVITY_B_M_S2;
 
 use super::fit::Data;
-use crate::config::LegsConfig;
 use crate::record::derivative::{d1, d2};
+use rig_description::config::LegsConfig;
 
 /// The legs' effects at each entry of a record (zero outside the interior).
 #[derive(Clone, Debug, Default)]

@@ -1,4 +1,4 @@
-//! The error budget: for every error source of a real rig ([`crate::sources::ErrorSource`]),
+//! The error budget: for every error source of a real rig ([`rig_description::sources::ErrorSource`]),
 //! its one-sigma contribution to every reported quantity, from the rig description's figures
 //! and the measurement's own data, never from a simulator's truth.
 //!
@@ -41,10 +41,10 @@ use nalgebra::Vector6;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::config::{Config, LegsConfig, SensorsConfig};
 pub use crate::record::RunRecord;
-use crate::sources::ErrorSource;
 pub use combine::{payload_covariances, SourceCovariance};
+use rig_description::config::{Config, LegsConfig, SensorsConfig};
+use rig_description::sources::ErrorSource;
 pub use rigid::RigidBody;
 
 /// The rig description's figures the budget reads: the sensors' datasheets, the joints'

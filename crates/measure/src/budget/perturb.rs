@@ -19,7 +19,7 @@ use super::fit::{Data, Fit};
 use super::legs::{self as leg_model, LegEffects};
 use super::Figures;
 use crate::record::derivative::d1;
-use crate::sources::ErrorSource;
+use rig_description::sources::ErrorSource;
 
 /// One elementary error.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -220,7 +220,7 @@ pub struct Context<'a> {
     /// The described legs' effects at each entry.
     pub legs: &'a LegEffects,
     /// The described legs.
-    pub described: &'a crate::config::LegsConfig,
+    pub described: &'a rig_description::config::LegsConfig,
     /// The plate's motion at each entry ([`leg_model::motions`]).
     pub motions: &'a [Option<PlateMotion>],
     /// The calibrated IMU, when one is applied.
@@ -418,7 +418,7 @@ impl Scalar {
                 };
                 // The gyro's matrix off by σ·dir; the accelerometer turned by its rotation.
                 let m = Matrix3::identity() + dir * sigma;
-                let n = crate::calibration::imu::rotation_of(&m);
+                let n = rig_description::calibration::imu::rotation_of(&m);
                 with_data(&|d| transform_imu_after_rest(d, &m, &n, ctx.rest_gravity_m_s2))
             }
             Scalar::LeverArmMode(k) => {

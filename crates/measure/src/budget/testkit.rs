@@ -13,8 +13,8 @@ use crate::record::{Entry, RunRecord};
 pub use crate::testkit::geometry;
 
 /// The default rig description's legs (the embedded `configs/default.toml`).
-pub fn default_legs() -> crate::config::LegsConfig {
-    crate::load::load(None)
+pub fn default_legs() -> rig_description::config::LegsConfig {
+    rig_description::load::load(None)
         .expect("the embedded default loads")
         .config
         .legs

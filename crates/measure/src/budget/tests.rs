@@ -12,7 +12,7 @@ use super::legs::{self, LegEffects};
 use super::perturb::{Context, Scalar};
 use super::testkit::{self, Synth};
 use super::*;
-use crate::config::{LegsConfig, LoadCellEnd};
+use rig_description::config::{LegsConfig, LoadCellEnd};
 
 fn model(g: &Geometry, synth: &Synth) -> Model {
     Model {
@@ -359,7 +359,7 @@ fn the_fits_bias_effect_matches_the_estimators_sensitivity() {
 }
 
 pub(super) fn figures() -> Figures {
-    Figures::of(&crate::load::load(None).unwrap().config)
+    Figures::of(&rig_description::load::load(None).unwrap().config)
 }
 
 fn noisy(f: &Figures) -> Synth {
@@ -485,7 +485,7 @@ fn every_systematic_source_has_an_effect() {
     let f = figures();
     let synth = Synth::default();
     let b = run_budget(&g, &synth, &synth.samples(&g, |_, _, _| {}), &f);
-    for source in crate::sources::ErrorSource::ALL {
+    for source in rig_description::sources::ErrorSource::ALL {
         let n = perturb::scalars(source, &f).len();
         let e = b.effects_of(source);
         assert_eq!(e.len(), n, "{source}");

@@ -116,8 +116,8 @@ pub fn static_weighing_of(text: &str) -> Result<StaticWeighingReport, PriorError
 /// Lays a static weighing over the plan's prior (`[plan.payload]`, `[plan.fixture]`): their
 /// masses and c_x, c_y become the weighed ones; c_z and the inertia stay the described prior's
 /// (one level pose does not see them).
-pub fn apply_prior(plan: &mut crate::config::PlanConfig, w: &StaticWeighingReport) {
-    let set = |body: &mut crate::config::BodyPrior, weighed: &Weighed| {
+pub fn apply_prior(plan: &mut rig_description::config::PlanConfig, w: &StaticWeighingReport) {
+    let set = |body: &mut rig_description::config::BodyPrior, weighed: &Weighed| {
         if weighed.mass_kg.is_finite() && weighed.mass_kg > 0.0 {
             body.mass_kg = weighed.mass_kg;
             body.com_m[0] = weighed.com_xy_m[0];
@@ -173,7 +173,7 @@ mod tests {
         assert!((s.payload.com_xy_m[0] - 0.15).abs() < 1e-12);
         assert!(s.check.is_some_and(|c| c.agrees) && s.warning().is_none());
         let prior = static_weighing_of(&with.to_json()).expect("a prior");
-        let mut plan = crate::config::PlanConfig::default();
+        let mut plan = rig_description::config::PlanConfig::default();
         apply_prior(&mut plan, &prior);
         assert_eq!(plan.payload.mass_kg, s.payload.mass_kg);
         assert_eq!(plan.fixture.mass_kg, 400.0);

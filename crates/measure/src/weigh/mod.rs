@@ -50,7 +50,7 @@ use serde::{Deserialize, Serialize};
 use stewart_types::{GRAVITY_B_M_S2, STANDARD_GRAVITY_M_S2};
 
 use crate::budget::Figures;
-use crate::sources::ErrorSource;
+use rig_description::sources::ErrorSource;
 
 mod payload;
 #[cfg(test)]
@@ -129,7 +129,7 @@ pub fn static_wrench(
 
 /// The site's gravity of the rig description: `estimator.local_gravity_m_s2`, else standard
 /// gravity.
-pub fn gravity_of(config: &crate::Config) -> f64 {
+pub fn gravity_of(config: &rig_description::Config) -> f64 {
     config
         .estimator
         .local_gravity_m_s2
@@ -179,7 +179,7 @@ impl Weigher {
     }
 
     /// The weigher of `config`'s rig.
-    pub fn of(config: &crate::Config, geometry: Geometry) -> Self {
+    pub fn of(config: &rig_description::Config, geometry: Geometry) -> Self {
         Self::new(
             geometry,
             crate::setup::leg_model(config),

@@ -5,7 +5,7 @@ use crate::testkit::geometry;
 
 /// The figures of the default rig description.
 fn figures() -> Figures {
-    let loaded = crate::load::load(None).expect("default rig");
+    let loaded = rig_description::load::load(None).expect("default rig");
     Figures::of(&loaded.config)
 }
 

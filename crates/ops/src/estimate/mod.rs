@@ -17,16 +17,17 @@
 
 pub mod stream;
 
-use measure::calibration::CalibrationDocument;
+use rig_description::calibration::CalibrationDocument;
 use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
 use estimator::{EstimatorConfig, ParameterSet};
 use kinematics::FkOptions;
-use measure::config::ParamCount;
 use measure::replay::{BiasSigmas, Replay, ReplayOutcome};
 use measure::report::{Quantities, Report, ReportInputs, RunInfo, TareKind};
-use measure::{setup, LoadedConfig, TareFile};
+use measure::{setup, TareFile};
+use rig_description::config::ParamCount;
+use rig_description::LoadedConfig;
 
 use runlog::messages as topics;
 use runlog::metadata::{EstimatorSettings, RunMetadata, TruthMsg};
@@ -139,16 +140,20 @@ pub fn rig_description_of(meta: &RunMetadata, rig: Option<&LoadedConfig>) -> Res
     let imu = meta
         .imu_calibration_toml
         .as_deref()
-        .map(|t| measure::calibration::CalibrationFile::parse(t, "the log's IMU calibration"))
+        .map(|t| {
+            rig_description::calibration::CalibrationFile::parse(t, "the log's IMU calibration")
+        })
         .transpose()
         .map_err(|e| anyhow!("{e}"))?;
     let load_cells = meta
         .load_cell_calibration_toml
         .as_deref()
-        .map(|t| measure::calibration::LoadCellFile::parse(t, "the log's load-cell calibration"))
+        .map(|t| {
+            rig_description::calibration::LoadCellFile::parse(t, "the log's load-cell calibration")
+        })
         .transpose()
         .map_err(|e| anyhow!("{e}"))?;
-    let loaded = measure::load::load_recorded(
+    let loaded = rig_description::load::load_recorded(
         &meta.config_toml,
         "<rig description in the log>",
         imu,
@@ -403,7 +408,7 @@ pub fn build_report(
             params: params.into(),
             log: Some(log.path.display().to_string()),
             backend: meta.backend.clone(),
-            tool: measure::calibration::tool(),
+            tool: rig_description::calibration::tool(),
             calibrations: rig.config.calibration.applied(),
         },
         loaded_weighing: r.static_weighing.as_ref(),
@@ -528,7 +533,7 @@ pub struct EstimateOptions {
 pub enum Error {
     /// `--rig FILE` was refused.
     #[error("{0}")]
-    Rig(#[from] measure::load::ConfigError),
+    Rig(#[from] rig_description::load::ConfigError),
     /// The log could not be read or re-estimated.
     #[error("{0:#}")]
     Log(anyhow::Error),
@@ -576,7 +581,7 @@ pub struct EstimateOutcome {
 /// The rig description of `--rig FILE`, when given.
 fn rig_of(options: &EstimateOptions) -> Result<Option<LoadedConfig>, Error> {
     Ok(match &options.rig {
-        Some(path) => Some(measure::load::load(Some(path))?),
+        Some(path) => Some(rig_description::load::load(Some(path))?),
         None => None,
     })
 }

@@ -13,7 +13,8 @@ use std::path::Path;
 use anyhow::{anyhow, bail, Context, Result};
 use control::io::SensorFrame;
 use measure::replay::{Replay, ReplayError, ReplayOutcome};
-use measure::{LoadedConfig, Report, TareFile};
+use measure::{Report, TareFile};
+use rig_description::LoadedConfig;
 
 use super::{
     build_report, logged_tare, measured_tare, no_settings, rig_description_of, run_estimate,

@@ -27,7 +27,8 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use measure::{setup, LoadedConfig, Measurement, TareFile};
+use measure::{setup, Measurement, TareFile};
+use rig_description::LoadedConfig;
 
 use runlog::messages::{self as topics};
 use runlog::metadata::{EstimatorSettings, RunMetadata};
@@ -296,7 +297,7 @@ pub struct ImportOptions {
 pub enum Error {
     /// The rig description was refused.
     #[error("{0}")]
-    Rig(#[from] measure::load::ConfigError),
+    Rig(#[from] rig_description::load::ConfigError),
     /// The table, the tare or the log was refused or could not be written.
     #[error("{0:#}")]
     Import(anyhow::Error),
@@ -304,7 +305,7 @@ pub enum Error {
 
 /// Runs `import`: writes the log of `options`.
 pub fn run(options: &ImportOptions) -> Result<Imported, Error> {
-    let rig = measure::load::load(Some(&options.rig))?;
+    let rig = rig_description::load::load(Some(&options.rig))?;
     let out = options
         .out
         .clone()

@@ -264,7 +264,7 @@ fn table_file(
 #[test]
 fn the_import_refuses_what_the_estimate_could_not_use() {
     let dir = tempfile::tempdir().unwrap();
-    let rig = measure::load::load(None).unwrap();
+    let rig = rig_description::load::load(None).unwrap();
     let out = dir.path().join("out.mcap");
     let run = |csv: &std::path::Path, tare: Option<&std::path::Path>| {
         super::import(&super::ImportPlan {

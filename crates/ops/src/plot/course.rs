@@ -2,8 +2,8 @@
 //! `stewart plan` predicts for the whole run ([`crate::plan::configured_prediction`]), with the
 //! information accumulated only up to each time t ([`planner::Planner::predict_until`]).
 
-use measure::LoadedConfig;
 use planner::Planner;
+use rig_description::LoadedConfig;
 use runlog::read::LogContents;
 
 /// Points of the predicted course: the excitation's length split evenly.
@@ -51,7 +51,7 @@ pub fn predicted_course(loaded: &LoadedConfig, points: usize) -> Option<Predicte
 pub fn course_of_log(log: &LogContents) -> Option<PredictedCourse> {
     let metadata = log.metadata.as_ref()?;
     let loaded =
-        measure::load::load_str(&metadata.config_toml, "the log's rig description").ok()?;
+        rig_description::load::load_str(&metadata.config_toml, "the log's rig description").ok()?;
     predicted_course(&loaded, COURSE_POINTS)
 }
 
@@ -90,9 +90,9 @@ mod tests {
     /// excitation (the same code), and it falls with the excitation time.
     #[test]
     fn the_course_ends_at_the_plans_figure_and_falls() {
-        let loaded = measure::load::load(None)
+        let loaded = rig_description::load::load(None)
             .expect("default")
-            .with_overrides(&measure::load::Overrides {
+            .with_overrides(&rig_description::load::Overrides {
                 duration_s: Some(8.0),
                 params: None,
             })

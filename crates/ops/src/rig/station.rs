@@ -9,7 +9,8 @@ use anyhow::anyhow;
 use control::io::Backend;
 use measure::observer::Observer;
 use measure::session::{Job, Station};
-use measure::{End, LoadedConfig, MeasureOutcome};
+use measure::{End, MeasureOutcome};
+use rig_description::LoadedConfig;
 use runlog::messages::{self as topics, SupervisorMsg};
 use runlog::rig_record::{LinkCounters, LinkMsg, LINK};
 

@@ -466,7 +466,7 @@ impl LogContents {
     /// Takes the metadata from the rig description `rig` when every copy of the log's was lost
     /// ([`RunMetadata::of_rig`]), its `runs` the measurements whose frames the log holds
     /// ([`Self::runs`]); a log whose metadata was read keeps it.
-    pub fn or_metadata_of(&mut self, rig: Option<&measure::LoadedConfig>) -> Result<()> {
+    pub fn or_metadata_of(&mut self, rig: Option<&rig_description::LoadedConfig>) -> Result<()> {
         if let (None, Some(rig)) = (&self.metadata, rig) {
             self.metadata = Some(RunMetadata {
                 runs: self.runs(),

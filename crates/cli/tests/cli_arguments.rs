@@ -183,3 +183,45 @@ fn live_takes_an_address_or_the_default_and_not_a_campaign() {
         assert!(Cli::try_parse_from(rig).is_ok(), "{rig:?}");
     }
 }
+
+/// `--html FILE` is offered where a report of one measurement is written (`simulate`, `rig`,
+/// `rig measure`, `estimate`, `report`), not by `rig tare` (no report), and `report` needs it.
+#[test]
+fn html_is_offered_by_every_command_that_writes_a_report() {
+    use clap::CommandFactory;
+    for args in [
+        &["stewart", "simulate", "--html", "p.html"][..],
+        &["stewart", "rig", "--html", "p.html"],
+        &[
+            "stewart", "rig", "measure", "--tare", "t.json", "--html", "p.html",
+        ],
+        &["stewart", "estimate", "l.mcap", "--html", "p.html"],
+        &["stewart", "report", "r.json", "--html", "p.html"],
+    ] {
+        assert!(Cli::try_parse_from(args).is_ok(), "{args:?}");
+    }
+    assert!(Cli::try_parse_from(["stewart", "report", "r.json"]).is_err());
+    let cli = Cli::command();
+    let mut tare = cli
+        .find_subcommand("rig")
+        .and_then(|r| r.find_subcommand("tare"))
+        .expect("rig tare")
+        .clone();
+    tare.build();
+    assert!(!tare.get_arguments().any(|a| a.get_long() == Some("html")));
+}
+
+/// `--cutoff-hz -1` and `nan` were taken as "no filter": refused, saying how to ask for none.
+#[test]
+fn cutoff_hz_refuses_negative_and_non_finite_values_and_takes_none() {
+    for bad in ["-1", "nan", "inf", "x"] {
+        let err = Cli::try_parse_from(["stewart", "estimate", "a.mcap", "--cutoff-hz", bad])
+            .err()
+            .unwrap_or_else(|| panic!("{bad} accepted"))
+            .to_string();
+        assert!(err.contains("0 or `none`"), "{bad}: {err}");
+    }
+    for (good, hz) in [("none", 0.0), ("0", 0.0), ("12.5", 12.5)] {
+        assert_eq!(ops::estimate::parse_cutoff_hz(good), Ok(hz));
+    }
+}
