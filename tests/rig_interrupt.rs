@@ -237,3 +237,128 @@ fn a_second_ctrl_c_brakes_at_once_and_finishes_the_log() {
         ends[0]
     );
 }
+
+/// `stewart rig tare` as a process of its own against the rig at `address` (keyed by the
+/// scenario, at normal priority, no operator), logging to `log`, saving to `out`.
+fn rig_process(
+    scratch: &Scratch,
+    address: &str,
+    log: &std::path::Path,
+    out: &std::path::Path,
+) -> std::process::Child {
+    std::process::Command::new(env!("CARGO_BIN_EXE_stewart"))
+        .args(["rig", "tare", "--out"])
+        .arg(out)
+        .arg("--config")
+        .arg(&scratch.config)
+        .args(["--connect", address, "--log"])
+        .arg(log)
+        .args(["--no-prompt", "--quiet", "--no-realtime"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("stewart runs")
+}
+
+/// Waits (at most 30 s) for `child` to exit; its exit status and standard error.
+fn exited(mut child: std::process::Child) -> (std::process::ExitStatus, String) {
+    let deadline = Instant::now() + Duration::from_secs(30);
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            let mut stderr = String::new();
+            if let Some(mut e) = child.stderr.take() {
+                let _ = std::io::Read::read_to_string(&mut e, &mut stderr);
+            }
+            return (status, stderr);
+        }
+        if Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("stewart rig did not exit after the signal");
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+}
+
+/// Sends `signal` to the process `child`.
+fn send(child: &std::process::Child, signal: i32) {
+    // SAFETY: kill(2) with a live child's pid and a valid signal number.
+    let rc = unsafe { libc::kill(child.id() as libc::pid_t, signal) };
+    assert_eq!(rc, 0, "kill: {}", std::io::Error::last_os_error());
+}
+
+/// SIGTERM, SIGHUP and SIGQUIT end `stewart rig` as Ctrl-C does (a service manager, a closed
+/// terminal and Ctrl-\ killed it with the legs enabled at 1.4-5.9 kN and the log without its
+/// footer): parked, the last command on the wire brakes, the log reads to its summary, exit
+/// 130, no tare saved.
+#[test]
+fn sigterm_sighup_and_sigquit_park_the_platform_and_finish_the_log() {
+    let _lock = real_time();
+    for (signal, name) in [
+        (libc::SIGTERM, "SIGTERM"),
+        (libc::SIGHUP, "SIGHUP"),
+        (libc::SIGQUIT, "SIGQUIT"),
+    ] {
+        let scratch = Scratch::new(&quick());
+        let emulator = start(&emulate_args(&scratch));
+        let relay = Relay::new(emulator.address());
+        let (log, out) = (scratch.path("rig.mcap"), scratch.path("tare.json"));
+        let child = rig_process(&scratch, &relay.address, &log, &out);
+        relay.wait_for_frames(INTO_THE_EXCITATION);
+        send(&child, signal);
+        let (status, stderr) = exited(child);
+        let stopped = emulator.stop().unwrap();
+
+        assert_eq!(
+            status.code(),
+            Some(i32::from(ops::exit::INTERRUPTED)),
+            "{name}: {status:?}\n{stderr}"
+        );
+        assert!(stderr.contains(&format!("{name}: parking")), "{stderr}");
+        assert!(!out.exists(), "{name}: an interrupted tare is not saved");
+        assert!(
+            stopped.faults().is_empty(),
+            "{name}: {:?}",
+            stopped.faults()
+        );
+        let last = stopped.last_command().expect("commanded");
+        assert!(!last.enable, "{name}: {last:?}");
+        // The log is finished (read_log reads its summary) and the park followed the signal.
+        let messages = read_log(&log);
+        let phases: Vec<&str> = on(&messages, "/supervisor")
+            .iter()
+            .map(|m| m["phase"].as_str().unwrap())
+            .collect();
+        assert!(phases.contains(&"park"), "{name}: {phases:?}");
+        assert_eq!(phases.last(), Some(&"done"), "{name}: {phases:?}");
+    }
+}
+
+/// Two SIGTERMs brake at once, as two Ctrl-Cs do: the last command is a safe stop with zero
+/// force, the log is finished, exit 130.
+#[test]
+fn a_second_sigterm_brakes_at_once_and_finishes_the_log() {
+    let _lock = real_time();
+    let scratch = Scratch::new(&quick().replace("park_s = 1.0", "park_s = 4.0"));
+    let emulator = start(&emulate_args(&scratch));
+    let relay = Relay::new(emulator.address());
+    let (log, out) = (scratch.path("rig.mcap"), scratch.path("tare.json"));
+    let child = rig_process(&scratch, &relay.address, &log, &out);
+    relay.wait_for_frames(INTO_THE_EXCITATION);
+    send(&child, libc::SIGTERM);
+    relay.wait_for_frames(INTO_THE_EXCITATION + 150);
+    send(&child, libc::SIGTERM);
+    let (status, stderr) = exited(child);
+    let stopped = emulator.stop().unwrap();
+    assert_eq!(
+        status.code(),
+        Some(i32::from(ops::exit::INTERRUPTED)),
+        "{stderr}"
+    );
+    assert!(stderr.contains("SIGTERM: braking now"), "{stderr}");
+    assert!(stopped.faults().is_empty(), "{:?}", stopped.faults());
+    let last = stopped.last_command().expect("commanded");
+    assert!(!last.enable, "{last:?}");
+    assert_eq!(last.leg_forces_n, [0.0; 6]);
+    let messages = read_log(&log);
+    assert!(!on(&messages, "/supervisor").is_empty());
+}

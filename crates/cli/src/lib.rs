@@ -1,6 +1,6 @@
 //! The `stewart` command line: one module per command, each turning its flags into the options
 //! of an operation of the `ops` library, calling it and printing its outcome; the terminal's
-//! own concerns (table, progress bar, the operator's prompt, Ctrl-C) in modules of their own.
+//! own concerns (table, progress bar, the operator's prompt, the stopping signals) in modules of their own.
 //! The figures of `--plot` are crate `figures`'.
 #![warn(missing_docs)]
 
@@ -19,6 +19,7 @@ pub mod progress;
 pub mod prompt;
 pub mod report;
 pub mod rig;
+pub mod signals;
 pub mod simulate;
 pub mod table;
 
@@ -26,38 +27,7 @@ use clap::{Parser, Subcommand};
 
 pub use common::{CommandError, EXIT_FAULT, EXIT_INTERRUPTED};
 
-/// Set by the first Ctrl-C; the run loop parks the platform when it sees it.
-pub static INTERRUPT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-
-/// Set by the second Ctrl-C of a command that drives hardware (`rig`): brakes at once (no park
-/// ramp), the log is finished, then the command exits.
-pub static ABORT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-
-/// Ctrl-C presses so far.
-static PRESSES: std::sync::atomic::AtomicU32 = std::sync::atomic::AtomicU32::new(0);
-
-/// What one Ctrl-C does.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CtrlC {
-    /// Park the platform (ramp home, brakes), finish the log.
-    Park,
-    /// Brake at once, finish the log, exit.
-    StopNow,
-    /// Exit at once (nothing that moves hardware is left to stop, or the operator insists).
-    Exit,
-}
-
-/// The `press`-th Ctrl-C (1-based) of a command; `drives_hardware`: it commands a rig, which
-/// must get a safe stop however the command ends. A simulation has nothing to stop, so its
-/// second press exits; a rig's second press brakes at once and finishes the log, and only a
-/// third exits without waiting (the rig's command watchdog then brakes it).
-pub fn on_ctrl_c(press: u32, drives_hardware: bool) -> CtrlC {
-    match press {
-        0 | 1 => CtrlC::Park,
-        2 if drives_hardware => CtrlC::StopNow,
-        _ => CtrlC::Exit,
-    }
-}
+pub use signals::{ABORT, INTERRUPT};
 
 /// Measure a vehicle's mass, centre of mass and inertia tensor on a Stewart platform.
 #[derive(Debug, Parser)]
@@ -106,7 +76,6 @@ pub enum Command {
 /// measured (no samples used, or most rejected), 130 interrupted (parked).
 pub fn main_entry() -> std::process::ExitCode {
     use std::process::ExitCode;
-    use std::sync::atomic::Ordering;
 
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
@@ -123,26 +92,9 @@ pub fn main_entry() -> std::process::ExitCode {
         }
     };
     let drives_hardware = matches!(cli.command, Command::Rig(_));
-    let _ = ctrlc::set_handler(move || {
-        let press = PRESSES.fetch_add(1, Ordering::SeqCst) + 1;
-        match on_ctrl_c(press, drives_hardware) {
-            CtrlC::Park => {
-                INTERRUPT.store(true, Ordering::SeqCst);
-                eprintln!(
-                    "\ninterrupted: parking the platform and finishing the log (Ctrl-C again to \
-                     brake at once)"
-                );
-            }
-            CtrlC::StopNow => {
-                INTERRUPT.store(true, Ordering::SeqCst);
-                ABORT.store(true, Ordering::SeqCst);
-                eprintln!(
-                    "\nbraking now and finishing the log (Ctrl-C again to exit without waiting)"
-                );
-            }
-            CtrlC::Exit => std::process::exit(i32::from(EXIT_INTERRUPTED)),
-        }
-    });
+    if let Err(e) = signals::listen(drives_hardware) {
+        eprintln!("warning: cannot catch Ctrl-C, SIGTERM, SIGHUP or SIGQUIT ({e}): they end the command at once");
+    }
     ExitCode::from(match cli.command {
         Command::Rig(a) => rig::main(&a, &INTERRUPT, &ABORT),
         Command::Emulate(a) => emulate::main(&a, &INTERRUPT),
@@ -156,20 +108,4 @@ pub fn main_entry() -> std::process::ExitCode {
         Command::Simulate(a) if a.runs.is_some() => campaign::main(&a, &INTERRUPT),
         Command::Simulate(a) => simulate::main(&a, &INTERRUPT),
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A second Ctrl-C on `rig` brakes and finishes the log (an exit at once
-    /// would leave an enabled command on the wire and the log without its footer).
-    #[test]
-    fn a_second_ctrl_c_on_a_rig_brakes_and_only_a_third_exits() {
-        assert_eq!(on_ctrl_c(1, true), CtrlC::Park);
-        assert_eq!(on_ctrl_c(2, true), CtrlC::StopNow);
-        assert_eq!(on_ctrl_c(3, true), CtrlC::Exit);
-        assert_eq!(on_ctrl_c(1, false), CtrlC::Park);
-        assert_eq!(on_ctrl_c(2, false), CtrlC::Exit);
-    }
 }
