@@ -41,6 +41,12 @@ fn the_emulator_going_silent_is_a_fault_the_host_notices() {
         "{cause}"
     );
     assert_eq!(outcome.exit_code(), ops::exit::FAULT);
+    // The safe stop the host sent after the fault is in its own record (the log's last
+    // command had the legs enabled: what the host sent last could not be read back).
+    assert!(
+        !last_logged_enable(&log),
+        "the log's last command enables the legs"
+    );
     assert!(
         !scratch.path("tare.json").exists(),
         "no tare from a failed run"

@@ -492,6 +492,22 @@ pub fn read_log(path: &Path) -> Vec<(String, serde_json::Value)> {
         .collect()
 }
 
+/// The `enable` flag of the last command the finished log at `path` holds on `/commands` (in
+/// file order: the order the host sent them), read with the `mcap` crate and the log's own
+/// protobuf descriptor.
+pub fn last_logged_enable(path: &Path) -> bool {
+    let log = read_log(path);
+    let block = on(&log, "/commands")
+        .into_iter()
+        .next_back()
+        .expect("the log holds commands");
+    block["enable"]
+        .as_array()
+        .and_then(|e| e.last())
+        .and_then(serde_json::Value::as_bool)
+        .unwrap_or_else(|| panic!("a command block without enable: {block}"))
+}
+
 /// How many records of the MCAP bytes `bytes` (possibly cut short) the `mcap` crate reads
 /// before its first error.
 pub fn readable_records(bytes: &[u8]) -> u64 {

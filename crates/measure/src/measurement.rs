@@ -58,6 +58,20 @@ pub enum End {
     Fault(String),
 }
 
+/// The last sensor frame the loop read: what a safe stop sent after a failure answers.
+#[derive(Clone, Copy, Debug, Default)]
+struct LastFrame {
+    sequence: u64,
+    time_s: f64,
+}
+
+impl LastFrame {
+    fn saw(&mut self, frame: &SensorFrame) {
+        self.sequence = frame.sequence;
+        self.time_s = frame.time_s;
+    }
+}
+
 /// What a measurement produced.
 #[derive(Clone, Debug)]
 pub struct MeasureOutcome {
@@ -150,18 +164,14 @@ where
     B::Error: std::fmt::Display,
     O: Observer + ?Sized,
 {
-    let mut last_sensor_sequence = 0;
-    let result = run(
-        backend,
-        setup,
-        controller,
-        observer,
-        stop,
-        &mut last_sensor_sequence,
-    );
+    let mut last_frame = LastFrame::default();
+    let result = run(backend, setup, controller, observer, stop, &mut last_frame);
     if result.is_err() {
-        // Whatever failed (the backend, the observer), the platform must not keep moving.
-        let _ = backend.write(&CommandFrame::safe_stop(u64::MAX, last_sensor_sequence));
+        // Whatever failed (the backend, the observer), the platform must not keep moving, and
+        // the record says so.
+        let command = CommandFrame::safe_stop(u64::MAX, last_frame.sequence);
+        let _ = backend.write(&command);
+        let _ = observer.safe_stop(setup.measurement, last_frame.time_s, &command);
     }
     result
 }
@@ -172,7 +182,7 @@ fn run<B, O>(
     controller: Controller,
     observer: &mut O,
     stop: &AtomicBool,
-    last_sensor_sequence: &mut u64,
+    last_frame: &mut LastFrame,
 ) -> Result<MeasureOutcome>
 where
     B: Backend,
@@ -210,7 +220,7 @@ where
         &mut tick,
         config,
         |frame, command, sample, tick| {
-            *last_sensor_sequence = frame.sequence;
+            last_frame.saw(frame);
             match sample {
                 Some(s) => weigher.push(s.time_s, &s.pose, &s.leg_forces_n),
                 None => fk_failures += 1,
@@ -258,7 +268,7 @@ where
     let mut last_fed_s = f64::NAN;
     for _ in 0..budget {
         let frame = read(backend)?;
-        *last_sensor_sequence = frame.sequence;
+        last_frame.saw(&frame);
         let interrupted = stop.load(Ordering::SeqCst);
         if interrupted && !park_requested {
             tick.controller.request_park();

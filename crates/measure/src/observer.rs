@@ -98,6 +98,20 @@ pub trait Observer {
         Ok(())
     }
 
+    /// A safe stop was sent outside the loop's ticks (after a failure, a fault or a stop that
+    /// ended the measurement early), answering the frame of backend time `time_s`: observers
+    /// that log keep it with the ticks' commands, so that what was last on the wire can be read
+    /// back from the record.
+    fn safe_stop(
+        &mut self,
+        measurement: Measurement,
+        time_s: f64,
+        command: &CommandFrame,
+    ) -> anyhow::Result<()> {
+        let _ = (measurement, time_s, command);
+        Ok(())
+    }
+
     /// A record of the station's own (a rig's link counters), on `topic`, at backend time
     /// `time_s`: observers that log keep it, others ignore it.
     fn record(
@@ -146,6 +160,10 @@ impl<A: Observer, B: Observer> Observer for Both<A, B> {
         self.0.tare(t)?;
         self.1.tare(t)
     }
+    fn safe_stop(&mut self, m: Measurement, t: f64, c: &CommandFrame) -> anyhow::Result<()> {
+        self.0.safe_stop(m, t, c)?;
+        self.1.safe_stop(m, t, c)
+    }
     fn record(&mut self, topic: &'static str, t: f64, v: &serde_json::Value) -> anyhow::Result<()> {
         self.0.record(topic, t, v)?;
         self.1.record(topic, t, v)
@@ -167,6 +185,9 @@ impl<O: Observer + ?Sized> Observer for &mut O {
     }
     fn tare(&mut self, t: &TareFile) -> anyhow::Result<()> {
         (**self).tare(t)
+    }
+    fn safe_stop(&mut self, m: Measurement, t: f64, c: &CommandFrame) -> anyhow::Result<()> {
+        (**self).safe_stop(m, t, c)
     }
     fn record(&mut self, topic: &'static str, t: f64, v: &serde_json::Value) -> anyhow::Result<()> {
         (**self).record(topic, t, v)

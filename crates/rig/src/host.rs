@@ -227,16 +227,18 @@ impl RigBackend {
         (self.force_min_n, self.force_max_n)
     }
 
-    /// Sends the safe-stop command (brake, zero force). The rig also brakes by itself, with a
-    /// WATCHDOG fault, when driving commands stop for longer than its watchdog.
-    pub fn safe_stop(&mut self) -> Result<(), RigError> {
+    /// Sends the safe-stop command (brake, zero force) and returns it, for the record. The rig
+    /// also brakes by itself, with a WATCHDOG fault, when driving commands stop for longer
+    /// than its watchdog.
+    pub fn safe_stop(&mut self) -> Result<Command, RigError> {
         let command = Command {
             sequence: self.next_command_sequence,
             sensor_sequence: self.last_sequence,
             leg_forces_n: [0.0; LEG_COUNT],
             enable: false,
         };
-        self.send_command(&command)
+        self.send_command(&command)?;
+        Ok(command)
     }
 
     fn auth(&self) -> Option<Auth<'_>> {

@@ -116,8 +116,8 @@ impl Held {
         self.rig.write(command)
     }
 
-    /// Sends a safe stop (brakes).
-    pub fn safe_stop(&mut self) -> Result<(), RigError> {
+    /// Sends a safe stop (brakes) and returns it.
+    pub fn safe_stop(&mut self) -> Result<crate::wire::Command, RigError> {
         self.braked = true;
         self.last_command_at = Instant::now();
         self.rig.safe_stop()
@@ -364,7 +364,7 @@ impl Backend for Monitored<'_> {
             self.late.add(now - last, self.watchdog);
         }
         let result = if self.aborted() {
-            self.link.lock().safe_stop()
+            self.link.lock().safe_stop().map(|_| ())
         } else {
             self.link.lock().write(command)
         };

@@ -242,6 +242,18 @@ impl Observer for LogObserver<'_> {
         self.log.write_now(topics::TARE, tare)
     }
 
+    fn safe_stop(
+        &mut self,
+        measurement: Measurement,
+        time_s: f64,
+        command: &control::io::CommandFrame,
+    ) -> anyhow::Result<()> {
+        self.log
+            .write_command(measurement.name(), time_s, command)?;
+        // A safe stop ends the measurement: its record goes to the file at once.
+        self.log.flush()
+    }
+
     fn record(
         &mut self,
         topic: &'static str,

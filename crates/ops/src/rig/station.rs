@@ -6,7 +6,7 @@ use runlog::compact::AtLogResolution;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::anyhow;
-use control::io::Backend;
+use control::io::{Backend, CommandFrame};
 use measure::observer::Observer;
 use measure::session::{Job, Station};
 use measure::{End, MeasureOutcome};
@@ -62,7 +62,8 @@ impl Station for RigStation<'_> {
         job: Job<'_>,
         observer: &mut O,
     ) -> anyhow::Result<MeasureOutcome> {
-        let run = job.measurement().name();
+        let measurement = job.measurement();
+        let run = measurement.name();
         let stop = job.stop;
         let (info, before) = {
             let held = self.link.lock();
@@ -111,13 +112,19 @@ impl Station for RigStation<'_> {
                 }
                 Some(f) => MeasureOutcome::ended_early(End::Fault(f.cause.clone()), 0),
                 None => {
-                    let _ = self.link.lock().safe_stop();
+                    if let Ok(sent) = self.link.lock().safe_stop() {
+                        let time_s = last_time_s.unwrap_or(0.0);
+                        let _ = observer.safe_stop(measurement, time_s, &CommandFrame::from(&sent));
+                    }
                     return Err(e);
                 }
             },
         };
         if outcome.end != End::Completed {
-            self.link.lock().safe_stop()?;
+            // The run ended early: brake, and keep the brake's command with the loop's.
+            let sent = self.link.lock().safe_stop()?;
+            let time_s = last_time_s.unwrap_or(0.0);
+            observer.safe_stop(measurement, time_s, &CommandFrame::from(&sent))?;
         }
         let mut outcome = outcome;
         if let End::Fault(cause) = &outcome.end {
