@@ -138,8 +138,11 @@ pub struct Link {
 
 impl Link {
     /// Takes over `rig` (just connected: braked) and starts the heartbeat at a quarter of the
-    /// rig's watchdog time (at least 1 ms).
+    /// rig's watchdog time (at least 1 ms), at the calling (loop's) thread's real-time
+    /// priority: the loop waits on the lock the heartbeat takes, so a heartbeat preempted
+    /// while it holds it would stall the loop.
     pub fn start(rig: RigBackend) -> Self {
+        let priority = crate::realtime::fifo_priority();
         let interval = (rig.info().watchdog / 4).max(Duration::from_millis(1));
         let held = Arc::new(Mutex::new(Held {
             rig,
@@ -153,7 +156,10 @@ impl Link {
             let stop = Arc::clone(&stop);
             std::thread::Builder::new()
                 .name("rig-heartbeat".into())
-                .spawn(move || heartbeat(&held, &stop, interval))
+                .spawn(move || {
+                    crate::realtime::follow(priority);
+                    heartbeat(&held, &stop, interval)
+                })
                 .ok()
         };
         Self { held, stop, thread }

@@ -2,11 +2,17 @@
 //! must answer within the rig's command watchdog (20 ms), and a normal-priority process on a
 //! busy machine is descheduled for longer than that (docs/rig.md, *Measured on this machine*).
 //!
-//! [`request`] asks for `SCHED_FIFO` at a modest priority for the calling thread (threads it
-//! starts afterwards inherit it) and, when the memory-lock limit allows all of it, locks the
+//! [`request`] asks for `SCHED_FIFO` at a modest priority for the calling thread (the loop's)
+//! and, when the memory-lock limit allows all of it, locks the
 //! process's memory (`mlockall(MCL_CURRENT | MCL_FUTURE)`) so that no page fault stalls the
 //! loop. Each refusal is reported with its fix, never an error: the run goes on at normal
 //! priority and the host names lateness when the rig's watchdog trips.
+//!
+//! Threads the loop's thread starts afterwards run at normal priority (`SCHED_RESET_ON_FORK`):
+//! the log's writer compressing a chunk and the live view's server at the loop's priority
+//! held both cores of a two-core host while the loop waited (a `SCHED_FIFO` thread is never
+//! preempted by one of equal priority). Only the link's heartbeat, whose lock the loop waits
+//! on, takes the loop's priority ([`follow`], called by [`crate::monitored::Link::start`]).
 
 /// The `SCHED_FIFO` priority asked for: above every normal task, below the kernel's own
 /// real-time threads (which use 50 and up) and `chrt`'s usual 50, so that an operator can still
@@ -81,13 +87,48 @@ pub fn request() -> Granted {
     }
 }
 
+/// The `SCHED_FIFO` priority of the calling thread, `None` at normal priority: what a helper
+/// thread the loop waits on must [`follow`].
+#[cfg(target_os = "linux")]
+pub fn fifo_priority() -> Option<i32> {
+    // SAFETY: plain system calls on this thread (pid 0); `param` is valid to write into.
+    let policy = unsafe { libc::sched_getscheduler(0) };
+    if policy < 0 || policy & !SCHED_RESET_ON_FORK != libc::SCHED_FIFO {
+        return None;
+    }
+    let mut param = libc::sched_param { sched_priority: 0 };
+    (unsafe { libc::sched_getparam(0, &mut param) } == 0).then_some(param.sched_priority)
+}
+
+/// Elsewhere every thread runs at normal priority.
+#[cfg(not(target_os = "linux"))]
+pub fn fifo_priority() -> Option<i32> {
+    None
+}
+
+/// Puts the calling thread at `priority` ([`fifo_priority`] of the thread it serves), or
+/// leaves it at normal priority for `None` or where the system refuses.
+pub fn follow(priority: Option<i32>) {
+    #[cfg(target_os = "linux")]
+    if let Some(p) = priority {
+        let _ = set_fifo(p);
+    }
+    #[cfg(not(target_os = "linux"))]
+    let _ = priority;
+}
+
+/// `SCHED_RESET_ON_FORK` (linux/sched.h; not in the libc crate): threads and processes this
+/// thread creates start at normal priority.
+#[cfg(target_os = "linux")]
+const SCHED_RESET_ON_FORK: i32 = 0x4000_0000;
+
 #[cfg(target_os = "linux")]
 fn set_fifo(priority: i32) -> Result<i32, String> {
     let param = libc::sched_param {
         sched_priority: priority,
     };
     // SAFETY: `param` is a valid sched_param for the call's duration; pid 0 is this thread.
-    let rc = unsafe { libc::sched_setscheduler(0, libc::SCHED_FIFO, &param) };
+    let rc = unsafe { libc::sched_setscheduler(0, libc::SCHED_FIFO | SCHED_RESET_ON_FORK, &param) };
     if rc == 0 {
         Ok(priority)
     } else {
@@ -168,5 +209,35 @@ mod tests {
         let line = unlocked.refusal_line().unwrap();
         assert!(!line.contains("real-time priority"), "{line}");
         assert!(line.contains("ulimit -l"), "{line}");
+    }
+
+    /// A thread started by a real-time thread runs at normal priority (the log's writer, the
+    /// live view), and one that follows it runs at its priority (the heartbeat). Where this
+    /// process may not use SCHED_FIFO the test has nothing to check and says so.
+    #[cfg(target_os = "linux")]
+    #[test]
+    fn threads_started_by_the_loop_run_at_normal_priority_unless_they_follow_it() {
+        let checked = std::thread::spawn(|| {
+            if set_fifo(FIFO_PRIORITY).is_err() {
+                eprintln!("SCHED_FIFO refused here: nothing to check");
+                return None;
+            }
+            let own = fifo_priority();
+            let plain = std::thread::spawn(fifo_priority).join().unwrap();
+            let followed = std::thread::spawn(move || {
+                follow(own);
+                fifo_priority()
+            })
+            .join()
+            .unwrap();
+            Some((own, plain, followed))
+        })
+        .join()
+        .unwrap();
+        if let Some((own, plain, followed)) = checked {
+            assert_eq!(own, Some(FIFO_PRIORITY));
+            assert_eq!(plain, None, "a plain thread inherited the loop's priority");
+            assert_eq!(followed, Some(FIFO_PRIORITY));
+        }
     }
 }
