@@ -603,9 +603,16 @@ fn exchange_hello(
     // A rig busy with another session frees it when that host goes quiet (its session
     // timeout), so "busy" is retried until the handshake time is up.
     let mut busy: Option<Fault> = None;
+    // A keyed host cannot tell the rig's untagged refusal from anyone's forgery: it believes
+    // one only if no HelloAck proving the key arrives before the handshake time is up.
+    let keyed = options.key.is_some();
+    let mut unproven: Option<RigError> = None;
     loop {
         let now = Instant::now();
         if now >= give_up {
+            if let Some(refusal) = unproven {
+                return Err(refusal);
+            }
             if let Some(fault) = busy {
                 return Err(refused(&fault));
             }
@@ -639,10 +646,16 @@ fn exchange_hello(
         let message = match codec::decode(frame, auth.as_ref()) {
             Ok(message) => message,
             Err(CodecError::VersionMismatch(rig)) => {
-                return Err(RigError::VersionMismatch {
+                let mismatch = RigError::VersionMismatch {
                     rig,
                     host: PROTOCOL_VERSION,
-                })
+                };
+                if !keyed {
+                    return Err(mismatch);
+                }
+                stats.version_mismatch += 1;
+                unproven.get_or_insert(mismatch);
+                continue;
             }
             Err(e) if e.kind() == codec::CodecErrorKind::Auth => {
                 // The rig answers a Hello it cannot authenticate with an untagged refusal.
@@ -651,8 +664,11 @@ fn exchange_hello(
                         busy = Some(fault);
                         continue;
                     }
-                    if answers_hello(fault.code) {
+                    if answers_hello(fault.code) && !keyed {
                         return Err(refused(&fault));
+                    }
+                    if answers_hello(fault.code) {
+                        unproven.get_or_insert(refused(&fault));
                     }
                 }
                 stats.auth_failed += 1;

@@ -480,3 +480,87 @@ fn a_watchdog_trip_and_a_session_timeout_are_told() {
         other => panic!("{other:?}"),
     }
 }
+
+/// A keyed host connecting to a scripted keyed rig whose every answer to a `Hello` is
+/// `before_ack` (frames from the rig's address, untagged: anyone's forgery) followed, if
+/// `ack`, by the rig's tagged `HelloAck`.
+fn keyed_handshake(before_ack: Vec<Message>, ack: bool) -> Result<RigBackend, RigError> {
+    let key = Key::from_hex(&"5a".repeat(32)).unwrap();
+    let link = Scripted::default();
+    let rig_key = key.clone();
+    link.script().responder = Some(Box::new(move |frame| {
+        let auth = Auth {
+            key: rig_key.bytes(),
+            session_id: 0,
+        };
+        let Ok(Message::Hello(hello)) = codec::decode(frame, Some(&auth)) else {
+            return Vec::new();
+        };
+        let mut answers: Vec<Vec<u8>> = before_ack.iter().map(|m| encode(m, None)).collect();
+        if ack {
+            let ack = HelloAck {
+                host_nonce: hello.host_nonce,
+                session_id: 42,
+                identity: identity_from_str("scripted"),
+                layout: SensorLayout {
+                    leg_count: 6,
+                    imu_present: true,
+                    accel_position_m: [0.0; 3],
+                },
+                sample_period_ns: 1_000_000,
+                watchdog_ns: 20_000_000,
+                limits: limits(),
+            };
+            answers.push(encode(&Message::HelloAck(ack), Some(&auth)));
+        }
+        answers
+    }));
+    RigBackend::connect_over(
+        Box::new(link),
+        rig_peer(),
+        "scripted".into(),
+        RigOptions {
+            key: Some(key),
+            handshake_timeout: Duration::from_millis(300),
+            ..RigOptions::default()
+        },
+    )
+}
+
+fn refusal(code: FaultCode) -> Message {
+    Message::Fault(Fault {
+        code,
+        leg: NO_LEG,
+        value: 0.0,
+        command_sequence: 0,
+    })
+}
+
+/// A spoofed untagged KEY_MISMATCH (or BUSY, or a frame of another protocol version) ahead of
+/// the rig's HelloAck aborted a keyed host's handshake with "key mismatch… copy the key"
+/// although the keys matched: a keyed host believes an untagged refusal only when no HelloAck
+/// proving the key arrives.
+#[test]
+fn a_spoofed_refusal_does_not_abort_a_keyed_handshake() {
+    for spoofed in [
+        refusal(FaultCode::KEY_MISMATCH),
+        refusal(FaultCode::KEY_REQUIRED),
+        refusal(FaultCode::BUSY),
+    ] {
+        let host = keyed_handshake(vec![spoofed], true);
+        assert!(host.is_ok(), "{spoofed:?}: {:?}", host.err());
+    }
+}
+
+/// The rig's genuine refusal (no HelloAck follows) is still reported, by its reason, once the
+/// handshake time is up.
+#[test]
+fn an_unanswered_keyed_handshake_reports_the_refusal_it_heard() {
+    let error = keyed_handshake(vec![refusal(FaultCode::KEY_MISMATCH)], false)
+        .err()
+        .expect("refused");
+    assert!(
+        matches!(error, RigError::Refused { code, .. } if code == FaultCode::KEY_MISMATCH),
+        "{error}"
+    );
+}

@@ -83,6 +83,8 @@ pub struct CoreStats {
     pub braked_ticks: u64,
     /// Sensor frames assembled in sessions.
     pub sensor_frames: u64,
+    /// `Hello`s dropped as replays: a `host_nonce` that opened an earlier session.
+    pub replayed_hellos: u64,
 }
 
 /// The session with one host, as seen from outside.
@@ -114,6 +116,43 @@ struct Session<P> {
     last_heard: u64,
 }
 
+/// The `host_nonce`s of the last [`RECENT_NONCES`] sessions: a `Hello` carrying one of them
+/// (other than the running session's own retries) is a replay, whose valid tag (made with
+/// `session_id` 0, so valid in every session) would otherwise open a new session and end the
+/// host's. A genuine host picks a fresh random nonce for every handshake.
+#[derive(Clone, Copy, Debug)]
+struct RecentNonces {
+    nonces: [u64; RECENT_NONCES],
+    len: usize,
+    next: usize,
+}
+
+/// How many sessions' nonces the rig remembers: far more than one host opens between two
+/// restarts of a rig in a measurement campaign (two a measurement), in 256 bytes.
+pub const RECENT_NONCES: usize = 32;
+
+impl RecentNonces {
+    const fn new() -> Self {
+        Self {
+            nonces: [0; RECENT_NONCES],
+            len: 0,
+            next: 0,
+        }
+    }
+
+    fn contains(&self, nonce: u64) -> bool {
+        self.nonces.iter().take(self.len).any(|n| *n == nonce)
+    }
+
+    fn remember(&mut self, nonce: u64) {
+        if let Some(slot) = self.nonces.get_mut(self.next) {
+            *slot = nonce;
+        }
+        self.next = (self.next + 1) % RECENT_NONCES;
+        self.len = (self.len + 1).min(RECENT_NONCES);
+    }
+}
+
 /// A small generator of session numbers: SplitMix64, a bijection of its counter, so numbers
 /// from one seed do not repeat within 2⁶⁴ sessions.
 #[derive(Clone, Copy, Debug)]
@@ -135,6 +174,7 @@ impl SplitMix64 {
 pub struct RigCore<P> {
     config: CoreConfig,
     session_ids: SplitMix64,
+    recent_nonces: RecentNonces,
     session: Option<Session<P>>,
     /// The newest command of the last session, once it timed out.
     timed_out_command: Option<Command>,
@@ -150,6 +190,7 @@ impl<P: Copy + PartialEq> RigCore<P> {
         config.check()?;
         Ok(Self {
             session_ids: SplitMix64(config.seed),
+            recent_nonces: RecentNonces::new(),
             session: None,
             timed_out_command: None,
             applied: CommandFrame::safe_stop(0, 0),
@@ -472,6 +513,11 @@ impl<P: Copy + PartialEq> RigCore<P> {
                 return;
             }
         }
+        if self.recent_nonces.contains(hello.host_nonce) {
+            // Answered with nothing: a refusal would reach the host's address too.
+            self.stats.replayed_hellos += 1;
+            return;
+        }
         let session_id = loop {
             let id = self.session_ids.next();
             if id != 0 {
@@ -493,6 +539,7 @@ impl<P: Copy + PartialEq> RigCore<P> {
             return;
         };
         let number = self.stats.sessions + 1;
+        self.recent_nonces.remember(hello.host_nonce);
         self.session = Some(Session {
             view: SessionView {
                 peer: from,

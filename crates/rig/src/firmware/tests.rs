@@ -337,6 +337,50 @@ fn forged_unauthenticated_and_replayed_commands_are_dropped_and_counted() {
     assert_eq!(rig.last_command().map(|c| c.sequence), Some(1));
 }
 
+/// A replayed `Hello` of an earlier session (its tag, made with session 0, stays valid) from
+/// the host's own address opened a new session and silenced the host's running one: the rig
+/// drops it unanswered and counts it, and the running session keeps its id; the host's next
+/// fresh `Hello` still opens a session.
+#[test]
+fn a_replayed_hello_opens_no_session_and_ends_none() {
+    let mut rig = RigCore::new(keyed()).unwrap();
+    let mut out = Outbox::new();
+    let tare = open(&mut rig, 0, 11, Some(KEY));
+    let loaded = open(&mut rig, MS, 12, Some(KEY));
+    assert_ne!(tare, loaded);
+    // The tare's Hello again, byte for byte, from the host's address.
+    rig.receive(2 * MS, HOST, &hello(11, Some(KEY)), &mut out);
+    let answered = drain(
+        &mut out,
+        Some(Auth {
+            key: KEY,
+            session_id: 0,
+        }),
+    );
+    assert!(answered.is_empty(), "{answered:?}");
+    assert_eq!(rig.stats().replayed_hellos, 1);
+    assert_eq!(rig.stats().sessions, 2);
+    assert_eq!(rig.session().map(|s| s.session_id), Some(loaded));
+    // The running session's own retry is answered again, not taken as a replay.
+    rig.receive(3 * MS, HOST, &hello(12, Some(KEY)), &mut out);
+    assert_eq!(
+        drain(
+            &mut out,
+            Some(Auth {
+                key: KEY,
+                session_id: 0
+            })
+        )
+        .len(),
+        1
+    );
+    assert_eq!(rig.stats().replayed_hellos, 1);
+    assert_eq!(rig.session().map(|s| s.session_id), Some(loaded));
+    // A fresh nonce is a reconnecting host.
+    let next = open(&mut rig, 4 * MS, 13, Some(KEY));
+    assert_ne!(next, loaded);
+}
+
 #[test]
 fn hellos_are_refused_by_reason() {
     let mut rig = RigCore::new(keyed()).unwrap();
@@ -548,7 +592,7 @@ fn a_rig_core_and_its_outbox_fit_in_a_few_kilobytes() {
     let rig = core::mem::size_of::<RigCore<()>>();
     let outbox = core::mem::size_of::<Outbox<()>>();
     println!("RigCore<()>: {rig} bytes, Outbox<()>: {outbox} bytes");
-    assert!(rig <= 2560, "{rig}");
+    assert!(rig <= 2816, "{rig}");
     assert!(outbox <= 1536, "{outbox}");
 }
 
