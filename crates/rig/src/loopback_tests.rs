@@ -458,8 +458,10 @@ fn with_a_key_unkeyed_and_wrongly_keyed_frames_are_dropped() {
     let stats = emulator.stats().core;
     assert_eq!(emulator.inner().max_enabled_force(), 6.0);
     assert_eq!(stats.commands_accepted, 2);
-    // Two refused hellos, three bad commands.
-    assert_eq!(stats.auth_failed, 5, "{stats:?}");
+    // The keyless host's Hello, the wrongly keyed host's (one or more: it asks until its
+    // handshake time is up, since it cannot tell the rig's untagged refusal from a forgery),
+    // three bad commands.
+    assert!(stats.auth_failed >= 5, "{stats:?}");
 }
 
 #[test]
