@@ -359,6 +359,11 @@ fn a_second_sigterm_brakes_at_once_and_finishes_the_log() {
         "{stderr}"
     );
     assert!(stderr.contains("SIGTERM: braking now"), "{stderr}");
+    // And says what it did: braked where it stood (it said "parked and braked").
+    assert!(
+        stderr.contains("braked at once, without parking"),
+        "{stderr}"
+    );
     assert!(stopped.faults().is_empty(), "{:?}", stopped.faults());
     let last = stopped.last_command().expect("commanded");
     assert!(!last.enable, "{last:?}");

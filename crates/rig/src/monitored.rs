@@ -206,42 +206,76 @@ fn heartbeat(held: &Mutex<Held>, stop: &AtomicBool, interval: Duration) {
     }
 }
 
-/// How often the host's loop left the rig without a command for longer than the rig's
-/// watchdog: the host was late (descheduled, most likely), not the link.
+/// Why the rig went without a command for longer than its watchdog, from the host's own
+/// evidence: each gap between two commands is split into the time the loop spent waiting for
+/// the rig's frame (the rig's or the link's share) and the rest (the host's own: computing,
+/// or descheduled).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Lateness {
-    /// Gaps between commands longer than the watchdog.
+    /// Gaps whose host's own share was longer than the watchdog: the host was late.
     pub times: u64,
-    /// The longest gap between commands, s (whatever its length).
+    /// The longest host's own share of a gap, s.
     pub longest_s: f64,
+    /// Gaps longer than the watchdog spent waiting for the rig's frame: the rig or the link
+    /// paused, not the host.
+    pub rig_waits: u64,
+    /// The longest wait for a frame inside such a gap, s.
+    pub longest_wait_s: f64,
+    /// The loop's `SCHED_FIFO` priority, `None` at normal priority.
+    pub fifo_priority: Option<i32>,
 }
 
 impl Lateness {
-    fn add(&mut self, gap: Duration, watchdog: Duration) {
-        self.longest_s = self.longest_s.max(gap.as_secs_f64());
-        if gap > watchdog {
+    /// Counts a gap of `gap` between two commands, `waited` of it inside the read of the
+    /// rig's frame.
+    pub fn add(&mut self, gap: Duration, waited: Duration, watchdog: Duration) {
+        let own = gap.saturating_sub(waited);
+        self.longest_s = self.longest_s.max(own.as_secs_f64());
+        if own > watchdog {
             self.times += 1;
+        } else if gap > watchdog {
+            self.rig_waits += 1;
+            self.longest_wait_s = self.longest_wait_s.max(waited.as_secs_f64());
         }
     }
 
-    /// What a WATCHDOG fault means given this lateness, with the fix.
+    /// What a WATCHDOG fault means given this evidence, with the fix that fits.
     pub fn explain(&self, watchdog: Duration) -> String {
         let watchdog_ms = watchdog.as_secs_f64() * 1e3;
-        if self.times == 0 {
+        let own_ms = self.longest_s * 1e3;
+        if self.times > 0 {
+            let (why, fix) = match self.fifo_priority {
+                Some(p) => (
+                    format!(
+                        "although it ran at SCHED_FIFO priority {p}: a task at equal or higher                          real-time priority, or the kernel, held the CPU"
+                    ),
+                    format!(
+                        "find it (`ps -eLo rtprio,pid,comm | sort -n | tail`) or raise the                          loop's priority above it (`chrt -f {}`)",
+                        p + 10
+                    ),
+                ),
+                None => (
+                    "at normal priority: the operating system ran something else".to_string(),
+                    format!(
+                        "run it with real-time priority (CAP_SYS_NICE, `ulimit -r {p}`, or                          `chrt -f {p}`) or on a quieter machine",
+                        p = crate::realtime::FIFO_PRIORITY
+                    ),
+                ),
+            };
             return format!(
-                 "this host sent its commands in time (longest gap {:.1} ms, watchdog {watchdog_ms:.0} \
-                 ms): they were lost or delayed on the link",
-                self.longest_s * 1e3
+                "this host was late: it sent no command for longer than the rig's                  {watchdog_ms:.0} ms watchdog, {} time(s); the longest {own_ms:.1} ms of its own                  time, not waiting for the rig ({why}); {fix}",
+                self.times
+            );
+        }
+        if self.rig_waits > 0 {
+            return format!(
+                "this host answered every frame in time (its longest own time {own_ms:.1} ms);                  the rig's frames stopped or came late, {} time(s) past the {watchdog_ms:.0} ms                  watchdog (the longest wait {:.1} ms): the rig, the emulator or the link paused,                  not this host",
+                self.rig_waits,
+                self.longest_wait_s * 1e3
             );
         }
         format!(
-            "this host was late: it sent no command for longer than the rig's {watchdog_ms:.0} ms \
-                 watchdog, {} time(s); the longest {:.1} ms (the operating system did not run its \
-                 loop: a busy machine at normal priority); run it with real-time priority \
-                 (CAP_SYS_NICE, `ulimit -r {p}`, or `chrt -f {p}`) or on a quieter machine",
-            self.times,
-            self.longest_s * 1e3,
-            p = crate::realtime::FIFO_PRIORITY,
+            "this host sent its commands in time (its longest own time {own_ms:.1} ms, watchdog              {watchdog_ms:.0} ms): they were lost or delayed on the link"
         )
     }
 }
@@ -262,6 +296,10 @@ pub struct Monitored<'a> {
     watchdog: Duration,
     late: Lateness,
     last_time_s: Option<f64>,
+    /// When the read under way started (the loop waiting for the rig's frame).
+    reading_since: Option<Instant>,
+    /// How long the last read waited for its frame.
+    read_wait: Duration,
 }
 
 impl<'a> Monitored<'a> {
@@ -275,8 +313,14 @@ impl<'a> Monitored<'a> {
             last_frame_at: None,
             last_write_at: None,
             watchdog: link.lock().rig.info().watchdog,
-            late: Lateness::default(),
+            late: Lateness {
+                // Asked on the loop's thread: the priority the loop runs at.
+                fifo_priority: crate::realtime::fifo_priority(),
+                ..Lateness::default()
+            },
             last_time_s: None,
+            reading_since: None,
+            read_wait: Duration::ZERO,
         }
     }
 
@@ -315,7 +359,8 @@ impl<'a> Monitored<'a> {
                     // that tripped the watchdog.
                     let mut late = self.late;
                     if let Some(last) = self.last_write_at {
-                        late.add(at - last, self.watchdog);
+                        let waited = self.reading_since.map_or(Duration::ZERO, |r| at - r);
+                        late.add(at - last, waited, self.watchdog);
                     }
                     cause = format!("{cause}; {}", late.explain(self.watchdog));
                 }
@@ -343,10 +388,14 @@ impl Backend for Monitored<'_> {
             let _ = self.link.lock().safe_stop();
             return Err(error);
         }
+        let started = Instant::now();
+        self.reading_since = Some(started);
         let result = self.link.lock().rig.read();
         match result {
             Ok(frame) => {
                 let now = Instant::now();
+                self.reading_since = None;
+                self.read_wait = now - started;
                 if let Some(previous) = self.last_frame_at {
                     self.timing.periods_s.push((now - previous).as_secs_f64());
                 }
@@ -367,7 +416,7 @@ impl Backend for Monitored<'_> {
         }
         let now = Instant::now();
         if let Some(last) = self.last_write_at.replace(now) {
-            self.late.add(now - last, self.watchdog);
+            self.late.add(now - last, self.read_wait, self.watchdog);
         }
         let result = if self.aborted() {
             self.link.lock().safe_stop().map(|_| ())
@@ -525,6 +574,51 @@ mod tests {
         assert!(cause.contains("this host was late"), "{cause}");
         assert!(cause.contains("watchdog, 1 time(s)"), "{cause}");
         assert!(cause.contains("chrt -f"), "{cause}");
+    }
+
+    /// Every link fault said "this host was late… a busy machine at normal priority", also when
+    /// the emulator had stopped (the host waiting for its frames) and when the host ran at
+    /// SCHED_FIFO: the gap's share spent waiting for the rig is the rig's, and the priority
+    /// the loop ran at picks the fix.
+    #[test]
+    fn lateness_blames_whoever_held_the_gap_and_names_the_loops_priority() {
+        let ms = Duration::from_millis;
+        let watchdog = ms(20);
+        let mut waiting = Lateness::default();
+        waiting.add(ms(31), ms(30), watchdog);
+        assert_eq!((waiting.times, waiting.rig_waits), (0, 1));
+        let said = waiting.explain(watchdog);
+        assert!(
+            said.contains("the rig's frames stopped or came late"),
+            "{said}"
+        );
+        assert!(!said.contains("this host was late"), "{said}");
+
+        let mut normal = Lateness::default();
+        normal.add(ms(31), ms(1), watchdog);
+        assert_eq!(normal.times, 1);
+        let said = normal.explain(watchdog);
+        assert!(said.contains("this host was late"), "{said}");
+        assert!(said.contains("at normal priority"), "{said}");
+        assert!(said.contains("chrt -f 20"), "{said}");
+
+        let mut fifo = Lateness {
+            fifo_priority: Some(20),
+            ..Lateness::default()
+        };
+        fifo.add(ms(31), ms(1), watchdog);
+        let said = fifo.explain(watchdog);
+        assert!(
+            said.contains("although it ran at SCHED_FIFO priority 20"),
+            "{said}"
+        );
+        assert!(!said.contains("normal priority"), "{said}");
+        assert!(said.contains("chrt -f 30"), "{said}");
+
+        let on_time = Lateness::default();
+        assert!(on_time
+            .explain(watchdog)
+            .contains("lost or delayed on the link"));
     }
 
     #[test]

@@ -20,7 +20,18 @@ pub fn finish(args: &RigArgs, outcome: &Outcome) -> u8 {
         .and_then(|f| f.after_last_frame_s)
         .map(|s| format!(" (noticed {:.1} ms after the last valid frame)", s * 1e3))
         .unwrap_or_default();
-    let code = crate::common::end_code(&outcome.end, &noticed);
+    let braked_at_once = outcome.end == measure::End::Interrupted
+        && outcome
+            .failure
+            .as_ref()
+            .is_some_and(|f| f.kind == rig::ErrorKind::Stopped);
+    let code = if braked_at_once {
+        // The second stopping signal braked where the platform stood: it did not park.
+        eprintln!("interrupted: the platform was braked at once, without parking; no report");
+        ops::exit::INTERRUPTED
+    } else {
+        crate::common::end_code(&outcome.end, &noticed)
+    };
     if let (ops::rig::RigPlan::CalibrateImu(path), Some(file)) = (&plan, &outcome.calibration) {
         crate::calibrate::print_imu_calibration(file, path, run_args.shared.quiet);
         return code;
