@@ -249,7 +249,8 @@ pub struct Outcome {
     /// The link and loop timing of each measurement made on a rig, in order (empty on the
     /// simulator).
     pub link: Vec<LinkReport>,
-    /// The link, sensor or rig failure that ended a rig's run, with when the host noticed it.
+    /// The link, sensor or rig failure that ended a rig's run, with when the host noticed it
+    /// (kind `Stopped`: a second stop braked it at once).
     pub failure: Option<rig::monitored::Failure>,
     /// The rig as it described itself in the (last) handshake (`None` on the simulator).
     pub rig: Option<rig::host::RigInfo>,

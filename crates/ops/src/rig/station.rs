@@ -152,6 +152,10 @@ impl Station for RigStation<'_> {
             )?;
             self.failure = Some(f.clone());
         }
+        if let (Some(f), End::Interrupted) = (&failure, &outcome.end) {
+            // Braked at once by a second stop: kept, so that what was done can be told.
+            self.failure = Some(f.clone());
+        }
         msg.time_s = time_s;
         msg.event = "end";
         msg.counters = counters;
