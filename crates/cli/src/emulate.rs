@@ -89,6 +89,10 @@ pub struct EmulateArgs {
     /// Fault injection: stop answering after this many sensor frames of a session.
     #[arg(long, value_name = "FRAMES")]
     pub stop_after: Option<u64>,
+    /// Fault injection: go silent after this many sensor frames (over all sessions), once,
+    /// until the host opens a new session (a stall `rig` repeats the run after: rig.stall_retries).
+    #[arg(long, value_name = "FRAMES")]
+    pub stall_once_after: Option<u64>,
     /// Wait (up to the watchdog time) for the host's answer to each frame before simulating
     /// the next, so that the emulated world pauses while the host is descheduled. Not real
     /// time: for tests on busy machines.
@@ -120,6 +124,7 @@ impl EmulateArgs {
             delay_ms: self.delay_ms,
             delay_fraction: self.delay_fraction,
             stop_after: self.stop_after,
+            stall_once_after: self.stall_once_after,
             lockstep: self.lockstep,
             fast_forward: self.fast_forward,
         }

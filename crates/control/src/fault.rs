@@ -121,6 +121,15 @@ pub enum Fault {
     ForwardKinematics(KinematicsError),
 }
 
+impl Fault {
+    /// Whether this fault is a stall (samples stopped arriving in time: the host or the link
+    /// paused) rather than a fault of the platform or its sensors: a run it ended may be
+    /// repeated once the rig braked.
+    pub fn is_stall(&self) -> bool {
+        matches!(self, Fault::SampleGap { .. } | Fault::SensorTooOld { .. })
+    }
+}
+
 impl fmt::Display for Fault {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match *self {

@@ -30,7 +30,16 @@ pub struct RigLinkConfig {
     pub watchdog_ms: f64,
     /// How long the host tries the handshake, s.
     pub handshake_timeout_s: f64,
+    /// How many times the host repeats a run a stall ended (the link silent, or the rig's
+    /// watchdog tripped: the rig braked), in a new session, a completed tare kept. An
+    /// operating system can always stall a loop; a lost measurement costs a lab more than a
+    /// repeated run. 0: a stall ends the measurement.
+    pub stall_retries: u32,
 }
+
+/// The most runs a stall may repeat ([`RigLinkConfig::stall_retries`]): a rig that stalls more
+/// often than this has a fault to find, not to ride out.
+pub const MAX_STALL_RETRIES: u32 = 5;
 
 impl Default for RigLinkConfig {
     fn default() -> Self {
@@ -40,6 +49,7 @@ impl Default for RigLinkConfig {
             link_silence_ms: 50.0,
             watchdog_ms: 20.0,
             handshake_timeout_s: 2.0,
+            stall_retries: 1,
         }
     }
 }
@@ -173,6 +183,16 @@ impl RigLinkConfig {
             600.0,
             "s",
         );
+        if self.stall_retries > MAX_STALL_RETRIES {
+            out.push((
+                "rig.stall_retries".into(),
+                format!(
+                    "must be at most {MAX_STALL_RETRIES}, got {}: a rig that stalls that often \
+                     has a fault to find (the loop's priority, the link)",
+                    self.stall_retries
+                ),
+            ));
+        }
         if let Err(e) = self.address.parse::<Address>() {
             out.push(("rig.address".into(), e.to_string()));
         }

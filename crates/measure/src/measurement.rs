@@ -111,6 +111,9 @@ pub struct MeasureOutcome {
     pub static_weighing: Option<crate::weigh::StaticWeighing>,
     /// How it ended.
     pub end: End,
+    /// It ended by a stall (a sample gap, the link silent, the rig's watchdog) rather than a
+    /// fault of the platform: the run may be repeated.
+    pub stall: bool,
 }
 
 impl MeasureOutcome {
@@ -129,6 +132,7 @@ impl MeasureOutcome {
             accel_offset_m_s2: None,
             static_weighing: None,
             end,
+            stall: false,
         }
     }
 }
@@ -313,6 +317,7 @@ where
             // Finished here, not after the hold: its error budget allocates, and the loop
             // must not.
             let static_weighing = weigher.finish(&crate::budget::Figures::of(config));
+            let stall = step.control.fault.is_some_and(|f| f.is_stall());
             let end = match step.control.fault {
                 Some(f) => End::Fault(f.to_string()),
                 None if park_requested => End::Interrupted,
@@ -328,6 +333,7 @@ where
             let Some((start_s, _)) = tick.window else {
                 return Ok(MeasureOutcome {
                     static_weighing,
+                    stall,
                     ..MeasureOutcome::ended_early(end, fk_failures)
                 });
             };
@@ -365,6 +371,7 @@ where
                     .map(|o| o.offset_m_s2.into()),
                 static_weighing,
                 end,
+                stall,
             });
         }
     }

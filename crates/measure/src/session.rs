@@ -132,6 +132,9 @@ pub struct SessionOutcome {
     pub tare: Option<TareSource>,
     /// The loaded run, when it ran.
     pub loaded: Option<MeasureOutcome>,
+    /// The run that ended the session ended by a stall ([`MeasureOutcome::stall`]): the
+    /// session may repeat it.
+    pub stalled: bool,
 }
 
 impl SessionOutcome {
@@ -225,6 +228,7 @@ pub fn run<S: Station, O: Observer>(
                     end: outcome.end,
                     tare: None,
                     loaded: None,
+                    stalled: outcome.stall,
                 });
             }
             let estimate = outcome
@@ -263,6 +267,7 @@ pub fn run<S: Station, O: Observer>(
             end: End::Completed,
             tare: Some(tare),
             loaded: None,
+            stalled: false,
         });
     };
     if measured && !station.load_payload(observer, stop)? {
@@ -270,6 +275,7 @@ pub fn run<S: Station, O: Observer>(
             end: End::Interrupted,
             tare: Some(tare),
             loaded: None,
+            stalled: false,
         });
     }
     if stop.load(Ordering::SeqCst) {
@@ -277,6 +283,7 @@ pub fn run<S: Station, O: Observer>(
             end: End::Interrupted,
             tare: Some(tare),
             loaded: None,
+            stalled: false,
         });
     }
     let tare_estimate = (tare.file().parameters(), tare.file().covariance_matrix());
@@ -290,6 +297,7 @@ pub fn run<S: Station, O: Observer>(
     )?;
     Ok(SessionOutcome {
         end: outcome.end.clone(),
+        stalled: outcome.stall,
         tare: Some(tare),
         loaded: Some(outcome),
     })

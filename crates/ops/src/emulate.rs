@@ -95,6 +95,9 @@ pub struct EmulateOptions {
     pub delay_fraction: f64,
     /// Fault injection: stop answering after this many sensor frames of a session.
     pub stop_after: Option<u64>,
+    /// Fault injection: go silent after this many sensor frames (over all sessions), once,
+    /// until the host opens a new session (a stall the host rides out: `rig.stall_retries`).
+    pub stall_once_after: Option<u64>,
     /// Wait (up to the watchdog time) for the host's answer to each frame before simulating the
     /// next.
     pub lockstep: bool,
@@ -117,6 +120,7 @@ impl Default for EmulateOptions {
             delay_ms: None,
             delay_fraction: 1.0,
             stop_after: None,
+            stall_once_after: None,
             lockstep: false,
             fast_forward: false,
         }
@@ -246,6 +250,7 @@ pub fn prepare(
             None => Duration::ZERO,
         },
         stop_after_frames: options.stop_after,
+        stall_once_after_frames: options.stall_once_after,
     };
     let watchdog = Duration::from_secs_f64(rig_config.watchdog_ms * 1e-3);
     let emulator_config = EmulatorConfig {

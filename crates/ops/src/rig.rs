@@ -18,7 +18,7 @@
 
 mod station;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
@@ -33,7 +33,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::session::{
     self, flag_issue, refuse, Calibrate, Error, LinkReport, MeasureOptions, Message, Operator,
-    Outcome, Spec,
+    Outcome, Repeated, Spec,
 };
 
 /// What the noise preset of a rig's metadata and report says: the rig's sensors are what they
@@ -216,7 +216,115 @@ fn prepare(
 /// once instead: the safe stop goes out within a sample period, the log is finished, and the
 /// outcome says [`measure::End::Interrupted`]. A refused input or handshake is an error
 /// (nothing moved); a fault is an outcome with [`measure::End::Fault`] naming the cause.
+///
+/// A run a stall ended (the link silent, the rig's watchdog, a sample gap: the rig braked) is
+/// repeated in a new session, up to `rig.stall_retries` times, each attempt in a log of its own
+/// (`<log>-repeat-N.mcap`; the stalled one stays as its record): a tare that completed is kept
+/// (written beside the log, or to `--save-tare`) and only the loaded run repeated. The outcome
+/// lists what was repeated and why ([`Outcome::repeated`]).
 pub fn run(
+    options: &RigSessionOptions,
+    operator: &mut dyn Operator,
+    attendant: &mut dyn Attendant,
+    interrupt: &AtomicBool,
+    abort: &AtomicBool,
+) -> Result<Outcome, Error> {
+    let retries = options.measure.load_config()?.config.rig.stall_retries;
+    let mut attempt = options.clone();
+    let mut repeated: Vec<Repeated> = Vec::new();
+    let mut stalled: Option<Outcome> = None;
+    loop {
+        let mut outcome = match (
+            run_once(&attempt, operator, attendant, interrupt, abort),
+            stalled,
+        ) {
+            (Ok(outcome), _) => outcome,
+            // The repeat could not even begin (the rig does not answer): the stall's outcome
+            // stands, with why it was not repeated.
+            (Err(e), Some(mut last)) => {
+                operator.tell(Message::Warning(&format!(
+                    "the repeat after the stall could not begin: {e}"
+                )));
+                repeated.pop();
+                last.repeated = repeated;
+                return Ok(last);
+            }
+            (Err(e), None) => return Err(e),
+        };
+        let stopping = interrupt.load(std::sync::atomic::Ordering::SeqCst);
+        if !outcome.stalled || repeated.len() >= retries as usize || stopping {
+            outcome.repeated = repeated;
+            return Ok(outcome);
+        }
+        let cause = match &outcome.end {
+            measure::End::Fault(cause) => cause.clone(),
+            _ => "a stall".to_string(),
+        };
+        let first_log = repeated
+            .first()
+            .map_or_else(|| outcome.log_path.clone(), |r| r.log.clone());
+        repeated.push(Repeated {
+            cause: cause.clone(),
+            log: outcome.log_path.clone(),
+        });
+        let number = repeated.len();
+        let (next, kept) = repeat(&attempt, &outcome, &first_log, number)?;
+        let kept = match kept {
+            Some(path) => format!(
+                "; the completed tare is kept ({}) and the loaded run repeated",
+                path.display()
+            ),
+            None => String::new(),
+        };
+        operator.tell(Message::Warning(&format!(
+            "the run ended by a stall ({cause}); the rig braked. Repeating it in a new session \
+             ({number} of at most {retries}, rig.stall_retries){kept}; the stalled run's log \
+             stays: {}",
+            outcome.log_path.display()
+        )));
+        attempt = next;
+        stalled = Some(outcome);
+    }
+}
+
+/// The options of the `number`-th repetition of the attempt `last` that ended as `outcome`:
+/// its own log beside `first_log`, and, when the tare completed in a two-run session, the
+/// loaded run only with that tare (written to the path returned).
+fn repeat(
+    last: &RigSessionOptions,
+    outcome: &Outcome,
+    first_log: &Path,
+    number: usize,
+) -> Result<(RigSessionOptions, Option<PathBuf>), Error> {
+    let mut next = last.clone();
+    let stem = first_log
+        .file_stem()
+        .map_or_else(|| "run".into(), |s| s.to_string_lossy().into_owned());
+    next.measure.log = Some(first_log.with_file_name(format!("{stem}-repeat-{number}.mcap")));
+    let kept = match (&last.plan, &outcome.tare) {
+        (RigPlan::Both, Some(tare)) => {
+            let path = match &last.measure.save_tare {
+                Some(path) => path.clone(),
+                None => {
+                    let path = first_log.with_file_name(format!("{stem}.tare.json"));
+                    tare.save(&path).map_err(|e| {
+                        Error::Run(e.context("cannot keep the completed tare for the repeat"))
+                    })?;
+                    path
+                }
+            };
+            next.plan = RigPlan::MeasureOnly;
+            next.measure.tare = Some(path.clone());
+            next.measure.save_tare = None;
+            Some(path)
+        }
+        _ => None,
+    };
+    Ok((next, kept))
+}
+
+/// One attempt of [`run`]: the handshake, the session, its outcome.
+fn run_once(
     options: &RigSessionOptions,
     operator: &mut dyn Operator,
     attendant: &mut dyn Attendant,

@@ -258,6 +258,19 @@ pub struct Outcome {
     /// [`link`](Self::link) (each measurement's window) it includes the brake heartbeats sent
     /// between measurements and while the log is finished.
     pub link_total: rig::LinkStats,
+    /// The run that ended the session ended by a stall (the rig braked): it may be repeated.
+    pub stalled: bool,
+    /// The runs a stall ended and the session repeated, in order (`rig.stall_retries`).
+    pub repeated: Vec<Repeated>,
+}
+
+/// A run a stall ended, repeated in a new session.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Repeated {
+    /// Why it ended.
+    pub cause: String,
+    /// Its log, kept as the record of the stall.
+    pub log: PathBuf,
 }
 
 impl Outcome {
@@ -282,6 +295,12 @@ impl Outcome {
                     "sample_period_s": rig.sample_period_s,
                 }),
             );
+            if !self.repeated.is_empty() {
+                map.insert(
+                    "repeated".into(),
+                    serde_json::to_value(&self.repeated).unwrap_or_default(),
+                );
+            }
         }
         Some(serde_json::to_string_pretty(&value).unwrap_or_default())
     }
@@ -488,5 +507,7 @@ pub(crate) fn run<S: Station>(
         failure: closed.failure,
         rig: closed.rig,
         link_total: closed.link_total,
+        stalled: session.stalled,
+        repeated: Vec::new(),
     })
 }

@@ -164,6 +164,17 @@ impl RigError {
         }
     }
 
+    /// Whether this ends a run by a stall rather than a fault of the platform: the link went
+    /// silent, or the rig's command watchdog tripped (it braked). Limits, sensors, the
+    /// emergency stop and the operator's stop are not stalls.
+    pub fn is_stall(&self) -> bool {
+        match self {
+            RigError::LinkSilent { .. } => true,
+            RigError::RigFault { code, .. } => *code == crate::wire::FaultCode::WATCHDOG,
+            _ => false,
+        }
+    }
+
     pub(crate) fn io(context: impl Into<String>, source: std::io::Error) -> Self {
         RigError::Io {
             context: context.into(),

@@ -33,6 +33,10 @@ pub struct Failure {
     pub at: Instant,
     /// Time from the last valid sensor frame to noticing, s (`None` before the first frame).
     pub after_last_frame_s: Option<f64>,
+    /// A stall: the link went silent or the rig's watchdog tripped, the rig braked and nothing
+    /// says the platform or its sensors are at fault, so the run may be repeated in a new
+    /// session ([`RigError::is_stall`]).
+    pub stall: bool,
 }
 
 /// Summary of [`LoopTiming`] against the nominal period `T`.
@@ -368,6 +372,7 @@ impl<'a> Monitored<'a> {
             self.failure = Some(Failure {
                 cause,
                 kind: error.kind(),
+                stall: error.is_stall(),
                 at,
                 after_last_frame_s: self.last_frame_at.map(|t| (at - t).as_secs_f64()),
             });

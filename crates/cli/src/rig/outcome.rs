@@ -14,6 +14,13 @@ pub fn finish(args: &RigArgs, outcome: &Outcome) -> u8 {
     for line in ops::rig::link_lines(&outcome.link) {
         eprintln!("{line}");
     }
+    for r in &outcome.repeated {
+        eprintln!(
+            "repeated after a stall: {} (its log: {})",
+            r.cause,
+            r.log.display()
+        );
+    }
     let noticed = outcome
         .failure
         .as_ref()

@@ -110,7 +110,10 @@ impl Station for RigStation<'_> {
                 Some(f) if f.kind == rig::ErrorKind::Stopped => {
                     MeasureOutcome::ended_early(End::Interrupted, 0)
                 }
-                Some(f) => MeasureOutcome::ended_early(End::Fault(f.cause.clone()), 0),
+                Some(f) => MeasureOutcome {
+                    stall: f.stall,
+                    ..MeasureOutcome::ended_early(End::Fault(f.cause.clone()), 0)
+                },
                 None => {
                     if let Ok(sent) = self.link.lock().safe_stop() {
                         let time_s = last_time_s.unwrap_or(0.0);

@@ -23,6 +23,10 @@ pub struct FaultInjection {
     /// After this many sensor frames in a session the emulator stops answering altogether
     /// (no frames, no faults), as a rig whose link died.
     pub stop_after_frames: Option<u64>,
+    /// After this many sensor frames sent (over all sessions) the emulator goes silent until a
+    /// host opens a new session, once: a link that drops out and comes back (a host's stall
+    /// seen from the rig).
+    pub stall_once_after_frames: Option<u64>,
 }
 
 /// How the emulator presents itself and what it enforces.

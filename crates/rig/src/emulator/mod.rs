@@ -64,6 +64,9 @@ pub struct Emulator<B> {
     rng: StdRng,
     delayed: VecDeque<(Instant, Peer, Vec<u8>)>,
     silent: bool,
+    /// Silent by [`FaultInjection::stall_once_after_frames`] (until the next session), and
+    /// whether that stall has been used up.
+    stall: (bool, bool),
     last_sensor_sent_at: Option<Instant>,
     /// Sequence of the last sensor frame of the session sent intact (lockstep waits for it).
     last_intact_sequence: u64,
@@ -174,6 +177,7 @@ where
             rng: StdRng::seed_from_u64(config.seed),
             delayed: VecDeque::new(),
             silent: false,
+            stall: (false, false),
             last_sensor_sent_at: None,
             last_intact_sequence: 0,
             session_hook: None,
@@ -383,6 +387,11 @@ where
                 } => {
                     // Frames held back for the previous session must not reach the new one.
                     self.delayed.clear();
+                    if self.stall.0 {
+                        // The stalled link is back for the host's new session.
+                        self.silent = false;
+                        self.stall = (false, true);
+                    }
                     self.last_intact_sequence = 0;
                     if let Some(hook) = self.session_hook.as_mut() {
                         let start = SessionStart {
@@ -445,6 +454,14 @@ where
         let faults = &self.config.faults;
         if faults.stop_after_frames.is_some_and(|n| sequence > n) {
             self.silent = true;
+        }
+        if !self.stall.1
+            && faults
+                .stall_once_after_frames
+                .is_some_and(|n| self.stats.sensor_frames >= n)
+        {
+            self.silent = true;
+            self.stall.0 = true;
         }
         if self.silent {
             return;
