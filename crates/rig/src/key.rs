@@ -57,8 +57,12 @@ impl Key {
 
     /// Reads a key file: the key in hex, at least 32 hex digits; whitespace ignored.
     pub fn from_file(path: &Path) -> Result<Self, RigError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| RigError::io(format!("reading key file {}", path.display()), e))?;
+        let text = rig_description::bounded::read_to_string_capped(
+            path,
+            rig_description::bounded::KEY_CAP_BYTES,
+            "a key file",
+        )
+        .map_err(|e| RigError::io(format!("reading key file {}", path.display()), e))?;
         Self::from_hex(&text).map_err(|e| match e {
             RigError::Config { reason, .. } => RigError::config(
                 path.display().to_string(),
