@@ -4,27 +4,11 @@
 //! The binary runs under a 2 GiB address-space limit, so that a read without a cap fails the
 //! test (the allocation fails) instead of growing until the kernel kills it.
 
+mod support;
+
 use std::path::Path;
-use std::process::Command;
 
-/// The address-space limit the binary runs under, in KiB (`ulimit -v`).
-const ADDRESS_SPACE_KIB: u64 = 2 * 1024 * 1024;
-
-/// Runs `stewart ARGS` in `dir` under the address-space limit; (exit code, stderr).
-fn stewart(dir: &Path, args: &[&str]) -> (i32, String) {
-    let out = Command::new("sh")
-        .arg("-c")
-        .arg(format!(
-            "ulimit -v {ADDRESS_SPACE_KIB} && exec \"$0\" \"$@\""
-        ))
-        .arg(env!("CARGO_BIN_EXE_stewart"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("sh runs the stewart binary");
-    let stderr = String::from_utf8_lossy(&out.stderr).to_string();
-    (out.status.code().unwrap_or(-1), stderr)
-}
+use support::stewart_limited as stewart;
 
 /// A file of `len` bytes of TOML comment: valid text, too big only by its size.
 fn oversized(dir: &Path, name: &str, len: u64) -> String {

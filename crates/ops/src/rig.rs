@@ -116,11 +116,8 @@ pub fn link_settings(
         rig_config.address = address.clone();
     }
     if let Some(ms) = link.link_silence_ms {
-        if !(ms.is_finite() && (1.0..=10_000.0).contains(&ms)) {
-            issues.push(flag_issue(
-                "--link-silence-ms",
-                format!("must be between 1 and 10000 ms, got {ms}"),
-            ));
+        if let Some(problem) = rig_description::validate::ranges::LINK_SILENCE_MS.problem(ms) {
+            issues.push(flag_issue("--link-silence-ms", problem));
         }
         rig_config.link_silence_ms = ms;
     }
