@@ -221,6 +221,7 @@ pub fn run(
     abort: &AtomicBool,
 ) -> Result<Outcome, Error> {
     let plan = &options.plan;
+    options.measure.check_log_free()?;
     let mut loaded = options.measure.load_config()?;
     prepare(plan, &mut loaded, operator)?;
     let calibrating_cells = matches!(plan, RigPlan::CalibrateLoadCells(_));

@@ -226,6 +226,7 @@ pub fn run(
     interrupt: &AtomicBool,
 ) -> Result<Outcome, Error> {
     // Everything that can refuse the run, before the first sample.
+    options.measure.check_log_free()?;
     let mut scenario = options.scenario()?;
     if let Some((path, file)) = &options.apply_imu {
         let c = &mut scenario.loaded.config.calibration;
