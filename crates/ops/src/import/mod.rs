@@ -80,6 +80,12 @@ pub struct Imported {
 
 /// Reads the table at `path`, refusals named with the file.
 fn open(path: &Path) -> Result<Table<impl Read>> {
+    if path.is_dir() {
+        anyhow::bail!(
+            "{} is a directory, not a table: name the CSV file in it",
+            path.display()
+        );
+    }
     let file = std::fs::File::open(path)
         .with_context(|| format!("cannot read the table {}", path.display()))?;
     Table::new(std::io::BufReader::with_capacity(1 << 16, file))
