@@ -26,8 +26,15 @@ fn assert_refused(dir: &Path, code: i32, err: &str, file: &str, cap: &str) {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains(file), "names {file}: {err}");
     assert!(err.contains(cap), "names the cap {cap}: {err}");
-    assert!(!dir.join("run.mcap").exists(), "no log: {err}");
-    assert!(!dir.join("runs").exists(), "no default log: {err}");
+    let written: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with("run.") || n == "runs")
+        .collect();
+    assert!(
+        written.is_empty(),
+        "no log, no calibration pass: {written:?}\n{err}"
+    );
 }
 
 const SIMULATE: [&str; 5] = ["simulate", "--quiet", "--log", "run.mcap", "--config"];
@@ -138,4 +145,24 @@ fn a_report_or_rig_description_naming_dev_zero_is_refused_by_export_report_and_i
         &["import", "data.csv", "--rig", "/dev/zero", "-o", "run.mcap"],
     );
     assert_refused(dir.path(), code, &err, "/dev/zero", "1 MiB");
+}
+
+#[test]
+fn a_directory_given_as_a_log_or_a_table_is_called_a_directory() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("runs")).unwrap();
+    let (code, err) = stewart(dir.path(), &["estimate", "runs"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("runs is a directory, not an MCAP log"),
+        "{err}"
+    );
+    assert!(!err.contains("MCAP magic"), "{err}");
+    std::fs::write(dir.path().join("rig.toml"), "").unwrap();
+    let (code, err) = stewart(
+        dir.path(),
+        &["import", "runs", "--rig", "rig.toml", "-o", "run.mcap"],
+    );
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("runs is a directory, not a table"), "{err}");
 }

@@ -250,6 +250,11 @@ pub fn run(
     } else {
         scenario.world.payload
     };
+    // A saved tare is checked before a calibration pass moves anything.
+    if options.measure.tare.is_some() {
+        let geometry = setup::geometry(&scenario.loaded)?;
+        options.measure.tare_plan(&scenario.loaded, &geometry)?;
+    }
     // The calibration passes' logs and files are named after the measurement's log.
     let mut log_path = None;
     let calibration = &scenario.loaded.config.calibration;
