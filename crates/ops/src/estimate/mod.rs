@@ -335,7 +335,7 @@ pub fn settings_of(
         if let Some(e) = w.end_s {
             c.window_end_s = origin_s + e;
         }
-        if !(c.window_start_s < c.window_end_s) {
+        if c.window_start_s.partial_cmp(&c.window_end_s) != Some(std::cmp::Ordering::Less) {
             let recorded = match recorded.window_end_s {
                 Some(end_s) => format!("0 to {:.3} s", end_s - origin_s),
                 None => "0 s on".to_string(),
