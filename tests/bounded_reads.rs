@@ -166,3 +166,16 @@ fn a_directory_given_as_a_log_or_a_table_is_called_a_directory() {
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("runs is a directory, not a table"), "{err}");
 }
+
+#[test]
+fn an_import_table_that_is_dev_zero_is_refused_not_read_into_one_endless_row() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("rig.toml"), "").unwrap();
+    let (code, err) = stewart(
+        dir.path(),
+        &["import", "/dev/zero", "--rig", "rig.toml", "-o", "run.mcap"],
+    );
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("/dev/zero") && err.contains("64 KiB"), "{err}");
+    assert!(!dir.path().join("run.mcap").exists(), "no log: {err}");
+}
