@@ -63,6 +63,11 @@ def run(cmd, binary, cache):
     if not argv or argv[0] != "stewart":
         sys.exit(f"regen_docs: a generated block's command must start with `stewart`: {cmd}")
     argv[0] = binary
+    # A documented command's `--log FILE` is a scratch log of an earlier pass: `stewart` never
+    # writes over a log, so the earlier one is removed first.
+    for flag, value in zip(argv, argv[1:]):
+        if flag == "--log" and os.path.isfile(value):
+            os.remove(value)
     print(f"regen_docs: {cmd}", file=sys.stderr, flush=True)
     done = subprocess.run(argv, cwd=ROOT, capture_output=True, text=True)
     # `stewart bench` exits 1 when the rate does not fit; its table is still the measurement.

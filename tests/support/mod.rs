@@ -591,3 +591,40 @@ pub fn on<'a>(log: &'a [(String, serde_json::Value)], topic: &str) -> Vec<&'a se
         .map(|(_, v)| v)
         .collect()
 }
+
+// ---------------------------------------------------------------------------------------------
+// The binary under limits
+
+/// Runs `stewart ARGS` in `dir` under a 2 GiB address-space limit, killed after a minute;
+/// (exit code, -1 when killed; stderr). For refusals, which take milliseconds: a read or an
+/// allocation without a bound fails the test at the limit instead of growing until the kernel
+/// kills it, and a count without a bound fails it at the minute instead of running on.
+pub fn stewart_limited(dir: &Path, args: &[&str]) -> (i32, String) {
+    let mut child = std::process::Command::new("sh")
+        .arg("-c")
+        .arg("ulimit -v 2097152 && exec \"$0\" \"$@\"")
+        .arg(env!("CARGO_BIN_EXE_stewart"))
+        .args(args)
+        .current_dir(dir)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("sh runs the stewart binary");
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().expect("the child can be waited for") {
+            break Some(status);
+        }
+        if start.elapsed() > std::time::Duration::from_secs(60) {
+            let _ = child.kill();
+            let _ = child.wait();
+            break None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    let mut stderr = String::new();
+    if let Some(mut pipe) = child.stderr.take() {
+        let _ = std::io::Read::read_to_string(&mut pipe, &mut stderr);
+    }
+    (status.and_then(|s| s.code()).unwrap_or(-1), stderr)
+}

@@ -99,7 +99,12 @@ pub struct Input {
 
 /// Reads the report at `path` ([`parse`]).
 pub fn load(path: &std::path::Path) -> Result<Input, CertificateError> {
-    let text = std::fs::read_to_string(path).map_err(|source| CertificateError::Read {
+    let text = rig_description::bounded::read_to_string_capped(
+        path,
+        rig_description::bounded::REPORT_CAP_BYTES,
+        "a report",
+    )
+    .map_err(|source| CertificateError::Read {
         path: path.display().to_string(),
         source,
     })?;

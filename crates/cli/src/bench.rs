@@ -10,7 +10,8 @@ pub struct BenchArgs {
     /// Scenario TOML, laid over the embedded default (configs/default.toml).
     #[arg(long, value_name = "FILE")]
     pub config: Option<std::path::PathBuf>,
-    /// Excitation time of the measured run including the fades, simulated s.
+    /// Excitation time of the measured run including the fades, simulated s (0.01 to 36000, as
+    /// run.duration_s).
     #[arg(long, value_name = "SECONDS", default_value_t = 20.0)]
     pub duration: f64,
     /// Sensor grade: `realistic` the rig description's datasheet, `none` ideal, `harsh` ×10.

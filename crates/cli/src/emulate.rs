@@ -74,16 +74,17 @@ pub struct EmulateArgs {
     /// that drove the actuators, ms (rig.watchdog_ms, default 20).
     #[arg(long, value_name = "MS")]
     pub watchdog_ms: Option<f64>,
-    /// Fault injection: fraction of sensor frames not sent.
+    /// Fault injection: fraction of sensor frames not sent, 0 to 1.
     #[arg(long, value_name = "FRACTION", default_value_t = 0.0)]
     pub drop: f64,
-    /// Fault injection: fraction of sensor frames sent with a bit flipped.
+    /// Fault injection: fraction of sensor frames sent with a bit flipped, 0 to 1.
     #[arg(long, value_name = "FRACTION", default_value_t = 0.0)]
     pub corrupt: f64,
-    /// Fault injection: hold sensor frames back this long.
+    /// Fault injection: hold sensor frames back this long, 0 to 10000 ms (the longest
+    /// rig.link_silence_ms).
     #[arg(long, value_name = "MS")]
     pub delay_ms: Option<f64>,
-    /// Fault injection: fraction of sensor frames held back by --delay-ms.
+    /// Fault injection: fraction of sensor frames held back by --delay-ms, 0 to 1.
     #[arg(long, value_name = "FRACTION", default_value_t = 1.0)]
     pub delay_fraction: f64,
     /// Fault injection: stop answering after this many sensor frames of a session.

@@ -34,11 +34,12 @@ pub struct EstimateArgs {
     /// uncertainty k = 2, principal axes, budget, convergence, rig; prints on A4).
     #[arg(long, value_name = "FILE.html")]
     pub html: Option<PathBuf>,
-    /// Low-pass cut-off of the signal conditioning, Hz (0 or `none`: no filter).
+    /// Low-pass cut-off of the signal conditioning, Hz: 0.1 up to 80 % of half the log's sample
+    /// rate, as estimator.cutoff_hz (0 or `none`: no filter).
     #[arg(long, value_name = "HZ", value_parser = ops::estimate::parse_cutoff_hz, allow_negative_numbers = true)]
     pub cutoff_hz: Option<f64>,
-    /// RLS forgetting factor λ in (0, 1].
-    #[arg(long, value_name = "LAMBDA")]
+    /// RLS forgetting factor λ, 0.9 to 1 as estimator.forgetting_factor.
+    #[arg(long, value_name = "LAMBDA", value_parser = ops::estimate::parse_forgetting_factor)]
     pub forgetting_factor: Option<f64>,
     /// Time window START:END in seconds from the start of each measurement's excitation;
     /// either end may be empty (e.g. `5:` or `:30`). A short window gets residual half-blocks

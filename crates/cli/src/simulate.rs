@@ -26,10 +26,10 @@ pub struct SimulateArgs {
     #[arg(long, value_parser = crate::common::noise_preset())]
     pub noise: Option<NoisePreset>,
     /// Accuracy campaign: this many runs with seeds seed, seed+1, …, then per-parameter error
-    /// statistics (`--report` writes them as JSON).
+    /// statistics (`--report` writes them as JSON). N is 1 to 100000.
     #[arg(long, value_name = "N", conflicts_with = "live")]
     pub runs: Option<u32>,
-    /// Runs in parallel with `--runs` (default: one per CPU).
+    /// Runs in parallel with `--runs`, 1 to 1024 (default: one per CPU).
     #[arg(long, value_name = "J", requires = "runs")]
     pub jobs: Option<usize>,
     /// Simulate a rig with only this one of a real rig's error sources (every other switch of

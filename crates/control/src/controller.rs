@@ -323,6 +323,30 @@ impl Controller {
         Ok(())
     }
 
+    /// Whether the leg loops can hold `load` (the plate with what it carries, as the rig's owner
+    /// knows it) braked at the warm-start pose: [`Controller::set_feedforward`]'s stability
+    /// check on the load's static leg forces. Call it with the trajectory checks, before the
+    /// log and the brake hold: a rig whose loops cannot hold its load is then refused before
+    /// anything runs, and `set_feedforward` checks the forces the hold measures again.
+    pub fn check_hold(&self, load: &InertialParameters) -> Result<(), ControlError> {
+        let static_n = load_leg_forces(&self.geometry, load, &rest_at(&self.last_pose))?;
+        let s = crate::stability::translational_stability(
+            &self.geometry,
+            &self.last_pose,
+            &self.config.pid,
+            &static_n,
+        );
+        if s.passes() {
+            Ok(())
+        } else {
+            Err(ControlError::UnstableLoad {
+                supported_mass_kg: s.supported_mass_kg,
+                ratio: s.ratio,
+                max_integral_gain: s.max_integral_gain(&self.config.pid),
+            })
+        }
+    }
+
     /// Adds the inverse-dynamics feed-forward of `load`, the plate with everything it carries as
     /// its owner knows it (a CAD model, a weighing): each tick's feed-forward becomes
     ///

@@ -5,6 +5,7 @@
 //! truth: a scenario's `[world]` table is left to the simulator (docs/architecture.md).
 //!
 //! - [`config`]: the schema, one struct per table, units in the key names.
+//! - [`bounded`]: a file a user names read with a cap on its size.
 //! - [`load`]: reading a file laid over the embedded default, with FILE:LINE refusals.
 //! - [`validate`]: range checks, each problem as (dotted key, what is wrong).
 //! - [`link`]: the `[rig]` table and the rig address syntax.
@@ -14,6 +15,7 @@
 //!   quantities; [`calendar`]: the UTC date of a Unix time, for stamps.
 #![warn(missing_docs)]
 
+pub mod bounded;
 pub mod calendar;
 pub mod calibration;
 pub mod config;

@@ -165,24 +165,25 @@ impl fmt::Display for Address {
 impl RigLinkConfig {
     /// Range problems as (key, problem), like [`crate::validate::validate`].
     pub fn problems(&self) -> Vec<(String, String)> {
+        use crate::validate::ranges;
         let mut out = Vec::new();
-        let mut check = |key: &str, value: f64, min: f64, max: f64, unit: &str| {
-            if !(value.is_finite() && value >= min && value <= max) {
-                out.push((
-                    format!("rig.{key}"),
-                    format!("must be between {min} and {max} {unit}, got {value}"),
-                ));
+        for (key, value, range) in [
+            (
+                "link_silence_ms",
+                self.link_silence_ms,
+                ranges::LINK_SILENCE_MS,
+            ),
+            ("watchdog_ms", self.watchdog_ms, ranges::WATCHDOG_MS),
+            (
+                "handshake_timeout_s",
+                self.handshake_timeout_s,
+                ranges::HANDSHAKE_TIMEOUT_S,
+            ),
+        ] {
+            if let Some(problem) = range.problem(value) {
+                out.push((format!("rig.{key}"), problem));
             }
-        };
-        check("link_silence_ms", self.link_silence_ms, 1.0, 10_000.0, "ms");
-        check("watchdog_ms", self.watchdog_ms, 1.0, 10_000.0, "ms");
-        check(
-            "handshake_timeout_s",
-            self.handshake_timeout_s,
-            0.1,
-            600.0,
-            "s",
-        );
+        }
         if self.stall_retries > MAX_STALL_RETRIES {
             out.push((
                 "rig.stall_retries".into(),

@@ -238,17 +238,28 @@ pub fn load(path: Option<&Path>) -> Result<LoadedConfig, ConfigError> {
     match path {
         None => load_str(DEFAULT_CONFIG_TOML, DEFAULT_CONFIG_NAME),
         Some(path) => {
-            let (text, name) = read_text(path, "the file")?;
+            let (text, name) = read_text(
+                path,
+                "the file",
+                crate::bounded::DESCRIPTION_CAP_BYTES,
+                "a rig description",
+            )?;
             load_str(&text, &name)
         }
     }
 }
 
-/// The text of `path` and its name for messages; a file that cannot be read is refused as
-/// "cannot read `what`".
-fn read_text(path: &Path, what: &str) -> Result<(String, String), ConfigError> {
+/// The text of `path` and its name for messages, read with a cap of `cap_bytes`
+/// ([`crate::bounded`]; `kind` names what the file should be); a file that cannot be read is
+/// refused as "cannot read `what`".
+fn read_text(
+    path: &Path,
+    what: &str,
+    cap_bytes: u64,
+    kind: &str,
+) -> Result<(String, String), ConfigError> {
     let name = path.display().to_string();
-    match std::fs::read_to_string(path) {
+    match crate::bounded::read_to_string_capped(path, cap_bytes, kind) {
         Ok(text) => Ok((text, name)),
         Err(e) => Err(ConfigError::single(ConfigIssue {
             file: name,
@@ -407,7 +418,12 @@ impl LoadedConfig {
     /// else) over the rig description: both runs follow it, the tare run with the keys of a
     /// `[tare_excitation]` table laid over it. Problems name the excitation file.
     pub fn with_excitation_file(self, path: &Path) -> Result<Self, ConfigError> {
-        let (text, name) = read_text(path, "the excitation file")?;
+        let (text, name) = read_text(
+            path,
+            "the excitation file",
+            crate::bounded::EXCITATION_CAP_BYTES,
+            "an excitation file",
+        )?;
         self.with_excitation_text(&text, &name)
     }
 

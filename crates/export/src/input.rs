@@ -103,7 +103,12 @@ const SYMMETRY_TOLERANCE: f64 = 1e-9;
 
 /// Reads the report at `path` ([`parse`]).
 pub fn load(path: &std::path::Path) -> Result<Payload, ExportError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ExportError::Read {
+    let text = rig_description::bounded::read_to_string_capped(
+        path,
+        rig_description::bounded::REPORT_CAP_BYTES,
+        "a report",
+    )
+    .map_err(|source| ExportError::Read {
         path: path.display().to_string(),
         source,
     })?;

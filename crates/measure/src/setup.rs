@@ -237,6 +237,17 @@ pub fn controller(
         };
         ConfigError::single(loaded.issue(key, format!("refused before motion: {e}")))
     })?;
+    // The loops must hold the braked load as the description gives it. Checked here, before
+    // the log and the brake hold, so that such a rig is refused with nothing run; the hold's
+    // measured forces are checked again when they are read.
+    if let Some(load) = described_load(&loaded.config, measurement) {
+        controller.check_hold(&load).map_err(|e| {
+            ConfigError::single(loaded.issue(
+                "control.ki_n_per_m_s",
+                format!("refused before motion ({} run): {e}", measurement.name()),
+            ))
+        })?;
+    }
     if let Some(load) = feedforward_load(&loaded.config, measurement, None) {
         controller.check_load_forces(&load).map_err(|e| {
             ConfigError::single(loaded.issue(
@@ -331,6 +342,21 @@ pub fn feedforward_load(
         .unwrap_or_else(|| config.plan.fixture.parameters());
     let load = match measurement {
         Measurement::Tare => config.plan.fixture.parameters(),
+        Measurement::Loaded => fixture + config.plan.payload.parameters(),
+    };
+    (load.is_finite() && load.mass_kg > 0.0).then_some(load)
+}
+
+/// The load the legs carry in one `measurement` as the rig description gives it: the plate
+/// with the empty fixture (`[plan.fixture]`), plus `[plan.payload]` for a loaded run; `None`
+/// when that is not a body with positive mass (a description without the prior).
+pub fn described_load(
+    config: &Config,
+    measurement: Measurement,
+) -> Option<estimator::InertialParameters> {
+    let fixture = config.plan.fixture.parameters();
+    let load = match measurement {
+        Measurement::Tare => fixture,
         Measurement::Loaded => fixture + config.plan.payload.parameters(),
     };
     (load.is_finite() && load.mass_kg > 0.0).then_some(load)

@@ -78,8 +78,12 @@ impl TareFile {
         plate_joints_m: &[[f64; 3]; 6],
     ) -> Result<Self> {
         let name = path.display();
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read the tare file {name}"))?;
+        let text = rig_description::bounded::read_to_string_capped(
+            path,
+            rig_description::bounded::TARE_CAP_BYTES,
+            "a tare file",
+        )
+        .with_context(|| format!("cannot read the tare file {name}"))?;
         let tare: TareFile = serde_json::from_str(&text)
             .with_context(|| format!("{name}: not a tare file ({TARE_FORMAT})"))?;
         if tare.format != TARE_FORMAT {

@@ -67,6 +67,14 @@ pub enum Error {
 
 /// Runs `bench`: loads the scenario of `options` and measures it ([`measure`]).
 pub fn run(options: &BenchOptions) -> Result<BenchReport, Error> {
+    // `--duration` stands for run.duration_s, and the bench keeps every tick's time: the key's
+    // range bounds that record.
+    let range = rig_description::validate::ranges::RUN_DURATION_S;
+    if let Some(problem) = range.problem(options.duration_s) {
+        return Err(Error::Config(rig_description::load::ConfigError::single(
+            crate::session::flag_issue("--duration", problem),
+        )));
+    }
     let loaded = rig_description::load::load(options.config.as_deref())?;
     let scenario = Scenario::new(loaded, options.seed, options.noise)?;
     measure(&scenario, options.duration_s).map_err(Error::Run)

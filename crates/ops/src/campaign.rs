@@ -108,16 +108,32 @@ pub struct CampaignReport {
     pub reports: Vec<Report>,
 }
 
+/// The most runs a campaign takes. The campaign holds every run's report (and a slot for each
+/// run's outcome) in memory until the statistics are made, so the count sizes an allocation:
+/// a hundred thousand runs are a few hundred megabytes and, at seconds a run, days of work;
+/// statistics of an error need far fewer (the standard error of a sigma falls as 1/√(2N)).
+pub const MAX_RUNS: u32 = 100_000;
+
+/// The most runs in parallel (`--jobs`): each job is a thread with its own simulator, and more
+/// threads than cores only share the cores.
+pub const MAX_JOBS: usize = 1024;
+
 /// Why `options` cannot make a campaign, if they cannot; `single_run_outputs`: the front end
 /// was also asked for outputs of a single run (figures, a page).
-pub fn refusal(options: &CampaignOptions, single_run_outputs: bool) -> Option<&'static str> {
+pub fn refusal(options: &CampaignOptions, single_run_outputs: bool) -> Option<String> {
     let m = &options.simulate.measure;
-    if options.runs == 0 {
-        Some("--runs must be at least 1")
-    } else if options.jobs == Some(0) {
-        Some("--jobs must be at least 1")
+    if !(1..=MAX_RUNS).contains(&options.runs) {
+        Some(format!(
+            "--runs must be between 1 and {MAX_RUNS} (a campaign holds every run's report in memory), got {}",
+            options.runs
+        ))
+    } else if options.jobs.is_some_and(|j| !(1..=MAX_JOBS).contains(&j)) {
+        Some(format!(
+            "--jobs must be between 1 and {MAX_JOBS} (one thread and simulator each), got {}",
+            options.jobs.unwrap_or_default()
+        ))
     } else if m.log.is_some() || m.save_tare.is_some() || single_run_outputs {
-        Some("--log, --plot, --save-tare and --html apply to a single run, not to --runs")
+        Some("--log, --plot, --save-tare and --html apply to a single run, not to --runs".into())
     } else {
         None
     }

@@ -41,6 +41,7 @@ use rig_description::load::{ConfigError, LoadedConfig};
 use rig_description::Config;
 
 use crate::session::{flag_issue, refuse, Error};
+use rig_description::validate::{ranges, Range};
 use sim::scenario::{Scenario, World};
 use sim::NoisePreset;
 
@@ -66,6 +67,14 @@ impl PayloadMode {
         }
     }
 }
+
+/// A fraction of the sensor frames (`--drop`, `--corrupt`, `--delay-fraction`).
+pub const FRACTION: Range = Range::new(0.0, 1.0, "");
+
+/// How long `--delay-ms` holds sensor frames back: at most the longest link silence a host
+/// admits (`rig.link_silence_ms`); a frame held longer reaches a host that has faulted the
+/// link already, and every frame held takes memory until it is sent.
+pub const DELAY_MS: Range = Range::new(0.0, ranges::LINK_SILENCE_MS.max, "ms");
 
 /// The emulator's options.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -201,13 +210,20 @@ pub fn prepare(
     // on `rig.watchdog_ms` at a line of the embedded configuration that the user never wrote.
     let mut flag_issues = Vec::new();
     if let Some(ms) = options.watchdog_ms {
-        if !(ms.is_finite() && (1.0..=10_000.0).contains(&ms)) {
-            flag_issues.push(flag_issue(
-                "--watchdog-ms",
-                format!("must be between 1 and 10000 ms, got {ms}"),
-            ));
+        if let Some(problem) = rig_description::validate::ranges::WATCHDOG_MS.problem(ms) {
+            flag_issues.push(flag_issue("--watchdog-ms", problem));
         }
         rig_config.watchdog_ms = ms;
+    }
+    for (flag, value, range) in [
+        ("--drop", options.drop, FRACTION),
+        ("--corrupt", options.corrupt, FRACTION),
+        ("--delay-fraction", options.delay_fraction, FRACTION),
+        ("--delay-ms", options.delay_ms.unwrap_or(0.0), DELAY_MS),
+    ] {
+        if let Some(problem) = range.problem(value) {
+            flag_issues.push(flag_issue(flag, problem));
+        }
     }
     if let Some(listen) = &options.listen {
         if let Err(e) = listen.parse::<rig::transport::Address>() {
@@ -244,11 +260,8 @@ pub fn prepare(
         } else {
             0.0
         },
-        delay: match options.delay_ms {
-            Some(ms) if ms.is_finite() && ms >= 0.0 => Duration::from_secs_f64(ms * 1e-3),
-            Some(ms) => return Err(refuse(format!("--delay-ms must be 0 or more, got {ms}"))),
-            None => Duration::ZERO,
-        },
+        // Checked against DELAY_MS above: finite and not negative.
+        delay: Duration::from_secs_f64(options.delay_ms.unwrap_or(0.0) * 1e-3),
         stop_after_frames: options.stop_after,
         stall_once_after_frames: options.stall_once_after,
     };
@@ -530,7 +543,8 @@ mod tests {
             ..EmulateOptions::default()
         };
         let e = refused(&args);
-        assert!(e.to_string().contains("drop_fraction"), "{e}");
+        assert!(e.to_string().contains("`--drop`"), "{e}");
+        assert!(e.to_string().contains("between 0 and 1"), "{e}");
         assert!(matches!(e, Error::Config(_) | Error::Input(_)), "{e}");
     }
 

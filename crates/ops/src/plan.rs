@@ -146,8 +146,12 @@ pub fn run(
             params: None,
         })?;
     if let Some(path) = &options.prior {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| Error::ReadPrior(format!("cannot read {}: {e}", path.display())))?;
+        let text = rig_description::bounded::read_to_string_capped(
+            path,
+            rig_description::bounded::REPORT_CAP_BYTES,
+            "a report",
+        )
+        .map_err(|e| Error::ReadPrior(format!("cannot read {}: {e}", path.display())))?;
         let weighing = measure::report::static_weighing_of(&text)
             .map_err(|e| Error::Prior(format!("{}: {e}", path.display())))?;
         measure::report::apply_prior(&mut loaded.config.plan, &weighing);

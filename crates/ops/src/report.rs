@@ -83,7 +83,12 @@ pub fn write_page(
 
 /// Runs `report`: reads the report (and the rig description), writes the page.
 pub fn run(options: &ReportOptions) -> Result<(), Error> {
-    let text = std::fs::read_to_string(&options.report).map_err(|e| {
+    let text = rig_description::bounded::read_to_string_capped(
+        &options.report,
+        rig_description::bounded::REPORT_CAP_BYTES,
+        "a report",
+    )
+    .map_err(|e| {
         Error::Report(format!(
             "cannot read the report {}: {e}",
             options.report.display()

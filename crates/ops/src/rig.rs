@@ -116,11 +116,8 @@ pub fn link_settings(
         rig_config.address = address.clone();
     }
     if let Some(ms) = link.link_silence_ms {
-        if !(ms.is_finite() && (1.0..=10_000.0).contains(&ms)) {
-            issues.push(flag_issue(
-                "--link-silence-ms",
-                format!("must be between 1 and 10000 ms, got {ms}"),
-            ));
+        if let Some(problem) = rig_description::validate::ranges::LINK_SILENCE_MS.problem(ms) {
+            issues.push(flag_issue("--link-silence-ms", problem));
         }
         rig_config.link_silence_ms = ms;
     }
@@ -332,6 +329,7 @@ fn run_once(
     abort: &AtomicBool,
 ) -> Result<Outcome, Error> {
     let plan = &options.plan;
+    options.measure.check_log_free()?;
     let mut loaded = options.measure.load_config()?;
     prepare(plan, &mut loaded, operator)?;
     let calibrating_cells = matches!(plan, RigPlan::CalibrateLoadCells(_));

@@ -167,11 +167,25 @@ impl MeasureOptions {
     }
 
     /// The log's path: [`log`](Self::log), or `runs/<UTC time>.mcap` for a run that starts
-    /// at `start_ns`.
+    /// at `start_ns`, with `-2`, `-3`, … when another run of that second took the name
+    /// ([`runlog::mcap_log::default_log_path`]).
     pub fn log_path(&self, start_ns: u64) -> PathBuf {
         match &self.log {
             Some(p) => p.clone(),
             None => runlog::mcap_log::default_log_path(Path::new("runs"), start_ns / 1_000_000_000),
+        }
+    }
+
+    /// Refuses a [`log`](Self::log) that names an existing file, before anything moves: a log
+    /// is never written over ([`runlog::mcap_log::LogExists`]). The log's exclusive creation
+    /// refuses it too; this check comes first so that nothing runs (a calibration pass, a
+    /// handshake) for a run whose log cannot be written.
+    pub fn check_log_free(&self) -> Result<(), Error> {
+        match &self.log {
+            Some(path) if path.exists() || path.is_symlink() => Err(Error::Input(
+                runlog::mcap_log::LogExists(path.clone()).into(),
+            )),
+            _ => Ok(()),
         }
     }
 
@@ -389,8 +403,15 @@ pub(crate) fn run<S: Station>(
     let live = live::serve(spec.live, spec.delivery.1).map_err(Error::Input)?;
     let live_addr = live.as_ref().map(live::LiveServer::addr);
     let tap = live.map(live::LiveServer::into_tap);
+    // A log whose name is taken is refused as an input: nothing has moved yet.
     let mut log =
-        RunLog::create_tapped(&log_path, start_ns, spec.delivery.0, tap).map_err(Error::Run)?;
+        RunLog::create_tapped(&log_path, start_ns, spec.delivery.0, tap).map_err(|e| {
+            if runlog::mcap_log::is_log_exists(&e) {
+                Error::Input(e)
+            } else {
+                Error::Run(e)
+            }
+        })?;
     if let Some(addr) = live_addr {
         operator.tell(Message::Live(addr));
     }

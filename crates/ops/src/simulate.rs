@@ -226,6 +226,7 @@ pub fn run(
     interrupt: &AtomicBool,
 ) -> Result<Outcome, Error> {
     // Everything that can refuse the run, before the first sample.
+    options.measure.check_log_free()?;
     let mut scenario = options.scenario()?;
     if let Some((path, file)) = &options.apply_imu {
         let c = &mut scenario.loaded.config.calibration;
@@ -249,6 +250,11 @@ pub fn run(
     } else {
         scenario.world.payload
     };
+    // A saved tare is checked before a calibration pass moves anything.
+    if options.measure.tare.is_some() {
+        let geometry = setup::geometry(&scenario.loaded)?;
+        options.measure.tare_plan(&scenario.loaded, &geometry)?;
+    }
     // The calibration passes' logs and files are named after the measurement's log.
     let mut log_path = None;
     let calibration = &scenario.loaded.config.calibration;

@@ -33,10 +33,10 @@ pub enum ErrorKind {
 #[non_exhaustive]
 #[derive(Debug, thiserror::Error)]
 pub enum RigError {
-    /// The address or an option cannot be used.
-    #[error("invalid rig address or option `{input}`: {reason}")]
+    /// The address, the key or an option cannot be used.
+    #[error("{input}: {reason}")]
     Config {
-        /// What was given.
+        /// What was given, in words that name it ("the key file /x", "the address udp://…").
         input: String,
         /// Why it is refused.
         reason: String,

@@ -24,7 +24,7 @@ impl Key {
     pub fn new(bytes: &[u8]) -> Result<Self, RigError> {
         if bytes.len() < MIN_KEY_LEN {
             return Err(RigError::config(
-                "key",
+                "the shared key",
                 format!(
                     "a key needs at least {MIN_KEY_LEN} bytes, got {}",
                     bytes.len()
@@ -40,13 +40,18 @@ impl Key {
     pub fn from_hex(text: &str) -> Result<Self, RigError> {
         let digits: Vec<u8> = text.bytes().filter(|b| !b.is_ascii_whitespace()).collect();
         if digits.len() % 2 != 0 {
-            return Err(RigError::config("key", "odd number of hex digits"));
+            return Err(RigError::config(
+                "the shared key",
+                "odd number of hex digits",
+            ));
         }
         let nibble = |d: u8| -> Result<u8, RigError> {
-            (d as char)
-                .to_digit(16)
-                .map(|v| v as u8)
-                .ok_or_else(|| RigError::config("key", format!("not a hex digit: {:?}", d as char)))
+            (d as char).to_digit(16).map(|v| v as u8).ok_or_else(|| {
+                RigError::config(
+                    "the shared key",
+                    format!("not a hex digit: {:?}", d as char),
+                )
+            })
         };
         let bytes = digits
             .chunks_exact(2)
@@ -57,12 +62,16 @@ impl Key {
 
     /// Reads a key file: the key in hex, at least 32 hex digits; whitespace ignored.
     pub fn from_file(path: &Path) -> Result<Self, RigError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| RigError::io(format!("reading key file {}", path.display()), e))?;
+        let text = rig_description::bounded::read_to_string_capped(
+            path,
+            rig_description::bounded::KEY_CAP_BYTES,
+            "a key file",
+        )
+        .map_err(|e| RigError::io(format!("reading key file {}", path.display()), e))?;
         Self::from_hex(&text).map_err(|e| match e {
             RigError::Config { reason, .. } => RigError::config(
-                path.display().to_string(),
-                format!("bad key file: {reason}"),
+                format!("the key file {}", path.display()),
+                format!("{reason}; a key file holds the key in hex (`stewart key new` writes one)"),
             ),
             other => other,
         })
@@ -94,7 +103,7 @@ impl Key {
         }
         if !overwrite && path.exists() {
             return Err(RigError::config(
-                path.display().to_string(),
+                format!("the key file {}", path.display()),
                 "a key file is already there; it may be paired with a rig: keep it, or replace \
                  it with --force and copy the new one to the other side",
             ));

@@ -218,8 +218,22 @@ impl McapLog {
                 })?;
             }
         }
-        let file = File::create(path)
-            .with_context(|| format!("cannot create the log file {}", path.display()))?;
+        // Created exclusively: a log is never written over, whoever holds the name (another
+        // run in the same second, an older log given again as `--log`).
+        let file = match std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(path)
+        {
+            Ok(file) => file,
+            Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+                return Err(LogExists(path.to_path_buf()).into())
+            }
+            Err(e) => {
+                return Err(anyhow::Error::new(e)
+                    .context(format!("cannot create the log file {}", path.display())))
+            }
+        };
         let options = mcap::WriteOptions::new()
             .profile("")
             .library(concat!("stewart-cli ", env!("CARGO_PKG_VERSION")))
@@ -598,9 +612,47 @@ fn write_jobs(
     Ok(())
 }
 
-/// `runs/<UTC timestamp>.mcap` under `dir`, e.g. `runs/20250101T120000Z.mcap`.
+/// A log file that exists already: logs are created exclusively and never written over.
+#[derive(Debug, thiserror::Error)]
+#[error("the log file {} exists already; a log is never written over: choose another name, or remove that file", .0.display())]
+pub struct LogExists(pub PathBuf);
+
+/// Whether `e` is, or was caused by, a [`LogExists`].
+pub fn is_log_exists(e: &anyhow::Error) -> bool {
+    e.chain().any(|cause| cause.is::<LogExists>())
+}
+
+/// The most names [`default_log_path`] tries in one second before it leaves the last one to
+/// the exclusive creation (which refuses it when it is taken too).
+const MAX_NAMES_PER_SECOND: u32 = 10_000;
+
+/// `<UTC timestamp>.mcap` under `dir`, e.g. `runs/20250101T120000Z.mcap`, with `-2`, `-3`, …
+/// after the stamp when that name is taken: a stamp is taken when any file under `dir` starts
+/// with it and a dot, so that the files named after a log (`NAME.imu.mcap`, `NAME.imu.toml`)
+/// are free too. Two runs in the same second may still pick one name at once; the log's
+/// exclusive creation then refuses the second ([`LogExists`]) instead of writing over the first.
 pub fn default_log_path(dir: &Path, unix_s: u64) -> PathBuf {
-    dir.join(format!("{}.mcap", utc_stamp(unix_s)))
+    let stamp = utc_stamp(unix_s);
+    let names: std::collections::HashSet<String> = std::fs::read_dir(dir)
+        .map(|entries| {
+            entries
+                .filter_map(|e| e.ok())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    let taken = |stem: &str| {
+        let prefix = format!("{stem}.");
+        names.iter().any(|n| n.starts_with(&prefix))
+    };
+    let mut stem = stamp.clone();
+    for k in 2..=MAX_NAMES_PER_SECOND {
+        if !taken(&stem) {
+            break;
+        }
+        stem = format!("{stamp}-{k}");
+    }
+    dir.join(format!("{stem}.mcap"))
 }
 
 /// `YYYYMMDDTHHMMSSZ` for a Unix time.
@@ -616,6 +668,29 @@ pub fn utc_stamp(unix_s: u64) -> String {
 mod tests {
     use super::*;
     use crate::schema::{num, object};
+
+    #[test]
+    fn two_logs_in_one_second_get_two_names_and_neither_is_written_over() {
+        let dir = tempfile::tempdir().unwrap();
+        let first = default_log_path(dir.path(), 0);
+        assert_eq!(first, dir.path().join("19700101T000000Z.mcap"));
+        let mut log = McapLog::create(&first, &[spec()]).unwrap();
+        log.finish().unwrap();
+        let second = default_log_path(dir.path(), 0);
+        assert_eq!(second, dir.path().join("19700101T000000Z-2.mcap"));
+        // A file named after a log takes its stem too.
+        std::fs::write(dir.path().join("19700101T000000Z-2.imu.toml"), "").unwrap();
+        assert_eq!(
+            default_log_path(dir.path(), 0),
+            dir.path().join("19700101T000000Z-3.mcap")
+        );
+        // The same name given twice: the second creation is refused, the first log kept.
+        let before = std::fs::read(&first).unwrap();
+        let e = McapLog::create(&first, &[spec()]).err().unwrap();
+        assert!(is_log_exists(&e), "{e:#}");
+        assert!(e.to_string().contains("exists already"), "{e:#}");
+        assert_eq!(std::fs::read(&first).unwrap(), before);
+    }
 
     #[test]
     fn utc_stamps() {

@@ -51,13 +51,19 @@ impl BodyConfig {
     }
 }
 
+/// The most physics substeps per sample (`world.physics_substeps`). The lowest sample rate
+/// the rig description admits (100 Hz) needs 10 for the 1 ms step; 64 leaves room for a finer
+/// step, while each substep costs a whole physics step per sample, so a count like 10⁹ would
+/// run a single sample for hours.
+pub const MAX_PHYSICS_SUBSTEPS: u32 = 64;
+
 /// The `[world]` table.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct World {
     /// Seed of every random draw (sensor errors and noise); `--seed` overrides it.
     pub seed: u64,
-    /// Physics substeps per sample (substep ≤ 1 ms).
+    /// Physics substeps per sample (substep ≤ 1 ms), 1 to [`MAX_PHYSICS_SUBSTEPS`].
     pub physics_substeps: u32,
     /// The plate and the fixture that holds the payload (always on the platform).
     pub fixture: BodyConfig,
@@ -361,11 +367,11 @@ fn validate(world: &World, sample_rate_hz: f64) -> Vec<(String, String)> {
     }
     let substeps = world.physics_substeps;
     let substep_s = 1.0 / (sample_rate_hz * f64::from(substeps.max(1)));
-    if substeps == 0 || substep_s > 1e-3 * (1.0 + 1e-12) {
+    if substeps == 0 || substep_s > 1e-3 * (1.0 + 1e-12) || substeps > MAX_PHYSICS_SUBSTEPS {
         p.push(
             "world.physics_substeps",
             format!(
-                "must be at least 1 and make the physics step 1/(sensors.sample_rate_hz·physics_substeps) at most 1 ms, got {substeps}"
+                "must be between 1 and {MAX_PHYSICS_SUBSTEPS} and make the physics step 1/(sensors.sample_rate_hz·physics_substeps) at most 1 ms, got {substeps}"
             ),
         );
     }

@@ -94,7 +94,12 @@ pub trait CalibrationDocument: Serialize + serde::de::DeserializeOwned {
     /// Reads and checks `path`.
     fn read(path: &Path) -> Result<Self, CalibrationFileError> {
         let name = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| CalibrationFileError::Read {
+        let text = crate::bounded::read_to_string_capped(
+            path,
+            crate::bounded::CALIBRATION_CAP_BYTES,
+            "a calibration file",
+        )
+        .map_err(|source| CalibrationFileError::Read {
             path: name.clone(),
             source,
         })?;

@@ -27,6 +27,7 @@ use measure::replay::{BiasSigmas, Replay, ReplayOutcome};
 use measure::report::{Quantities, Report, ReportInputs, RunInfo, TareKind};
 use measure::{setup, TareFile};
 use rig_description::config::ParamCount;
+use rig_description::validate::ranges;
 use rig_description::LoadedConfig;
 
 use runlog::messages as topics;
@@ -43,20 +44,69 @@ pub struct Window {
     pub end_s: Option<f64>,
 }
 
-/// Parses a cut-off frequency (`--cutoff-hz`): a positive number of Hz, or `0` / `none` for
-/// no filter (0.0).
+/// Parses a cut-off frequency (`--cutoff-hz`): a number of Hz in the range of
+/// `estimator.cutoff_hz` ([`cutoff_problem`]), or `0` / `none` for no filter (0.0).
 pub fn parse_cutoff_hz(text: &str) -> Result<f64, String> {
     let t = text.trim();
     if t.eq_ignore_ascii_case("none") {
         return Ok(0.0);
     }
     match t.parse::<f64>() {
-        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
-        _ => Err(format!(
-            "`{text}` is not a cut-off frequency: give a positive number of Hz, or 0 or `none` \
-             for no filter"
+        Ok(v) => match cutoff_problem(v) {
+            None => Ok(v),
+            Some(problem) => Err(problem),
+        },
+        Err(_) => Err(format!(
+            "`{text}` is not a cut-off frequency: give a number of Hz, at least {} \
+             (estimator.cutoff_hz), or 0 or `none` for no filter",
+            ranges::CUTOFF_HZ_MIN
         )),
     }
+}
+
+/// Parses a forgetting factor (`--forgetting-factor`) in the range of
+/// `estimator.forgetting_factor` ([`ranges::FORGETTING_FACTOR`]).
+pub fn parse_forgetting_factor(text: &str) -> Result<f64, String> {
+    let v: f64 = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("`{text}` is not a number"))?;
+    match ranges::FORGETTING_FACTOR.problem(v) {
+        None => Ok(v),
+        Some(problem) => Err(format!("{problem} (as estimator.forgetting_factor)")),
+    }
+}
+
+/// What is wrong with a cut-off of `hz` before the log's sample rate is known: 0 is no
+/// filter; any other value must be finite and at least `estimator.cutoff_hz`'s least value.
+/// The upper end of the key's range ([`ranges::cutoff_hz`]) is checked against the log's
+/// sample rate in [`settings_of`].
+pub fn cutoff_problem(hz: f64) -> Option<String> {
+    if hz == 0.0 || (hz.is_finite() && hz >= ranges::CUTOFF_HZ_MIN) {
+        None
+    } else {
+        Some(format!(
+            "must be 0 or `none` (no filter), or at least {} Hz (as estimator.cutoff_hz), got {}",
+            ranges::CUTOFF_HZ_MIN,
+            rig_description::validate::number(hz)
+        ))
+    }
+}
+
+/// A setting of [`SettingsOverride`] that the log's measurement cannot take, blamed on the
+/// flag that gave it (`--window`, `--cutoff-hz`), not on the log.
+#[derive(Debug, thiserror::Error)]
+#[error("`{flag}` {problem}")]
+pub struct FlagRefused {
+    /// The flag.
+    pub flag: &'static str,
+    /// What is wrong, and what to give instead.
+    pub problem: String,
+}
+
+/// Whether `e` is, or was caused by, a [`FlagRefused`].
+pub fn is_flag_refusal(e: &anyhow::Error) -> bool {
+    e.chain().any(|cause| cause.is::<FlagRefused>())
 }
 
 /// `START:END` in seconds, either side optional (`5:`, `:30`); the start before the end.
@@ -111,6 +161,23 @@ impl SettingsOverride {
     /// True when nothing is changed.
     pub fn is_empty(&self) -> bool {
         *self == Self::default()
+    }
+
+    /// The settings that no log can take, each blamed on its flag with the range of the key it
+    /// stands for ([`cutoff_problem`], [`ranges::FORGETTING_FACTOR`]); the ones that depend
+    /// on the log are checked in [`settings_of`].
+    pub fn problems(&self) -> Vec<rig_description::ConfigIssue> {
+        let mut issues = Vec::new();
+        if let Some(problem) = self.cutoff_hz.and_then(cutoff_problem) {
+            issues.push(crate::session::flag_issue("--cutoff-hz", problem));
+        }
+        if let Some(problem) = self
+            .forgetting_factor
+            .and_then(|l| ranges::FORGETTING_FACTOR.problem(l))
+        {
+            issues.push(crate::session::flag_issue("--forgetting-factor", problem));
+        }
+        issues
     }
 }
 
@@ -242,6 +309,14 @@ pub fn settings_of(
         c.parameters = parameter_set(&geometry, rig, run, p)?;
     }
     if let Some(f) = o.cutoff_hz {
+        let range = ranges::cutoff_hz(1.0 / c.sample_period_s);
+        if let Some(problem) = range.problem(f).filter(|_| f != 0.0) {
+            return Err(FlagRefused {
+                flag: "--cutoff-hz",
+                problem: format!("{problem} at the log's sample rate, or 0 for no filter"),
+            }
+            .into());
+        }
         c.lowpass_cutoff_hz = (f > 0.0).then_some(f);
     }
     if let Some(l) = o.forgetting_factor {
@@ -259,6 +334,23 @@ pub fn settings_of(
         }
         if let Some(e) = w.end_s {
             c.window_end_s = origin_s + e;
+        }
+        if c.window_start_s.partial_cmp(&c.window_end_s) != Some(std::cmp::Ordering::Less) {
+            let recorded = match recorded.window_end_s {
+                Some(end_s) => format!("0 to {:.3} s", end_s - origin_s),
+                None => "0 s on".to_string(),
+            };
+            return Err(FlagRefused {
+                flag: "--window",
+                problem: format!(
+                    "gives the {run} measurement a window from {:.3} s to {:.3} s of its \
+                     excitation, which ends before it starts; the log records it from \
+                     {recorded}: give START:END with START before END",
+                    c.window_start_s - origin_s,
+                    c.window_end_s - origin_s
+                ),
+            }
+            .into());
         }
         // As a measurement does for a short excitation: a window shorter than the recorded
         // one gets half-blocks short enough for a measured sigma, never longer than the
@@ -534,6 +626,10 @@ pub enum Error {
     /// `--rig FILE` was refused.
     #[error("{0}")]
     Rig(#[from] rig_description::load::ConfigError),
+    /// A flag (`--cutoff-hz`, `--forgetting-factor`, `--window`) was refused, before the log
+    /// was read or against what the log records.
+    #[error("{0:#}")]
+    Flag(anyhow::Error),
     /// The log could not be read or re-estimated.
     #[error("{0:#}")]
     Log(anyhow::Error),
@@ -578,6 +674,25 @@ pub struct EstimateOutcome {
     pub rig: Option<LoadedConfig>,
 }
 
+/// The settings' refusals that need no log ([`SettingsOverride::problems`]).
+fn check_flags(settings: &SettingsOverride) -> Result<(), Error> {
+    let issues = settings.problems();
+    if issues.is_empty() {
+        Ok(())
+    } else {
+        Err(Error::Flag(rig_description::ConfigError { issues }.into()))
+    }
+}
+
+/// An error of reading and re-estimating the log: [`Error::Flag`] when a flag caused it.
+fn log_error(e: anyhow::Error) -> Error {
+    if is_flag_refusal(&e) {
+        Error::Flag(e)
+    } else {
+        Error::Log(e)
+    }
+}
+
 /// The rig description of `--rig FILE`, when given.
 fn rig_of(options: &EstimateOptions) -> Result<Option<LoadedConfig>, Error> {
     Ok(match &options.rig {
@@ -591,6 +706,7 @@ fn rig_of(options: &EstimateOptions) -> Result<Option<LoadedConfig>, Error> {
 /// measured nothing (see [`measure::quality`]) is not an error here but in
 /// [`EstimateOutcome::quality`], with nothing written.
 pub fn run(options: &EstimateOptions) -> Result<EstimateOutcome, Error> {
+    check_flags(&options.settings)?;
     let rig = rig_of(options)?;
     let stream::Streamed {
         report,
@@ -605,7 +721,7 @@ pub fn run(options: &EstimateOptions) -> Result<EstimateOutcome, Error> {
         options.tare.as_deref(),
         rig.as_ref(),
     )
-    .map_err(Error::Log)?;
+    .map_err(log_error)?;
     let quality = report.check_quality();
     if quality.is_ok() {
         if let Some(path) = &options.report {
@@ -638,9 +754,10 @@ pub fn run(options: &EstimateOptions) -> Result<EstimateOutcome, Error> {
 /// The log's tare run re-estimated (streamed once, its loaded run not replayed) and written
 /// to `out` (JSON, for later `--tare` runs).
 pub fn save_tare(options: &EstimateOptions, out: &Path) -> Result<stream::StreamedTare, Error> {
+    check_flags(&options.settings)?;
     let rig = rig_of(options)?;
     let saved =
-        stream::tare_of_file(&options.log, &options.settings, rig.as_ref()).map_err(Error::Log)?;
+        stream::tare_of_file(&options.log, &options.settings, rig.as_ref()).map_err(log_error)?;
     saved.tare.save(out).map_err(Error::SaveTare)?;
     Ok(saved)
 }

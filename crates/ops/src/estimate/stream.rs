@@ -404,10 +404,15 @@ fn said_damaged<T>(outcome: Result<T>, damage: &Damage, path: &Path) -> Result<T
 
 /// Streams the log at `path` through `s`.
 fn stream_file(path: &Path, s: &mut Stream<'_>) -> Result<(Channels, Damage)> {
-    let file = std::fs::File::open(path)
-        .with_context(|| format!("cannot read the log {}", path.display()))?;
-    visit(std::io::BufReader::with_capacity(1 << 16, file), s)
-        .with_context(|| format!("{} is not a readable MCAP log", path.display()))
+    let file = runlog::read::open_log(path)?;
+    visit(std::io::BufReader::with_capacity(1 << 16, file), s).map_err(|e| {
+        // A flag the log's measurement cannot take is the flag's fault, not the log's.
+        if super::is_flag_refusal(&e) {
+            e
+        } else {
+            e.context(format!("{} is not a readable MCAP log", path.display()))
+        }
+    })
 }
 
 /// The tare run of a log re-estimated, as a tare file to save ([`super::saved_tare`]).

@@ -78,12 +78,60 @@ pub struct Imported {
     pub tare: Option<TareFile>,
 }
 
+/// The longest row a table may have, bytes. A row is a few dozen numbers, under 2 KiB; the
+/// table is streamed whatever its length, but the CSV reader holds a whole row, so a source
+/// without line ends (`/dev/zero`, a binary file) would grow it without bound.
+pub const MAX_ROW_BYTES: usize = 64 * 1024;
+
+/// `inner` read with every line at most [`MAX_ROW_BYTES`] long; a longer one is an error of
+/// kind `InvalidData`.
+struct RowCapped<R> {
+    inner: R,
+    /// Bytes since the last line end.
+    line: usize,
+}
+
+impl<R> RowCapped<R> {
+    fn new(inner: R) -> Self {
+        Self { inner, line: 0 }
+    }
+}
+
+impl<R: Read> Read for RowCapped<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        for &b in buf.iter().take(n) {
+            self.line = if b == b'\n' { 0 } else { self.line + 1 };
+            if self.line > MAX_ROW_BYTES {
+                return Err(std::io::Error::new(
+                    std::io::ErrorKind::InvalidData,
+                    format!(
+                        "a row runs past {} KiB without a line end: not a CSV table of this \
+                         format (is it the right file?)",
+                        MAX_ROW_BYTES / 1024
+                    ),
+                ));
+            }
+        }
+        Ok(n)
+    }
+}
+
 /// Reads the table at `path`, refusals named with the file.
 fn open(path: &Path) -> Result<Table<impl Read>> {
+    if path.is_dir() {
+        anyhow::bail!(
+            "{} is a directory, not a table: name the CSV file in it",
+            path.display()
+        );
+    }
     let file = std::fs::File::open(path)
         .with_context(|| format!("cannot read the table {}", path.display()))?;
-    Table::new(std::io::BufReader::with_capacity(1 << 16, file))
-        .with_context(|| format!("{} is refused", path.display()))
+    Table::new(RowCapped::new(std::io::BufReader::with_capacity(
+        1 << 16,
+        file,
+    )))
+    .with_context(|| format!("{} is refused", path.display()))
 }
 
 /// The first pass: every row checked, each run's rows, times and window.

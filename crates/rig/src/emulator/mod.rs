@@ -98,9 +98,10 @@ where
 fn core_config(config: &EmulatorConfig, period: Duration) -> Result<CoreConfig, RigError> {
     let ns = |d: Duration| u64::try_from(d.as_nanos()).unwrap_or(u64::MAX);
     let key = match &config.key {
-        Some(key) => {
-            Some(CoreKey::new(key.bytes()).map_err(|e| RigError::config("key", e.to_string()))?)
-        }
+        Some(key) => Some(
+            CoreKey::new(key.bytes())
+                .map_err(|e| RigError::config("the shared key", e.to_string()))?,
+        ),
         None => None,
     };
     Ok(CoreConfig {
@@ -139,7 +140,7 @@ where
         let period_s = inner.sample_period_s();
         if !(period_s.is_finite() && period_s > 0.0 && period_s < 4.0) {
             return Err(RigError::config(
-                format!("sample period {period_s} s"),
+                format!("the emulated rig's sample period {period_s} s"),
                 "the backend's sample period must be positive and below 4 s",
             ));
         }
@@ -151,8 +152,8 @@ where
         ] {
             if !(0.0..=1.0).contains(&value) {
                 return Err(RigError::config(
-                    format!("{name} = {value}"),
-                    "must be between 0 and 1",
+                    format!("the emulator's fault injection {name} = {value}"),
+                    "must be a fraction, between 0 and 1",
                 ));
             }
         }
@@ -161,11 +162,14 @@ where
             && l.force_min_n < l.force_max_n
             && l.speed_max_m_s > 0.0)
         {
-            return Err(RigError::config(format!("{l:?}"), "unusable limits"));
+            return Err(RigError::config(
+                format!("the emulated rig's limits {l:?}"),
+                "unusable limits",
+            ));
         }
         let period = Duration::from_secs_f64(period_s);
         let core = RigCore::new(core_config(&config, period)?)
-            .map_err(|e| RigError::config("emulator", e.to_string()))?;
+            .map_err(|e| RigError::config("the emulator's configuration", e.to_string()))?;
         Ok(Self {
             inner,
             transport,

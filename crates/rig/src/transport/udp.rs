@@ -84,7 +84,7 @@ impl Transport for UdpTransport {
     fn send(&mut self, frame: &[u8], to: &Peer) -> Result<(), RigError> {
         let Peer::Udp(addr) = to else {
             return Err(RigError::config(
-                to.to_string(),
+                format!("the address {to}"),
                 "a UDP link can only send to a UDP address",
             ));
         };

@@ -426,11 +426,23 @@ impl Visitor for Collect<'_> {
     }
 }
 
+/// Opens the log at `path` for reading; a directory is refused as one (opened, it would read
+/// as a file that lacks the MCAP magic), naming what to give instead.
+pub fn open_log(path: &Path) -> Result<std::fs::File> {
+    if path.is_dir() {
+        anyhow::bail!(
+            "{} is a directory, not an MCAP log: name a log file in it (e.g. {})",
+            path.display(),
+            path.join("<UTC time>.mcap").display()
+        );
+    }
+    std::fs::File::open(path).with_context(|| format!("cannot read the log {}", path.display()))
+}
+
 impl LogContents {
     /// Reads `path`; a damaged or cut log gives what is intact (see [`Self::damaged`]).
     pub fn read(path: &Path) -> Result<Self> {
-        let file = std::fs::File::open(path)
-            .with_context(|| format!("cannot read the log {}", path.display()))?;
+        let file = open_log(path)?;
         let mut log = Self::from_source(BufReader::with_capacity(1 << 16, file))
             .with_context(|| format!("{} is not a readable MCAP log", path.display()))?;
         log.path = path.to_path_buf();
