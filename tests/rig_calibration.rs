@@ -174,7 +174,8 @@ fn rig_calibrate_load_cells_agrees_with_the_simulated_calibration_of_the_same_wo
 #[test]
 fn a_load_cell_calibration_cut_short_brakes_and_writes_nothing() {
     let _lock = real_time();
-    let scratch = Scratch::new(&quick());
+    // Not repeated (tests/rig_stall.rs repeats stalls): the fault itself is under test.
+    let scratch = Scratch::new(&(quick() + "stall_retries = 0\n"));
     let emulator = start(&EmulateOptions {
         reference: true,
         stop_after: Some(1000),

@@ -14,7 +14,8 @@ use support::*;
 #[test]
 fn the_emulator_going_silent_is_a_fault_the_host_notices() {
     let _lock = real_time();
-    let scratch = Scratch::new(&quick());
+    // Not repeated (tests/rig_stall.rs repeats stalls): the fault itself is under test.
+    let scratch = Scratch::new(&(quick() + "stall_retries = 0\n"));
     // 500 Hz: 1000 frames are 2 s, past the brake hold (0.5 s) and into the ramp home, settle
     // and the start of the excitation: the platform is being driven.
     let stop_after = 1000u64;
@@ -36,6 +37,8 @@ fn the_emulator_going_silent_is_a_fault_the_host_notices() {
         panic!("expected a fault, got {:?}", outcome.end)
     };
     assert!(cause.contains("link silent"), "{cause}");
+    // The host was waiting for the rig's frames, not late: it is not blamed.
+    assert!(!cause.contains("this host was late"), "{cause}");
     assert!(
         cause.contains(&format!("last sequence {stop_after}")),
         "{cause}"

@@ -102,3 +102,26 @@ fn a_stall_in_the_tare_run_repeats_the_tare() {
         "the repeated tare is saved"
     );
 }
+
+/// A rig that stays silent cannot be repeated on: the repeat's handshake goes unanswered, and
+/// the stall's fault stands (exit 3), not a refusal of the repeat.
+#[test]
+fn a_repeat_the_rig_does_not_answer_leaves_the_stalls_fault() {
+    let _lock = real_time();
+    let scratch = Scratch::new(&(scenario(1) + "handshake_timeout_s = 0.5\n"));
+    let emulator = start(&EmulateOptions {
+        stop_after: Some(1000),
+        ..emulate_args(&scratch)
+    });
+    let outcome = run_rig(&rig_tare(&scratch, emulator.address()))
+        .unwrap_or_else(|e| panic!("the stall's outcome, not an error: {e}"));
+    emulator.stop().unwrap();
+    assert!(
+        matches!(&outcome.end, End::Fault(c) if c.contains("link silent")),
+        "{:?}",
+        outcome.end
+    );
+    assert!(outcome.repeated.is_empty(), "{:?}", outcome.repeated);
+    assert_eq!(outcome.exit_code(), ops::exit::FAULT);
+    assert!(!last_logged_enable(&scratch.path("rig.mcap")));
+}

@@ -92,7 +92,14 @@ pub fn main_entry() -> std::process::ExitCode {
         }
     };
     let drives_hardware = matches!(cli.command, Command::Rig(_));
-    if let Err(e) = signals::listen(drives_hardware) {
+    let stopping = match &cli.command {
+        Command::Rig(_) => "parking the platform and finishing the log",
+        Command::Simulate(a) if a.runs.is_some() => "stopping the campaign",
+        Command::Simulate(_) => "parking and finishing the log",
+        Command::Emulate(_) => "stopping the emulator",
+        _ => "stopping",
+    };
+    if let Err(e) = signals::listen(drives_hardware, stopping) {
         eprintln!("warning: cannot catch Ctrl-C, SIGTERM, SIGHUP or SIGQUIT ({e}): they end the command at once");
     }
     ExitCode::from(match cli.command {

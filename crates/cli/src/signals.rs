@@ -55,10 +55,11 @@ pub fn name(signal: i32) -> &'static str {
     }
 }
 
-/// Starts the thread that turns the stopping signals into [`INTERRUPT`] and [`ABORT`]. An
+/// Starts the thread that turns the stopping signals into [`INTERRUPT`] and [`ABORT`];
+/// `stopping` says what the first one does ("parking the platform and finishing the log"). An
 /// error (the signals cannot be registered) is returned for the caller to report; the command
 /// then runs with the operating system's default handling.
-pub fn listen(drives_hardware: bool) -> std::io::Result<()> {
+pub fn listen(drives_hardware: bool, stopping: &'static str) -> std::io::Result<()> {
     let mut signals = signal_hook::iterator::Signals::new(STOPPING)?;
     std::thread::Builder::new()
         .name("signals".into())
@@ -74,7 +75,7 @@ pub fn listen(drives_hardware: bool) -> std::io::Result<()> {
                 }
                 // After SIGHUP the terminal may be gone: a failed write must not end this
                 // thread, which the next signal still needs.
-                let _ = writeln!(std::io::stderr(), "\n{}", line(what, signal));
+                let _ = writeln!(std::io::stderr(), "\n{}", line(what, signal, stopping));
                 if what == OnSignal::Exit {
                     std::process::exit(i32::from(crate::common::EXIT_INTERRUPTED));
                 }
@@ -83,13 +84,11 @@ pub fn listen(drives_hardware: bool) -> std::io::Result<()> {
     Ok(())
 }
 
-/// What the operator is told when `signal` does `what`.
-fn line(what: OnSignal, signal: i32) -> String {
+/// What the operator is told when `signal` does `what`, the first one `stopping`.
+fn line(what: OnSignal, signal: i32, stopping: &str) -> String {
     let name = name(signal);
     match what {
-        OnSignal::Park => format!(
-            "{name}: parking the platform and finishing the log (Ctrl-C again to brake at once)"
-        ),
+        OnSignal::Park => format!("{name}: {stopping} (Ctrl-C again to stop at once)"),
         OnSignal::StopNow => format!(
             "{name}: braking now and finishing the log (Ctrl-C again to exit without waiting)"
         ),
@@ -116,6 +115,7 @@ mod tests {
     fn each_stopping_signal_is_named() {
         let names: Vec<&str> = STOPPING.iter().map(|s| name(*s)).collect();
         assert_eq!(names, ["Ctrl-C", "SIGTERM", "SIGHUP", "SIGQUIT"]);
-        assert!(line(OnSignal::Park, SIGTERM).starts_with("SIGTERM: parking"));
+        let rig = "parking the platform and finishing the log";
+        assert!(line(OnSignal::Park, SIGTERM, rig).starts_with("SIGTERM: parking"));
     }
 }

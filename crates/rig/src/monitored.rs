@@ -251,35 +251,44 @@ impl Lateness {
             let (why, fix) = match self.fifo_priority {
                 Some(p) => (
                     format!(
-                        "although it ran at SCHED_FIFO priority {p}: a task at equal or higher                          real-time priority, or the kernel, held the CPU"
+                        "although it ran at SCHED_FIFO priority {p}: a task at equal or higher \
+                            real-time priority, or the kernel, held the CPU"
                     ),
                     format!(
-                        "find it (`ps -eLo rtprio,pid,comm | sort -n | tail`) or raise the                          loop's priority above it (`chrt -f {}`)",
+                        "find it (`ps -eLo rtprio,pid,comm | sort -n | tail`) or raise the \
+                            loop's priority above it (`chrt -f {}`)",
                         p + 10
                     ),
                 ),
                 None => (
                     "at normal priority: the operating system ran something else".to_string(),
                     format!(
-                        "run it with real-time priority (CAP_SYS_NICE, `ulimit -r {p}`, or                          `chrt -f {p}`) or on a quieter machine",
+                        "run it with real-time priority (CAP_SYS_NICE, `ulimit -r {p}`, or \
+                            `chrt -f {p}`) or on a quieter machine",
                         p = crate::realtime::FIFO_PRIORITY
                     ),
                 ),
             };
             return format!(
-                "this host was late: it sent no command for longer than the rig's                  {watchdog_ms:.0} ms watchdog, {} time(s); the longest {own_ms:.1} ms of its own                  time, not waiting for the rig ({why}); {fix}",
+                "this host was late: it sent no command for longer than the rig's \
+                    {watchdog_ms:.0} ms watchdog, {} time(s); the longest {own_ms:.1} ms of its own \
+                    time, not waiting for the rig ({why}); {fix}",
                 self.times
             );
         }
         if self.rig_waits > 0 {
             return format!(
-                "this host answered every frame in time (its longest own time {own_ms:.1} ms);                  the rig's frames stopped or came late, {} time(s) past the {watchdog_ms:.0} ms                  watchdog (the longest wait {:.1} ms): the rig, the emulator or the link paused,                  not this host",
+                "this host answered every frame in time (its longest own time {own_ms:.1} ms); \
+                    the rig's frames stopped or came late, {} time(s) past the {watchdog_ms:.0} ms \
+                    watchdog (the longest wait {:.1} ms): the rig, the emulator or the link paused, \
+                    not this host",
                 self.rig_waits,
                 self.longest_wait_s * 1e3
             );
         }
         format!(
-            "this host sent its commands in time (its longest own time {own_ms:.1} ms, watchdog              {watchdog_ms:.0} ms): they were lost or delayed on the link"
+            "this host sent its commands in time (its longest own time {own_ms:.1} ms, watchdog \
+                {watchdog_ms:.0} ms): they were lost or delayed on the link"
         )
     }
 }
@@ -410,6 +419,9 @@ impl Backend for Monitored<'_> {
             }
             Err(e) => {
                 self.note(&e);
+                // The safe stop that follows a failed read answers this wait, not the host.
+                self.reading_since = None;
+                self.read_wait = started.elapsed();
                 Err(e)
             }
         }
@@ -624,6 +636,9 @@ mod tests {
         assert!(on_time
             .explain(watchdog)
             .contains("lost or delayed on the link"));
+        for said in [waiting, normal, fifo, on_time].map(|l| l.explain(watchdog)) {
+            assert!(!said.contains("  "), "a run of spaces: {said}");
+        }
     }
 
     #[test]

@@ -103,6 +103,9 @@ pub struct EmulatorStats {
     pub ticks: u64,
     /// Ticks that started more than one period late (the machine could not keep up).
     pub overruns: u64,
+    /// The latest a tick started, µs past its time: the emulator's own stall, to compare with
+    /// the host's loop period.
+    pub latest_tick_us: u64,
     /// Sensor frames offered to the link in sessions (including dropped ones; none once
     /// `stop_after_frames` silenced the emulator, which the core still assembles and counts).
     pub sensor_frames: u64,

@@ -309,6 +309,8 @@ where
             }
             let now = self.now();
             let behind = now.saturating_duration_since(next);
+            let behind_us = u64::try_from(behind.as_micros()).unwrap_or(u64::MAX);
+            self.stats.latest_tick_us = self.stats.latest_tick_us.max(behind_us);
             if behind > self.period {
                 self.stats.overruns += 1;
                 if behind > self.period * 50 {
