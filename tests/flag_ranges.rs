@@ -1,5 +1,5 @@
 //! Every numeric flag is checked against the range of the rig description's key it stands for
-//! (one definition, `rig_description::validate::ranges`), and refused with exit 2, the flag
+//! (one definition, `rig_description::range::ranges`), and refused with exit 2, the flag
 //! and the range named: `estimate --cutoff-hz` and `--forgetting-factor` as
 //! `estimator.cutoff_hz` and `estimator.forgetting_factor`, `estimate --window` against the
 //! log's measurement (blamed on the flag, not on the log), `emulate`'s fault injection; and

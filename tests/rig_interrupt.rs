@@ -373,3 +373,46 @@ fn a_second_sigterm_brakes_at_once_and_finishes_the_log() {
         "the log's last command enables the legs"
     );
 }
+
+/// Watches the run and panics at its `at`-th tick: a bug in any code the loop calls.
+struct PanicsAt {
+    at: u64,
+    ticks: u64,
+}
+
+impl measure::Observer for PanicsAt {
+    fn tick(&mut self, _: &measure::TickEvent<'_>) -> anyhow::Result<()> {
+        self.ticks += 1;
+        assert!(self.ticks < self.at, "a bug at tick {}", self.ticks);
+        Ok(())
+    }
+}
+
+impl ops::session::Operator for PanicsAt {}
+
+/// A panic in the middle of a rig run unwinds through the link, which brakes the rig as it is
+/// dropped (the last command the rig holds is a safe stop, its watchdog had nothing to do),
+/// and through the log, whose writer finishes the file (it reads to its summary).
+#[test]
+fn a_panic_mid_run_brakes_the_rig_and_finishes_the_log() {
+    let _lock = real_time();
+    let scratch = Scratch::new(&quick());
+    let emulator = start(&emulate_args(&scratch));
+    let log = scratch.path("rig.mcap");
+    let run = rig_tare(&scratch, emulator.address());
+    let mut operator = PanicsAt {
+        at: INTO_THE_EXCITATION,
+        ticks: 0,
+    };
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        run_rig_as(&run, &mut operator)
+    }));
+    let stopped = emulator.stop().unwrap();
+    assert!(result.is_err(), "the run panicked");
+    assert!(operator.ticks >= INTO_THE_EXCITATION);
+    assert!(stopped.faults().is_empty(), "{:?}", stopped.faults());
+    let last = stopped.last_command().expect("commanded");
+    assert!(!last.enable, "{last:?}");
+    assert_eq!(last.leg_forces_n, [0.0; 6]);
+    assert!(!read_log(&log).is_empty(), "the log reads to its summary");
+}

@@ -360,6 +360,16 @@ pub fn run_rig_with(
     )
 }
 
+/// Runs the rig session `run` through the library with `operator` watching, never
+/// interrupted.
+pub fn run_rig_as(
+    run: &RigRun,
+    operator: &mut dyn ops::session::Operator,
+) -> Result<Outcome, ops::session::Error> {
+    static NEVER: AtomicBool = AtomicBool::new(false);
+    ops::rig::run(&run.options, operator, &mut NoOperator(run), &NEVER, &NEVER)
+}
+
 /// [`run_rig_with`], never interrupted.
 pub fn run_rig(run: &RigRun) -> Result<Outcome, ops::session::Error> {
     static NEVER: AtomicBool = AtomicBool::new(false);

@@ -23,6 +23,7 @@ pub mod derived;
 pub mod link;
 pub mod load;
 pub mod quantities;
+pub mod range;
 pub mod sources;
 pub mod validate;
 

@@ -165,7 +165,7 @@ impl fmt::Display for Address {
 impl RigLinkConfig {
     /// Range problems as (key, problem), like [`crate::validate::validate`].
     pub fn problems(&self) -> Vec<(String, String)> {
-        use crate::validate::ranges;
+        use crate::range::ranges;
         let mut out = Vec::new();
         for (key, value, range) in [
             (

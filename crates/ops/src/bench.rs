@@ -69,7 +69,7 @@ pub enum Error {
 pub fn run(options: &BenchOptions) -> Result<BenchReport, Error> {
     // `--duration` stands for run.duration_s, and the bench keeps every tick's time: the key's
     // range bounds that record.
-    let range = rig_description::validate::ranges::RUN_DURATION_S;
+    let range = rig_description::range::ranges::RUN_DURATION_S;
     if let Some(problem) = range.problem(options.duration_s) {
         return Err(Error::Config(rig_description::load::ConfigError::single(
             crate::session::flag_issue("--duration", problem),

@@ -8,7 +8,6 @@
 //! parameter of the payload (mass, centre of mass, J_C): mean error, spread, largest error
 //! against the acceptance, mean z² and the share within 2σ ([`measure::accuracy`]).
 
-use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Instant;
@@ -255,69 +254,6 @@ fn one_run(
     }
 }
 
-fn opt(v: Option<f64>, decimals: usize) -> String {
-    v.map_or_else(|| "—".to_string(), |x| format!("{x:.decimals$}"))
-}
-
-/// The campaign as a table: a summary line, the failed runs, one row per parameter.
-pub fn render(c: &CampaignReport) -> String {
-    let mut out = String::new();
-    let last = c
-        .first_seed
-        .wrapping_add(u64::from(c.runs).saturating_sub(1));
-    let only = c
-        .only
-        .as_ref()
-        .map_or_else(String::new, |s| format!(", only {s}"));
-    let _ = writeln!(
-        out,
-        "{} of {} runs completed (seeds {}–{}), noise {}{only}, {} parameters, {} s excitation, {} jobs, {:.0} s wall",
-        c.completed, c.runs, c.first_seed, last, c.noise, c.params, c.duration_s, c.jobs, c.wall_s
-    );
-    for f in &c.failed {
-        let _ = writeln!(out, "  seed {}: {}", f.seed, f.reason);
-    }
-    if c.parameters.is_empty() {
-        let _ = writeln!(out, "no statistics: no run completed with a known truth");
-        return out;
-    }
-    let _ = writeln!(
-        out,
-        "{:<7} {:<6} {:>11} {:>11} {:>10} {:>10} {:>10} {:>10} {:>8} {:>6} {:>10} {:>4}",
-        "param",
-        "unit",
-        "truth",
-        "mean err",
-        "(in s.e.)",
-        "spread",
-        "max |err|",
-        "mean σ",
-        "mean z²",
-        "≤2σ",
-        "accept",
-        "ok"
-    );
-    for p in &c.parameters {
-        let _ = writeln!(
-            out,
-            "{:<7} {:<6} {:>11.5} {:>11.3e} {:>10} {:>10.3e} {:>10.3e} {:>10.3e} {:>8} {:>5.0}% {:>10.3e} {:>4}",
-            p.name,
-            p.unit,
-            p.truth,
-            p.mean_error,
-            opt(p.mean_error_in_standard_errors, 2),
-            p.spread,
-            p.max_abs_error,
-            p.mean_sigma,
-            opt(p.mean_z2, 2),
-            100.0 * p.within_2_sigma,
-            p.acceptance,
-            if p.within_acceptance { "yes" } else { "NO" }
-        );
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -351,10 +287,5 @@ mod tests {
         assert_ne!(c.reports[0].estimate, c.reports[1].estimate);
         assert_eq!(c.parameters.len(), 10);
         assert!(c.parameters.iter().all(|p| p.spread > 0.0));
-        let text = render(&c);
-        assert!(
-            text.contains("2 of 2 runs completed (seeds 40–41)"),
-            "{text}"
-        );
     }
 }

@@ -41,7 +41,7 @@ use rig_description::load::{ConfigError, LoadedConfig};
 use rig_description::Config;
 
 use crate::session::{flag_issue, refuse, Error};
-use rig_description::validate::{ranges, Range};
+use rig_description::range::{ranges, Range};
 use sim::scenario::{Scenario, World};
 use sim::NoisePreset;
 
@@ -210,7 +210,7 @@ pub fn prepare(
     // on `rig.watchdog_ms` at a line of the embedded configuration that the user never wrote.
     let mut flag_issues = Vec::new();
     if let Some(ms) = options.watchdog_ms {
-        if let Some(problem) = rig_description::validate::ranges::WATCHDOG_MS.problem(ms) {
+        if let Some(problem) = rig_description::range::ranges::WATCHDOG_MS.problem(ms) {
             flag_issues.push(flag_issue("--watchdog-ms", problem));
         }
         rig_config.watchdog_ms = ms;

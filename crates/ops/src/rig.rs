@@ -116,7 +116,7 @@ pub fn link_settings(
         rig_config.address = address.clone();
     }
     if let Some(ms) = link.link_silence_ms {
-        if let Some(problem) = rig_description::validate::ranges::LINK_SILENCE_MS.problem(ms) {
+        if let Some(problem) = rig_description::range::ranges::LINK_SILENCE_MS.problem(ms) {
             issues.push(flag_issue("--link-silence-ms", problem));
         }
         rig_config.link_silence_ms = ms;

@@ -27,7 +27,7 @@ use measure::replay::{BiasSigmas, Replay, ReplayOutcome};
 use measure::report::{Quantities, Report, ReportInputs, RunInfo, TareKind};
 use measure::{setup, TareFile};
 use rig_description::config::ParamCount;
-use rig_description::validate::ranges;
+use rig_description::range::ranges;
 use rig_description::LoadedConfig;
 
 use runlog::messages as topics;
@@ -88,7 +88,7 @@ pub fn cutoff_problem(hz: f64) -> Option<String> {
         Some(format!(
             "must be 0 or `none` (no filter), or at least {} Hz (as estimator.cutoff_hz), got {}",
             ranges::CUTOFF_HZ_MIN,
-            rig_description::validate::number(hz)
+            rig_description::range::number(hz)
         ))
     }
 }
