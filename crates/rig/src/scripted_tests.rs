@@ -127,6 +127,24 @@ fn sensor(sequence: u64, status: u32) -> Message {
     })
 }
 
+/// The scripted rig's answer to the `Hello` of `host_nonce`: session 42, six legs, an IMU,
+/// 1 kHz, a 20 ms watchdog.
+fn scripted_ack(host_nonce: u64) -> HelloAck {
+    HelloAck {
+        host_nonce,
+        session_id: 42,
+        identity: identity_from_str("scripted"),
+        layout: SensorLayout {
+            leg_count: 6,
+            imu_present: true,
+            accel_position_m: [0.0; 3],
+        },
+        sample_period_ns: 1_000_000,
+        watchdog_ns: 20_000_000,
+        limits: limits(),
+    }
+}
+
 /// A scripted rig that answers every `Hello` with a `HelloAck` (no key), and a host connected
 /// to it.
 fn connected_host() -> (Scripted, RigBackend) {
@@ -140,20 +158,7 @@ fn connected_host_answering(answers: usize) -> (Scripted, RigBackend) {
         let Ok(Message::Hello(hello)) = codec::decode(frame, None) else {
             return Vec::new();
         };
-        let ack = HelloAck {
-            host_nonce: hello.host_nonce,
-            session_id: 42,
-            identity: identity_from_str("scripted"),
-            layout: SensorLayout {
-                leg_count: 6,
-                imu_present: true,
-                accel_position_m: [0.0; 3],
-            },
-            sample_period_ns: 1_000_000,
-            watchdog_ns: 20_000_000,
-            limits: limits(),
-        };
-        vec![encode(&Message::HelloAck(ack), None); answers]
+        vec![encode(&Message::HelloAck(scripted_ack(hello.host_nonce)), None); answers]
     }));
     let host = RigBackend::connect_over(
         Box::new(link.clone()),
@@ -498,20 +503,8 @@ fn keyed_handshake(before_ack: Vec<Message>, ack: bool) -> Result<RigBackend, Ri
         };
         let mut answers: Vec<Vec<u8>> = before_ack.iter().map(|m| encode(m, None)).collect();
         if ack {
-            let ack = HelloAck {
-                host_nonce: hello.host_nonce,
-                session_id: 42,
-                identity: identity_from_str("scripted"),
-                layout: SensorLayout {
-                    leg_count: 6,
-                    imu_present: true,
-                    accel_position_m: [0.0; 3],
-                },
-                sample_period_ns: 1_000_000,
-                watchdog_ns: 20_000_000,
-                limits: limits(),
-            };
-            answers.push(encode(&Message::HelloAck(ack), Some(&auth)));
+            let ack = Message::HelloAck(scripted_ack(hello.host_nonce));
+            answers.push(encode(&ack, Some(&auth)));
         }
         answers
     }));
