@@ -1,7 +1,8 @@
 #!/bin/bash
 # Keyed `stewart emulate` + `stewart rig` measurements in a row on loopback, both at their
 # default (real-time) priority, one line per run: the exit code, the host loop's largest period
-# per run (report `link[].timing`), the emulator's latest tick, and the fault if any.
+# per run (report `link[].timing`), the emulator's latest tick and slowest physics step, and
+# the fault if any.
 #
 #   scripts/stall_campaign.sh [BINARY] [RUNS] [DIR]
 #
@@ -31,9 +32,12 @@ try:
                      + l["timing"]["jitter_max_s"]) * 1e3) for l in r["link"])
 except (OSError, ValueError, KeyError):
     host = "-"
-m = re.search(r"the latest ([0-9.]+) ms late", open(emu).read())
+text = open(emu).read()
+m = re.search(r"the latest ([0-9.]+) ms late", text)
+step = re.search(r"the slowest physics step ([0-9.]+) ms", text)
 fault = [l for l in open(err).read().splitlines() if l.startswith(("fault", "error", "repeated"))]
 print(f"run {i}: exit {code}; host largest period: {host}; emulator latest tick: "
-      f"{m.group(1) + ' ms' if m else '-'}{'; ' + fault[0][:160] if fault else ''}")
+      f"{m.group(1) + ' ms' if m else '-'} (slowest step {step.group(1) + ' ms' if step else '-'})"
+      f"{'; ' + fault[0][:160] if fault else ''}")
 PY
 done

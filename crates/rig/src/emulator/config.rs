@@ -106,6 +106,9 @@ pub struct EmulatorStats {
     /// The latest a tick started, µs past its time: the emulator's own stall, to compare with
     /// the host's loop period.
     pub latest_tick_us: u64,
+    /// The slowest step of the served backend (the simulator's physics), µs: whether a late
+    /// tick was the emulator's own work or its pacing.
+    pub slowest_step_us: u64,
     /// Sensor frames offered to the link in sessions (including dropped ones; none once
     /// `stop_after_frames` silenced the emulator, which the core still assembles and counts).
     pub sensor_frames: u64,

@@ -366,12 +366,15 @@ where
         self.stats.ticks += 1;
         let command = self.core.actuate(self.ns(now), &mut self.outbox);
         self.deliver(now);
+        let step = Instant::now();
         self.inner.write(&command).map_err(|e| RigError::Backend {
             reason: e.to_string(),
         })?;
         let frame = self.inner.read().map_err(|e| RigError::Backend {
             reason: e.to_string(),
         })?;
+        let step_us = u64::try_from(step.elapsed().as_micros()).unwrap_or(u64::MAX);
+        self.stats.slowest_step_us = self.stats.slowest_step_us.max(step_us);
         self.core.report(&frame, &mut self.outbox);
         self.deliver(now);
         Ok(())
