@@ -1,5 +1,5 @@
 //! Your own hardware under the measurement procedure: implement `Backend` for its driver,
-//! `Station` for the payload change and `Observer` for your display, then run a whole session
+//! `Station` for the payload change and `Observer` for your display, then run a whole sequence
 //! (tare, payload on, loaded run, report). A simulator stands in for the hardware here.
 //!
 //! `cargo run --release --example own_hardware`
@@ -7,7 +7,7 @@ use std::sync::atomic::AtomicBool;
 
 use anyhow::Context;
 use measure::observer::{Observer, TickEvent};
-use measure::session::{self, Job, SessionPlan, Station, TarePlan};
+use measure::sequence::{self, Job, SequencePlan, Station, TarePlan};
 use measure::{setup, MeasureOutcome};
 use stewart_types::{Backend, CommandFrame, SensorFrame};
 
@@ -71,7 +71,7 @@ fn main() -> anyhow::Result<()> {
         world.simulator(geometry, false)?,
         world.world.payload.to_sim(),
     );
-    let plan = SessionPlan {
+    let plan = SequencePlan {
         config: &rig,
         geometry,
         tare: TarePlan::Measure(Box::new(controller(
@@ -86,10 +86,10 @@ fn main() -> anyhow::Result<()> {
         backend: "mine",
     };
     let mut station = MyRig { hardware, payload };
-    let outcome = session::run(plan, &mut station, &mut Display, &AtomicBool::new(false))?;
+    let outcome = sequence::run(plan, &mut station, &mut Display, &AtomicBool::new(false))?;
     let report = outcome
         .report(&rig.config, Default::default(), None)
-        .with_context(|| format!("no report: the session ended {:?}", outcome.end))?;
+        .with_context(|| format!("no report: the sequence ended {:?}", outcome.end))?;
     let (e, s) = (&report.estimate, &report.sigma);
     println!(
         "payload {:.2} ± {:.2} kg, com {:.4?} ± {:.4?} m",

@@ -134,10 +134,10 @@ fn estimate_reproduces_the_online_report_and_refuses_a_missing_channel() {
     .unwrap_or_else(|e| panic!("a 2.5 s window: {e:#}"));
     let basis = &short.covariance_basis;
     assert!(
-        (basis.block_s - 0.25).abs() < 1e-9 && basis.loaded_blocks >= 6,
+        (basis.half_block_s - 0.25).abs() < 1e-9 && basis.loaded_windows >= 6,
         "{basis:?}"
     );
-    assert!((run.report.covariance_basis.block_s - 0.4).abs() < 1e-9);
+    assert!((run.report.covariance_basis.half_block_s - 0.4).abs() < 1e-9);
 
     // Without /sensors, or without the estimator's settings, the log is refused by name.
     for topic in ["/sensors", "/run/estimator", "/run/metadata"] {

@@ -147,7 +147,7 @@ fn a_taken_live_address_refuses_the_run_before_the_log() {
     args.measure.live = Some(addr);
     let err = support::run_simulate(&args).expect_err("a taken port refuses the run");
     assert!(
-        matches!(err, ops::session::Error::Input(_)),
+        matches!(err, ops::measurement::Error::Input(_)),
         "refused before anything ran: {err}"
     );
     let text = err.to_string();

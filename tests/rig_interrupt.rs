@@ -388,7 +388,7 @@ impl measure::Observer for PanicsAt {
     }
 }
 
-impl ops::session::Operator for PanicsAt {}
+impl ops::measurement::Operator for PanicsAt {}
 
 /// A panic in the middle of a rig run unwinds through the link, which brakes the rig as it is
 /// dropped (the last command the rig holds is a safe stop, its watchdog had nothing to do),

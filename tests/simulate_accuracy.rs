@@ -266,7 +266,7 @@ fn tare_is_subtracted_saved_and_reused() {
     args.measure.tare = Some(saved);
     let err = support::run_simulate(&args).expect_err("another rig's tare");
     assert!(
-        matches!(err, ops::session::Error::Input(_)),
+        matches!(err, ops::measurement::Error::Input(_)),
         "refused as an input (exit 2): {err}"
     );
     assert!(err.to_string().contains("tare.json"), "{err}");

@@ -8,7 +8,7 @@
 //! SEED --report REPORT.json`, its IMU calibrated first): the payload's whole sigma with the
 //! joints' line replaced is then that report's.
 //!
-//! 1. One default session on the simulated rig (`--duration 20`: tare run, loaded run); the
+//! 1. One default measurement on the simulated rig (`--duration 20`: tare run, loaded run); the
 //!    budget's joint effects of both runs give the payload's sensitivity to each joint
 //!    coordinate, S (10 × 36: d_k = δθ_k(loaded) − δθ_k(tare) per tolerance), and the
 //!    `geometry` line, S σ² Sᵀ, as the report builds it (checked against the report's own).
@@ -30,7 +30,7 @@ use anyhow::Context;
 use estimator::{Estimate, InertialParameters, ParameterCovariance, ParameterVector};
 use measure::observer::{Ignore, Observer};
 use measure::report::{sigmas, Quantities};
-use measure::session::{self, Job, SessionPlan, Station, TarePlan, TareSource};
+use measure::sequence::{self, Job, SequencePlan, Station, TarePlan, TareSource};
 use measure::Measurement;
 use measure::{setup, MeasureOutcome};
 use nalgebra::{DMatrix, SMatrix, SymmetricEigen, Vector3};
@@ -39,7 +39,7 @@ use rig_description::load::Overrides;
 use rig_description::sources::ErrorSource;
 use runlog::compact::AtLogResolution;
 
-/// The simulator as the session's station, as `stewart simulate` runs it.
+/// The simulator as the sequence's station, as `stewart simulate` runs it.
 struct SimStation {
     sim: sim::Simulator,
     payload: sim::BodyProperties,
@@ -115,7 +115,7 @@ fn main() -> anyhow::Result<()> {
         None => 1,
     };
     // The default procedure's report of the same seed (its IMU calibrated before the runs,
-    // which this session leaves out): its whole sigma is what the joints' line is part of.
+    // which this measurement leaves out): its whole sigma is what the joints' line is part of.
     let default_report: Option<measure::Report> = match std::env::args().nth(2) {
         Some(path) => Some(serde_json::from_str(&std::fs::read_to_string(&path)?)?),
         None => None,
@@ -140,7 +140,7 @@ fn main() -> anyhow::Result<()> {
         setup::trajectory(&rig, &g, rig.config.run.duration_s)?,
         Measurement::Loaded,
     )?;
-    let plan = SessionPlan {
+    let plan = SequencePlan {
         config: &rig,
         geometry: g,
         tare: TarePlan::Measure(Box::new(tare)),
@@ -153,10 +153,10 @@ fn main() -> anyhow::Result<()> {
         payload: world.world.payload.to_sim(),
     };
     eprintln!("seed {seed}: tare and loaded runs on the simulated rig …");
-    let outcome = session::run(plan, &mut station, &mut Ignore, &AtomicBool::new(false))?;
+    let outcome = sequence::run(plan, &mut station, &mut Ignore, &AtomicBool::new(false))?;
     let report = outcome
         .report(&rig.config, Default::default(), None)
-        .with_context(|| format!("no report: the session ended {:?}", outcome.end))?;
+        .with_context(|| format!("no report: the sequence ended {:?}", outcome.end))?;
     let loaded = outcome.loaded.as_ref().context("no loaded run")?;
     let Some(TareSource::Measured(tare_file, effects)) = &outcome.tare else {
         anyhow::bail!("no measured tare");

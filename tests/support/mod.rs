@@ -1,5 +1,5 @@
 //! What the end-to-end tests share, in one place: scenario files and the configurations built
-//! from them, the reference geometry, the simulator's and the rig's sessions run through the
+//! from them, the reference geometry, the simulator's and the rig's measurements run through the
 //! operations library, an in-process emulator, and the one MCAP reader of the tests.
 //!
 //! Real-time tests on a busy two-core machine: the emulator runs in lockstep (it waits for the
@@ -18,7 +18,7 @@ use std::sync::{Mutex, MutexGuard};
 
 pub use ops::emulate::EmulateOptions;
 use ops::emulate::RunningEmulator;
-pub use ops::session::{MeasureOptions, Outcome, Silent};
+pub use ops::measurement::{MeasureOptions, Outcome, Silent};
 pub use ops::simulate::SimulateOptions;
 use rig_description::LoadedConfig;
 use sim::scenario::Scenario;
@@ -198,7 +198,7 @@ pub fn simulate_args(config: Option<PathBuf>, log: PathBuf) -> SimulateOptions {
 }
 
 /// Runs the simulation of `options`, watched by nobody.
-pub fn run_simulate(options: &SimulateOptions) -> Result<Outcome, ops::session::Error> {
+pub fn run_simulate(options: &SimulateOptions) -> Result<Outcome, ops::measurement::Error> {
     ops::simulate::run(options, &mut Silent, &AtomicBool::new(false))
 }
 
@@ -262,9 +262,9 @@ pub fn emulate_args_fast(scratch: &Scratch) -> EmulateOptions {
 /// [`Scratch`]'s `rig.key`), none when it names none.
 pub fn scenario_key(
     configured: Option<PathBuf>,
-) -> Result<Option<::rig::Key>, ops::session::Error> {
+) -> Result<Option<::rig::Key>, ops::measurement::Error> {
     configured
-        .map(|path| ::rig::Key::from_file(&path).map_err(ops::session::refuse))
+        .map(|path| ::rig::Key::from_file(&path).map_err(ops::measurement::refuse))
         .transpose()
 }
 
@@ -275,24 +275,24 @@ pub fn start(options: &EmulateOptions) -> RunningEmulator {
     ops::emulate::spawn(prepared).unwrap_or_else(|e| panic!("emulator: {e}"))
 }
 
-/// A rig session as the end-to-end rig tests run it through the library: its options and
+/// A rig measurement as the end-to-end rig tests run it through the library: its options and
 /// how the host's key is chosen.
 #[derive(Clone, Debug)]
 pub struct RigRun {
-    /// The session's options.
-    pub options: ops::rig::RigSessionOptions,
+    /// The measurement's options.
+    pub options: ops::rig::RigOptions,
     /// A key file instead of the scenario's `rig.key_file` (`--key`).
     pub key: Option<PathBuf>,
     /// No key at all (`--insecure`).
     pub insecure: bool,
 }
 
-/// The rig session `plan` against the rig at `address` as every end-to-end rig test starts
+/// The rig measurement `plan` against the rig at `address` as every end-to-end rig test starts
 /// it: the scenario `config` (a [`Scratch`]'s, which names the shared key [`TEST_KEY_HEX`]),
 /// logged to `log`, the payload change between a tare and a loaded run at once (no operator).
 pub fn rig_against(config: &Path, address: &str, log: &Path, plan: ops::rig::RigPlan) -> RigRun {
     RigRun {
-        options: ops::rig::RigSessionOptions {
+        options: ops::rig::RigOptions {
             plan,
             measure: MeasureOptions {
                 config: Some(config.to_path_buf()),
@@ -309,7 +309,7 @@ pub fn rig_against(config: &Path, address: &str, log: &Path, plan: ops::rig::Rig
     }
 }
 
-/// The tare-only session (saved to `tare.json`) against the rig at `address`, logged to
+/// The tare-only measurement (saved to `tare.json`) against the rig at `address`, logged to
 /// `rig.mcap`, both in `scratch` ([`rig_against`]).
 pub fn rig_tare(scratch: &Scratch, address: &str) -> RigRun {
     rig_against(
@@ -332,7 +332,7 @@ impl ops::rig::Attendant for NoOperator<'_> {
     fn shared_key(
         &mut self,
         configured: Option<PathBuf>,
-    ) -> Result<Option<::rig::Key>, ops::session::Error> {
+    ) -> Result<Option<::rig::Key>, ops::measurement::Error> {
         let chosen = ops::key::choose(
             self.0.key.as_deref(),
             configured,
@@ -340,17 +340,17 @@ impl ops::rig::Attendant for NoOperator<'_> {
             self.0.insecure,
             ops::key::Side::Host,
         )
-        .map_err(ops::session::refuse)?;
+        .map_err(ops::measurement::refuse)?;
         Ok(chosen.key)
     }
 }
 
-/// Runs the rig session `run` through the library, `interrupt` and `abort` its Ctrl-C flags.
+/// Runs the rig measurement `run` through the library, `interrupt` and `abort` its Ctrl-C flags.
 pub fn run_rig_with(
     run: &RigRun,
     interrupt: &AtomicBool,
     abort: &AtomicBool,
-) -> Result<Outcome, ops::session::Error> {
+) -> Result<Outcome, ops::measurement::Error> {
     ops::rig::run(
         &run.options,
         &mut Silent,
@@ -360,18 +360,18 @@ pub fn run_rig_with(
     )
 }
 
-/// Runs the rig session `run` through the library with `operator` watching, never
+/// Runs the rig measurement `run` through the library with `operator` watching, never
 /// interrupted.
 pub fn run_rig_as(
     run: &RigRun,
-    operator: &mut dyn ops::session::Operator,
-) -> Result<Outcome, ops::session::Error> {
+    operator: &mut dyn ops::measurement::Operator,
+) -> Result<Outcome, ops::measurement::Error> {
     static NEVER: AtomicBool = AtomicBool::new(false);
     ops::rig::run(&run.options, operator, &mut NoOperator(run), &NEVER, &NEVER)
 }
 
 /// [`run_rig_with`], never interrupted.
-pub fn run_rig(run: &RigRun) -> Result<Outcome, ops::session::Error> {
+pub fn run_rig(run: &RigRun) -> Result<Outcome, ops::measurement::Error> {
     static NEVER: AtomicBool = AtomicBool::new(false);
     run_rig_with(run, &NEVER, &NEVER)
 }

@@ -341,12 +341,12 @@ fn convergence(s: &mut String, r: &Report) {
             Some(k) => cell("samples_to_1pct", k as f64, &k.to_string()),
             None => "<td>never</td>".into(),
         },
-        r.covariance_basis.loaded_blocks,
+        r.covariance_basis.loaded_windows,
         r.covariance_basis
-            .tare_blocks
+            .tare_windows
             .map(|b| b.to_string())
             .unwrap_or_else(|| "not recorded".into()),
-        significant(r.covariance_basis.block_s, 3)
+        significant(r.covariance_basis.half_block_s, 3)
     );
     // The fewest degrees of freedom behind a sigma (the loaded run's), and which quantity.
     if let Some((name, nu)) = measure::quality::fewest_degrees_of_freedom(

@@ -53,7 +53,7 @@ pub fn main(args: &SimulateArgs, interrupt: &AtomicBool) -> u8 {
     let m = &args.measure;
     let refused = ops::campaign::refusal(&options, m.shared.plot.is_some() || m.html.is_some());
     let result = match refused {
-        Some(problem) => Err(ops::session::refuse(problem)),
+        Some(problem) => Err(ops::measurement::refuse(problem)),
         None => {
             let bar = Bar(progress_bar(u64::from(options.runs), m.shared.quiet));
             let result = ops::campaign::run(&options, &bar, interrupt);

@@ -75,8 +75,8 @@ pub struct MeasureArgs {
 
 impl MeasureArgs {
     /// The measurement's options: the flags that act on the run (not on what is printed).
-    pub fn options(&self) -> ops::session::MeasureOptions {
-        ops::session::MeasureOptions {
+    pub fn options(&self) -> ops::measurement::MeasureOptions {
+        ops::measurement::MeasureOptions {
             config: self.shared.config.clone(),
             params: self.shared.params.as_deref().map(parse_params),
             excitation: self.shared.excitation.clone(),
@@ -111,13 +111,13 @@ pub fn noise_preset() -> impl clap::builder::TypedValueParser<Value = sim::Noise
         .map(|name| name.parse().unwrap_or(sim::NoisePreset::Realistic))
 }
 
-/// Why a command failed: the operations' error ([`ops::session::Error`]), its exit code
+/// Why a command failed: the operations' error ([`ops::measurement::Error`]), its exit code
 /// from [`ops::exit`].
-pub type CommandError = ops::session::Error;
+pub type CommandError = ops::measurement::Error;
 
 /// A refusal of an input, in words.
 pub fn refuse(message: String) -> CommandError {
-    ops::session::refuse(message)
+    ops::measurement::refuse(message)
 }
 
 /// The exit code of `end`, with its message on standard error.

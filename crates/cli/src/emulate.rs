@@ -137,7 +137,7 @@ impl EmulateArgs {
     pub fn key(
         &self,
         configured: Option<PathBuf>,
-    ) -> Result<Option<rig::Key>, ops::session::Error> {
+    ) -> Result<Option<rig::Key>, ops::measurement::Error> {
         let (key, insecure) = (self.key.as_deref(), self.insecure);
         crate::rig::shared_key(key, configured, insecure, ops::key::Side::Rig, "emulator: ")
     }

@@ -203,7 +203,7 @@ mod tests {
         };
         let online = ops::simulate::run(
             &args.options(),
-            &mut ops::session::Silent,
+            &mut ops::measurement::Silent,
             &std::sync::atomic::AtomicBool::new(false),
         )
         .unwrap()

@@ -107,9 +107,9 @@ mod tests {
             samples: 60_000,
             rejected_samples: 3,
             covariance_basis: measure::report::CovarianceBasis {
-                loaded_blocks: 149,
-                tare_blocks: Some(74),
-                block_s: 0.4,
+                loaded_windows: 149,
+                tare_windows: Some(74),
+                half_block_s: 0.4,
                 loaded_degrees_of_freedom: [None; 10],
             },
             ..Report::default()

@@ -3,7 +3,7 @@
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use measure::observer::{Observer, TickEvent};
-use ops::session::{Message, Operator, Pass};
+use ops::measurement::{Message, Operator, Pass};
 
 /// The bar. See the [module docs](self).
 pub struct Progress {
@@ -59,7 +59,7 @@ impl Drop for Progress {
     }
 }
 
-/// The terminal as a session's operator: the bar, the notes and warnings on standard error (the
+/// The terminal as a measurement's operator: the bar, the notes and warnings on standard error (the
 /// notes and the live view's address left out with `--quiet`), the calibration passes on
 /// standard output.
 pub struct Terminal {

@@ -12,7 +12,7 @@
 //! A refusal before anything moved exits with 2, a fault (safe stop, the log finished) with 3,
 //! Ctrl-C (parked) with 130.
 //!
-//! The session itself is [`ops::rig`]; here are the command line and its plan (`args`), the
+//! The measurement itself is [`ops::rig`]; here are the command line and its plan (`args`), the
 //! operator at the terminal (the prompt, the key), and what is printed (`outcome`).
 
 mod args;
@@ -21,8 +21,8 @@ mod outcome;
 use std::path::PathBuf;
 use std::sync::atomic::AtomicBool;
 
-use ops::rig::{Attendant, LinkOptions, RigSessionOptions};
-use ops::session::Outcome;
+use ops::measurement::Outcome;
+use ops::rig::{Attendant, LinkOptions, RigOptions};
 
 use crate::common::CommandError;
 use crate::progress::Terminal;
@@ -30,10 +30,10 @@ use crate::progress::Terminal;
 pub use args::{resolve, LinkArgs, RigArgs, RigMeasureArgs, RigMode, RigRunArgs, RigTareArgs};
 pub use outcome::finish;
 
-/// The session's options from the flags, or why the flags do not go together.
-pub fn options(args: &RigArgs) -> Result<RigSessionOptions, CommandError> {
+/// The measurement's options from the flags, or why the flags do not go together.
+pub fn options(args: &RigArgs) -> Result<RigOptions, CommandError> {
     let (plan, common) = resolve(args)?;
-    Ok(RigSessionOptions {
+    Ok(RigOptions {
         plan,
         measure: common.run.options(),
         link: LinkOptions {
@@ -63,7 +63,7 @@ impl Attendant for AtTheTerminal {
     fn shared_key(
         &mut self,
         configured: Option<PathBuf>,
-    ) -> Result<Option<rig::Key>, ops::session::Error> {
+    ) -> Result<Option<rig::Key>, ops::measurement::Error> {
         let (key, insecure) = (self.link.key.as_deref(), self.link.insecure);
         shared_key(key, configured, insecure, ops::key::Side::Host, "")
     }
@@ -117,7 +117,7 @@ pub fn shared_key(
     insecure: bool,
     side: ops::key::Side,
     prefix: &str,
-) -> Result<Option<rig::Key>, ops::session::Error> {
+) -> Result<Option<rig::Key>, ops::measurement::Error> {
     let chosen = crate::key::choose(flag, configured, ops::key::user_key_path, insecure, side)?;
     if let Some(notice) = &chosen.notice {
         eprintln!("{prefix}{notice}");

@@ -7,7 +7,7 @@
 //! phase decides what each short window sees — so a few windows can make most of V̂ in one
 //! direction and few in another, and the standardised error e/σ̂ is then Student-t with far
 //! fewer degrees of freedom than the window count says (measured on a planned 2 s
-//! excitation, 8 counted blocks: σ̂² of J_C xx spread over the runs as χ² with 3.7 degrees of
+//! excitation, 8 counted windows: σ̂² of J_C xx spread over the runs as χ² with 3.7 degrees of
 //! freedom, against the 7 assumed, and mean z² 2.8).
 //!
 //! Satterthwaite's approximation with model-based weights (Bell & McCaffrey 2002; Imbens &
@@ -39,7 +39,7 @@ const PACKED_SQUARE: usize = PACKED * (PACKED + 1) / 2;
 /// The windows' score covariances as far as the degrees of freedom need them (see the module
 /// docs).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BlockInformation<const N: usize> {
+pub struct HalfBlockInformation<const N: usize> {
     /// Σ λ^(2·age) vₖ.
     sum: SVector<f64, PACKED>,
     /// Σ λ^(4·age) vₖ vₖᵀ, its packed upper triangle.
@@ -48,13 +48,13 @@ pub struct BlockInformation<const N: usize> {
     shared: SVector<f64, PACKED_SQUARE>,
 }
 
-impl<const N: usize> Default for BlockInformation<N> {
+impl<const N: usize> Default for HalfBlockInformation<N> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl<const N: usize> BlockInformation<N> {
+impl<const N: usize> HalfBlockInformation<N> {
     /// Compile-time check that N × N fits the packed storage.
     pub const FITS: () = assert!(N * (N + 1) / 2 <= PACKED, "N must be at most 10");
 
@@ -199,7 +199,7 @@ mod tests {
     /// The packed second moments give the quadratic forms of the full ones.
     #[test]
     fn packed_second_moments_give_the_full_quadratic_forms() {
-        let mut info = BlockInformation::<3>::new();
+        let mut info = HalfBlockInformation::<3>::new();
         let windows = [
             SMatrix::<f64, 3, 3>::new(4.0, 1.0, 0.0, 1.0, 3.0, 0.5, 0.0, 0.5, 2.0),
             SMatrix::<f64, 3, 3>::new(1.0, -0.3, 0.2, -0.3, 5.0, 0.1, 0.2, 0.1, 0.7),
@@ -231,7 +231,7 @@ mod tests {
     /// the direction (ρ = 1/π for the sine windows: about G/1.2).
     #[test]
     fn equal_windows_give_their_count_less_the_overlap() {
-        let mut info = BlockInformation::<3>::new();
+        let mut info = HalfBlockInformation::<3>::new();
         let a = SMatrix::<f64, 3, 3>::new(4.0, 1.0, 0.0, 1.0, 3.0, 0.5, 0.0, 0.5, 2.0);
         let rho = 1.0 / core::f64::consts::PI;
         info.add(&a, None, 1.0);
@@ -252,7 +252,7 @@ mod tests {
     /// however many windows there are; along a direction every window sees alike, the count.
     #[test]
     fn one_dominant_window_leaves_about_one_degree_of_freedom() {
-        let mut info = BlockInformation::<2>::new();
+        let mut info = HalfBlockInformation::<2>::new();
         for k in 0..20 {
             let x = if k == 7 { 1000.0 } else { 1.0 };
             info.add(&SMatrix::<f64, 2, 2>::new(x, 0.0, 0.0, 1.0), None, 1.0);
@@ -269,7 +269,7 @@ mod tests {
 
     #[test]
     fn no_windows_or_no_direction_give_none() {
-        let mut info = BlockInformation::<2>::new();
+        let mut info = HalfBlockInformation::<2>::new();
         assert_eq!(
             info.degrees_of_freedom(&SVector::<f64, 2>::new(1.0, 0.0)),
             None

@@ -34,12 +34,12 @@ pub struct Counts {
     pub bridged_gaps: u64,
     /// Residual windows whose scores the covariance counts (a run's first window does not;
     /// with λ < 1 the effective number, rounded down). Below
-    /// [`crate::uncertainty::MIN_COVARIANCE_BLOCKS`] the covariance is P from the configured
+    /// [`crate::uncertainty::MIN_COVARIANCE_WINDOWS`] the covariance is P from the configured
     /// equation sigmas, a provisional figure, not a measurement.
-    pub covariance_blocks: u64,
+    pub covariance_windows: u64,
     /// Samples per half-block of the residual windows
-    /// ([`crate::EstimatorConfig::covariance_block_samples`]).
-    pub covariance_block_samples: u64,
+    /// ([`crate::EstimatorConfig::covariance_half_block_samples`]).
+    pub covariance_half_block_samples: u64,
 }
 
 /// Stop rule for a measurement: every reported sigma below its tolerance.
@@ -94,7 +94,7 @@ pub struct Estimate {
     pub timing: Timing,
     /// Degrees of freedom of each reported quantity's variance as the residual windows gave
     /// them ([`crate::dof`]), [m, c_x, c_y, c_z, J_C xx, yy, zz, xy, xz, yz]; `None` where
-    /// none are measured (too few blocks, or a quantity the model does not estimate). A
+    /// none are measured (too few windows, or a quantity the model does not estimate). A
     /// payload's ([`Self::without_tare`]) are the loaded run's.
     pub degrees_of_freedom: [Option<f64>; PARAMETER_COUNT],
 }

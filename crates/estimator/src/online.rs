@@ -82,7 +82,7 @@ pub struct EstimatorConfig {
     /// two, [`crate::window`]); half-blocks must be long compared with the filter's memory
     /// (≈ 1/f_c), and what the windows leave of the gyro's derivative noise falls with their
     /// length; a run needs some tens of them for a steady sigma.
-    pub covariance_block_samples: u32,
+    pub covariance_half_block_samples: u32,
     /// The legs' mass properties and the joints' friction, when known: each conditioned
     /// sample's wrench then gains what the load cells do not see of them ([`crate::legs`]),
     /// from the plate's conditioned motion. `None`: the cells' wrench is taken as the whole
@@ -124,7 +124,9 @@ impl EstimatorConfig {
             gyro_noise_rad_s: 0.0,
             accel_noise_m_s2: 0.0,
             leg_force_offsets: false,
-            covariance_block_samples: Self::default_covariance_block_samples(sample_period_s),
+            covariance_half_block_samples: Self::default_covariance_half_block_samples(
+                sample_period_s,
+            ),
             legs: None,
             local_gravity_m_s2: 0.0,
             hold_end_s: None,
@@ -143,7 +145,7 @@ impl EstimatorConfig {
 
     /// The default residual half-block: 8 / [`Self::default_cutoff_hz`] (at least 20
     /// samples), whatever cut-off a caller then sets.
-    pub fn default_covariance_block_samples(sample_period_s: f64) -> u32 {
+    pub fn default_covariance_half_block_samples(sample_period_s: f64) -> u32 {
         let cutoff_hz = Self::default_cutoff_hz(sample_period_s);
         let block = libm::ceil(8.0 / (cutoff_hz * sample_period_s));
         if block.is_finite() {
@@ -242,7 +244,7 @@ const NEUMANN_TOLERANCE: f64 = 4.0 * f64::EPSILON;
 pub(crate) enum Correction {
     /// Corrected for regressor noise, its definiteness checked.
     Full,
-    /// Corrected by one solve, on the last block's verdict.
+    /// Corrected by one solve, on the last half-block's verdict.
     Quick,
     /// The plain least-squares θ.
     None,
@@ -266,7 +268,7 @@ struct Solver<const N: usize, const R: usize, const NR: usize> {
     /// to the sample's equations: b's sensitivity to constant leg-force offsets.
     leg: SMatrix<f64, N, 6>,
     /// Whether the full correction at the last residual window's close applied (a definite
-    /// corrected system); `None` before the first block closed.
+    /// corrected system); `None` before the first half-block closed.
     correction_applied: Option<bool>,
     /// The gyro's measured error: at the ends of the conditioning's stretches, taken out of
     /// θ, and over the whole run, taken out of the estimate the residual windows are scored
@@ -305,9 +307,12 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
                 config.forgetting_factor,
             )?
             .with_variance_cap(p0),
-            score: ScoreCovariance::new(config.covariance_block_samples, config.forgetting_factor)
-                .with_sample_period(config.sample_period_s)
-                .with_rate_moment(rate_moment),
+            score: ScoreCovariance::new(
+                config.covariance_half_block_samples,
+                config.forgetting_factor,
+            )
+            .with_sample_period(config.sample_period_s)
+            .with_rate_moment(rate_moment),
             inv_sigma: sigma.map(|s| 1.0 / s),
             noise_moment,
             quantities,
@@ -359,7 +364,7 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             let (theta, p, moment) = self.corrected_with_moment();
             let scored = self.scored_theta(&moment).unwrap_or(theta);
             self.score
-                .close_block(&scored, &p, &moment, &self.quantities.gradients(&theta));
+                .close_half_block(&scored, &p, &moment, &self.quantities.gradients(&theta));
             self.correction_applied = Some(moment.iter().any(|v| *v != 0.0));
         }
         self.samples = self.samples * self.rls.forgetting() + 1.0;
@@ -494,7 +499,7 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         self.corrected().0
     }
 
-    /// θ' = (𝟙 − P (nC + Δ))⁻¹ θ, when the last block's full correction applied (its
+    /// θ' = (𝟙 − P (nC + Δ))⁻¹ θ, when the last half-block's full correction applied (its
     /// definiteness check needs P' = (𝟙 − nPC)⁻¹ P, ten solves and a product more); otherwise
     /// [`Self::theta`].
     ///
@@ -741,9 +746,9 @@ impl OnlineEstimator {
                 "every leg figure must be finite and not negative",
             ));
         }
-        if config.covariance_block_samples == 0 {
+        if config.covariance_half_block_samples == 0 {
             return Err(EstimatorError::InvalidConfig(
-                "covariance_block_samples must be at least 1",
+                "covariance_half_block_samples must be at least 1",
             ));
         }
         if !(config.local_gravity_m_s2.is_finite()
@@ -865,13 +870,13 @@ impl OnlineEstimator {
         c.lost = self.conditioner.lost();
         c.bridged = self.conditioner.bridged();
         c.bridged_gaps = self.conditioner.bridged_gaps();
-        let blocks = match &self.engine {
-            Engine::Full(s) => s.score.blocks(),
-            Engine::Six { solver, .. } => solver.score.blocks(),
+        let windows = match &self.engine {
+            Engine::Full(s) => s.score.windows(),
+            Engine::Six { solver, .. } => solver.score.windows(),
         };
-        // Σ λ^(2·age) of whole blocks: non-negative and far below u64's range.
-        c.covariance_blocks = libm::floor(blocks + 1e-9) as u64;
-        c.covariance_block_samples = u64::from(self.config.covariance_block_samples);
+        // Σ λ^(2·age) of whole windows: non-negative and far below u64's range.
+        c.covariance_windows = libm::floor(windows + 1e-9) as u64;
+        c.covariance_half_block_samples = u64::from(self.config.covariance_half_block_samples);
         c
     }
 
@@ -1122,7 +1127,7 @@ impl OnlineEstimator {
 
     /// θ as [`Self::theta`] for a per-sample history: the errors-in-variables correction is
     /// one 10×10 LU solve, applied when the last residual window's full correction found the
-    /// corrected system definite (a verdict at most one block old), where [`Self::theta`]
+    /// corrected system definite (a verdict at most one half-block old), where [`Self::theta`]
     /// checks it again at every call. Equal to [`Self::theta`] to rounding whenever both apply
     /// the correction or neither does.
     pub fn theta_quick(&self) -> ParameterVector {

@@ -9,11 +9,11 @@
 //! gives a sandwich (batch-means, cluster-robust) covariance, Cov = P·M·P with M = Σ g gᵀ —
 //! valid whatever the noise colour, provided the half-blocks are long compared with it.
 
-use crate::dof::BlockInformation;
+use crate::dof::HalfBlockInformation;
 use crate::gyro_error::{RateErrorNormals, WindowSums};
 use crate::uncertainty::{
     fitted_rows_factor, jacobi_eigen, own_fit_correction, scale_in_basis, student_factor,
-    MIN_COVARIANCE_BLOCKS,
+    MIN_COVARIANCE_WINDOWS,
 };
 use crate::window;
 use nalgebra::{Const, DimMin, SMatrix, SVector};
@@ -163,9 +163,9 @@ pub struct ScoreCovariance<const N: usize, const R: usize, const NR: usize> {
     /// by the window that closed with it and the one that closes next.
     shared: SMatrix<f64, N, N>,
     /// Σ λ^(age) φ over the half-block in progress, one column per equation.
-    block_s: SMatrix<f64, N, R>,
+    half_block_s: SMatrix<f64, N, R>,
     /// Σ λ^(age) y over the half-block in progress.
-    block_y: SVector<f64, R>,
+    half_block_y: SVector<f64, R>,
     /// Σ λ^(age) φ over the finished half-blocks.
     total_s: SMatrix<f64, N, R>,
     /// Σ λ^(age) y over the finished half-blocks.
@@ -183,19 +183,19 @@ pub struct ScoreCovariance<const N: usize, const R: usize, const NR: usize> {
     /// Σ λ^(2·age) D ⊗ D: entry (i·R + r, j·R + s) = Σ D_ir D_js.
     d_d: SMatrix<f64, NR, NR>,
     /// The counted windows' information, for each reported quantity's degrees of freedom.
-    information: BlockInformation<N>,
+    information: HalfBlockInformation<N>,
     /// Each reported quantity's degrees of freedom at the last window's close (they change
     /// only when a window is added; P's drift within a half-block does not matter to them).
     degrees: [Option<f64>; N],
     /// Effective number of counted windows, Σ λ^(2·age).
-    blocks: f64,
+    windows: f64,
     /// Effective number of rows, Σ λ^(age).
     rows: f64,
-    in_block: u32,
+    in_half_block: u32,
     finished: u64,
-    block_samples: u32,
+    half_block_samples: u32,
     forgetting: f64,
-    block_decay: f64,
+    window_decay: f64,
     /// κ of [`window::mean_to_square`].
     mean_to_square: f64,
     /// [`window::shared_share`].
@@ -205,18 +205,18 @@ pub struct ScoreCovariance<const N: usize, const R: usize, const NR: usize> {
 }
 
 impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> {
-    /// Half-blocks of `block_samples` samples (≥ 1); forgetting factor λ as the fit's. `NR`
+    /// Half-blocks of `half_block_samples` samples (≥ 1); forgetting factor λ as the fit's. `NR`
     /// must be N·R (checked by the compiler's evaluation of [`Self::SIZES_MATCH`]).
-    pub fn new(block_samples: u32, forgetting: f64) -> Self {
+    pub fn new(half_block_samples: u32, forgetting: f64) -> Self {
         let () = Self::SIZES_MATCH;
-        let block_samples = block_samples.max(1);
+        let half_block_samples = half_block_samples.max(1);
         Self {
             rising: Weighted::zeros(),
             falling: Weighted::zeros(),
             pending: Weighted::zeros(),
             shared: SMatrix::zeros(),
-            block_s: SMatrix::zeros(),
-            block_y: SVector::zeros(),
+            half_block_s: SMatrix::zeros(),
+            half_block_y: SVector::zeros(),
             total_s: SMatrix::zeros(),
             total_y: SVector::zeros(),
             total_samples: 0.0,
@@ -225,25 +225,25 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             rate_moment: SMatrix::zeros(),
             g_d: SMatrix::zeros(),
             d_d: SMatrix::zeros(),
-            information: BlockInformation::new(),
+            information: HalfBlockInformation::new(),
             degrees: [None; N],
-            blocks: 0.0,
+            windows: 0.0,
             rows: 0.0,
-            in_block: 0,
+            in_half_block: 0,
             finished: 0,
-            block_samples,
+            half_block_samples,
             forgetting,
-            block_decay: libm::pow(forgetting, 2.0 * block_samples as f64),
-            mean_to_square: window::mean_to_square(block_samples),
-            shared_share: window::shared_share(block_samples),
-            slope_scale: window::slope_scale(block_samples, 1.0),
+            window_decay: libm::pow(forgetting, 2.0 * half_block_samples as f64),
+            mean_to_square: window::mean_to_square(half_block_samples),
+            shared_share: window::shared_share(half_block_samples),
+            slope_scale: window::slope_scale(half_block_samples, 1.0),
         }
     }
 
     /// The same, its samples `period_s` apart: it scales the windows' slopes ẇ, which meet the
     /// gyro's error rows of [`Self::add_sample`] (1 s unless given).
     pub fn with_sample_period(mut self, period_s: f64) -> Self {
-        self.slope_scale = window::slope_scale(self.block_samples, period_s);
+        self.slope_scale = window::slope_scale(self.half_block_samples, period_s);
         self
     }
 
@@ -268,7 +268,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     pub const SIZES_MATCH: () = assert!(NR == N * R, "NR must be N·R");
 
     /// Adds one sample's weighted rows and weighted measurements. Returns true when the
-    /// sample completes a half-block: the caller then calls [`Self::close_block`] with the
+    /// sample completes a half-block: the caller then calls [`Self::close_half_block`] with the
     /// fit after this sample (θ and P cost a little to form, so only then).
     pub fn add(&mut self, rows: &SMatrix<f64, R, N>, y: &SVector<f64, R>) -> bool {
         self.add_sample(rows, y, None)
@@ -290,10 +290,10 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         if self.forgetting < 1.0 {
             self.rising.age(self.forgetting);
             self.falling.age(self.forgetting);
-            self.block_s *= self.forgetting;
-            self.block_y *= self.forgetting;
+            self.half_block_s *= self.forgetting;
+            self.half_block_y *= self.forgetting;
         }
-        let (rise, fall) = window::weights(self.in_block, self.block_samples);
+        let (rise, fall) = window::weights(self.in_half_block, self.half_block_samples);
         let phi_y = rows.tr_mul(y);
         self.rising.b += phi_y * rise;
         self.falling.b += phi_y * fall;
@@ -311,8 +311,8 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
                 self.slope_scale,
             );
         }
-        self.block_s += phi;
-        self.block_y += y;
+        self.half_block_s += phi;
+        self.half_block_y += y;
         // A's upper triangle: entry (i, j ≥ i) gains w rᵢ rⱼ (skipped where rᵢ = 0), row by
         // row of the sample, column by contiguous column of A.
         for row in rows.row_iter() {
@@ -341,8 +341,8 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             }
         }
         self.rows = self.rows * self.forgetting + R as f64;
-        self.in_block += 1;
-        self.in_block >= self.block_samples
+        self.in_half_block += 1;
+        self.in_half_block >= self.half_block_samples
     }
 
     /// Closes the half-block in progress with the fit after its last sample, and with it the
@@ -356,17 +356,17 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     ///
     /// `quantities` are the gradients of the reported quantities at the fit's θ, row by row
     /// (as for [`Self::covariance`]): their degrees of freedom are taken here, once a window.
-    pub fn close_block(
+    pub fn close_half_block(
         &mut self,
         theta: &SVector<f64, N>,
         p: &SMatrix<f64, N, N>,
         noise_moment: &SMatrix<f64, N, N>,
         quantities: &SMatrix<f64, N, N>,
     ) {
-        let age = libm::pow(self.forgetting, self.block_samples as f64);
-        self.total_s = self.total_s * age + self.block_s;
-        self.total_y = self.total_y * age + self.block_y;
-        self.total_samples = self.total_samples * age + self.in_block as f64;
+        let age = libm::pow(self.forgetting, self.half_block_samples as f64);
+        self.total_s = self.total_s * age + self.half_block_s;
+        self.total_y = self.total_y * age + self.half_block_y;
+        self.total_samples = self.total_samples * age + self.in_half_block as f64;
         if let Some(shares) = window::closing(self.finished) {
             let window = self.pending.aged_plus(age, &self.falling);
             let a = window.information(noise_moment);
@@ -379,7 +379,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             let (g, rate) = window.gyro.scores(&window.b, &a, &t, theta, &rate_moment);
 
             let d = t * (window.s - a * (p * self.total_s));
-            let decay = self.block_decay;
+            let decay = self.window_decay;
             self.g_g = self.g_g * decay + g * g.transpose();
             self.rate_g_g = self.rate_g_g * decay + rate * rate.transpose();
             // d's rows one after another: dᵀ's column-major storage (NR = N·R entries).
@@ -398,7 +398,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
                 let gradient = quantities.row(j).transpose();
                 self.information.degrees_of_freedom(&(p * gradient))
             });
-            self.blocks = self.blocks * decay + 1.0;
+            self.windows = self.windows * decay + 1.0;
         }
         let both = self.rising.aged_plus(1.0, &self.falling);
         self.shared = both.information(noise_moment);
@@ -406,9 +406,9 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         self.finished += 1;
         self.rising = Weighted::zeros();
         self.falling = Weighted::zeros();
-        self.block_s = SMatrix::zeros();
-        self.block_y = SVector::zeros();
-        self.in_block = 0;
+        self.half_block_s = SMatrix::zeros();
+        self.half_block_y = SVector::zeros();
+        self.in_half_block = 0;
     }
 
     /// The augmented fit's offset c = (n𝟙 − SᵀPS)⁺(Y − Sᵀθ) over every sample so far, from the
@@ -422,8 +422,8 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         ends: &SVector<f64, R>,
     ) -> SVector<f64, R> {
         let (s, y) = self.totals();
-        let n = self.total_samples * libm::pow(self.forgetting, self.in_block as f64)
-            + self.in_block as f64;
+        let n = self.total_samples * libm::pow(self.forgetting, self.in_half_block as f64)
+            + self.in_half_block as f64;
         let schur = SMatrix::<f64, R, R>::identity() * n - s.tr_mul(&(p * s));
         let schur = (schur + schur.transpose()) * 0.5;
         let rhs = y - s.tr_mul(theta) + ends;
@@ -480,25 +480,25 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     /// S = Σ λ^(age) φ (one column per equation) and Y = Σ λ^(age) y over every sample so far,
     /// the half-block in progress included.
     pub fn totals(&self) -> (SMatrix<f64, N, R>, SVector<f64, R>) {
-        let age = libm::pow(self.forgetting, self.in_block as f64);
+        let age = libm::pow(self.forgetting, self.in_half_block as f64);
         (
-            self.total_s * age + self.block_s,
-            self.total_y * age + self.block_y,
+            self.total_s * age + self.half_block_s,
+            self.total_y * age + self.half_block_y,
         )
     }
 
     /// Effective number of windows that count.
-    pub fn blocks(&self) -> f64 {
-        self.blocks
+    pub fn windows(&self) -> f64 {
+        self.windows
     }
 
     /// Whether enough windows count for [`Self::covariance`] to be the residuals' measurement
-    /// rather than P ([`MIN_COVARIANCE_BLOCKS`]).
+    /// rather than P ([`MIN_COVARIANCE_WINDOWS`]).
     pub fn is_measured(&self) -> bool {
-        self.blocks >= MIN_COVARIANCE_BLOCKS as f64
+        self.windows >= MIN_COVARIANCE_WINDOWS as f64
     }
 
-    /// Covariance of θ given the fit's θ and P (as for [`Self::close_block`]) and the gyro's
+    /// Covariance of θ given the fit's θ and P (as for [`Self::close_half_block`]) and the gyro's
     /// error's share of the residuals' sum, `ends` ([`crate::gyro_error::GyroError::residual_sum`],
     /// zero without the kinematics), which the offset must not take for its own: the offset c,
     /// then the sandwich P M P with M of the offset-free scores, scaled by
@@ -510,13 +510,13 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     /// the caller reports (the mass, the centre of mass and J_C's entries for the full model:
     /// [`crate::uncertainty::derived_jacobian`]; θ itself for the paper's six). Quantity j's
     /// variance from the windows has νⱼ degrees of freedom along w = P cⱼ
-    /// ([`BlockInformation`]); its variance is scaled by fⱼ = κⱼ νⱼ/(νⱼ − 2) (κⱼ the
+    /// ([`HalfBlockInformation`]); its variance is scaled by fⱼ = κⱼ νⱼ/(νⱼ − 2) (κⱼ the
     /// coverage) in the quantities' basis
     /// (Q = G C Gᵀ → D Q D, D = diag √fⱼ, back by G⁻¹), which keeps the quantities'
     /// correlations and C positive semi-definite. When `quantities` is singular, every
     /// quantity takes ν = G − 1 and the largest coverage.
     ///
-    /// Before [`MIN_COVARIANCE_BLOCKS`] windows count ([`Self::is_measured`]) it is P, what
+    /// Before [`MIN_COVARIANCE_WINDOWS`] windows count ([`Self::is_measured`]) it is P, what
     /// the configured equation sigmas predict: a provisional figure for a live display, which
     /// understates the spread whenever the residuals exceed the configured sigmas or are
     /// correlated, and which a report must not print as a measurement.
@@ -538,7 +538,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         let m = self.score_sum(&self.offset(theta, p, ends));
         let c = p * m * p * fitted_rows_factor(n, fitted);
         let c = (c + c.transpose()) * 0.5;
-        let fallback = student_factor(self.blocks - 1.0);
+        let fallback = student_factor(self.windows - 1.0);
         let coverage =
             SVector::<f64, N>::from_fn(|j, _| self.coverage(p, &quantities.row(j).transpose()));
         let roots = SVector::<f64, N>::from_fn(|j, _| {
@@ -576,7 +576,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     }
 
     /// The degrees of freedom of each reported quantity's variance, as the last window's
-    /// close took them (the quantities of [`Self::close_block`]), `None` where the windows
+    /// close took them (the quantities of [`Self::close_half_block`]), `None` where the windows
     /// give none or too few count for a measured covariance ([`Self::is_measured`]).
     pub fn degrees_of_freedom(&self) -> [Option<f64>; N] {
         if self.is_measured() {
@@ -592,7 +592,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn score_covariance_falls_back_to_p_until_blocks_exist() {
+    fn score_covariance_falls_back_to_p_until_windows_count() {
         let mut s = ScoreCovariance::<2, 1, 2>::new(10, 1.0);
         let p = SMatrix::<f64, 2, 2>::identity() * 0.5;
         let theta = SVector::<f64, 2>::zeros();
@@ -604,13 +604,13 @@ mod tests {
         for k in 0..1000 {
             let y = SVector::<f64, 1>::new(if k % 2 == 0 { 1.0 } else { -1.0 });
             if s.add(&rows, &y) {
-                s.close_block(&theta, &p, &SMatrix::zeros(), &SMatrix::identity());
+                s.close_half_block(&theta, &p, &SMatrix::zeros(), &SMatrix::identity());
             }
         }
         // Alternating residuals cancel in every window: no spread in the first parameter.
         // 100 half-blocks make 98 counted windows (the first does not count, the last
         // half-block only ends one).
-        assert!((s.blocks() - 98.0).abs() < 1e-12);
+        assert!((s.windows() - 98.0).abs() < 1e-12);
         let c = s.covariance(&theta, &p, &SMatrix::identity(), &SVector::zeros());
         assert!(c[(0, 0)] < 0.03 * p[(0, 0)]);
     }
@@ -672,8 +672,8 @@ mod tests {
                 if closes {
                     let zero = SMatrix::<f64, 2, 2>::zeros();
                     let one = SMatrix::<f64, 2, 2>::identity();
-                    without.close_block(&theta, &zero, &zero, &one);
-                    with.close_block(&theta, &zero, &zero, &one);
+                    without.close_half_block(&theta, &zero, &zero, &one);
+                    with.close_half_block(&theta, &zero, &zero, &one);
                 }
                 // The run's score of h less its ends: J Σ φ̇ n (summation by parts).
                 let phi_dot = (phi(t + 1) - phi(t.wrapping_sub(1).min(t))) / (2.0 * period);
@@ -700,16 +700,20 @@ mod tests {
     }
 
     /// Mean z² of each parameter over `runs` linear fits y = φθ + e, φ and e standard normal
-    /// (two parameters, one equation per sample), each `blocks` blocks of 50 samples long,
+    /// (two parameters, one equation per sample), each `half_blocks` half-blocks of 50 samples long,
     /// with θ and P of the fit weighted by a configured sigma five times too small (as the
     /// default rig's torque equations: 2 N·m configured, 16 N·m of residual).
-    fn short_run_mean_z2(blocks: usize, runs: usize) -> [f64; 2] {
-        uneven_run_mean_z2(blocks, runs, |_| 1.0)
+    fn short_run_mean_z2(half_blocks: usize, runs: usize) -> [f64; 2] {
+        uneven_run_mean_z2(half_blocks, runs, |_| 1.0)
     }
 
-    /// As [`short_run_mean_z2`], the first regressor scaled in block k by `envelope(k)`: an
-    /// excitation that spreads its information unevenly over the blocks.
-    fn uneven_run_mean_z2(blocks: usize, runs: usize, envelope: impl Fn(usize) -> f64) -> [f64; 2] {
+    /// As [`short_run_mean_z2`], the first regressor scaled in half-block k by `envelope(k)`: an
+    /// excitation that spreads its information unevenly over the half-blocks.
+    fn uneven_run_mean_z2(
+        half_blocks: usize,
+        runs: usize,
+        envelope: impl Fn(usize) -> f64,
+    ) -> [f64; 2] {
         use rand::SeedableRng;
         use rand_distr::{Distribution, Normal};
         let mut rng = rand::rngs::StdRng::seed_from_u64(14);
@@ -721,7 +725,7 @@ mod tests {
             let mut s = ScoreCovariance::<2, 1, 2>::new(50, 1.0);
             let mut a = SMatrix::<f64, 2, 2>::identity() * 1e-8;
             let mut b = SVector::<f64, 2>::zeros();
-            for i in 0..blocks * 50 {
+            for i in 0..half_blocks * 50 {
                 let phi = SMatrix::<f64, 1, 2>::new(
                     normal.sample(&mut rng) * envelope(i / 50),
                     normal.sample(&mut rng),
@@ -732,7 +736,7 @@ mod tests {
                 b += wphi.tr_mul(&wy);
                 if s.add(&wphi, &wy) {
                     let p = a.try_inverse().unwrap();
-                    s.close_block(&(p * b), &p, &SMatrix::zeros(), &SMatrix::identity());
+                    s.close_half_block(&(p * b), &p, &SMatrix::zeros(), &SMatrix::identity());
                 }
             }
             let p = a.try_inverse().unwrap();
@@ -747,13 +751,13 @@ mod tests {
 
     /// A sigma from a handful of residual windows must still cover the error: mean
     /// z² in [0.5, 2] (4000 runs: the mean's own standard error is about 0.05). With G = 6
-    /// counted blocks (seven in all) the variance estimate has ν = 5 degrees of freedom, so
+    /// counted windows (seven in all) the variance estimate has ν = 5 degrees of freedom, so
     /// unscaled E[z²] = ν/(ν−2) = 5/3, and a blend with P (a fifth of the real noise) would
     /// raise it: mean z² 2.9 without the small-sample factor; with it and the own-fit
     /// correction 0.98–1.06.
     #[test]
     fn short_runs_sigma_covers_the_error() {
-        let z2 = short_run_mean_z2(MIN_COVARIANCE_BLOCKS as usize + 2, 4000);
+        let z2 = short_run_mean_z2(MIN_COVARIANCE_WINDOWS as usize + 2, 4000);
         for (k, z) in z2.iter().enumerate() {
             assert!((0.5..=2.0).contains(z), "parameter {k}: mean z² {z:.3}");
         }
@@ -765,12 +769,12 @@ mod tests {
     }
 
     /// An excitation that gives most of one parameter's information to a few
-    /// blocks leaves that parameter's variance far fewer degrees of freedom than the blocks
-    /// (here: 9 counted blocks, the first regressor 4× stronger in two of them, ν ≈ 3.6 along
-    /// it against 5.5 along the other). Each parameter's own ν keeps its mean z² in
-    /// [0.6, 1.5] (4000 runs); the blocks' count for both (ν = G − 1) gave the first 2.0.
+    /// half-blocks leaves that parameter's variance far fewer degrees of freedom than the
+    /// windows (here: ten half-blocks, the first regressor 4× stronger in two of them, ν ≈ 3.6
+    /// along it against 5.5 along the other). Each parameter's own ν keeps its mean z² in
+    /// [0.6, 1.5] (4000 runs); the windows' count for both (ν = G − 1) gave the first 2.0.
     #[test]
-    fn uneven_blocks_sigma_covers_the_error() {
+    fn uneven_half_blocks_sigma_covers_the_error() {
         let envelope = |k: usize| if k == 3 || k == 4 { 4.0 } else { 1.0 };
         let z2 = uneven_run_mean_z2(10, 4000, envelope);
         for (k, z) in z2.iter().enumerate() {
@@ -791,8 +795,8 @@ mod tests {
         }
     }
 
-    /// The fit after a block has absorbed part of the block's own noise, so block scores at
-    /// the fit of the block's end are short by the blocks' leverage (with G equal blocks by
+    /// The fit after a window has absorbed part of the window's own noise, so window scores at
+    /// the fit of the window's end are short by the windows' leverage (with G equal windows by
     /// about H_G of G, H the harmonic number). Corrected, the synthetic fit's mean z² is within
     /// [0.9, 1.1] at 10 and 20 half-blocks (measured: 0.98 and 1.02; without the correction
     /// 1.43 and 1.25). Why that band: z² with the Student factor is ((ν − 2)/ν)·F(1, ν), of
@@ -801,26 +805,26 @@ mod tests {
     /// the uncorrected means lie six or more outside it.
     #[test]
     fn block_scores_are_not_shrunk_by_their_own_fit() {
-        for blocks in [10, 20] {
-            let z2 = short_run_mean_z2(blocks, 4000);
+        for half_blocks in [10, 20] {
+            let z2 = short_run_mean_z2(half_blocks, 4000);
             for (k, z) in z2.iter().enumerate() {
                 assert!(
                     (0.9..=1.1).contains(z),
-                    "{blocks} blocks, parameter {k}: mean z² {z:.3}"
+                    "{half_blocks} half-blocks, parameter {k}: mean z² {z:.3}"
                 );
             }
         }
     }
 
     #[test]
-    fn covariance_is_p_until_enough_blocks_count() {
+    fn covariance_is_p_until_enough_windows_count() {
         let mut s = ScoreCovariance::<2, 1, 2>::new(10, 1.0);
         let p = SMatrix::<f64, 2, 2>::identity() * 0.5;
         let theta = SVector::<f64, 2>::zeros();
         let rows = SMatrix::<f64, 1, 2>::new(1.0, -0.5);
         let mut k = 0u32;
-        // MIN_COVARIANCE_BLOCKS + 2 half-blocks in all: the first window does not count.
-        while s.blocks() < MIN_COVARIANCE_BLOCKS as f64 {
+        // MIN_COVARIANCE_WINDOWS + 2 half-blocks in all: the first window does not count.
+        while s.windows() < MIN_COVARIANCE_WINDOWS as f64 {
             assert!(!s.is_measured());
             assert_eq!(
                 s.covariance(&theta, &p, &SMatrix::identity(), &SVector::zeros()),
@@ -828,11 +832,11 @@ mod tests {
             );
             let y = SVector::<f64, 1>::new(((k * 7919) % 13) as f64 - 6.0);
             if s.add(&rows, &y) {
-                s.close_block(&theta, &p, &SMatrix::zeros(), &SMatrix::identity());
+                s.close_half_block(&theta, &p, &SMatrix::zeros(), &SMatrix::identity());
             }
             k += 1;
         }
-        assert_eq!(k, 10 * (MIN_COVARIANCE_BLOCKS + 2));
+        assert_eq!(k, 10 * (MIN_COVARIANCE_WINDOWS + 2));
         assert!(s.is_measured());
         assert_ne!(
             s.covariance(&theta, &p, &SMatrix::identity(), &SVector::zeros()),
@@ -864,7 +868,7 @@ mod tests {
                 b = b * forgetting + rows.tr_mul(&meas);
                 if s.add(&rows, &meas) {
                     let p = a.try_inverse().unwrap_or_else(SMatrix::identity);
-                    s.close_block(&(p * b), &p, &SMatrix::zeros(), &SMatrix::identity());
+                    s.close_half_block(&(p * b), &p, &SMatrix::zeros(), &SMatrix::identity());
                 }
             }
             let p = a.try_inverse().unwrap_or_else(SMatrix::identity);

@@ -90,7 +90,7 @@ fn noisy_config(noise: &SensorNoise, period: f64, block: u32) -> EstimatorConfig
     c.equation_sigma = Vector6::new(26.0, 26.0, 26.0, 10.0, 10.0, 10.0);
     c.gyro_noise_rad_s = noise.gyro_rad_s;
     c.accel_noise_m_s2 = noise.accel_m_s2;
-    c.covariance_block_samples = block;
+    c.covariance_half_block_samples = block;
     c
 }
 
@@ -944,7 +944,7 @@ fn each_quantity_reports_its_degrees_of_freedom() {
     let mut c = config(Some(20.0), 1e-3);
     c.gyro_noise_rad_s = noise.gyro_rad_s;
     c.accel_noise_m_s2 = noise.accel_m_s2;
-    c.covariance_block_samples = 500;
+    c.covariance_half_block_samples = 500;
     let accel_at = Vector3::zeros();
     let mut short = OnlineEstimator::new(c).unwrap();
     let mut rng = StdRng::seed_from_u64(7);
@@ -972,7 +972,7 @@ fn each_quantity_reports_its_degrees_of_freedom() {
         &mut rng,
     );
     let e = est.estimate();
-    let g = e.counts.covariance_blocks as f64;
+    let g = e.counts.covariance_windows as f64;
     assert!(g >= 15.0, "{:?}", e.counts);
     let most = g;
     for (i, nu) in e.degrees_of_freedom.iter().enumerate() {

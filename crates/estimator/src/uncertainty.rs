@@ -24,21 +24,21 @@ where
     scaled.iter().all(|v| v.is_finite()).then_some(scaled)
 }
 
-/// Largest leverage [`own_fit_correction`] corrects for: ½, the second of equal blocks'. A
-/// block whose leverage in some direction exceeds it taught the fit more there than every
-/// block before it together — the fit before it was the prior's in that direction, as in the
-/// first block, which does not count — and its score there carries the prior's and the still
+/// Largest leverage [`own_fit_correction`] corrects for: ½, the second of equal windows'. A
+/// window whose leverage in some direction exceeds it taught the fit more there than every
+/// window before it together — the fit before it was the prior's in that direction, as in the
+/// first window, which does not count — and its score there carries the prior's and the still
 /// moving estimate's error, which the correction would multiply (measured: uncapped, the
 /// default excitation's 5 s noise-only campaign reported sigmas 25–600 times the spread).
 pub const MAX_LEVERAGE: f64 = 0.5;
 
-/// (𝟙 − A P)^(-1/2) for a block's information A (the block's rows' Σ φ φᵀ) and the fit's P
-/// after the block (P⁻¹ ⊇ A): the score g = b − A θ at the fit after the block has
+/// (𝟙 − A P)^(-1/2) for a window's information A (the window's rows' Σ φ φᵀ) and the fit's P
+/// after the window (P⁻¹ ⊇ A): the score g = b − A θ at the fit after the window has
 /// Var g = V − A P V − V P A + A Cov(θ) A, i.e. (𝟙 − A P) V for white equation errors (V = A,
 /// Cov θ = P), so (𝟙 − A P)^(-1/2) g has the variance of the errors' own score, A, again:
-/// the blocks' counterpart of the HC2 leverage correction, whose leverage is the block's share
-/// A P of the information so far (1/k for the k-th of equal blocks; near 1 in a direction
-/// the block is the first to determine). Evaluated on the unit-diagonal scaling of P
+/// the windows' counterpart of the HC2 leverage correction, whose leverage is the window's share
+/// A P of the information so far (1/k for the k-th of equal windows; near 1 in a direction
+/// the window is the first to determine). Evaluated on the unit-diagonal scaling of P
 /// (D = diag P^½: 𝟙 − A P = D⁻¹ (𝟙 − Ã P̃) D with P̃ = D⁻¹ P D⁻¹, Ã = D A D) as
 /// P̃^(-½) (𝟙 − H)^(-½) P̃^½ with H = P̃^½ Ã P̃^½ symmetric, its eigenvalues clamped to
 /// [0, [`MAX_LEVERAGE`]]. The identity when P is not positive definite or the result not
@@ -85,7 +85,7 @@ pub fn own_fit_correction<const N: usize>(
 /// ν > 4, so below that a single run's z, or a campaign's mean z², says nothing reliable (one
 /// heavy-tailed run dominates it). With the factor, ±2σ covers 95.1 % at ν = 5 and 95.0–95.4 %
 /// for every larger ν (Gaussian: 95.4 %).
-pub const MIN_COVARIANCE_BLOCKS: u32 = 6;
+pub const MIN_COVARIANCE_WINDOWS: u32 = 6;
 
 /// (n−1)/(n−N−R) for n rows in all and `fitted` = N + R parameters and offsets fitted: the
 /// rows' share of the cluster-robust CR1 correction. Its windows' share, G/(G−1) for scores at
@@ -406,8 +406,8 @@ mod tests {
     }
 
     /// The correction against its closed form for a running mean (one parameter, k equal
-    /// blocks of information a: leverage a P = 1/k, so (1 − 1/k)^(-1/2), and √2 for a block
-    /// that taught the fit more than the blocks before it together), and for a matrix case
+    /// windows of information a: leverage a P = 1/k, so (1 − 1/k)^(-1/2), and √2 for a window
+    /// that taught the fit more than the windows before it together), and for a matrix case
     /// its defining property T² (𝟙 − A P) = 𝟙.
     #[test]
     fn own_fit_correction_is_the_inverse_root_of_one_less_the_leverage() {

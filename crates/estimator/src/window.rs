@@ -7,8 +7,8 @@
 //! mostly x_end − x_start, a term that does not grow with the stretch, whose true share of
 //! the whole run's score is only the run's own two ends, and which the stretches' spread
 //! counts once per stretch (measured on the noise-only world, 20 s: mean z² of c_x 0.32, 0.18
-//! and 0.09 with blocks of 0.4, 0.2 and 0.1 s — proportional to the block's length, as a
-//! per-block constant predicts). A window that falls to zero at both ends turns the sum into
+//! and 0.09 with half-blocks of 0.4, 0.2 and 0.1 s — proportional to the half-block's length, as a
+//! per-half-block constant predicts). A window that falls to zero at both ends turns the sum into
 //! −Σ ẇ x, of order 1/B of it, and where the kinematics measure the gyro's error x the score
 //! takes that sum out altogether ([`slope_scale`] gives ẇ; [`crate::score`]).
 //!
@@ -67,7 +67,7 @@ pub fn slope_scale(half_block: u32, period_s: f64) -> f64 {
 }
 
 /// κ = Σw / Σw² over a whole window of two half-blocks of B samples: Σ sin = Σ cos =
-/// ½ / sin(π/4B) and Σ sin² + Σ cos² = B, so κ = 1 / (B sin(π/4B)) (4/π for long blocks).
+/// ½ / sin(π/4B) and Σ sin² + Σ cos² = B, so κ = 1 / (B sin(π/4B)) (4/π for long half-blocks).
 /// A window's weighted information A_w = Σ w φ φᵀ is κ times its squared-weight information
 /// Σ w² φ φᵀ where the information is spread evenly over the window.
 pub fn mean_to_square(half_block: u32) -> f64 {
@@ -76,7 +76,7 @@ pub fn mean_to_square(half_block: u32) -> f64 {
 }
 
 /// Σ sin·cos / Σ (sin + cos) over one half-block, = sin(π/4B) / (2 sin(π/2B)) (¼ for long
-/// blocks): the covariance of two consecutive windows' scores is this share of their shared
+/// half-blocks): the covariance of two consecutive windows' scores is this share of their shared
 /// half-block's weighted information A_sin + A_cos, where the information is spread evenly.
 pub fn shared_share(half_block: u32) -> f64 {
     let b = f64::from(half_block.max(1));

@@ -15,7 +15,7 @@
 //!   that can refuse a run made before anything moves.
 //! - [`feed`] and [`tick`]: the one rule from sensor frame to estimator sample, and the one
 //!   per-sample tick the product runs.
-//! - [`measurement`] (one measurement), [`session`] (tare, payload change, loaded run) and
+//! - [`run`] (one tare or loaded run), [`sequence`] (tare, payload change, loaded run) and
 //!   [`observer`] (where they report).
 //! - [`tare`], [`systematic`], [`budget`], [`report`]: the tare file, the estimator's exact
 //!   accelerometer-bias and load-cell-offset effects, the error budget (every source's share of
@@ -29,14 +29,14 @@
 pub mod accuracy;
 pub mod budget;
 pub mod feed;
-pub mod measurement;
 pub mod observer;
 pub mod quality;
 pub mod record;
 pub mod reorder;
 pub mod replay;
 pub mod report;
-pub mod session;
+pub mod run;
+pub mod sequence;
 pub mod setup;
 pub mod systematic;
 pub mod tare;
@@ -45,10 +45,10 @@ pub mod testkit;
 pub mod tick;
 pub mod weigh;
 
-pub use measurement::{measure, End, MeasureOutcome, MeasureSetup};
 pub use observer::{Observer, TickEvent};
 pub use report::Report;
-pub use session::{Station, TarePlan};
+pub use run::{measure, End, MeasureOutcome, MeasureSetup};
+pub use sequence::{Station, TarePlan};
 pub use setup::Measurement;
 pub use tare::TareFile;
 

@@ -1,5 +1,5 @@
 //! Where a measurement reports as it goes, in the manner of ripgrep's searcher and its `Sink`:
-//! the procedure calls an [`Observer`] after every tick and at each step of the session, and the
+//! the procedure calls an [`Observer`] after every tick and at each step of the sequence, and the
 //! observer decides what to make of it (an MCAP log, a progress bar, a live view, a GUI). The
 //! procedure never waits on anything but the observer's return.
 //!
@@ -92,7 +92,7 @@ pub trait Observer {
         Ok(())
     }
 
-    /// The tare the session subtracts: measured now (with its sensitivities) or from a file.
+    /// The tare the sequence subtracts: measured now (with its sensitivities) or from a file.
     fn tare(&mut self, tare: &TareFile) -> anyhow::Result<()> {
         let _ = tare;
         Ok(())

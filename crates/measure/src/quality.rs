@@ -8,12 +8,12 @@
 //! the sensors or the log are broken, and what is left is not a fair sample of the excitation.
 //!
 //! It fails too when the loaded run or the tare gave fewer residual windows than
-//! [`MIN_COVARIANCE_BLOCKS`] (plus the first, which does not count): the sigma's statistical
+//! [`MIN_COVARIANCE_WINDOWS`] (plus the first, which does not count): the sigma's statistical
 //! part would then be the configured equation sigmas' P, not a measurement, and understates
 //! the error (measured: 20 runs of a 1 s window of the default scenario, mean z² of J_C zz
 //! 34; see docs/accuracy.md, "Short measurements"). The error says how long to excite.
 
-pub use estimator::uncertainty::MIN_COVARIANCE_BLOCKS;
+pub use estimator::uncertainty::MIN_COVARIANCE_WINDOWS;
 use estimator::window;
 
 /// Largest share of a measurement's samples that may be rejected, 0..1.
@@ -50,32 +50,32 @@ pub enum QualityError {
     },
     /// Too few residual windows for the sigma to be measured.
     #[error(
-        "the {run} run is too short for an honest sigma: its excitation gave {blocks} residual \
-         window(s) (two half-blocks of {block_s:.2} s each) after the first, and the noise's \
+        "the {run} run is too short for an honest sigma: its excitation gave {windows} residual \
+         window(s) (two half-blocks of {half_block_s:.2} s each) after the first, and the noise's \
          covariance needs at least {needed} (with fewer, the sigma would be the configured equation sigmas' guess and \
          understate the error); excite for at least {seconds:.1} s",
-        needed = MIN_COVARIANCE_BLOCKS,
-        seconds = needed_seconds(*block_s)
+        needed = MIN_COVARIANCE_WINDOWS,
+        seconds = needed_seconds(*half_block_s)
     )]
     TooShort {
         /// `"loaded"` or `"tare"`.
         run: &'static str,
         /// Residual windows that counted.
-        blocks: u64,
-        /// Length of one block, s.
-        block_s: f64,
+        windows: u64,
+        /// Length of one half-block, s.
+        half_block_s: f64,
     },
 }
 
-/// Excitation that gives [`MIN_COVARIANCE_BLOCKS`] counted windows on half-blocks of
-/// `block_s`, s: the half-blocks the estimator's rule needs for them
+/// Excitation that gives [`MIN_COVARIANCE_WINDOWS`] counted windows on half-blocks of
+/// `half_block_s`, s: the half-blocks the estimator's rule needs for them
 /// ([`window::half_blocks_for`]), and one more for the samples the conditioning withholds at
 /// the start and the half-block left unfinished at the end.
-pub fn needed_seconds(block_s: f64) -> f64 {
-    f64::from(window::half_blocks_for(MIN_COVARIANCE_BLOCKS) + 1) * block_s
+pub fn needed_seconds(half_block_s: f64) -> f64 {
+    f64::from(window::half_blocks_for(MIN_COVARIANCE_WINDOWS) + 1) * half_block_s
 }
 
-/// Residual windows a long run keeps ([`block_samples_for`]): 24, about 20 degrees of freedom
+/// Residual windows a long run keeps ([`half_block_samples_for`]): 24, about 20 degrees of freedom
 /// (Student factor 1.11, a sigma's own relative spread about a third).
 pub const LONG_RUN_WINDOWS: u32 = 24;
 
@@ -84,21 +84,21 @@ pub const LONG_RUN_WINDOWS: u32 = 24;
 ///
 /// - a long excitation, which would give more than [`LONG_RUN_WINDOWS`] windows of
 ///   `default_samples` (the estimator's default,
-///   [`estimator::EstimatorConfig::default_covariance_block_samples`]: 8/(20 Hz)), gets half-blocks that give about that many
+///   [`estimator::EstimatorConfig::default_covariance_half_block_samples`]: 8/(20 Hz)), gets half-blocks that give about that many
 ///   (the excitation over [`window::half_blocks_for`] of them, plus one half-block for the
 ///   conditioning's start and the unfinished end). What the windows leave of the gyro's derivative
 ///   noise in the scores of h falls with the half-block's square while the degrees of freedom
 ///   fall only with its length (measured, noise-only world, planned 20 s: mean z² of c_x 0.50
 ///   with 0.4 s half-blocks and 48 windows, 1.00 with 0.8 s and 23, 1.13 with 1.2 s and 14;
 ///   every other quantity within [0.6, 1.5] in all three);
-/// - a short one, which would give fewer than [`MIN_COVARIANCE_BLOCKS`] counted windows of the
+/// - a short one, which would give fewer than [`MIN_COVARIANCE_WINDOWS`] counted windows of the
 ///   default, the length that gives them with one half-block to spare
 ///   (the excitation over [`window::half_blocks_for`] of them plus two: the conditioning's
 ///   start and the unfinished end, and the spare), but never under half the default: 4/(20 Hz)
 ///   is still several times the low-pass's memory, so windows that do not share a half-block
 ///   stay nearly independent, and a shorter excitation is refused ([`check_covariance`]);
 /// - the default in between.
-pub fn block_samples_for(default_samples: u32, excitation_s: f64, period_s: f64) -> u32 {
+pub fn half_block_samples_for(default_samples: u32, excitation_s: f64, period_s: f64) -> u32 {
     let samples = excitation_s / period_s;
     if !(samples.is_finite() && samples > 0.0) {
         return default_samples;
@@ -107,7 +107,8 @@ pub fn block_samples_for(default_samples: u32, excitation_s: f64, period_s: f64)
     if long > f64::from(default_samples) {
         return long.min(f64::from(u32::MAX)) as u32;
     }
-    let fitting = (samples / f64::from(window::half_blocks_for(MIN_COVARIANCE_BLOCKS) + 2)).floor();
+    let fitting =
+        (samples / f64::from(window::half_blocks_for(MIN_COVARIANCE_WINDOWS) + 2)).floor();
     if fitting >= f64::from(default_samples) {
         return default_samples;
     }
@@ -122,28 +123,28 @@ pub fn block_samples_for(default_samples: u32, excitation_s: f64, period_s: f64)
 /// ([`window::counted_windows`]). Measured against runs of the default rig (fades 0.25 s): 1.5 s → 5
 /// (refused), 1.7 s → 6, 2.0 s → 7, 2.4 s → 7, 3.5 s → 7 (half-blocks 0.2, 0.2, 0.2, 0.24,
 /// 0.35 s).
-pub fn counted_blocks(excitation_s: f64, period_s: f64, block_samples: u32) -> u64 {
+pub fn excitation_windows(excitation_s: f64, period_s: f64, half_block_samples: u32) -> u64 {
     let samples = (excitation_s / period_s).floor();
-    if !(samples.is_finite() && samples > 0.0 && block_samples > 0) {
+    if !(samples.is_finite() && samples > 0.0 && half_block_samples > 0) {
         return 0;
     }
-    window::counted_windows((samples as u64).saturating_sub(1) / u64::from(block_samples))
+    window::counted_windows((samples as u64).saturating_sub(1) / u64::from(half_block_samples))
 }
 
 /// The rule on a run's excitation before it moves: the windows it will give
-/// ([`counted_blocks`] with [`block_samples_for`]'s half-blocks) must be enough for
-/// [`check_covariance`]. `default_block_samples` is the estimator's default
-/// ([`estimator::EstimatorConfig::default_covariance_block_samples`]).
+/// ([`excitation_windows`] with [`half_block_samples_for`]'s half-blocks) must be enough for
+/// [`check_covariance`]. `default_half_block_samples` is the estimator's default
+/// ([`estimator::EstimatorConfig::default_covariance_half_block_samples`]).
 pub fn check_excitation(
     run: &'static str,
     excitation_s: f64,
     period_s: f64,
-    default_block_samples: u32,
+    default_half_block_samples: u32,
 ) -> Result<(), QualityError> {
-    let block = block_samples_for(default_block_samples, excitation_s, period_s);
+    let block = half_block_samples_for(default_half_block_samples, excitation_s, period_s);
     check_covariance(
         run,
-        counted_blocks(excitation_s, period_s, block),
+        excitation_windows(excitation_s, period_s, block),
         f64::from(block) * period_s,
     )
 }
@@ -174,13 +175,17 @@ pub fn check(used: u64, rejected: u64) -> Result<(), QualityError> {
 }
 
 /// The rule on the residual windows of one run (`run`: `"loaded"` or `"tare"`): at least
-/// [`MIN_COVARIANCE_BLOCKS`] on half-blocks of `block_s`.
-pub fn check_covariance(run: &'static str, blocks: u64, block_s: f64) -> Result<(), QualityError> {
-    if blocks < u64::from(MIN_COVARIANCE_BLOCKS) {
+/// [`MIN_COVARIANCE_WINDOWS`] on half-blocks of `half_block_s`.
+pub fn check_covariance(
+    run: &'static str,
+    windows: u64,
+    half_block_s: f64,
+) -> Result<(), QualityError> {
+    if windows < u64::from(MIN_COVARIANCE_WINDOWS) {
         return Err(QualityError::TooShort {
             run,
-            blocks,
-            block_s,
+            windows,
+            half_block_s,
         });
     }
     Ok(())
@@ -192,19 +197,19 @@ mod tests {
 
     #[test]
     fn a_short_excitation_gets_shorter_half_blocks_down_to_half_the_default_a_long_one_longer() {
-        // 400 samples of 1 ms (0.4 s) by default; MIN_COVARIANCE_BLOCKS + 4 = 10 half-blocks.
-        assert_eq!(block_samples_for(400, 10.0, 1e-3), 400);
-        assert_eq!(block_samples_for(400, 4.0, 1e-3), 400);
+        // 400 samples of 1 ms (0.4 s) by default; MIN_COVARIANCE_WINDOWS + 4 = 10 half-blocks.
+        assert_eq!(half_block_samples_for(400, 10.0, 1e-3), 400);
+        assert_eq!(half_block_samples_for(400, 4.0, 1e-3), 400);
         // A long one: about LONG_RUN_WINDOWS windows (27 half-blocks of 20 s: 740 samples).
-        assert_eq!(block_samples_for(400, 20.0, 1e-3), 740);
-        assert_eq!(counted_blocks(20.0, 1e-3, 740), 25);
-        assert_eq!(block_samples_for(400, 60.0, 1e-3), 2222);
-        assert_eq!(block_samples_for(400, 3.0, 1e-3), 300);
-        assert_eq!(block_samples_for(400, 2.0, 1e-3), 200);
-        assert_eq!(block_samples_for(400, 1.0, 1e-3), 200);
-        assert_eq!(block_samples_for(400, f64::INFINITY, 1e-3), 400);
-        assert_eq!(block_samples_for(400, f64::NAN, 1e-3), 400);
-        assert_eq!(block_samples_for(400, -1.0, 1e-3), 400);
+        assert_eq!(half_block_samples_for(400, 20.0, 1e-3), 740);
+        assert_eq!(excitation_windows(20.0, 1e-3, 740), 25);
+        assert_eq!(half_block_samples_for(400, 60.0, 1e-3), 2222);
+        assert_eq!(half_block_samples_for(400, 3.0, 1e-3), 300);
+        assert_eq!(half_block_samples_for(400, 2.0, 1e-3), 200);
+        assert_eq!(half_block_samples_for(400, 1.0, 1e-3), 200);
+        assert_eq!(half_block_samples_for(400, f64::INFINITY, 1e-3), 400);
+        assert_eq!(half_block_samples_for(400, f64::NAN, 1e-3), 400);
+        assert_eq!(half_block_samples_for(400, -1.0, 1e-3), 400);
         // A 2 s excitation at 200 samples needs needed_seconds(0.2) = 1.8 s: it fits.
         assert!(needed_seconds(0.2) <= 2.0);
     }
@@ -237,8 +242,8 @@ mod tests {
             e,
             QualityError::TooShort {
                 run: "tare",
-                blocks: 5,
-                block_s: 0.4
+                windows: 5,
+                half_block_s: 0.4
             }
         );
         // Six counted windows on half-blocks of 0.4 s span seven; the first window and one
@@ -291,13 +296,13 @@ mod excitation_tests {
     /// default rig, the report's `covariance_basis`), and the refusal below six.
     #[test]
     fn counted_blocks_match_the_runs_and_short_ones_are_refused() {
-        assert_eq!(counted_blocks(1.5, 1e-3, 200), 5);
-        assert_eq!(counted_blocks(1.7, 1e-3, 200), 6);
-        assert_eq!(counted_blocks(2.0, 1e-3, 200), 7);
-        assert_eq!(counted_blocks(2.4, 1e-3, 240), 7);
-        assert_eq!(counted_blocks(3.5, 1e-3, 350), 7);
-        assert_eq!(counted_blocks(0.0, 1e-3, 200), 0);
-        assert_eq!(counted_blocks(f64::NAN, 1e-3, 200), 0);
+        assert_eq!(excitation_windows(1.5, 1e-3, 200), 5);
+        assert_eq!(excitation_windows(1.7, 1e-3, 200), 6);
+        assert_eq!(excitation_windows(2.0, 1e-3, 200), 7);
+        assert_eq!(excitation_windows(2.4, 1e-3, 240), 7);
+        assert_eq!(excitation_windows(3.5, 1e-3, 350), 7);
+        assert_eq!(excitation_windows(0.0, 1e-3, 200), 0);
+        assert_eq!(excitation_windows(f64::NAN, 1e-3, 200), 0);
         assert!(check_excitation("loaded", 2.0, 1e-3, 400).is_ok());
         assert!(check_excitation("loaded", 20.0, 1e-3, 400).is_ok());
         let err = check_excitation("tare", 1.2, 1e-3, 400).unwrap_err();
@@ -306,7 +311,7 @@ mod excitation_tests {
                 err,
                 QualityError::TooShort {
                     run: "tare",
-                    blocks: 3,
+                    windows: 3,
                     ..
                 }
             ),

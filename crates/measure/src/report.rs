@@ -171,16 +171,21 @@ pub struct DataLoss {
 }
 
 /// What the estimator's covariance (the budget's `noise` line) was measured from: residual
-/// windows of the loaded run and the tare ([`estimator::uncertainty::MIN_COVARIANCE_BLOCKS`]).
+/// windows of the loaded run and the tare ([`estimator::uncertainty::MIN_COVARIANCE_WINDOWS`]).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct CovarianceBasis {
     /// Residual windows of the loaded run whose scores count (its first does not).
-    pub loaded_blocks: u64,
+    /// Reports are read under the fields' earlier names (`loaded_blocks`, `tare_blocks`,
+    /// `block_s`) too, so saved reports keep rendering and exporting.
+    #[serde(alias = "loaded_blocks")]
+    pub loaded_windows: u64,
     /// The same for the tare; `null` when not known (a tare file written without it).
-    pub tare_blocks: Option<u64>,
+    #[serde(alias = "tare_blocks")]
+    pub tare_windows: Option<u64>,
     /// Length of one half-block, s (samples per half-block × sample period); each window
     /// spans two.
-    pub block_s: f64,
+    #[serde(alias = "block_s")]
+    pub half_block_s: f64,
     /// Degrees of freedom of each quantity's variance in the loaded run, in the order of
     /// [`Quantities::flat`] (mass, c, J_C xx, yy, zz, xy, xz, yz): how many the residual
     /// windows give along that quantity (`estimator::dof`; about G/1.2 for G equal windows, fewer
@@ -271,9 +276,9 @@ impl Report {
     pub fn check_quality(&self) -> Result<(), crate::quality::QualityError> {
         crate::quality::check(self.samples, self.rejected_samples)?;
         let b = &self.covariance_basis;
-        crate::quality::check_covariance("loaded", b.loaded_blocks, b.block_s)?;
-        if let Some(tare) = b.tare_blocks {
-            crate::quality::check_covariance("tare", tare, b.block_s)?;
+        crate::quality::check_covariance("loaded", b.loaded_windows, b.half_block_s)?;
+        if let Some(tare) = b.tare_windows {
+            crate::quality::check_covariance("tare", tare, b.half_block_s)?;
         }
         Ok(())
     }
@@ -368,7 +373,7 @@ pub struct ReportInputs<'a> {
     /// The loaded run's error-budget inputs ([`crate::budget::analyse`]); `None` counts every
     /// systematic effect of the loaded run as zero.
     pub loaded_budget: Option<&'a RunBudget>,
-    /// The tare run's, when it was measured in the same session or log; `None` takes the tare
+    /// The tare run's, when it was measured in the same sequence or log; `None` takes the tare
     /// file's own ([`TareFile::budget`], else its accelerometer-bias and load-cell-offset
     /// sensitivities alone).
     pub tare_budget: Option<&'a RunBudget>,
@@ -386,7 +391,7 @@ pub struct ReportInputs<'a> {
     pub loaded_weighing: Option<&'a crate::weigh::StaticWeighing>,
 }
 
-/// The tare's budget inputs when the session gave none: the tare file's own, else a partial
+/// The tare's budget inputs when the sequence gave none: the tare file's own, else a partial
 /// one from its accelerometer-bias and load-cell-offset sensitivities (with a note), else none.
 fn tare_budget_of(i: &ReportInputs<'_>, notes: &mut Vec<String>) -> Option<RunBudget> {
     if let Some(b) = i.tare_budget {
@@ -539,9 +544,10 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
         },
         run: i.run.clone(),
         covariance_basis: CovarianceBasis {
-            loaded_blocks: i.loaded.counts.covariance_blocks,
-            tare_blocks: i.tare.covariance_blocks,
-            block_s: i.loaded.counts.covariance_block_samples as f64 * i.loaded.timing.period_s,
+            loaded_windows: i.loaded.counts.covariance_windows,
+            tare_windows: i.tare.covariance_windows,
+            half_block_s: i.loaded.counts.covariance_half_block_samples as f64
+                * i.loaded.timing.period_s,
             loaded_degrees_of_freedom: i
                 .loaded
                 .degrees_of_freedom
@@ -1000,31 +1006,47 @@ mod tests {
         assert_eq!(back, report);
     }
 
+    /// Reports saved with the covariance basis's earlier field names still read, into the
+    /// fields they meant.
     #[test]
-    fn a_report_with_too_few_residual_blocks_is_refused() {
+    fn a_saved_report_with_the_block_names_reads_as_windows() {
+        let mut json: serde_json::Value =
+            serde_json::from_str(&Report::default().to_json()).unwrap();
+        json["covariance_basis"] = serde_json::json!({
+            "loaded_blocks": 23, "tare_blocks": 7, "block_s": 0.25,
+            "loaded_degrees_of_freedom": [null, null, null, null, null, null, null, null, null, null]
+        });
+        let back: Report = serde_json::from_value(json).unwrap();
+        assert_eq!(back.covariance_basis.loaded_windows, 23);
+        assert_eq!(back.covariance_basis.tare_windows, Some(7));
+        assert_eq!(back.covariance_basis.half_block_s, 0.25);
+    }
+
+    #[test]
+    fn a_report_with_too_few_residual_windows_is_refused() {
         let mut r = Report {
             samples: 2000,
             covariance_basis: CovarianceBasis {
-                loaded_blocks: 6,
-                tare_blocks: Some(70),
-                block_s: 0.4,
+                loaded_windows: 6,
+                tare_windows: Some(70),
+                half_block_s: 0.4,
                 loaded_degrees_of_freedom: [None; 10],
             },
             ..Report::default()
         };
         assert_eq!(r.check_quality(), Ok(()));
-        r.covariance_basis.tare_blocks = Some(2);
+        r.covariance_basis.tare_windows = Some(2);
         let e = r.check_quality().unwrap_err();
         assert!(e.to_string().contains("tare run"), "{e}");
         // A tare file without the count is not held against the report.
-        r.covariance_basis.tare_blocks = None;
+        r.covariance_basis.tare_windows = None;
         assert_eq!(r.check_quality(), Ok(()));
-        r.covariance_basis.loaded_blocks = 5;
+        r.covariance_basis.loaded_windows = 5;
         assert!(matches!(
             r.check_quality(),
             Err(crate::quality::QualityError::TooShort {
                 run: "loaded",
-                blocks: 5,
+                windows: 5,
                 ..
             })
         ));

@@ -228,7 +228,7 @@ pub fn controller(
         measurement.name(),
         controller.trajectory().duration_s(),
         estimator.sample_period_s,
-        estimator.covariance_block_samples,
+        estimator.covariance_half_block_samples,
     )
     .map_err(|e| {
         let key = match measurement {
@@ -295,8 +295,8 @@ pub fn tick(
         f64::INFINITY,
     );
     // A short excitation gets blocks short enough for a measured sigma (the log records them).
-    estimator.covariance_block_samples = crate::quality::block_samples_for(
-        estimator.covariance_block_samples,
+    estimator.covariance_half_block_samples = crate::quality::half_block_samples_for(
+        estimator.covariance_half_block_samples,
         excitation_s,
         estimator.sample_period_s,
     );

@@ -49,10 +49,11 @@ pub struct TareFile {
     /// loads: the report then counts the tare's share as zero and says so).
     #[serde(default)]
     pub budget: Option<crate::budget::RunBudget>,
-    /// Residual blocks behind `covariance` ([`estimator::Counts::covariance_blocks`]), which
-    /// [`crate::quality::check_covariance`] checks; `null` in a file written without it.
-    #[serde(default)]
-    pub covariance_blocks: Option<u64>,
+    /// Residual windows behind `covariance` ([`estimator::Counts::covariance_windows`]), which
+    /// [`crate::quality::check_covariance`] checks; `null` in a file written without it (read
+    /// under its earlier name `covariance_blocks` too, so saved tares keep loading).
+    #[serde(default, alias = "covariance_blocks")]
+    pub covariance_windows: Option<u64>,
     /// The tare run's brake-hold static weighing ([`crate::weigh`]), subtracted from a loaded
     /// run's for the payload's; `null` in a file written without it.
     #[serde(default)]
@@ -182,7 +183,7 @@ impl TareFile {
             accel_bias_sensitivity: None,
             load_cell_offset_sensitivity: None,
             budget: None,
-            covariance_blocks: Some(estimate.counts.covariance_blocks),
+            covariance_windows: Some(estimate.counts.covariance_windows),
             static_weighing: None,
         }
     }
@@ -200,7 +201,7 @@ impl TareFile {
     }
 
     /// Keeps the tare run's systematic effects (θ change per one sigma, as
-    /// [`crate::measurement::MeasureOutcome`] gives them, with the sigmas they assumed) as
+    /// [`crate::run::MeasureOutcome`] gives them, with the sigmas they assumed) as
     /// sensitivities per unit bias, so that a loaded run made later with this file can count
     /// the tare's share ([`Self::accel_bias_effect`], [`Self::load_cell_bias_effect`]).
     pub fn with_bias_effects(
@@ -288,9 +289,20 @@ mod tests {
             accel_bias_sensitivity: None,
             load_cell_offset_sensitivity: None,
             budget: None,
-            covariance_blocks: Some(40),
+            covariance_windows: Some(40),
             static_weighing: None,
         }
+    }
+
+    /// A tare saved with the window count's earlier name still loads, with its count.
+    #[test]
+    fn a_saved_tare_with_covariance_blocks_loads_its_window_count() {
+        let json = serde_json::to_string(&tare())
+            .unwrap()
+            .replace("\"covariance_windows\"", "\"covariance_blocks\"");
+        assert!(json.contains("covariance_blocks"));
+        let back: TareFile = serde_json::from_str(&json).unwrap();
+        assert_eq!(back.covariance_windows, Some(40));
     }
 
     #[test]

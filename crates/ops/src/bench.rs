@@ -72,7 +72,7 @@ pub fn run(options: &BenchOptions) -> Result<BenchReport, Error> {
     let range = rig_description::range::ranges::RUN_DURATION_S;
     if let Some(problem) = range.problem(options.duration_s) {
         return Err(Error::Config(rig_description::load::ConfigError::single(
-            crate::session::flag_issue("--duration", problem),
+            crate::measurement::flag_issue("--duration", problem),
         )));
     }
     let loaded = rig_description::load::load(options.config.as_deref())?;
@@ -109,7 +109,7 @@ impl ClosedLoop {
         let mut tick = setup::tick(config, &geometry, Measurement::Loaded, controller)
             .map_err(|e| anyhow!("the estimator refused its settings: {e}"))?;
         let feedforward =
-            measure::measurement::brake_hold(&mut sim, &mut tick, config, |_, _, _, _| Ok(false))?
+            measure::run::brake_hold(&mut sim, &mut tick, config, |_, _, _, _| Ok(false))?
                 .context("the brake hold stopped")?;
         tick.start_control(
             feedforward,

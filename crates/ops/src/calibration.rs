@@ -1,11 +1,11 @@
-//! The calibrations fitted on a session's runs: the IMU's alignment on the empty fixture's run
+//! The calibrations fitted on a measurement's runs: the IMU's alignment on the empty fixture's run
 //! ([`rig_description::calibration::imu`]) and the load cells' gains on a tare run and a loaded run with
 //! the reference body ([`calibrate::load_cells`]), on the simulator or on a rig alike.
 
 use std::path::Path;
 
 use calibrate::load_cells::{self as reference_mass, Run, Setup};
-use measure::session::{SessionOutcome, TareSource};
+use measure::sequence::{SequenceOutcome, TareSource};
 use nalgebra::Vector3;
 use rig_description::calibration::LoadCellFile;
 use rig_description::load::{ConfigError, LoadedConfig};
@@ -49,7 +49,7 @@ pub fn prepare_reference_runs(loaded: &mut LoadedConfig) -> Result<(), ConfigErr
 /// The gains fitted on `outcome` (a tare run, then the loaded run with the reference body), as
 /// the calibration file of `backend` with the rig description `loaded`, dated by `start_ns`.
 pub fn load_cell_calibration(
-    outcome: &SessionOutcome,
+    outcome: &SequenceOutcome,
     loaded: &LoadedConfig,
     backend: &str,
     start_ns: u64,
@@ -107,17 +107,17 @@ pub fn load_cell_calibration(
     Ok(file)
 }
 
-/// The IMU alignment fitted on the tare run of `outcome` (a tare-only session), as the
+/// The IMU alignment fitted on the tare run of `outcome` (a tare-only measurement), as the
 /// calibration file of `backend` with the rig description `loaded`, dated by `start_ns`.
 pub fn imu_calibration(
-    outcome: &measure::session::SessionOutcome,
+    outcome: &measure::sequence::SequenceOutcome,
     loaded: &LoadedConfig,
     backend: &str,
     start_ns: u64,
     log_path: &Path,
 ) -> anyhow::Result<rig_description::calibration::CalibrationFile> {
     let record = match &outcome.tare {
-        Some(measure::session::TareSource::Measured(_, effects)) => effects.record.as_ref(),
+        Some(measure::sequence::TareSource::Measured(_, effects)) => effects.record.as_ref(),
         _ => None,
     }
     .ok_or_else(|| anyhow::anyhow!("the calibration run recorded no excitation to fit"))?;

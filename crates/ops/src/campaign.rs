@@ -19,7 +19,7 @@ use measure::End;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::session::{refuse, Error, Message, Operator, Pass};
+use crate::measurement::{refuse, Error, Message, Operator, Pass};
 use crate::simulate::{self, SimulateOptions};
 
 /// A campaign's options.
@@ -227,7 +227,7 @@ fn one_run(
 ) -> Result<Report, String> {
     let run_options = SimulateOptions {
         seed: Some(seed),
-        measure: crate::session::MeasureOptions {
+        measure: crate::measurement::MeasureOptions {
             log: Some(log.clone()),
             ..args.measure.clone()
         },
@@ -266,7 +266,7 @@ mod tests {
         std::fs::write(&cfg, "[run]\nduration_s = 6.0\ntare_duration_s = 6.0\n").unwrap();
         let options = CampaignOptions {
             simulate: SimulateOptions {
-                measure: crate::session::MeasureOptions {
+                measure: crate::measurement::MeasureOptions {
                     config: Some(cfg),
                     ..Default::default()
                 },

@@ -40,7 +40,7 @@ use serde::{Deserialize, Serialize};
 use rig_description::load::{ConfigError, LoadedConfig};
 use rig_description::Config;
 
-use crate::session::{flag_issue, refuse, Error};
+use crate::measurement::{flag_issue, refuse, Error};
 use rig_description::range::{ranges, Range};
 use sim::scenario::{Scenario, World};
 use sim::NoisePreset;

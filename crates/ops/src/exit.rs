@@ -12,7 +12,7 @@
 
 use measure::End;
 
-use crate::session::{Error, Outcome};
+use crate::measurement::{Error, Outcome};
 
 /// Done.
 pub const DONE: u8 = 0;
@@ -57,7 +57,7 @@ impl Error {
 }
 
 impl Outcome {
-    /// The exit status of this session: how it ended ([`of_end`]), and a completed run whose
+    /// The exit status of this measurement: how it ended ([`of_end`]), and a completed run whose
     /// report fails its quality checks is [`NOT_MEASURED`]. Writing the outcome's files (the
     /// report, figures) can only raise it, to [`FAILED`] or above.
     pub fn exit_code(&self) -> u8 {
@@ -97,7 +97,7 @@ mod tests {
 
     #[test]
     fn errors_before_anything_ran_are_refusals() {
-        assert_eq!(crate::session::refuse("no").exit_code(), REFUSED);
+        assert_eq!(crate::measurement::refuse("no").exit_code(), REFUSED);
         assert_eq!(Error::Run(anyhow::anyhow!("disk full")).exit_code(), FAILED);
         assert_eq!(of_end(&End::Fault("x".into())), FAULT);
         assert_eq!(of_end(&End::Interrupted), INTERRUPTED);

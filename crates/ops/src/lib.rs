@@ -1,7 +1,7 @@
 //! Every `stewart` command's work as a library call, as cargo's `ops` are to its commands:
 //! `ops::x::run(&XOptions, observer…) -> Result<XOutcome, …>` with plain option structs (no
 //! clap, serde-friendly), so a program, a test or a benchmark runs a measurement, a campaign, a
-//! calibration or a rig session without the binary. The `stewart` binary turns flags into these
+//! calibration or a rig measurement without the binary. The `stewart` binary turns flags into these
 //! options, calls, and prints.
 #![warn(missing_docs)]
 
@@ -14,9 +14,9 @@ pub mod exit;
 pub mod export;
 pub mod import;
 pub mod key;
+pub mod measurement;
 pub mod plan;
 pub mod plot;
 pub mod report;
 pub mod rig;
-pub mod session;
 pub mod simulate;

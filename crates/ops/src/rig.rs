@@ -1,5 +1,5 @@
 //! The host's measurement on a rig behind the wire protocol (a real platform's I/O controller,
-//! or the emulator): the same session, log and report as the simulator's minus the truth, plus
+//! or the emulator): the same sequence, log and report as the simulator's minus the truth, plus
 //! the link's counters and the loop's timing.
 //!
 //! Plans ([`RigPlan`]): tare run, the operator puts the payload on, loaded run; tare only;
@@ -23,7 +23,7 @@ use std::sync::atomic::AtomicBool;
 use std::time::Duration;
 
 use control::io::Backend;
-use measure::session::TarePlan;
+use measure::sequence::TarePlan;
 use measure::setup;
 use rig::monitored::Link;
 use rig::{RigBackend, RigOptions as HostOptions};
@@ -31,7 +31,7 @@ use rig_description::load::{ConfigError, LoadedConfig};
 use runlog::mcap_log::Delivery;
 use serde::{Deserialize, Serialize};
 
-use crate::session::{
+use crate::measurement::{
     self, flag_issue, refuse, Calibrate, Error, LinkReport, MeasureOptions, Message, Operator,
     Outcome, Repeated, Spec,
 };
@@ -40,7 +40,7 @@ use crate::session::{
 /// are.
 pub const NOISE: &str = "rig";
 
-/// What a rig session does.
+/// What a rig measurement does.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub enum RigPlan {
     /// Tare run, payload on, loaded run.
@@ -68,9 +68,9 @@ pub struct LinkOptions {
     pub link_silence_ms: Option<f64>,
 }
 
-/// A rig session's options.
+/// A rig measurement's options.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct RigSessionOptions {
+pub struct RigOptions {
     /// What to do.
     pub plan: RigPlan,
     /// The measurement's options.
@@ -79,7 +79,7 @@ pub struct RigSessionOptions {
     pub link: LinkOptions,
 }
 
-/// The people and the files at the rig that the session needs besides its options.
+/// The people and the files at the rig that the measurement needs besides its options.
 pub trait Attendant {
     /// Between the tare and the loaded run, the platform braked: `body` ("the payload", "the
     /// reference weight …") goes on. `Ok(false)`: stopped while waiting (`stop` set).
@@ -159,7 +159,7 @@ pub fn check_rig(info: &rig::host::RigInfo, loaded: &LoadedConfig) -> Result<(),
         return Err(refuse(format!(
             "rig layout mismatch: the rig's legs stroke from {} to {} m, the configuration's \
              from {min_m} to {max_m} m (platform.min_leg_length_m, platform.max_leg_length_m); \
-             refusing the session",
+             refusing the measurement",
             l.stroke_min_m, l.stroke_max_m
         )));
     }
@@ -167,7 +167,7 @@ pub fn check_rig(info: &rig::host::RigInfo, loaded: &LoadedConfig) -> Result<(),
     if l.speed_max_m_s < speed {
         return Err(refuse(format!(
             "rig layout mismatch: the excitation may move a leg at {speed} m/s \
-             (excitation.max_leg_speed_m_s) but the rig allows {} m/s; refusing the session",
+             (excitation.max_leg_speed_m_s) but the rig allows {} m/s; refusing the measurement",
             l.speed_max_m_s
         )));
     }
@@ -208,7 +208,7 @@ fn prepare(
     Ok(())
 }
 
-/// Runs the rig session of `options`, telling `operator`, with `attendant` putting the payload
+/// Runs the rig measurement of `options`, telling `operator`, with `attendant` putting the payload
 /// on and choosing the key. `interrupt` parks the platform; `abort` (a second Ctrl-C) brakes at
 /// once instead: the safe stop goes out within a sample period, the log is finished, and the
 /// outcome says [`measure::End::Interrupted`]. A refused input or handshake is an error
@@ -220,7 +220,7 @@ fn prepare(
 /// (written beside the log, or to `--save-tare`) and only the loaded run repeated. The outcome
 /// lists what was repeated and why ([`Outcome::repeated`]).
 pub fn run(
-    options: &RigSessionOptions,
+    options: &RigOptions,
     operator: &mut dyn Operator,
     attendant: &mut dyn Attendant,
     interrupt: &AtomicBool,
@@ -285,14 +285,14 @@ pub fn run(
 }
 
 /// The options of the `number`-th repetition of the attempt `last` that ended as `outcome`:
-/// its own log beside `first_log`, and, when the tare completed in a two-run session, the
+/// its own log beside `first_log`, and, when the tare completed in a two-run measurement, the
 /// loaded run only with that tare (written to the path returned).
 fn repeat(
-    last: &RigSessionOptions,
+    last: &RigOptions,
     outcome: &Outcome,
     first_log: &Path,
     number: usize,
-) -> Result<(RigSessionOptions, Option<PathBuf>), Error> {
+) -> Result<(RigOptions, Option<PathBuf>), Error> {
     let mut next = last.clone();
     let stem = first_log
         .file_stem()
@@ -320,9 +320,9 @@ fn repeat(
     Ok((next, kept))
 }
 
-/// One attempt of [`run`]: the handshake, the session, its outcome.
+/// One attempt of [`run`]: the handshake, the sequence, its outcome.
 fn run_once(
-    options: &RigSessionOptions,
+    options: &RigOptions,
     operator: &mut dyn Operator,
     attendant: &mut dyn Attendant,
     interrupt: &AtomicBool,
@@ -335,7 +335,7 @@ fn run_once(
     let calibrating_cells = matches!(plan, RigPlan::CalibrateLoadCells(_));
     let loaded = loaded;
     let config = &loaded.config;
-    session::warn_old_calibrations(config, operator);
+    measurement::warn_old_calibrations(config, operator);
     let link = link_settings(&loaded, &options.link, attendant)?;
     let geometry = setup::geometry(&loaded)?;
     // The controllers are built (and their trajectories checked) here, before the rig is even
@@ -378,7 +378,7 @@ fn run_once(
         "the payload"
     };
     let station = station::RigStation::new(rig_link, &loaded, body, attendant, abort);
-    session::run(
+    measurement::run(
         Spec {
             loaded: &loaded,
             geometry,

@@ -16,7 +16,7 @@ use std::sync::atomic::AtomicBool;
 
 use anyhow::anyhow;
 use measure::observer::Observer;
-use measure::session::{Job, TarePlan};
+use measure::sequence::{Job, TarePlan};
 use measure::{setup, End, MeasureOutcome};
 use rig_description::calibration::CalibrationFile;
 use rig_description::sources::ErrorSource;
@@ -27,7 +27,7 @@ use serde::{Deserialize, Serialize};
 use sim::scenario::Scenario;
 use sim::NoisePreset;
 
-use crate::session::{
+use crate::measurement::{
     self, Calibrate, Error, MeasureOptions, Message, Operator, Outcome, Pass, Spec,
 };
 
@@ -92,13 +92,13 @@ impl SimulateOptions {
 /// Time the braked plate is left to settle after the payload is put on, s.
 pub const PAYLOAD_SETTLE_S: f64 = 2.0;
 
-/// The simulator as a session's station: the payload change puts the world's payload on.
+/// The simulator as a measurement's station: the payload change puts the world's payload on.
 struct SimStation {
     sim: sim::Simulator,
     payload: sim::BodyProperties,
 }
 
-impl measure::session::Station for SimStation {
+impl measure::sequence::Station for SimStation {
     fn measure<O: Observer>(
         &mut self,
         job: Job<'_>,
@@ -119,7 +119,7 @@ impl measure::session::Station for SimStation {
     }
 }
 
-impl session::Station for SimStation {}
+impl measurement::Station for SimStation {}
 
 fn body_truth(b: &sim::scenario::BodyConfig) -> BodyTruth {
     BodyTruth {
@@ -180,7 +180,11 @@ fn calibration_pass(
         ..options.clone()
     };
     operator.tell(Message::PassStarted(pass));
-    let outcome = match run(&pass_options, &mut session::Quietly(operator), interrupt) {
+    let outcome = match run(
+        &pass_options,
+        &mut measurement::Quietly(operator),
+        interrupt,
+    ) {
         Ok(outcome) => outcome,
         Err(Error::Run(e)) => {
             operator.tell(Message::Warning(&match pass {
@@ -289,7 +293,7 @@ pub fn run(
     let scenario = scenario;
     let loaded = &scenario.loaded;
     let config = &loaded.config;
-    session::warn_old_calibrations(config, operator);
+    measurement::warn_old_calibrations(config, operator);
     let geometry = setup::geometry(loaded)?;
     // The controllers checked here are the ones that run.
     let trajectory = setup::trajectory(loaded, &geometry, config.run.duration_s)?;
@@ -320,7 +324,7 @@ pub fn run(
         sim,
         payload: body.to_sim(),
     };
-    session::run(
+    measurement::run(
         Spec {
             loaded,
             geometry,
@@ -354,7 +358,7 @@ pub fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::session::Silent;
+    use crate::measurement::Silent;
     use measure::Report;
     use rig_description::calibration::CalibrationDocument;
 

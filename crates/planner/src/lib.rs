@@ -216,7 +216,7 @@ impl Planner {
                 cutoff_hz: config.estimator.cutoff_hz,
                 equation_sigma: estimator.equation_sigma,
                 lever_m: estimator.accelerometer_position_m,
-                block_samples: estimator.covariance_block_samples,
+                block_samples: estimator.covariance_half_block_samples,
             },
             noise: ChannelNoise {
                 load_cell_n: cell.noise_n.hypot(cell.resolution_n / 12f64.sqrt()),

@@ -70,7 +70,7 @@ pub struct Conditioning {
     /// Accelerometer position in P, m.
     pub lever_m: Vector3<f64>,
     /// The estimator's residual half-block for a long excitation, samples (a short one's is
-    /// shortened alike: [`measure::quality::block_samples_for`]).
+    /// shortened alike: [`measure::quality::half_block_samples_for`]).
     pub block_samples: u32,
 }
 
@@ -160,7 +160,7 @@ pub fn covariance(
 /// own, as the estimator takes them): each half-block's information Σ w Φᵀ W Φ under the
 /// rising and the falling window ([`estimator::window`]), window k the rising half of
 /// half-block k and the falling half of k + 1, the run's first window and its unfinished
-/// last half-block left out, through [`estimator::dof::BlockInformation`] along w = A⁻¹ cⱼ,
+/// last half-block left out, through [`estimator::dof::HalfBlockInformation`] along w = A⁻¹ cⱼ,
 /// with the score covariances the estimator gives it. `None` when the run does not determine
 /// θ or gives no counted window.
 pub fn degrees_of_freedom(
@@ -170,7 +170,7 @@ pub fn degrees_of_freedom(
 ) -> Option<[f64; 10]> {
     let w = weights(conditioning);
     let excitation_s = points.len() as f64 * conditioning.period_s;
-    let block = measure::quality::block_samples_for(
+    let block = measure::quality::half_block_samples_for(
         conditioning.block_samples,
         excitation_s,
         conditioning.period_s,
@@ -178,7 +178,7 @@ pub fn degrees_of_freedom(
     .max(1);
     let kappa = estimator::window::mean_to_square(block);
     let shared_share = estimator::window::shared_share(block);
-    let mut information = estimator::dof::BlockInformation::<10>::new();
+    let mut information = estimator::dof::HalfBlockInformation::<10>::new();
     let mut total = Cov::zeros();
     // The last finished half-block's rising and combined information.
     let mut previous: Option<(Cov, Cov)> = None;

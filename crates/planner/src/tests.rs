@@ -378,7 +378,10 @@ fn predicted_degrees_of_freedom_follow_the_windows_information() {
         .expect("determined");
     // 27 half-blocks of 0.888 s (a long run's, `quality::LONG_RUN_WINDOWS`): windows 1 to 25
     // count.
-    assert_eq!(measure::quality::block_samples_for(400, 24.0, 1e-3), 888);
+    assert_eq!(
+        measure::quality::half_block_samples_for(400, 24.0, 1e-3),
+        888
+    );
     let most = equal(25.0);
     for (name, n) in Quantities::NAMES.iter().zip(nu) {
         assert!(
@@ -390,8 +393,8 @@ fn predicted_degrees_of_freedom_follow_the_windows_information() {
     let nu = planner
         .predicted_degrees_of_freedom(&short)
         .expect("determined");
-    let block = measure::quality::block_samples_for(400, 2.4, 1e-3);
-    let g = measure::quality::counted_blocks(2.4, 1e-3, block) as f64;
+    let block = measure::quality::half_block_samples_for(400, 2.4, 1e-3);
+    let g = measure::quality::excitation_windows(2.4, 1e-3, block) as f64;
     assert_eq!((block, g), (240, 7.0));
     let fewest = nu.iter().copied().fold(f64::INFINITY, f64::min);
     assert!(

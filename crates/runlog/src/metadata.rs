@@ -68,7 +68,7 @@ impl RunMetadata {
         command: &str,
         backend: &str,
     ) -> Self {
-        let (base_joints_m, plate_joints_m) = measure::session::joints(geometry);
+        let (base_joints_m, plate_joints_m) = measure::sequence::joints(geometry);
         let stroke = geometry.stroke();
         let config = &rig.config;
         Self {
@@ -209,8 +209,10 @@ pub struct EstimatorSettings {
     /// estimated with the estimator's default, 1e-4.
     #[serde(default = "default_max_rate_error")]
     pub max_rate_error: f64,
-    /// Samples per half-block of the covariance estimate's residual windows.
-    pub covariance_block_samples: u32,
+    /// Samples per half-block of the covariance estimate's residual windows (read under its
+    /// earlier name `covariance_block_samples` too, so recorded logs keep estimating).
+    #[serde(alias = "covariance_block_samples")]
+    pub covariance_half_block_samples: u32,
     /// Gyro white noise per sample for the errors-in-variables correction, rad/s (0: off).
     #[serde(default)]
     pub gyro_noise_rad_s: f64,
@@ -273,7 +275,7 @@ impl EstimatorSettings {
                     "max_rate_error",
                     num("largest relative sample-rate error before the measured period is used"),
                 ),
-                ("covariance_block_samples", int("")),
+                ("covariance_half_block_samples", int("")),
                 (
                     "gyro_noise_rad_s",
                     num("gyro noise per sample for the errors-in-variables correction, rad/s; 0 = off"),
@@ -335,7 +337,7 @@ impl EstimatorSettings {
             window_end_s: finite(c.window_end_s),
             max_gap_s: c.max_gap_s,
             max_rate_error: c.max_rate_error,
-            covariance_block_samples: c.covariance_block_samples,
+            covariance_half_block_samples: c.covariance_half_block_samples,
             gyro_noise_rad_s: c.gyro_noise_rad_s,
             accel_noise_m_s2: c.accel_noise_m_s2,
             fk_tolerance_m: fk.tolerance_m,
@@ -376,7 +378,7 @@ impl EstimatorSettings {
         c.window_end_s = self.window_end_s.unwrap_or(f64::INFINITY);
         c.max_gap_s = self.max_gap_s;
         c.max_rate_error = self.max_rate_error;
-        c.covariance_block_samples = self.covariance_block_samples;
+        c.covariance_half_block_samples = self.covariance_half_block_samples;
         c.gyro_noise_rad_s = self.gyro_noise_rad_s;
         c.accel_noise_m_s2 = self.accel_noise_m_s2;
         c.legs = self.legs.as_ref().map(|l| l.model());
@@ -516,7 +518,7 @@ mod tests {
         c.max_rate_error = 2.5e-4;
         c.gyro_noise_rad_s = 1.7e-4;
         c.accel_noise_m_s2 = 2.3e-3;
-        c.covariance_block_samples = 321;
+        c.covariance_half_block_samples = 321;
         c.legs = Some(estimator::LegModel {
             cell_end: estimator::CellEnd::Base,
             cylinder_mass_kg: 28.5,
@@ -536,9 +538,17 @@ mod tests {
         let s = EstimatorSettings::from_config("loaded", &c, &fk);
         let json = serde_json::to_value(&s).unwrap();
         EstimatorSettings::schema().check(&json).unwrap();
-        let back: EstimatorSettings = serde_json::from_value(json).unwrap();
+        let back: EstimatorSettings = serde_json::from_value(json.clone()).unwrap();
         let (c2, fk2) = back.to_config(geometry).unwrap();
         assert_eq!(c2, c);
         assert_eq!(fk2, fk);
+        // A log recorded with the half-block length's earlier key estimates with its length.
+        let mut old = json;
+        let samples = old["covariance_half_block_samples"].take();
+        let object = old.as_object_mut().unwrap();
+        object.remove("covariance_half_block_samples");
+        object.insert("covariance_block_samples".into(), samples);
+        let back: EstimatorSettings = serde_json::from_value(old).unwrap();
+        assert_eq!(back.covariance_half_block_samples, 321);
     }
 }

@@ -8,8 +8,8 @@
 use control::supervisor::Phase;
 use estimator::Estimate;
 use kinematics::{Geometry, Pose};
-use measure::measurement::payload_estimate;
 use measure::observer::{EstimatorStarted, MeasurementEnded, Observer, TickEvent};
+use measure::run::payload_estimate;
 use measure::tare::TareFile;
 use measure::{Measurement, TareEstimate};
 use rig_description::Config;

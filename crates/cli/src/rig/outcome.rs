@@ -1,6 +1,6 @@
 //! What `stewart rig` prints: the link's lines, the tare, the calibration or the report.
 
-use ops::session::Outcome;
+use ops::measurement::Outcome;
 
 use super::RigArgs;
 

@@ -8,7 +8,7 @@
 //! cut-off, the forgetting factor, the parameter model and a [`Window`] (seconds from the
 //! start of each measurement's recorded window, its excitation; either end may be left open; a
 //! window shorter than the recorded one gets the residual half-blocks a measurement of its
-//! length would, `measure::quality::block_samples_for`). With the recorded settings the
+//! length would, `measure::quality::half_block_samples_for`). With the recorded settings the
 //! result is the online report, to rounding (JSON keeps every f64 exactly, so in practice bit
 //! for bit).
 //!
@@ -169,13 +169,16 @@ impl SettingsOverride {
     pub fn problems(&self) -> Vec<rig_description::ConfigIssue> {
         let mut issues = Vec::new();
         if let Some(problem) = self.cutoff_hz.and_then(cutoff_problem) {
-            issues.push(crate::session::flag_issue("--cutoff-hz", problem));
+            issues.push(crate::measurement::flag_issue("--cutoff-hz", problem));
         }
         if let Some(problem) = self
             .forgetting_factor
             .and_then(|l| ranges::FORGETTING_FACTOR.problem(l))
         {
-            issues.push(crate::session::flag_issue("--forgetting-factor", problem));
+            issues.push(crate::measurement::flag_issue(
+                "--forgetting-factor",
+                problem,
+            ));
         }
         issues
     }
@@ -358,12 +361,12 @@ pub fn settings_of(
         let recorded_end_s = recorded.window_end_s.unwrap_or(f64::INFINITY);
         let span_s = c.window_end_s.min(recorded_end_s) - c.window_start_s.max(origin_s);
         if span_s.is_finite() && span_s > 0.0 {
-            c.covariance_block_samples = measure::quality::block_samples_for(
-                EstimatorConfig::default_covariance_block_samples(c.sample_period_s),
+            c.covariance_half_block_samples = measure::quality::half_block_samples_for(
+                EstimatorConfig::default_covariance_half_block_samples(c.sample_period_s),
                 span_s,
                 c.sample_period_s,
             )
-            .min(c.covariance_block_samples);
+            .min(c.covariance_half_block_samples);
         }
     }
     Ok((c, fk))
@@ -537,7 +540,7 @@ fn measured_tare(r: RunEstimate, meta: &RunMetadata) -> (TareFile, TareOrigin) {
     (t, TareOrigin::Measured(Box::new(r)))
 }
 
-/// The tare file of a re-estimated tare run `r`, as a session saves it (`--save-tare`): with
+/// The tare file of a re-estimated tare run `r`, as a measurement saves it (`--save-tare`): with
 /// the run's exact bias effects per unit of the rig description's figures and its error-budget
 /// inputs, so that a loaded run that subtracts it counts the tare's share of the error budget.
 pub fn saved_tare(r: &RunEstimate, meta: &RunMetadata, rig: &LoadedConfig) -> TareFile {

@@ -251,7 +251,7 @@ pub fn import(plan: &ImportPlan<'_>) -> Result<Imported> {
              give one of them"
         ),
         Some(path) => {
-            let (base, plate) = measure::session::joints(&geometry);
+            let (base, plate) = measure::sequence::joints(&geometry);
             Some(TareFile::load(path, &base, &plate)?)
         }
         None if !has(Measurement::Tare) => bail!(
@@ -288,8 +288,8 @@ pub fn import(plan: &ImportPlan<'_>) -> Result<Imported> {
                 // As a measurement does: a short window gets half-blocks short enough for a
                 // sigma, from the excitation's length — the window's span from its first
                 // frame to its last, plus the last frame's period.
-                c.covariance_block_samples = measure::quality::block_samples_for(
-                    c.covariance_block_samples,
+                c.covariance_half_block_samples = measure::quality::half_block_samples_for(
+                    c.covariance_half_block_samples,
                     r.window_s[1] - r.window_s[0] + c.sample_period_s,
                     c.sample_period_s,
                 );

@@ -1,4 +1,4 @@
-//! The rig as a session's station: each measurement runs on the monitored link (first failure
+//! The rig as a measurement's station: each measurement runs on the monitored link (first failure
 //! and loop timing kept) between two `/rig/link` records, and the payload change brakes the rig,
 //! asks the operator and opens the loaded run's session.
 
@@ -8,14 +8,14 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use anyhow::anyhow;
 use control::io::{Backend, CommandFrame};
 use measure::observer::Observer;
-use measure::session::{Job, Station};
+use measure::sequence::{Job, Station};
 use measure::{End, MeasureOutcome};
 use rig_description::LoadedConfig;
 use runlog::messages::{self as topics, SupervisorMsg};
 use runlog::rig_record::{LinkCounters, LinkMsg, LINK};
 
 use super::Attendant;
-use crate::session::{Closed, LinkReport};
+use crate::measurement::{Closed, LinkReport};
 use rig::monitored::{Failure, Link, LoopTiming, Monitored};
 
 /// See the [module docs](self).
@@ -194,7 +194,7 @@ impl Station for RigStation<'_> {
     }
 }
 
-impl crate::session::Station for RigStation<'_> {
+impl crate::measurement::Station for RigStation<'_> {
     /// Whatever happened, the rig is left braked.
     fn measured(&mut self, completed: bool) {
         if !completed {

@@ -42,7 +42,7 @@ pub fn tare_file() -> Schema {
             ),
             ("budget", nullable(run_budget())),
             (
-                "covariance_blocks",
+                "covariance_windows",
                 nullable(int("residual windows behind the covariance")),
             ),
             (
@@ -186,7 +186,7 @@ mod tests {
             accel_bias_sensitivity: None,
             load_cell_offset_sensitivity: None,
             budget: None,
-            covariance_blocks: None,
+            covariance_windows: None,
             static_weighing: None,
         }
     }
@@ -210,7 +210,7 @@ mod tests {
                 jitter_share: 1e-3,
                 rigid_body,
             }),
-            covariance_blocks: Some(40),
+            covariance_windows: Some(40),
             static_weighing: Some(StaticWeighing {
                 samples: 200,
                 time_s: 1.5,

@@ -1,6 +1,6 @@
-//! The measurement session of any station (the simulator, a rig behind its link): the log
-//! opened with the run's metadata, the session of [`measure::session`] (tare, payload change,
-//! loaded run) told to the log and to an [`Operator`], the log finished however the session
+//! The measurement on any station (the simulator, a rig behind its link): the log
+//! opened with the run's metadata, the sequence of [`measure::sequence`] (tare, payload change,
+//! loaded run) told to the log and to an [`Operator`], the log finished however the sequence
 //! ended, then the calibration the options ask for fitted and written, and the report built.
 //! Every station's command returns the same [`Outcome`].
 //!
@@ -15,7 +15,7 @@ use control::controller::Controller;
 use kinematics::Geometry;
 use measure::observer::{Both, Observer, TickEvent};
 use measure::report::{Quantities, RunInfo};
-use measure::session::{SessionPlan, TarePlan};
+use measure::sequence::{SequencePlan, TarePlan};
 use measure::{End, Report, TareFile};
 use rig_description::calibration::{CalibrationDocument, CalibrationFile, LoadCellFile};
 use rig_description::config::ParamCount;
@@ -84,14 +84,14 @@ pub enum Message<'a> {
     LoadCellsCalibrated(&'a LoadCellFile, &'a Path),
 }
 
-/// Who watches a session: the samples' progress ([`Observer`]), its bounds and its messages.
+/// Who watches a measurement: the samples' progress ([`Observer`]), its bounds and its messages.
 pub trait Operator: Observer {
-    /// The session's measurements begin; `total_samples` are expected.
+    /// The measurement's runs begin; `total_samples` are expected.
     fn begin(&mut self, total_samples: u64) {
         let _ = total_samples;
     }
 
-    /// The session's measurements are over.
+    /// The measurement's runs are over.
     fn end(&mut self) {}
 
     /// Something to tell.
@@ -189,12 +189,12 @@ impl MeasureOptions {
         }
     }
 
-    /// The session's tare: the saved tare of [`tare`](Self::tare) (checked against the
+    /// The measurement's tare: the saved tare of [`tare`](Self::tare) (checked against the
     /// design), or a tare run whose controller is built and checked now, before anything moves.
     pub fn tare_plan(&self, loaded: &LoadedConfig, geometry: &Geometry) -> Result<TarePlan, Error> {
         Ok(match &self.tare {
             Some(path) => {
-                let (base, plate) = measure::session::joints(geometry);
+                let (base, plate) = measure::sequence::joints(geometry);
                 let file = TareFile::load(path, &base, &plate).map_err(Error::Input)?;
                 TarePlan::File(Box::new(file), path.display().to_string())
             }
@@ -231,7 +231,7 @@ pub struct LinkReport {
     pub timing: TimingSummary,
 }
 
-/// What a station adds to the outcome once its session is over: a rig's link.
+/// What a station adds to the outcome once its measurement is over: a rig's link.
 #[derive(Debug, Default)]
 pub struct Closed {
     /// The link and loop timing of each measurement made, in order.
@@ -244,7 +244,7 @@ pub struct Closed {
     pub link_total: rig::LinkStats,
 }
 
-/// What a session produced, on any station.
+/// What a measurement produced, on any station.
 #[derive(Debug)]
 pub struct Outcome {
     /// The report of the payload; `None` when the run ended before an estimate, measured a
@@ -254,7 +254,7 @@ pub struct Outcome {
     pub log_path: PathBuf,
     /// How the run ended (anything but `Completed` is a non-zero exit).
     pub end: End,
-    /// The tare measured in this session, if any.
+    /// The tare measured here, if any.
     pub tare: Option<TareFile>,
     /// The IMU calibration written.
     pub calibration: Option<CalibrationFile>,
@@ -272,13 +272,13 @@ pub struct Outcome {
     /// [`link`](Self::link) (each measurement's window) it includes the brake heartbeats sent
     /// between measurements and while the log is finished.
     pub link_total: rig::LinkStats,
-    /// The run that ended the session ended by a stall (the rig braked): it may be repeated.
+    /// The run that ended the measurement ended by a stall (the rig braked): it may be repeated.
     pub stalled: bool,
-    /// The runs a stall ended and the session repeated, in order (`rig.stall_retries`).
+    /// The runs a stall ended and the measurement repeated, in order (`rig.stall_retries`).
     pub repeated: Vec<Repeated>,
 }
 
-/// A run a stall ended, repeated in a new session.
+/// A run a stall ended, repeated in a new session of the rig protocol.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Repeated {
     /// Why it ended.
@@ -320,10 +320,10 @@ impl Outcome {
     }
 }
 
-/// A session's station: runs the measurements ([`measure::session::Station`]) and, when they
+/// A measurement's station: does its runs ([`measure::sequence::Station`]) and, when they
 /// are over, leaves its backend safe and says what it adds to the outcome.
-pub trait Station: measure::session::Station {
-    /// The session's measurements are over (`completed`: all of them completed), before the
+pub trait Station: measure::sequence::Station {
+    /// The measurement's runs are over (`completed`: all of them completed), before the
     /// log is finished.
     fn measured(&mut self, completed: bool) {
         let _ = completed;
@@ -338,7 +338,7 @@ pub trait Station: measure::session::Station {
     }
 }
 
-/// The calibration a session is made for, written to the path.
+/// The calibration a measurement is made for, written to the path.
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) enum Calibrate {
     /// None: a measurement.
@@ -349,7 +349,7 @@ pub(crate) enum Calibrate {
     LoadCells(PathBuf),
 }
 
-/// One session to run, everything checked.
+/// One measurement to run, everything checked.
 pub(crate) struct Spec<'a> {
     /// The rig description.
     pub loaded: &'a LoadedConfig,
@@ -387,7 +387,7 @@ pub(crate) struct Spec<'a> {
     pub report: bool,
 }
 
-/// Runs `spec`'s session on `station`: see the [module docs](self). `interrupt` parks the
+/// Runs `spec`'s measurement on `station`: see the [module docs](self). `interrupt` parks the
 /// platform; the outcome then says [`End::Interrupted`].
 pub(crate) fn run<S: Station>(
     spec: Spec<'_>,
@@ -441,10 +441,10 @@ pub(crate) fn run<S: Station>(
             None => Ok(()),
         });
     let total = match &spec.tare {
-        TarePlan::Measure(c) => measure::measurement::expected_samples(config, c.trajectory()),
+        TarePlan::Measure(c) => measure::run::expected_samples(config, c.trajectory()),
         TarePlan::File(..) => 0,
     } + spec.loaded_controller.as_ref().map_or(0, |c| {
-        measure::measurement::expected_samples(config, c.trajectory())
+        measure::run::expected_samples(config, c.trajectory())
     });
     let result = header.and_then(|()| {
         operator.begin(total);
@@ -452,8 +452,8 @@ pub(crate) fn run<S: Station>(
             LogObserver::new(&mut log, &geometry, config),
             &mut *operator,
         );
-        measure::session::run(
-            SessionPlan {
+        measure::sequence::run(
+            SequencePlan {
                 config: loaded,
                 geometry,
                 tare: spec.tare,
@@ -479,9 +479,9 @@ pub(crate) fn run<S: Station>(
     // The backend is left safe and closed before anything else can fail: the fits below are
     // the host's work alone.
     let closed = station.close();
-    let session = result.map_err(Error::Run)?;
+    let sequence = result.map_err(Error::Run)?;
     finished.map_err(Error::Run)?;
-    let completed = session.end == End::Completed;
+    let completed = sequence.end == End::Completed;
     // Each fit is written as it is made: a later failure does not lose it.
     fn written<D: CalibrationDocument>(file: anyhow::Result<D>, path: &Path) -> Result<D, Error> {
         let file = file.map_err(Error::Run)?;
@@ -492,16 +492,16 @@ pub(crate) fn run<S: Station>(
     let (backend, log) = (spec.backend, log_path.as_path());
     let (calibration, load_cell_calibration) = match &spec.calibrate {
         Calibrate::Imu(path) if completed => {
-            let file = imu_calibration(&session, loaded, backend, start_ns, log);
+            let file = imu_calibration(&sequence, loaded, backend, start_ns, log);
             (Some(written(file, path)?), None)
         }
         Calibrate::LoadCells(path) if completed => {
-            let file = load_cell_calibration(&session, loaded, backend, start_ns, log);
+            let file = load_cell_calibration(&sequence, loaded, backend, start_ns, log);
             (None, Some(written(file, path)?))
         }
         _ => (None, None),
     };
-    let report = session
+    let report = sequence
         .report(
             config,
             RunInfo {
@@ -520,15 +520,15 @@ pub(crate) fn run<S: Station>(
     Ok(Outcome {
         report,
         log_path,
-        end: session.end.clone(),
-        tare: session.measured_tare().cloned(),
+        end: sequence.end.clone(),
+        tare: sequence.measured_tare().cloned(),
         calibration,
         load_cell_calibration,
         link: closed.link,
         failure: closed.failure,
         rig: closed.rig,
         link_total: closed.link_total,
-        stalled: session.stalled,
+        stalled: sequence.stalled,
         repeated: Vec::new(),
     })
 }

@@ -1,4 +1,4 @@
-//! The session: the whole measurement of a payload, the same on every station.
+//! The sequence: the whole measurement of a payload, the same on every station.
 //!
 //! 1. **Tare**: the empty fixture is measured (a tare run), or a saved tare is loaded. A
 //!    measured tare is handed to the observer and, when asked, saved at once, so a failure of
@@ -6,7 +6,7 @@
 //! 2. **Payload change** ([`Station::load_payload`]): only after a measured tare. The simulator
 //!    puts the payload on; a rig brakes, asks the operator and opens a new session.
 //! 3. **Loaded run**: fixture and payload, the tare subtracted for the payload alone.
-//! 4. **Report** ([`SessionOutcome::report`]): the payload with its uncertainty, the tare, the
+//! 4. **Report** ([`SequenceOutcome::report`]): the payload with its uncertainty, the tare, the
 //!    systematic part; each command adds how it ran (and a simulator its truth).
 //!
 //! A station is what runs the measurements: it owns the backend and may wrap each measurement
@@ -20,9 +20,9 @@ use control::controller::Controller;
 use control::io::Backend;
 use kinematics::Geometry;
 
-use crate::measurement::{measure, End, MeasureOutcome, MeasureSetup};
 use crate::observer::Observer;
 use crate::report::{self, Quantities, Report, ReportInputs, RunInfo, TareKind};
+use crate::run::{measure, End, MeasureOutcome, MeasureSetup};
 use crate::setup::{self, Measurement};
 use crate::tare::TareFile;
 use rig_description::load::LoadedConfig;
@@ -55,7 +55,7 @@ impl Job<'_> {
     }
 }
 
-/// What runs a session's measurements: a simulator, a rig behind a link, a user's hardware.
+/// What runs a sequence's runs: a simulator, a rig behind a link, a user's hardware.
 pub trait Station {
     /// Runs `job` on this station's backend ([`Job::run`]), wrapped as the station needs.
     fn measure<O: Observer>(&mut self, job: Job<'_>, observer: &mut O) -> Result<MeasureOutcome>;
@@ -65,7 +65,7 @@ pub trait Station {
     fn load_payload<O: Observer>(&mut self, observer: &mut O, stop: &AtomicBool) -> Result<bool>;
 }
 
-/// Where the session's tare comes from.
+/// Where the sequence's tare comes from.
 pub enum TarePlan {
     /// A tare run with this controller.
     Measure(Box<Controller>),
@@ -89,10 +89,10 @@ pub struct TareEffects {
     pub accel_offset_m_s2: Option<[f64; 3]>,
 }
 
-/// The tare a session subtracts.
+/// The tare a sequence subtracts.
 #[derive(Clone, Debug)]
 pub enum TareSource {
-    /// Measured in this session, with its effects.
+    /// Measured in this sequence, with its effects.
     Measured(TareFile, Box<TareEffects>),
     /// A saved tare, from this path.
     File(TareFile, String),
@@ -107,8 +107,8 @@ impl TareSource {
     }
 }
 
-/// A whole session's settings.
-pub struct SessionPlan<'a> {
+/// A whole sequence's settings.
+pub struct SequencePlan<'a> {
     /// The rig description.
     pub config: &'a LoadedConfig,
     /// The platform design.
@@ -123,22 +123,22 @@ pub struct SessionPlan<'a> {
     pub backend: &'a str,
 }
 
-/// What a session produced.
+/// What a sequence produced.
 #[derive(Clone, Debug)]
-pub struct SessionOutcome {
+pub struct SequenceOutcome {
     /// How it ended: [`End::Completed`] when every planned measurement completed.
     pub end: End,
-    /// The tare subtracted (or measured, for a tare-only session).
+    /// The tare subtracted (or measured, for a tare-only sequence).
     pub tare: Option<TareSource>,
     /// The loaded run, when it ran.
     pub loaded: Option<MeasureOutcome>,
-    /// The run that ended the session ended by a stall ([`MeasureOutcome::stall`]): the
-    /// session may repeat it.
+    /// The run that ended the sequence ended by a stall ([`MeasureOutcome::stall`]): the
+    /// caller may repeat it.
     pub stalled: bool,
 }
 
-impl SessionOutcome {
-    /// The tare measured in this session, if any.
+impl SequenceOutcome {
+    /// The tare measured in this sequence, if any.
     pub fn measured_tare(&self) -> Option<&TareFile> {
         match &self.tare {
             Some(TareSource::Measured(f, _)) => Some(f),
@@ -193,15 +193,15 @@ pub fn joints(g: &Geometry) -> ([[f64; 3]; 6], [[f64; 3]; 6]) {
     )
 }
 
-/// Runs the session of `plan` on `station`, telling `observer` everything. See the
+/// Runs the sequence of `plan` on `station`, telling `observer` everything. See the
 /// [module docs](self). Errors are station, observer or file failures; a fault or a stop ends
-/// the session normally with that [`End`].
+/// the sequence normally with that [`End`].
 pub fn run<S: Station, O: Observer>(
-    plan: SessionPlan<'_>,
+    plan: SequencePlan<'_>,
     station: &mut S,
     observer: &mut O,
     stop: &AtomicBool,
-) -> Result<SessionOutcome> {
+) -> Result<SequenceOutcome> {
     let config = &plan.config.config;
     let setup = |measurement, tare| MeasureSetup {
         config,
@@ -224,7 +224,7 @@ pub fn run<S: Station, O: Observer>(
                 observer,
             )?;
             if outcome.end != End::Completed {
-                return Ok(SessionOutcome {
+                return Ok(SequenceOutcome {
                     end: outcome.end,
                     tare: None,
                     loaded: None,
@@ -244,7 +244,7 @@ pub fn run<S: Station, O: Observer>(
             };
             let (base, plate) = joints(&plan.geometry);
             // With the run's sensitivities, so a saved tare reused later counts its share of
-            // the systematic part as this same-session tare does.
+            // the systematic part as this same-sequence tare does.
             let file =
                 TareFile::from_estimate(estimate, &base, &plate, &plan.config.source, plan.backend)
                     .with_bias_effects(
@@ -263,7 +263,7 @@ pub fn run<S: Station, O: Observer>(
         }
     };
     let Some(controller) = plan.loaded else {
-        return Ok(SessionOutcome {
+        return Ok(SequenceOutcome {
             end: End::Completed,
             tare: Some(tare),
             loaded: None,
@@ -271,7 +271,7 @@ pub fn run<S: Station, O: Observer>(
         });
     };
     if measured && !station.load_payload(observer, stop)? {
-        return Ok(SessionOutcome {
+        return Ok(SequenceOutcome {
             end: End::Interrupted,
             tare: Some(tare),
             loaded: None,
@@ -279,7 +279,7 @@ pub fn run<S: Station, O: Observer>(
         });
     }
     if stop.load(Ordering::SeqCst) {
-        return Ok(SessionOutcome {
+        return Ok(SequenceOutcome {
             end: End::Interrupted,
             tare: Some(tare),
             loaded: None,
@@ -295,7 +295,7 @@ pub fn run<S: Station, O: Observer>(
         },
         observer,
     )?;
-    Ok(SessionOutcome {
+    Ok(SequenceOutcome {
         end: outcome.end.clone(),
         stalled: outcome.stall,
         tare: Some(tare),
