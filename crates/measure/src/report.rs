@@ -175,8 +175,7 @@ pub struct DataLoss {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct CovarianceBasis {
     /// Residual windows of the loaded run whose scores count (its first does not).
-    /// Reports are read under the fields' earlier names (`loaded_blocks`, `tare_blocks`,
-    /// `block_s`) too, so saved reports keep rendering and exporting.
+    /// A report that names these `loaded_blocks`, `tare_blocks` and `block_s` reads too.
     #[serde(alias = "loaded_blocks")]
     pub loaded_windows: u64,
     /// The same for the tare; `null` when not known (a tare file written without it).
@@ -1006,8 +1005,8 @@ mod tests {
         assert_eq!(back, report);
     }
 
-    /// Reports saved with the covariance basis's earlier field names still read, into the
-    /// fields they meant.
+    /// A report naming the covariance basis's fields `loaded_blocks`, `tare_blocks` and
+    /// `block_s` reads into the fields they mean.
     #[test]
     fn a_saved_report_with_the_block_names_reads_as_windows() {
         let mut json: serde_json::Value =

@@ -50,8 +50,8 @@ pub struct TareFile {
     #[serde(default)]
     pub budget: Option<crate::budget::RunBudget>,
     /// Residual windows behind `covariance` ([`estimator::Counts::covariance_windows`]), which
-    /// [`crate::quality::check_covariance`] checks; `null` in a file written without it (read
-    /// under its earlier name `covariance_blocks` too, so saved tares keep loading).
+    /// [`crate::quality::check_covariance`] checks; `null` in a file written without it (a file
+    /// that names it `covariance_blocks` loads too).
     #[serde(default, alias = "covariance_blocks")]
     pub covariance_windows: Option<u64>,
     /// The tare run's brake-hold static weighing ([`crate::weigh`]), subtracted from a loaded
@@ -294,7 +294,7 @@ mod tests {
         }
     }
 
-    /// A tare saved with the window count's earlier name still loads, with its count.
+    /// A tare naming its window count `covariance_blocks` loads with its count.
     #[test]
     fn a_saved_tare_with_covariance_blocks_loads_its_window_count() {
         let json = serde_json::to_string(&tare())

@@ -209,8 +209,8 @@ pub struct EstimatorSettings {
     /// estimated with the estimator's default, 1e-4.
     #[serde(default = "default_max_rate_error")]
     pub max_rate_error: f64,
-    /// Samples per half-block of the covariance estimate's residual windows (read under its
-    /// earlier name `covariance_block_samples` too, so recorded logs keep estimating).
+    /// Samples per half-block of the covariance estimate's residual windows (a log
+    /// that names it `covariance_block_samples` estimates too).
     #[serde(alias = "covariance_block_samples")]
     pub covariance_half_block_samples: u32,
     /// Gyro white noise per sample for the errors-in-variables correction, rad/s (0: off).
@@ -542,7 +542,7 @@ mod tests {
         let (c2, fk2) = back.to_config(geometry).unwrap();
         assert_eq!(c2, c);
         assert_eq!(fk2, fk);
-        // A log recorded with the half-block length's earlier key estimates with its length.
+        // A log naming the half-block length `covariance_block_samples` keeps its length.
         let mut old = json;
         let samples = old["covariance_half_block_samples"].take();
         let object = old.as_object_mut().unwrap();
