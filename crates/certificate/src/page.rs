@@ -237,7 +237,10 @@ fn principal(s: &mut String, r: &Report, cx: &Context<'_>) {
     let scene = Scene {
         payload,
         fixture,
-        plate_radius_m: cx.rig.map(|c| c.platform.plate_radius_m),
+        plate_radius_m: cx
+            .rig
+            .and_then(|c| c.platform.joint_radii_m())
+            .map(|(_, plate)| plate),
     };
     let _ = writeln!(
         s,
@@ -505,11 +508,18 @@ fn rig(s: &mut String, input: &Input, cx: &Context<'_>) {
                 kv(s, "rig description read for this page", src);
             }
             let p = &c.platform;
-            kv(
-                s,
-                "joint circles: base, plate radius",
-                &format!("{} m, {} m", p.base_radius_m, p.plate_radius_m),
-            );
+            let joints = if p.base_joints_m.is_some() {
+                "surveyed points"
+            } else {
+                "three pairs on each circle"
+            };
+            if let Some((base, plate)) = p.joint_radii_m() {
+                kv(
+                    s,
+                    "joints: base, plate radius",
+                    &format!("{joints}, {base:.4} m, {plate:.4} m"),
+                );
+            }
             kv(
                 s,
                 "leg length range",

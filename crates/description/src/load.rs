@@ -303,6 +303,9 @@ pub fn load_str(text: &str, source: &str) -> Result<LoadedConfig, ConfigError> {
                 .collect(),
         });
     }
+    platform_form(&user, &mut merged).map_err(|(key, problem)| {
+        ConfigError::single(issue(locate_key(text, &key), key, problem))
+    })?;
     merge(&mut merged, user);
     let mut config = describe(&merged, text, source)?;
     read_calibrations(&mut config, text, source)?;
@@ -522,6 +525,32 @@ fn complete_tare_excitation(description: &mut toml::Table) {
 /// The table of the tare run's own excitation.
 pub const TARE_EXCITATION_TABLE: &str = "tare_excitation";
 
+/// The platform's form (`config::PlatformConfig`): a file that gives the joints' points
+/// replaces the embedded default's radii form, and a file may not give both forms.
+fn platform_form(user: &toml::Table, merged: &mut toml::Table) -> Result<(), (String, String)> {
+    use crate::config::{JOINT_KEYS, RADII_KEYS};
+    let Some(toml::Value::Table(platform)) = user.get("platform") else {
+        return Ok(());
+    };
+    let Some(points) = JOINT_KEYS.iter().find(|k| platform.contains_key(**k)) else {
+        return Ok(());
+    };
+    if let Some(radius) = RADII_KEYS.iter().find(|k| platform.contains_key(**k)) {
+        return Err((
+            format!("platform.{radius}"),
+            format!(
+                "the platform is given twice: by its joints' points (platform.{points}) and by                  the radii form (platform.{radius}); give either the six base and six plate                  points, or the radii and pair separations"
+            ),
+        ));
+    }
+    if let Some(toml::Value::Table(default)) = merged.get_mut("platform") {
+        for key in RADII_KEYS {
+            default.remove(key);
+        }
+    }
+    Ok(())
+}
+
 /// Lays `over` onto `base`: tables merge recursively, anything else replaces.
 fn merge(base: &mut toml::Table, over: toml::Table) {
     for (key, value) in over {
@@ -704,7 +733,7 @@ mod tests {
     fn partial_file_inherits_the_default() {
         let loaded = load_str("[platform]\nbase_radius_m = 1.6\n", "x.toml").unwrap();
         let default = load(None).unwrap();
-        assert_eq!(loaded.config.platform.base_radius_m, 1.6);
+        assert_eq!(loaded.config.platform.base_radius_m, Some(1.6));
         assert_eq!(
             loaded.config.platform.plate_radius_m,
             default.config.platform.plate_radius_m

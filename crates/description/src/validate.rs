@@ -77,22 +77,54 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
     );
 
     let pl = &config.platform;
-    p.positive("platform.base_radius_m", pl.base_radius_m);
-    p.positive("platform.plate_radius_m", pl.plate_radius_m);
-    p.within(
-        "platform.base_pair_separation_deg",
-        pl.base_pair_separation_deg,
-        0.5,
-        119.5,
-        "degrees",
-    );
-    p.within(
-        "platform.plate_pair_separation_deg",
-        pl.plate_pair_separation_deg,
-        0.5,
-        119.5,
-        "degrees",
-    );
+    match (&pl.base_joints_m, &pl.plate_joints_m) {
+        (Some(base), Some(plate)) => {
+            // A joint tens of metres out is a typo (millimetres for metres), not a rig.
+            for (name, points) in [("base_joints_m", base), ("plate_joints_m", plate)] {
+                for (i, point) in points.iter().enumerate() {
+                    p.finite3(&format!("platform.{name}[{i}]"), point, 50.0);
+                }
+            }
+        }
+        (Some(_), None) | (None, Some(_)) => {
+            let missing = if pl.base_joints_m.is_none() {
+                "base_joints_m"
+            } else {
+                "plate_joints_m"
+            };
+            p.push(
+                format!("platform.{missing}"),
+                "the platform's joints are given by points: give both platform.base_joints_m \
+                 (six points in B) and platform.plate_joints_m (six points in P), leg i joining \
+                 base joint i to plate joint i",
+            );
+        }
+        (None, None) => {
+            let radii = [
+                ("platform.base_radius_m", pl.base_radius_m),
+                ("platform.plate_radius_m", pl.plate_radius_m),
+                (
+                    "platform.base_pair_separation_deg",
+                    pl.base_pair_separation_deg,
+                ),
+                (
+                    "platform.plate_pair_separation_deg",
+                    pl.plate_pair_separation_deg,
+                ),
+            ];
+            for (key, value) in radii {
+                match value {
+                    None => p.push(
+                        key,
+                        "missing: the radii form needs both radii and both pair separations \
+                         (or give the joints as platform.base_joints_m and platform.plate_joints_m)",
+                    ),
+                    Some(v) if key.ends_with("_deg") => p.within(key, v, 0.5, 119.5, "degrees"),
+                    Some(v) => p.positive(key, v),
+                }
+            }
+        }
+    }
     p.positive("platform.min_leg_length_m", pl.min_leg_length_m);
     p.positive("platform.max_leg_length_m", pl.max_leg_length_m);
     if pl.max_leg_length_m <= pl.min_leg_length_m {

@@ -132,7 +132,10 @@ mod tests {
         let page = std::fs::read_to_string(&html).unwrap();
         assert!(page.contains("data-quantity=\"estimate.mass_kg\" data-value=\"12.5\""));
         // The embedded default's plate radius is listed.
-        assert!(page.contains("joint circles"), "rig figures listed");
+        assert!(
+            page.contains("joints: base, plate radius"),
+            "rig figures listed"
+        );
         std::fs::write(&report, "{\"reports\": [], \"parameters\": []}").unwrap();
         let other = dir.path().join("c.html");
         let options = ReportOptions {

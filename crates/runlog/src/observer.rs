@@ -45,8 +45,8 @@ impl<'a> LogObserver<'a> {
         let scene = SceneGeometry {
             base_joints_m: *geometry.base_joints_m(),
             plate_joints_m: *geometry.plate_joints_m(),
-            base_radius_m: config.platform.base_radius_m,
-            plate_radius_m: config.platform.plate_radius_m,
+            base_radius_m: mean_radius(geometry.base_joints_m()),
+            plate_radius_m: mean_radius(geometry.plate_joints_m()),
             force_scale_n: config.control.max_force_n,
         };
         let sample_rate_hz = config.sensors.sample_rate_hz;
@@ -289,4 +289,9 @@ fn estimate_msg(
         body: BodyEstimate::new(e),
         payload: tare.map(|t| BodyEstimate::new(&payload_estimate(e, Some(t)))),
     }
+}
+
+/// Mean distance of six joints from their body's z axis, m: the joint circle a scene draws.
+fn mean_radius(joints: &[nalgebra::Vector3<f64>; 6]) -> f64 {
+    joints.iter().map(|p| p.xy().norm()).sum::<f64>() / 6.0
 }

@@ -262,20 +262,34 @@ impl Default for LegsConfig {
     }
 }
 
-/// A 6-6 platform with joints in three pairs on each circle, the plate's pairs turned 60° against
-/// the base's (the seed paper's Eq. 1–2 as printed put equal joint angles on both circles, which
-/// is architecturally singular).
+/// A 6-6 platform: leg i joins base joint i (in B) to plate joint i (in P), given either as
+/// the surveyed points (`base_joints_m`, `plate_joints_m`) or by the shorthand of three joint
+/// pairs on each circle (the two radii and pair separations,
+/// [`kinematics::Geometry::from_radii`]: the plate's pairs turned 60° against the base's; the
+/// seed paper's Eq. 1–2 as printed put equal joint angles on both circles, which is
+/// architecturally singular). A file gives one form: its points replace the embedded
+/// default's radii.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PlatformConfig {
-    /// Radius of the base joint circle, metres.
-    pub base_radius_m: f64,
-    /// Radius of the plate joint circle, metres.
-    pub plate_radius_m: f64,
-    /// Angle between the two joints of a pair on the base, degrees.
-    pub base_pair_separation_deg: f64,
-    /// Angle between the two joints of a pair on the plate, degrees.
-    pub plate_pair_separation_deg: f64,
+    /// Radius of the base joint circle, metres (the radii form).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base_radius_m: Option<f64>,
+    /// Radius of the plate joint circle, metres (the radii form).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plate_radius_m: Option<f64>,
+    /// Angle between the two joints of a pair on the base, degrees (the radii form).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base_pair_separation_deg: Option<f64>,
+    /// Angle between the two joints of a pair on the plate, degrees (the radii form).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plate_pair_separation_deg: Option<f64>,
+    /// The base joints' centres bᵢ in B, metres, leg i's first (the points form; a survey's).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub base_joints_m: Option<[[f64; 3]; 6]>,
+    /// The plate joints' centres pᵢ in P, metres, leg i's second (the points form).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub plate_joints_m: Option<[[f64; 3]; 6]>,
     /// Shortest leg (joint centre to joint centre), metres.
     pub min_leg_length_m: f64,
     /// Longest leg, metres.
@@ -285,6 +299,31 @@ pub struct PlatformConfig {
     #[serde(default)]
     pub joint_position_tolerance_m: f64,
 }
+
+impl PlatformConfig {
+    /// The base's and the plate's joint-circle radii, m: the radii form's, or for surveyed
+    /// points each body's mean joint distance from its z axis (the circles a drawing of the
+    /// rig shows). `None` when neither form is complete.
+    pub fn joint_radii_m(&self) -> Option<(f64, f64)> {
+        let mean =
+            |points: &[[f64; 3]; 6]| points.iter().map(|p| p[0].hypot(p[1])).sum::<f64>() / 6.0;
+        match (&self.base_joints_m, &self.plate_joints_m) {
+            (Some(base), Some(plate)) => Some((mean(base), mean(plate))),
+            _ => Some((self.base_radius_m?, self.plate_radius_m?)),
+        }
+    }
+}
+
+/// The `[platform]` keys of the radii form, which a file giving the joints' points replaces.
+pub const RADII_KEYS: [&str; 4] = [
+    "base_radius_m",
+    "plate_radius_m",
+    "base_pair_separation_deg",
+    "plate_pair_separation_deg",
+];
+
+/// The `[platform]` keys of the points form.
+pub const JOINT_KEYS: [&str; 2] = ["base_joints_m", "plate_joints_m"];
 
 impl ExcitationConfig {
     /// The fade-out time, s.
