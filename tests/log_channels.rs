@@ -197,5 +197,20 @@ fn a_simulate_log_reads_back_as_documented() {
     // Twice, each in a chunk of its own (`RunLog::write_metadata`).
     assert_eq!(n("/run/metadata"), runlog::run_log::METADATA_COPIES as f64);
     assert_eq!(n("/run/truth"), 1.0);
-    assert_eq!(n("/run/estimator"), runs);
+    // At each excitation's start, every `SETTINGS_REPEAT_S` of its frames and at its end
+    // (`RunLog::write_settings`), every copy the same record.
+    for run_name in log.runs() {
+        let copies: Vec<_> = log.settings.iter().filter(|s| s.run == run_name).collect();
+        let frames: Vec<_> = log.sensors_of(&run_name).collect();
+        let start_s = copies[0].window_start_s.unwrap();
+        let after_s = frames.last().unwrap().time_s - start_s;
+        let repeats = (after_s / runlog::run_log::SETTINGS_REPEAT_S).floor() as usize;
+        assert!(
+            (1 + repeats..=2 + repeats).contains(&copies.len()),
+            "{run_name}: {} copies of its settings over {after_s} s",
+            copies.len()
+        );
+        assert!(copies.iter().all(|c| c == &copies[0]), "{run_name}");
+    }
+    assert!(n("/run/estimator") >= 2.0 * runs);
 }

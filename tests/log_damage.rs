@@ -480,3 +480,409 @@ fn with_the_metadata_lost_the_runs_listed_are_the_ones_the_frames_hold() {
     assert_eq!(exit_code(&tare_only, &flags), Some(0));
     assert!(tare.exists());
 }
+
+// ---------------------------------------------------------------------------------------------
+// Chunks duplicated, swapped, removed; settings lost; two runs in one file
+
+/// The log's data section as units: every record from the header's end to the data end, each
+/// chunk with the message indexes that follow it as one unit, (offset, length); and the offset
+/// of the data end record (the summary and footer from there on are kept as they are).
+fn units(bytes: &[u8]) -> (Vec<(usize, usize)>, usize) {
+    let record = |pos: usize| {
+        let n = u64::from_le_bytes(bytes[pos + 1..pos + 9].try_into().unwrap()) as usize;
+        (bytes[pos], 9 + n)
+    };
+    let (_, header) = record(8);
+    let mut pos = 8 + header;
+    let mut out: Vec<(usize, usize)> = Vec::new();
+    loop {
+        let (op, len) = record(pos);
+        match op {
+            // Data end.
+            0x0f => return (out, pos),
+            // A message index belongs to the chunk before it.
+            0x07 if !out.is_empty() => {
+                if let Some(last) = out.last_mut() {
+                    last.1 += len;
+                }
+            }
+            _ => out.push((pos, len)),
+        }
+        pos += len;
+    }
+}
+
+/// `bytes` with its data section's units replaced by `order` (units of [`units`], in the
+/// order given: a unit may be repeated or left out). The summary keeps its offsets, which no
+/// longer match: the reader reads the data section as it finds it, as after a disk's damage.
+fn rebuilt(bytes: &[u8], order: &[(usize, usize)]) -> Vec<u8> {
+    let (first, _) = units(bytes).0[0];
+    let (_, end) = units(bytes);
+    let mut out = bytes[..first].to_vec();
+    for &(at, len) in order {
+        out.extend_from_slice(&bytes[at..at + len]);
+    }
+    out.extend_from_slice(&bytes[end..]);
+    out
+}
+
+/// The log times of the `/run/estimator` messages of measurement `run`, in file order.
+fn settings_times(bytes: &[u8], run: &str) -> Vec<u64> {
+    mcap::MessageStream::new(bytes)
+        .unwrap()
+        .map(|m| m.unwrap())
+        .filter(|m| m.channel.topic == runlog::messages::ESTIMATOR_SETTINGS)
+        .filter(|m| {
+            serde_json::from_slice::<runlog::metadata::EstimatorSettings>(&m.data)
+                .unwrap()
+                .run
+                == run
+        })
+        .map(|m| m.log_time)
+        .collect()
+}
+
+/// The data units that are chunks of the loaded run's excitation: their messages' log times
+/// from its first `/run/estimator` message on, up to its last `/sensors` block, by the
+/// summary's chunk index.
+fn loaded_chunks(bytes: &[u8]) -> Vec<(usize, usize)> {
+    let summary = mcap::Summary::read(bytes).unwrap().expect("a summary");
+    let start = settings_times(bytes, "loaded")[0];
+    let sensors = summary
+        .channels
+        .values()
+        .find(|c| c.topic == runlog::messages::SENSORS)
+        .unwrap()
+        .id;
+    let end = summary
+        .chunk_indexes
+        .iter()
+        .filter(|c| c.message_index_offsets.contains_key(&sensors))
+        .map(|c| c.message_end_time)
+        .max()
+        .unwrap();
+    let within: Vec<usize> = summary
+        .chunk_indexes
+        .iter()
+        .filter(|c| c.message_start_time > start && c.message_end_time < end)
+        .filter(|c| c.message_index_offsets.contains_key(&sensors))
+        .map(|c| c.chunk_start_offset as usize)
+        .collect();
+    units(bytes)
+        .0
+        .into_iter()
+        .filter(|(at, _)| within.contains(at))
+        .collect()
+}
+
+/// `stewart estimate LOG --report R` run as a user runs it: (exit code, standard error, the
+/// report's JSON when one was written).
+fn estimate_cli(log: &Path) -> (Option<i32>, String, Option<serde_json::Value>) {
+    let report = log.with_extension("json");
+    let _ = std::fs::remove_file(&report);
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_stewart"))
+        .arg("estimate")
+        .arg(log)
+        .arg("--quiet")
+        .arg("--report")
+        .arg(&report)
+        .output()
+        .expect("the binary runs");
+    let json = std::fs::read(&report)
+        .ok()
+        .map(|b| serde_json::from_slice(&b).unwrap());
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+        json,
+    )
+}
+
+/// The report's estimate and sigma as the JSON has them, to compare reports to the digit.
+fn quantities(report: &serde_json::Value) -> (serde_json::Value, serde_json::Value, u64) {
+    (
+        report["estimate"].clone(),
+        report["sigma"].clone(),
+        report["samples"].as_u64().unwrap(),
+    )
+}
+
+/// The clean log's report, by the binary.
+fn clean_report() -> &'static serde_json::Value {
+    static CLEAN: OnceLock<serde_json::Value> = OnceLock::new();
+    CLEAN.get_or_init(|| {
+        let (run, bytes) = run();
+        let path = run.dir.path().join("clean_copy.mcap");
+        std::fs::write(&path, bytes).unwrap();
+        let (code, stderr, json) = estimate_cli(&path);
+        assert_eq!(code, Some(0), "{stderr}");
+        assert!(!stderr.contains("warning"), "{stderr}");
+        json.expect("a report")
+    })
+}
+
+/// The issue: `/run/estimator` was written once per measurement, so one flipped bit in its
+/// chunk gave "its excitation never started" and no estimate. The settings are repeated
+/// while the measurement runs and at its end: the damage costs its own span, and the report
+/// and the terminal say which record was lost and where its settings were read from.
+#[test]
+fn a_damaged_estimator_settings_chunk_costs_its_span_only() {
+    let (run, bytes) = run();
+    assert!(
+        settings_times(bytes, "loaded").len() >= 2,
+        "the loaded run's settings are written more than once"
+    );
+    let first = settings_times(bytes, "loaded")[0];
+    let summary = mcap::Summary::read(bytes).unwrap().unwrap();
+    let chunk = summary
+        .chunk_indexes
+        .iter()
+        .find(|c| c.message_start_time <= first && first <= c.message_end_time)
+        .expect("the chunk of the first copy");
+    let (at, len) = (
+        chunk.chunk_start_offset as usize,
+        chunk.chunk_length as usize,
+    );
+    let mut d = bytes.clone();
+    d[at + len / 2] ^= 0x10;
+    let path = write("settings_damaged.mcap", &d);
+    let (code, stderr, report) = estimate_cli(&path);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(
+        stderr.contains("/run/estimator") && stderr.contains("damaged"),
+        "{stderr}"
+    );
+    let report = report.expect("a report");
+    let data = &report["data"];
+    assert_eq!(data["damaged"].as_array().unwrap().len(), 1, "{data}");
+    let recovered = data["recovered"].as_array().expect("data.recovered");
+    assert!(
+        recovered
+            .iter()
+            .any(|r| r.as_str().unwrap().contains("/run/estimator")),
+        "{recovered:?}"
+    );
+    // The span lost (about half a second) is all the estimate loses.
+    let clean = clean_report()["samples"].as_u64().unwrap();
+    let samples = report["samples"].as_u64().unwrap();
+    assert!(samples * 10 > clean * 7, "{samples} samples of {clean}");
+    let _ = run;
+}
+
+/// The issue: every loaded chunk written twice gave a rejected share of 0.5 (three times:
+/// exit 4, "check the leg force and length sensors"). The copies are dropped as duplicates by
+/// their sequence numbers, counted and named: the estimate is the clean log's to the digit.
+#[test]
+fn every_loaded_chunk_written_two_or_three_times_is_read_once() {
+    let (_, bytes) = run();
+    let loaded = loaded_chunks(bytes);
+    assert!(loaded.len() >= 4, "{} loaded chunks", loaded.len());
+    let clean = clean_report();
+    for times in [2, 3] {
+        let order: Vec<_> = units(bytes)
+            .0
+            .into_iter()
+            .flat_map(|u| std::iter::repeat_n(u, if loaded.contains(&u) { times } else { 1 }))
+            .collect();
+        let path = write(
+            &format!("written_{times}_times.mcap"),
+            &rebuilt(bytes, &order),
+        );
+        let (code, stderr, report) = estimate_cli(&path);
+        assert_eq!(code, Some(0), "{times} times: {stderr}");
+        let report = report.expect("a report");
+        assert_eq!(quantities(&report), quantities(clean), "{times} times");
+        let data = &report["data"];
+        assert_eq!(data["rejected_share"], clean["data"]["rejected_share"]);
+        assert!(data["frames_duplicate"].as_u64().unwrap() > 500, "{data}");
+        let spans = data["reordered"].as_array().expect("data.reordered");
+        assert!(
+            !spans.is_empty() && spans.iter().all(|s| s["action"] == "dropped as duplicates"),
+            "{spans:?}"
+        );
+        assert!(stderr.contains("duplicate"), "{stderr}");
+    }
+}
+
+/// The issue: two chunks swapped moved the mass by −1.08 kg (σ 0.32 → 1.02) with no warning.
+/// The frames are put back in sequence order, the estimate is the clean log's to the digit,
+/// and the span that came out of place is named.
+#[test]
+fn two_swapped_chunks_are_put_back_in_order_and_named() {
+    let (_, bytes) = run();
+    let loaded = loaded_chunks(bytes);
+    let (a, b) = (loaded[loaded.len() / 2], loaded[loaded.len() / 2 + 1]);
+    let order: Vec<_> = units(bytes)
+        .0
+        .into_iter()
+        .map(|u| {
+            if u == a {
+                b
+            } else if u == b {
+                a
+            } else {
+                u
+            }
+        })
+        .collect();
+    let path = write("swapped.mcap", &rebuilt(bytes, &order));
+    let (code, stderr, report) = estimate_cli(&path);
+    assert_eq!(code, Some(0), "{stderr}");
+    let report = report.expect("a report");
+    assert_eq!(quantities(&report), quantities(clean_report()));
+    let spans = report["data"]["reordered"]
+        .as_array()
+        .expect("data.reordered");
+    assert_eq!(spans.len(), 1, "{spans:?}");
+    let span = &spans[0];
+    assert_eq!(span["action"], "put back in order", "{span}");
+    assert_eq!(span["run"], "loaded", "{span}");
+    let frames = span["frames"].as_u64().unwrap();
+    assert!((100..2000).contains(&frames), "{span}");
+    assert!(
+        stderr.contains("out of order") && stderr.contains("put back"),
+        "{stderr}"
+    );
+}
+
+/// The issue: a `/sensors` block that came more than about 50 blocks late was counted neither
+/// late nor duplicate, but its frames were rejected by the estimator. It takes its place.
+#[test]
+fn a_block_sixty_blocks_late_takes_its_place() {
+    let (run, bytes) = run();
+    let messages: Vec<_> = mcap::MessageStream::new(bytes)
+        .unwrap()
+        .map(|m| m.unwrap())
+        .collect();
+    let start = settings_times(bytes, "loaded")[0];
+    let sensors: Vec<usize> = (0..messages.len())
+        .filter(|&k| messages[k].channel.topic == runlog::messages::SENSORS)
+        .filter(|&k| messages[k].log_time > start + 2_000_000_000)
+        .collect();
+    let (from, to) = (sensors[0], sensors[60]);
+    let mut order: Vec<usize> = (0..messages.len()).filter(|&k| k != from).collect();
+    let at = order.iter().position(|&k| k == to).unwrap() + 1;
+    order.insert(at, from);
+    let path = run.dir.path().join("late_block.mcap");
+    let mut out = mcap::Writer::new(std::io::BufWriter::new(
+        std::fs::File::create(&path).unwrap(),
+    ))
+    .unwrap();
+    for k in order {
+        out.write(&messages[k]).unwrap();
+    }
+    out.finish().unwrap();
+    let (code, stderr, report) = estimate_cli(&path);
+    assert_eq!(code, Some(0), "{stderr}");
+    let report = report.expect("a report");
+    assert_eq!(quantities(&report), quantities(clean_report()));
+    assert_eq!(
+        report["rejected_samples"],
+        clean_report()["rejected_samples"]
+    );
+    let spans = report["data"]["reordered"].as_array().unwrap();
+    assert_eq!(spans.len(), 1, "{spans:?}");
+    assert_eq!(spans[0]["frames"], 10, "{spans:?}");
+}
+
+/// The issue: a chunk cleanly missing (no damage to find) gave no warning, only a count of
+/// lost frames. The frames' sequence numbers name the missing span, in the report and on the
+/// terminal.
+#[test]
+fn a_cleanly_missing_chunk_is_named() {
+    let (_, bytes) = run();
+    let loaded = loaded_chunks(bytes);
+    let gone = loaded[loaded.len() / 2];
+    let order: Vec<_> = units(bytes).0.into_iter().filter(|u| *u != gone).collect();
+    let path = write("chunk_removed.mcap", &rebuilt(bytes, &order));
+    let (code, stderr, report) = estimate_cli(&path);
+    assert_eq!(code, Some(0), "{stderr}");
+    let report = report.expect("a report");
+    let data = &report["data"];
+    let missing = data["missing"].as_array().expect("data.missing");
+    assert_eq!(missing.len(), 1, "{missing:?}");
+    let span = &missing[0];
+    assert_eq!(span["run"], "loaded", "{span}");
+    let frames = span["frames"].as_u64().unwrap();
+    assert_eq!(
+        span["last_sequence"].as_u64().unwrap() - span["first_sequence"].as_u64().unwrap() + 1,
+        frames
+    );
+    assert!((100..2000).contains(&frames), "{span}");
+    assert!(
+        stderr.contains("missing") && stderr.contains(&span["first_sequence"].to_string()),
+        "{stderr}"
+    );
+}
+
+/// A copy of the log at `from` written as a second run would write it, merged with the first
+/// into `to` by log time, as two processes writing one file interleave: the second run starts
+/// 0.3 s later (its log times and start time shifted) and its load cells read 1 N more;
+/// with `with_metadata` false, the second run's metadata is left out (lost).
+fn interleaved(from: &Path, to: &Path, with_metadata: bool) {
+    use prost::Message as _;
+    const SHIFT_NS: u64 = 300_000_000;
+    let bytes = std::fs::read(from).unwrap();
+    let mut all = Vec::new();
+    for m in mcap::MessageStream::new(&bytes).unwrap() {
+        let m = m.unwrap();
+        all.push(m.clone());
+        let mut b = m;
+        b.log_time += SHIFT_NS;
+        b.publish_time += SHIFT_NS;
+        match b.channel.topic.as_str() {
+            runlog::messages::METADATA if !with_metadata => continue,
+            runlog::messages::METADATA => {
+                let mut meta: serde_json::Value = serde_json::from_slice(&b.data).unwrap();
+                let start = meta["start_unix_ns"].as_u64().unwrap();
+                meta["start_unix_ns"] = (start + SHIFT_NS).into();
+                b.data = serde_json::to_vec(&meta).unwrap().into();
+            }
+            runlog::messages::SENSORS => {
+                let p = runlog::proto::SensorBlock::decode(&b.data[..]).unwrap();
+                let run = if p.run == "tare" { "tare" } else { "loaded" };
+                let mut frames = runlog::compact::sensor_frames(&p).unwrap();
+                for f in &mut frames {
+                    for force in &mut f.leg_forces_n {
+                        *force += 1.0;
+                    }
+                }
+                let block = runlog::compact::SensorBlock::of_frames(run, &frames);
+                b.data = runlog::proto::to_bytes(&block).into();
+            }
+            _ => {}
+        }
+        all.push(b);
+    }
+    all.sort_by_key(|m| m.log_time);
+    let mut out =
+        mcap::Writer::new(std::io::BufWriter::new(std::fs::File::create(to).unwrap())).unwrap();
+    for m in &all {
+        out.write(m).unwrap();
+    }
+    out.finish().unwrap();
+}
+
+/// The issue: two measurements writing one file gave a log that mixes both runs, and
+/// `estimate` exited 0 on it. Two different metadata records, or frames of one measurement
+/// that carry one sequence number with different readings, are two runs: refused, saying so.
+#[test]
+fn a_log_of_two_interleaved_runs_is_refused() {
+    let (run, _) = run();
+    for with_metadata in [true, false] {
+        let path = run
+            .dir
+            .path()
+            .join(format!("two_runs_{with_metadata}.mcap"));
+        interleaved(&run.log, &path, with_metadata);
+        let (code, stderr, report) = estimate_cli(&path);
+        assert_eq!(code, Some(2), "metadata {with_metadata}: {stderr}");
+        assert!(report.is_none());
+        assert!(
+            stderr.contains("two runs") && stderr.contains(&path.display().to_string()),
+            "metadata {with_metadata}: {stderr}"
+        );
+        let err = format!("{:#}", estimate(&args(&path)).unwrap_err());
+        assert!(err.contains("two runs"), "{err}");
+    }
+}

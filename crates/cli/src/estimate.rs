@@ -148,7 +148,7 @@ pub fn main(args: &EstimateArgs) -> u8 {
             return 2;
         }
     };
-    for w in outcome.damage.warnings(&args.log) {
+    for w in outcome.warnings(&args.log) {
         eprintln!("warning: {w}");
     }
     if let Err(why) = &outcome.quality {

@@ -135,6 +135,27 @@ pub struct LostSpan {
     pub reason: String,
 }
 
+/// A span of a measurement's `/sensors` frames, by their sequence numbers, that came out of
+/// place, came again, or never came, and what was done with it.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct FrameSpan {
+    /// Measurement (`tare`, `loaded`).
+    pub run: String,
+    /// Sequence number of the span's first frame.
+    pub first_sequence: u64,
+    /// Sequence number of its last frame.
+    pub last_sequence: u64,
+    /// Frames in it.
+    pub frames: u64,
+    /// Backend time of its first frame, s (of a missing span: the frame before it).
+    pub from_time_s: f64,
+    /// Backend time of its last frame, s (of a missing span: the frame after it).
+    pub to_time_s: f64,
+    /// What was done: `put back in order`, `dropped as duplicates`, `dropped as late` (came
+    /// after later frames had been used), or `missing` (no frame of the log holds it).
+    pub action: String,
+}
+
 /// What the data behind the report lacked: a log cut short, damaged spans, rejected samples.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct DataLoss {
@@ -151,13 +172,27 @@ pub struct DataLoss {
     /// restarted the conditioning.
     pub frames_bridged: u64,
     /// Frames of the loaded run that came after a frame with a higher counter had been used
-    /// (more than `measure::reorder::REORDER_WINDOW` frames late), dropped; frames less late
-    /// are put back in sequence order.
+    /// (more than the reorder window late: `measure::reorder::REORDER_WINDOW` frames in the
+    /// live run, `ops::estimate::order::HOLD_FRAMES` in `stewart estimate`), dropped; frames
+    /// less late are put back in sequence order.
     #[serde(default)]
     pub frames_late: u64,
     /// Frames of the loaded run whose counter had already come, dropped.
     #[serde(default)]
     pub frames_duplicate: u64,
+    /// Spans of frames that came out of sequence order or came again, beyond a link's
+    /// reordering of a few frames (a chunk of the log moved or written twice), and what was
+    /// done with each; at most a few dozen per measurement.
+    #[serde(default)]
+    pub reordered: Vec<FrameSpan>,
+    /// Spans of a whole `/sensors` block or more that no frame of the log holds (a chunk lost
+    /// to damage or removed, a message the log's writer dropped).
+    #[serde(default)]
+    pub missing: Vec<FrameSpan>,
+    /// Records that were lost and read from another copy, in words (the estimator's settings
+    /// of a measurement whose first copy was damaged).
+    #[serde(default)]
+    pub recovered: Vec<String>,
     /// Gaps that restarted the conditioning.
     pub restarts: u64,
     /// What placed the samples in time: `"sequence"` (counter × period) or `"timestamps"`.

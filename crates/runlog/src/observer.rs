@@ -2,7 +2,8 @@
 //! command (in blocks, [`crate::compact`]); pose, legs and PID terms at [`rates::DERIVED_HZ`];
 //! the platform's transform at [`rates::TF_HZ`]; the estimate and the payload's transform at
 //! [`rates::ESTIMATE_HZ`]; the scene at [`rates::SCENE_HZ`]; the supervisor on
-//! every change and at [`rates::SUPERVISOR_HZ`]; the estimator's settings, the tare and the
+//! every change and at [`rates::SUPERVISOR_HZ`]; the estimator's settings at the excitation's
+//! start, repeated while it runs and at its end ([`RunLog::write_settings`]); the tare and the
 //! station's own records once.
 
 use control::supervisor::Phase;
@@ -219,8 +220,7 @@ impl Observer for LogObserver<'_> {
 
     fn estimator_started(&mut self, e: &EstimatorStarted<'_>) -> anyhow::Result<()> {
         let run = e.measurement.name();
-        self.log.write(
-            topics::ESTIMATOR_SETTINGS,
+        self.log.write_settings(
             e.time_s,
             &EstimatorSettings::from_config(run, e.config, e.fk),
         )
@@ -235,6 +235,7 @@ impl Observer for LogObserver<'_> {
                 &estimate_msg(run, e.time_s, estimate, e.tare),
             )?;
         }
+        self.log.end_settings()?;
         self.log.flush()
     }
 

@@ -30,6 +30,12 @@ pub mod rates {
 /// Copies of `/run/metadata` a log holds, each in a chunk of its own ([`RunLog::write_metadata`]).
 pub const METADATA_COPIES: usize = 2;
 
+/// Backend time between the copies of a measurement's `/run/estimator` settings, s
+/// ([`RunLog::write_settings`]): several chunks apart (a chunk holds about a second of a
+/// 1 kHz run), and well within the two minutes of frames `stewart estimate` holds while it
+/// waits for a measurement's settings.
+pub const SETTINGS_REPEAT_S: f64 = 5.0;
+
 /// An open run log.
 pub struct RunLog {
     log: McapLog,
@@ -38,6 +44,16 @@ pub struct RunLog {
     last_ns: u64,
     sensors: Block<SensorBlock, SensorCounts>,
     commands: Block<CommandBlock, CommandCounts>,
+    settings: Option<Repeated>,
+}
+
+/// The settings of the measurement under way, repeated ([`RunLog::write_settings`]).
+struct Repeated {
+    settings: crate::metadata::EstimatorSettings,
+    /// Backend time of the next copy, s.
+    next_s: f64,
+    /// A frame of the measurement was logged since the last copy.
+    since_copy: bool,
 }
 
 /// A block of the 1 kHz channels being filled, with the log time of its latest frame.
@@ -95,6 +111,7 @@ impl RunLog {
                 last: CommandCounts::default(),
                 last_ns: 0,
             },
+            settings: None,
         }
     }
 
@@ -168,7 +185,23 @@ impl RunLog {
     /// measurement changes, and by [`Self::flush`] and [`Self::finish`]. Its log time is its
     /// last frame's, the moment it is complete, so log times never decrease in the file (its
     /// first frame's time is in the block, `time_ns[0]`).
+    ///
+    /// Every [`SETTINGS_REPEAT_S`] of the measurement's frames after its settings, the settings
+    /// are written again ([`Self::write_settings`]); a frame of another measurement ends them.
     pub fn write_sensor(&mut self, run: &'static str, f: &control::io::SensorFrame) -> Result<()> {
+        match &mut self.settings {
+            Some(r) if r.settings.run == run => {
+                r.since_copy = true;
+                if f.time_s >= r.next_s {
+                    r.next_s = f.time_s + SETTINGS_REPEAT_S;
+                    r.since_copy = false;
+                    let copy = r.settings.clone();
+                    self.write(topics::ESTIMATOR_SETTINGS, f.time_s, &copy)?;
+                }
+            }
+            Some(_) => self.end_settings()?,
+            None => {}
+        }
         if self.sensors.block.run != run {
             self.flush_sensors()?;
             self.sensors.block.clear(run);
@@ -225,6 +258,36 @@ impl RunLog {
         written
     }
 
+    /// Writes measurement `settings.run`'s estimator settings (`/run/estimator`) at backend time
+    /// `time_s`, its excitation's start, and keeps them to write again: every
+    /// [`SETTINGS_REPEAT_S`] of its frames and once more at its end ([`Self::end_settings`]).
+    /// `stewart estimate` needs them for every frame of the measurement, so one damaged chunk
+    /// must not take them; a reader takes the first copy that decodes, and every copy is the
+    /// same record.
+    pub fn write_settings(
+        &mut self,
+        time_s: f64,
+        settings: &crate::metadata::EstimatorSettings,
+    ) -> Result<()> {
+        self.end_settings()?;
+        self.write(topics::ESTIMATOR_SETTINGS, time_s, settings)?;
+        self.settings = Some(Repeated {
+            settings: settings.clone(),
+            next_s: time_s + SETTINGS_REPEAT_S,
+            since_copy: false,
+        });
+        Ok(())
+    }
+
+    /// The measurement under way ended: its settings are written once more, at the latest log
+    /// time, when a frame came since their last copy, and no longer repeated.
+    pub fn end_settings(&mut self) -> Result<()> {
+        match self.settings.take() {
+            Some(r) if r.since_copy => self.write_now(topics::ESTIMATOR_SETTINGS, &r.settings),
+            _ => Ok(()),
+        }
+    }
+
     /// Writes `message` on `topic` at the latest log time (for run-level records).
     pub fn write_now<T: Serialize>(&mut self, topic: &str, message: &T) -> Result<()> {
         let ns = self.last_ns;
@@ -252,9 +315,13 @@ impl RunLog {
         self.log.flush()
     }
 
-    /// Writes the blocks being filled, then the summary and footer.
+    /// Writes the settings' last copy ([`Self::end_settings`]) and the blocks being filled,
+    /// then the summary and footer.
     pub fn finish(&mut self) -> Result<()> {
-        let blocks = self.flush_sensors().and(self.flush_commands());
+        let settings = self.end_settings();
+        let blocks = settings
+            .and(self.flush_sensors())
+            .and(self.flush_commands());
         let finished = self.log.finish();
         blocks.and(finished)
     }

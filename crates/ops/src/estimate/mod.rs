@@ -15,6 +15,7 @@
 //! [`save_tare`] writes the tare of the log's tare run; a log with a tare run only (as
 //! `stewart import` writes from a tare-only table) gives that file and no report.
 
+pub mod order;
 pub mod stream;
 
 use rig_description::calibration::CalibrationDocument;
@@ -191,6 +192,8 @@ pub struct RunEstimate {
     pub run: String,
     /// The replay.
     pub replay: ReplayOutcome,
+    /// What the order of its frames showed: spans put back in order, dropped or missing.
+    pub order: order::SequenceReport,
 }
 
 /// The rig description a log's measurement is re-estimated with: `rig` when given, else the
@@ -409,6 +412,7 @@ fn run_estimate(
     Ok(RunEstimate {
         run: run.to_string(),
         replay,
+        order: order::SequenceReport::default(),
     })
 }
 
@@ -422,10 +426,19 @@ pub fn reestimate_run(
     log.require_channel(topics::SENSORS, "the sensor frames the estimator reads")?;
     let (config, fk) = settings_for(log, rig, run, o)?;
     let mut r = start_replay(config, fk, rig)?;
-    for frame in log.sensors_of(run) {
-        r.push(&frame.to_frame());
+    // In sequence order as `estimate` streams them ([`order`]); the replay's own reordering
+    // then finds nothing to do.
+    let (frames, order) = order::sequenced(run, log.sensors_of(run).map(|f| f.to_frame()));
+    for frame in &frames {
+        r.push(frame);
     }
-    finish_replay(r, run)
+    let mut e = finish_replay(r, run)?;
+    e.replay.reordered = measure::reorder::ReorderCounts {
+        late: order.counts.late,
+        duplicates: order.counts.duplicates,
+    };
+    e.order = order;
+    Ok(e)
 }
 
 /// Where the subtracted tare came from.
@@ -510,6 +523,15 @@ pub fn build_report(
     });
     report.data.frames_late = r.reordered.late;
     report.data.frames_duplicate = r.reordered.duplicates;
+    // The tare's spans too: its estimate is subtracted.
+    let measured_tare = match tare_origin {
+        TareOrigin::Measured(t) => Some(&t.order),
+        TareOrigin::File(_) => None,
+    };
+    for o in measured_tare.into_iter().chain([&loaded.order]) {
+        report.data.reordered.extend(o.reordered.iter().cloned());
+        report.data.missing.extend(o.missing.iter().cloned());
+    }
     report.data.truncated = log.damage.truncated.clone();
     report.data.damaged = log.damage.lost_spans();
     Ok(report)
@@ -675,6 +697,66 @@ pub struct EstimateOutcome {
     pub quality: Result<(), measure::quality::QualityError>,
     /// The rig description of [`EstimateOptions::rig`], when given.
     pub rig: Option<LoadedConfig>,
+}
+
+impl EstimateOutcome {
+    /// Warnings for the terminal, one a line, each naming the log at `path`: what its damage
+    /// took ([`Damage::warnings`]), the spans of frames put back in order, dropped or missing,
+    /// and the records read from another copy (none for a clean log).
+    pub fn warnings(&self, path: &Path) -> Vec<String> {
+        let mut w = self.damage.warnings(path);
+        let data = &self.report.data;
+        for span in data.reordered.iter().chain(&data.missing) {
+            w.push(format!("{}: {}", path.display(), describe_span(span)));
+        }
+        let measured_tare = match &self.tare_origin {
+            TareOrigin::Measured(t) => t.order.unnamed,
+            TareOrigin::File(_) => 0,
+        };
+        let unnamed = self.loaded.order.unnamed + measured_tare;
+        if unnamed > 0 {
+            w.push(format!(
+                "{}: {unnamed} more spans of frames out of order, duplicated or missing are \
+                 counted only (data.frames_duplicate, data.frames_late, data.frames_lost)",
+                path.display()
+            ));
+        }
+        for r in &data.recovered {
+            w.push(format!("{}: {r}", path.display()));
+        }
+        w
+    }
+}
+
+/// A span of frames and what was done with it, in words.
+pub fn describe_span(span: &measure::report::FrameSpan) -> String {
+    let what = format!(
+        "frames {} to {} of the {} measurement ({} frames, {:.3} to {:.3} s)",
+        span.first_sequence,
+        span.last_sequence,
+        span.run,
+        span.frames,
+        span.from_time_s,
+        span.to_time_s
+    );
+    match span.action.as_str() {
+        order::PUT_BACK => {
+            format!("{what} came out of order, after later frames: put back in sequence order")
+        }
+        order::DUPLICATES => {
+            format!("{what} came again with the same readings: dropped as duplicates")
+        }
+        order::LATE => format!(
+            "{what} came after later frames had been used, too late to put back in order: \
+             dropped"
+        ),
+        order::MISSING => format!(
+            "{what} are missing: no frame of the log holds them (lost with a damaged or \
+             removed part of the log, or never written); the estimate bridges or restarts \
+             across the gap"
+        ),
+        other => format!("{what}: {other}"),
+    }
 }
 
 /// The settings' refusals that need no log ([`SettingsOverride::problems`]).

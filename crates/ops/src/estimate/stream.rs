@@ -5,10 +5,20 @@
 //!
 //! A measurement's frames before its `/run/estimator` message (written when its excitation
 //! starts) wait in a bounded queue, [`WAITING_FRAMES`]; the replay starts on that message with
-//! them. The result is the one [`super::reestimate`] gives on the same log read whole.
+//! them. Each measurement's frames are put back in sequence order, duplicates dropped, and
+//! the spans out of place or missing named ([`super::order`]). The settings are repeated while
+//! a measurement runs and at its end (`RunLog::write_settings`): when the first copy was lost
+//! the replay starts on a later one with the frames held, and the report says so
+//! (`data.recovered`).
+//!
+//! A log that holds two runs written into one file is refused ([`TwoRuns`]): two different
+//! `/run/metadata` or `/run/estimator` records of one measurement, or frames of one
+//! measurement that carry one sequence number with different readings.
+//!
+//! The result is the one [`super::reestimate`] gives on the same log read whole.
 
 use std::collections::VecDeque;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use anyhow::{anyhow, bail, Context, Result};
 use control::io::SensorFrame;
@@ -16,6 +26,7 @@ use measure::replay::{Replay, ReplayError, ReplayOutcome};
 use measure::{Report, TareFile};
 use rig_description::LoadedConfig;
 
+use super::order::{SequenceReport, Sequencer};
 use super::{
     build_report, logged_tare, measured_tare, no_settings, rig_description_of, run_estimate,
     settings_of, start_replay, tare_file, LogFacts, RunEstimate, SettingsOverride, TareOrigin,
@@ -28,6 +39,30 @@ use runlog::read::{decode, no_metadata, visit, Channels, Damage, Message, Visito
 /// Frames of a measurement held while its estimator settings have not been read: two minutes
 /// at 1 kHz (about 20 MB). Beyond, the oldest are dropped (they only warm the conditioning).
 pub const WAITING_FRAMES: usize = 120_000;
+
+/// A log that holds two runs written into one file (two processes logging to one path): its
+/// frames mix two measurements, so it is refused rather than estimated.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "{} holds two runs written into one file ({evidence}): neither run's record is whole, so \
+     it is not estimated; estimate each run from a log of its own, or measure again",
+    path.display()
+)]
+pub struct TwoRuns {
+    /// The log.
+    pub path: PathBuf,
+    /// What shows it.
+    pub evidence: String,
+}
+
+/// Whether `e` is, or was caused by, [`TwoRuns`].
+pub fn is_two_runs(e: &anyhow::Error) -> bool {
+    e.chain().any(|cause| cause.is::<TwoRuns>())
+}
+
+/// A copy of the settings read this much backend time after the excitation's start, or later,
+/// is not the first one (written at the start): the first was lost, s.
+const FIRST_COPY_WITHIN_S: f64 = 0.5;
 
 enum RunState {
     /// Frames waiting for the settings.
@@ -60,19 +95,51 @@ type Finished = std::result::Result<ReplayOutcome, ReplayError>;
 /// finishes the replay, error budget included, while the next measurement is read.
 struct Worker {
     /// The frames as they came, put back in sequence order before the feed
-    /// ([`measure::reorder`], as [`Replay::push`] does).
-    reorder: measure::reorder::Reorder,
-    feed: measure::feed::Feed,
-    batch: Vec<Fed>,
+    /// ([`super::order`]).
+    order: Sequencer,
+    sink: Sink,
     frames: u64,
     /// Frames that came after the input was closed.
     late: u64,
-    queue: Option<std::sync::mpsc::SyncSender<Vec<Fed>>>,
     thread: std::thread::JoinHandle<Finished>,
 }
 
+/// The frames in sequence order, posed and batched for the replay's thread.
+struct Sink {
+    feed: measure::feed::Feed,
+    batch: Vec<Fed>,
+    queue: Option<std::sync::mpsc::SyncSender<Vec<Fed>>>,
+}
+
+impl Sink {
+    fn push(&mut self, frame: &SensorFrame) {
+        let sample = self.feed.next(frame);
+        self.batch.push((frame.time_s, sample));
+        if self.batch.len() >= BATCH_FRAMES {
+            self.send();
+        }
+    }
+
+    fn send(&mut self) {
+        let batch = std::mem::replace(&mut self.batch, Vec::with_capacity(BATCH_FRAMES));
+        if let Some(q) = &self.queue {
+            // A send fails only when the thread died; `finish` reports it.
+            let _ = q.send(batch);
+        }
+    }
+}
+
+/// A measurement's replay finished, with what its frames' order showed.
+struct Replayed {
+    finished: Finished,
+    order: SequenceReport,
+    /// Frames in all, and those that came after the next measurement's began.
+    frames: u64,
+    late: u64,
+}
+
 impl Worker {
-    fn start(mut replay: Replay) -> Result<Self> {
+    fn start(mut replay: Replay, run: &str) -> Result<Self> {
         let feed = replay.feed();
         // A bounded queue bounds the memory whichever side is faster.
         let (queue, batches) = std::sync::mpsc::sync_channel::<Vec<Fed>>(QUEUE_BATCHES);
@@ -88,57 +155,45 @@ impl Worker {
             })
             .context("cannot start the replay thread")?;
         Ok(Self {
-            reorder: measure::reorder::Reorder::default(),
-            feed,
-            batch: Vec::with_capacity(BATCH_FRAMES),
+            order: Sequencer::new(run),
+            sink: Sink {
+                feed,
+                batch: Vec::with_capacity(BATCH_FRAMES),
+                queue: Some(queue),
+            },
             frames: 0,
             late: 0,
-            queue: Some(queue),
             thread,
         })
     }
 
     fn push(&mut self, frame: SensorFrame) {
-        if self.queue.is_none() {
+        if self.sink.queue.is_none() {
             self.late += 1;
             return;
         }
         self.frames += 1;
-        let mut reorder = std::mem::take(&mut self.reorder);
-        reorder.push(frame, &mut |f| self.push_in_order(&f));
-        self.reorder = reorder;
-    }
-
-    fn push_in_order(&mut self, frame: &SensorFrame) {
-        let sample = self.feed.next(frame);
-        self.batch.push((frame.time_s, sample));
-        if self.batch.len() >= BATCH_FRAMES {
-            self.send();
-        }
-    }
-
-    fn send(&mut self) {
-        let batch = std::mem::replace(&mut self.batch, Vec::with_capacity(BATCH_FRAMES));
-        if let Some(q) = &self.queue {
-            // A send fails only when the thread died; `finish` reports it.
-            let _ = q.send(batch);
-        }
+        let sink = &mut self.sink;
+        self.order.push(frame, &mut |f| sink.push(&f));
     }
 
     /// No more frames: the thread finishes the replay.
     fn close(&mut self) {
-        if self.queue.is_some() {
-            let mut reorder = std::mem::take(&mut self.reorder);
-            reorder.flush(&mut |f| self.push_in_order(&f));
-            self.reorder = reorder;
-            self.send();
-            self.queue = None;
+        if self.sink.queue.is_some() {
+            let sink = &mut self.sink;
+            self.order.flush(&mut |f| sink.push(&f));
+            self.sink.send();
+            self.sink.queue = None;
         }
     }
 
-    fn finish(mut self) -> Result<Finished> {
+    fn finish(mut self) -> Result<Replayed> {
         self.close();
-        let counts = self.reorder.counts();
+        let order = self.order.report();
+        let counts = measure::reorder::ReorderCounts {
+            late: order.counts.late,
+            duplicates: order.counts.duplicates,
+        };
         let finished = self
             .thread
             .join()
@@ -147,25 +202,28 @@ impl Worker {
                 outcome.reordered = counts;
                 outcome
             });
-        if self.late > 0 {
-            bail!(
-                "{} of its {} frames came after the next measurement's began: the log \
-                 interleaves its measurements, which are read one after another",
-                self.late,
-                self.frames + self.late
-            );
-        }
-        Ok(finished)
+        Ok(Replayed {
+            finished,
+            order,
+            frames: self.frames,
+            late: self.late,
+        })
     }
 }
 
 /// The visitor: the small channels kept, the frames replayed.
 struct Stream<'a> {
+    /// The log.
+    path: &'a Path,
     o: &'a SettingsOverride,
     rig_arg: Option<&'a LoadedConfig>,
     /// The measurements replayed (`tare` only when no tare file is given).
     wanted: Vec<&'static str>,
     meta: Option<RunMetadata>,
+    /// The bytes of the first `/run/metadata` copy read, which every other copy repeats.
+    meta_bytes: Option<Vec<u8>>,
+    /// Records lost and read from another copy, in words.
+    recovered: Vec<String>,
     /// `meta` is the rig description's ([`RunMetadata::of_rig`]): its `runs` are the
     /// measurements whose frames are read.
     meta_of_rig: bool,
@@ -207,7 +265,7 @@ impl Stream<'_> {
             return Ok(());
         };
         if let RunState::Waiting(frames) = state {
-            let mut worker = Worker::start(replay)?;
+            let mut worker = Worker::start(replay, run)?;
             for f in frames.drain(..) {
                 worker.push(f);
             }
@@ -236,6 +294,28 @@ impl Stream<'_> {
             self.meta_of_rig = true;
         }
         Ok(())
+    }
+
+    /// Notes the settings `s` as recovered when frames of its measurement from well after its
+    /// excitation's start were read before them: the copy written at that start was lost.
+    fn first_settings(&mut self, s: &EstimatorSettings) {
+        let Some(start_s) = s.window_start_s else {
+            return;
+        };
+        let run = s.run.clone();
+        let latest = match self.state(&run) {
+            Some(RunState::Waiting(q)) => q.back().map(|f| f.time_s),
+            _ => None,
+        };
+        if let Some(latest_s) = latest.filter(|t| *t >= start_s + FIRST_COPY_WITHIN_S) {
+            self.recovered.push(format!(
+                "the {run} measurement's estimator settings ({}, written as its excitation \
+                 started at {start_s:.3} s) were lost with a damaged part of the log; they were \
+                 read from a copy repeated later, after its frames up to {latest_s:.3} s, which \
+                 waited for them",
+                topics::ESTIMATOR_SETTINGS
+            ));
+        }
     }
 
     /// A `/sensors` block, decoded into a reused message.
@@ -299,23 +379,57 @@ impl Visitor for Stream<'_> {
         match topic {
             topics::SENSORS => return self.sensor(m),
             // The first copy that decodes (a log holds two, see `RunLog::write_metadata`).
-            topics::METADATA if self.meta.is_none() => {
+            topics::METADATA => {
                 let meta: RunMetadata = match decode(data) {
                     Ok(v) => v,
                     Err(e) => return Ok(Some(e)),
                 };
-                self.adopt(meta)?;
+                match &self.meta_bytes {
+                    None if self.meta.is_none() => {
+                        self.meta_bytes = Some(data.to_vec());
+                        self.adopt(meta)?;
+                    }
+                    Some(first) if first[..] != *data => {
+                        let started = self.meta.as_ref().map_or(0, |m| m.start_unix_ns);
+                        return Err(TwoRuns {
+                            path: self.path.to_path_buf(),
+                            evidence: format!(
+                                "two different {} records, of runs started at Unix time {} \
+                                 and {} ns",
+                                topics::METADATA,
+                                started,
+                                meta.start_unix_ns
+                            ),
+                        }
+                        .into());
+                    }
+                    _ => {}
+                }
             }
             topics::ESTIMATOR_SETTINGS => {
                 let s: EstimatorSettings = match decode(data) {
                     Ok(v) => v,
                     Err(e) => return Ok(Some(e)),
                 };
-                let first = !self.settings.iter().any(|k| k.run == s.run);
-                let run = s.run.clone();
-                self.settings.push(s);
-                if first {
-                    self.start(&run)?;
+                match self.settings.iter().find(|k| k.run == s.run) {
+                    Some(known) if *known != s => {
+                        return Err(TwoRuns {
+                            path: self.path.to_path_buf(),
+                            evidence: format!(
+                                "two different {} records of the {} measurement",
+                                topics::ESTIMATOR_SETTINGS,
+                                s.run
+                            ),
+                        }
+                        .into());
+                    }
+                    Some(_) => {}
+                    None => {
+                        self.first_settings(&s);
+                        let run = s.run.clone();
+                        self.settings.push(s);
+                        self.start(&run)?;
+                    }
                 }
             }
             topics::TARE => match decode(data) {
@@ -374,7 +488,7 @@ pub fn reestimate_file(
     } else {
         vec!["tare", "loaded"]
     };
-    let mut s = Stream::new(o, rig, wanted);
+    let mut s = Stream::new(path, o, rig, wanted);
     let (channels, damage) = stream_file(path, &mut s)?;
     let outcome = finish_stream(&mut s, &channels, &damage, path, tare_path);
     let (report, loaded, tare, origin) = said_damaged(outcome, &damage, path)?;
@@ -406,8 +520,9 @@ fn said_damaged<T>(outcome: Result<T>, damage: &Damage, path: &Path) -> Result<T
 fn stream_file(path: &Path, s: &mut Stream<'_>) -> Result<(Channels, Damage)> {
     let file = runlog::read::open_log(path)?;
     visit(std::io::BufReader::with_capacity(1 << 16, file), s).map_err(|e| {
-        // A flag the log's measurement cannot take is the flag's fault, not the log's.
-        if super::is_flag_refusal(&e) {
+        // A flag the log's measurement cannot take is the flag's fault, not the log's; a log
+        // of two runs is readable, and refused for what it holds.
+        if super::is_flag_refusal(&e) || is_two_runs(&e) {
             e
         } else {
             e.context(format!("{} is not a readable MCAP log", path.display()))
@@ -437,7 +552,7 @@ pub fn tare_of_file(
     o: &SettingsOverride,
     rig: Option<&LoadedConfig>,
 ) -> Result<StreamedTare> {
-    let mut s = Stream::new(o, rig, vec!["tare"]);
+    let mut s = Stream::new(path, o, rig, vec!["tare"]);
     let (_, damage) = stream_file(path, &mut s)?;
     let outcome = (|| {
         let meta = s.meta.as_ref().ok_or_else(no_metadata)?;
@@ -451,7 +566,8 @@ pub fn tare_of_file(
                 topics::ESTIMATOR_SETTINGS
             ),
         };
-        let run = run_estimate(worker.finish()?, "tare").context("re-estimating the tare run")?;
+        let run =
+            estimated(worker.finish()?, "tare", path).context("re-estimating the tare run")?;
         Ok(StreamedTare {
             tare: super::saved_tare(&run, meta, rig),
             run,
@@ -464,15 +580,19 @@ pub fn tare_of_file(
 
 impl<'a> Stream<'a> {
     fn new(
+        path: &'a Path,
         o: &'a SettingsOverride,
         rig: Option<&'a LoadedConfig>,
         wanted: Vec<&'static str>,
     ) -> Self {
         Self {
+            path,
             o,
             rig_arg: rig,
             wanted,
             meta: None,
+            meta_bytes: None,
+            recovered: Vec::new(),
             meta_of_rig: false,
             rig: None,
             settings: Vec::new(),
@@ -484,6 +604,34 @@ impl<'a> Stream<'a> {
             current: None,
         }
     }
+}
+
+/// The estimate of measurement `run` from its finished replay, with what its frames' order
+/// showed; refused as [`TwoRuns`] when frames of one sequence number differ.
+fn estimated(r: Replayed, run: &str, path: &Path) -> Result<RunEstimate> {
+    let c = r.order.counts;
+    if let (true, Some(first)) = (c.conflicts > 0, c.first_conflict) {
+        return Err(TwoRuns {
+            path: path.to_path_buf(),
+            evidence: format!(
+                "{} frames of the {run} measurement carry a sequence number already read with \
+                 other readings, the first {first}",
+                c.conflicts
+            ),
+        }
+        .into());
+    }
+    if r.late > 0 {
+        bail!(
+            "{} of its {} frames came after the next measurement's began: the log \
+             interleaves its measurements, which are read one after another",
+            r.late,
+            r.frames + r.late
+        );
+    }
+    let mut e = run_estimate(r.finished, run)?;
+    e.order = r.order;
+    Ok(e)
 }
 
 /// The tare and loaded replays finished and the report built, once the log is read.
@@ -519,14 +667,22 @@ fn finish_stream(
     } else {
         match tare_state {
             Some(RunState::Running(w)) if w.frames > 0 => {
-                let r = run_estimate(w.finish()?, "tare").context("re-estimating the tare run")?;
+                let r =
+                    estimated(w.finish()?, "tare", path).context("re-estimating the tare run")?;
                 measured_tare(r, meta)
             }
             _ => logged_tare(s.tare.as_ref(), meta)?,
         }
     };
     let loaded = match loaded_state {
-        Some(RunState::Running(w)) => w.finish().and_then(|r| run_estimate(r, "loaded")),
+        Some(RunState::Running(w)) => w.finish().and_then(|r| estimated(r, "loaded", path)),
+        _ if s.settings.iter().all(|k| k.run != "loaded") && !damage.damaged.is_empty() => {
+            Err(anyhow!(
+                "the log has no readable {} message for the loaded measurement: every copy was \
+                 lost with the damaged parts of the log, or its excitation never started",
+                topics::ESTIMATOR_SETTINGS
+            ))
+        }
         _ if s.settings.iter().all(|k| k.run != "loaded") => Err(no_settings("loaded")),
         _ => Err(anyhow!(
             "the log has no {} frames of the loaded measurement from its excitation on",
@@ -540,6 +696,7 @@ fn finish_stream(
         path,
         damage,
     };
-    let report = build_report(&facts, rig, &loaded, &tare, &origin)?;
+    let mut report = build_report(&facts, rig, &loaded, &tare, &origin)?;
+    report.data.recovered = s.recovered.clone();
     Ok((report, loaded, tare, origin))
 }

@@ -294,7 +294,7 @@ pub fn import(plan: &ImportPlan<'_>) -> Result<Imported> {
                     c.sample_period_s,
                 );
                 let settings = EstimatorSettings::from_config(run.name(), &c, &fk);
-                log.write(topics::ESTIMATOR_SETTINGS, time_s, &settings)?;
+                log.write_settings(time_s, &settings)?;
                 *started = true;
             }
         }

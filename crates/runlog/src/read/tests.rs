@@ -360,3 +360,47 @@ fn thousands_of_mutants_open_without_a_panic_and_lose_only_what_is_damaged() {
     );
     assert!(outcomes[1] > 1000 && outcomes[2] > 300, "{outcomes:?}");
 }
+
+/// A measurement's settings are written at its excitation's start, every
+/// `SETTINGS_REPEAT_S` of its frames and at its end, every copy the same: one damaged chunk
+/// cannot take them all.
+#[test]
+fn estimator_settings_are_repeated_while_a_measurement_runs_and_at_its_end() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("settings.mcap");
+    let geometry = kinematics::Geometry::from_radii(
+        1.5,
+        1.2,
+        0.3,
+        0.3,
+        kinematics::StrokeLimits {
+            min_length_m: 1.6,
+            max_length_m: 2.4,
+        },
+    )
+    .unwrap();
+    let c = estimator::EstimatorConfig::new(geometry, 1e-3);
+    let settings = |run: &str| {
+        crate::metadata::EstimatorSettings::from_config(run, &c, &kinematics::FkOptions::default())
+    };
+    let mut log = crate::RunLog::create(&path, 1_000_000_000).unwrap();
+    // 12 s of frames from the excitation's start at 1 s: copies at 1, 6 and 11 s, and the end.
+    for i in 0..13_000u64 {
+        let f = frame(i);
+        if i == 1000 {
+            log.write_settings(f.time_s, &settings("tare")).unwrap();
+        }
+        log.write_sensor("tare", &f).unwrap();
+    }
+    // The next measurement ends the first's copies; its own end is the log's.
+    log.write_settings(13.0, &settings("loaded")).unwrap();
+    for i in 13_000..14_000u64 {
+        log.write_sensor("loaded", &frame(i)).unwrap();
+    }
+    log.finish().unwrap();
+    let read = LogContents::read(&path).unwrap();
+    let copies = |run: &str| read.settings.iter().filter(|s| s.run == run).count();
+    assert_eq!(copies("tare"), 4);
+    assert_eq!(copies("loaded"), 2);
+    assert!(read.settings.iter().all(|s| *s == settings(&s.run)));
+}
