@@ -60,10 +60,25 @@ pub fn render(input: &Input, cx: &Context<'_>) -> String {
          <meta http-equiv=\"Content-Security-Policy\" content=\"default-src 'none'; \
          style-src 'unsafe-inline'\">\n\
          <meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">\n\
-         <title>Inertia measurement: certificate of the payload's inertial parameters</title>\n<style>\n",
+         <title>",
     );
+    s.push_str(if r.run.backend == "sim" {
+        "Simulated inertia measurement (not a certificate)"
+    } else {
+        "Inertia measurement: certificate of the payload's inertial parameters"
+    });
+    s.push_str("</title>\n<style>\n");
     s.push_str(STYLE);
-    s.push_str("</style>\n</head>\n<body>\n<main>\n");
+    s.push_str("</style>\n</head>\n<body>\n");
+    if r.run.backend == "sim" {
+        // Fixed, so a printer repeats it on every page: no page of a simulation passes for a
+        // measurement.
+        s.push_str(
+            "<div class=\"simulated\">SIMULATED: computed by stewart simulate, not measured on \
+             a payload</div>\n",
+        );
+    }
+    s.push_str("<main>\n");
     header(&mut s, input, cx);
     results(&mut s, r);
     principal(&mut s, r, cx);
@@ -84,11 +99,21 @@ fn kv(s: &mut String, key: &str, value: &str) {
 
 fn header(s: &mut String, input: &Input, cx: &Context<'_>) {
     let r = &input.report;
-    s.push_str(
-        "<header><h1>Certificate of measurement</h1><p class=\"sub\">Inertial parameters of a \
-         payload measured on a six-legged (Stewart) platform: mass, centre of mass and inertia \
-         tensor about the centre of mass</p><table class=\"ident\">",
-    );
+    s.push_str(if r.run.backend == "sim" {
+        "<header><h1>Simulated measurement: not a certificate</h1><p class=\"sub\">Inertial \
+             parameters of a simulated payload on a simulated six-legged (Stewart) platform: \
+             mass, centre of mass and inertia tensor about the centre of mass</p><table \
+             class=\"ident\">"
+    } else {
+        "<header><h1>Certificate of measurement</h1><p class=\"sub\">Inertial parameters of \
+             a payload measured on a six-legged (Stewart) platform: mass, centre of mass and \
+             inertia tensor about the centre of mass</p><table class=\"ident\">"
+    });
+    match (r.run.started_unix_s, r.run.ended_unix_s) {
+        (Some(a), Some(b)) => kv(s, "measured", &format!("{} to {}", utc(a), utc(b))),
+        (Some(a), None) => kv(s, "measured", &format!("from {}", utc(a))),
+        _ => kv(s, "measured", "time not recorded in the report"),
+    }
     if let Some(t) = cx.issued_unix_s {
         kv(s, "issued", &utc(t));
     }

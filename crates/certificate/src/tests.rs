@@ -182,3 +182,45 @@ fn the_six_parameter_models_given_quantities_are_marked_given() {
     let ten = render(&parse(&report().to_json()).unwrap(), &context());
     assert_eq!(ten.matches(">given</td>").count(), 0);
 }
+
+#[test]
+fn a_simulated_run_is_titled_and_marked_as_a_simulation() {
+    let html = render(&parse(&report().to_json()).unwrap(), &context());
+    assert!(html.contains("<h1>Simulated measurement: not a certificate</h1>"));
+    assert!(
+        html.contains("class=\"simulated\""),
+        "the mark every printed page repeats"
+    );
+    assert!(html.contains("<title>Simulated inertia measurement"));
+    assert!(!html.contains("Certificate of measurement"));
+    let mut rig = report();
+    rig.run.backend = "rig".into();
+    let html = render(&parse(&rig.to_json()).unwrap(), &context());
+    assert!(html.contains("<h1>Certificate of measurement</h1>"));
+    assert!(!html.contains("class=\"simulated\""));
+}
+
+#[test]
+fn the_measurement_time_is_the_reports_not_the_pages() {
+    let mut r = report();
+    // 2025-03-14 09:26:53 to 09:29:10 UTC; the page issued a year later.
+    r.run.started_unix_s = Some(1_741_944_413);
+    r.run.ended_unix_s = Some(1_741_944_550);
+    let cx = Context {
+        issued_unix_s: Some(1_773_480_413),
+        ..context()
+    };
+    let html = render(&parse(&r.to_json()).unwrap(), &cx);
+    assert!(
+        html.contains("<th>measured</th><td>2025-03-14 09:26 UTC to 2025-03-14 09:29 UTC</td>"),
+        "measured time from the report"
+    );
+    assert!(
+        html.contains("<th>issued</th><td>2026-03-14"),
+        "issued is the page's"
+    );
+    r.run.started_unix_s = None;
+    r.run.ended_unix_s = None;
+    let html = render(&parse(&r.to_json()).unwrap(), &context());
+    assert!(html.contains("time not recorded in the report"));
+}

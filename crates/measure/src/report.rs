@@ -116,6 +116,14 @@ pub struct RunInfo {
     /// recorded).
     #[serde(default)]
     pub tool: String,
+    /// When the measurement began, Unix seconds (UTC): the log's start (`null` when not
+    /// recorded).
+    #[serde(default)]
+    pub started_unix_s: Option<u64>,
+    /// When its last run ended, Unix seconds (UTC; `null` when not recorded, as in a
+    /// re-estimate from a log).
+    #[serde(default)]
+    pub ended_unix_s: Option<u64>,
     /// The calibrations the measurement applied, with their dates.
     #[serde(default)]
     pub calibrations: Vec<rig_description::calibration::AppliedCalibration>,

@@ -512,6 +512,11 @@ pub(crate) fn run<S: Station>(
                 log: Some(log_path.display().to_string()),
                 backend: spec.backend.into(),
                 tool: rig_description::calibration::tool(),
+                started_unix_s: Some(start_ns / 1_000_000_000),
+                ended_unix_s: std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .ok()
+                    .map(|d| d.as_secs()),
                 calibrations: config.calibration.applied(),
             },
             spec.truth,

@@ -517,6 +517,9 @@ pub fn build_report(
             log: Some(log.path.display().to_string()),
             backend: meta.backend.clone(),
             tool: rig_description::calibration::tool(),
+            started_unix_s: (meta.start_unix_ns > 0).then_some(meta.start_unix_ns / 1_000_000_000),
+            // The log does not say when the run's session closed; the start is its stamp.
+            ended_unix_s: None,
             calibrations: rig.config.calibration.applied(),
         },
         loaded_weighing: r.static_weighing.as_ref(),
