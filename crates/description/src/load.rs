@@ -147,6 +147,28 @@ impl LoadedConfig {
             .unwrap_or_default()
     }
 
+    /// Whether the user's file itself sets the dotted `key` (e.g. `calibration.measure_imu`),
+    /// rather than inheriting it from the embedded default: a note about a key is for the
+    /// user who wrote it.
+    pub fn file_sets(&self, key: &str) -> bool {
+        if self.source == DEFAULT_CONFIG_NAME {
+            return false;
+        }
+        let Ok(table) = self.text.parse::<toml::Table>() else {
+            return false;
+        };
+        let mut parts = key.split('.').peekable();
+        let mut here = &table;
+        while let Some(part) = parts.next() {
+            match (here.get(part), parts.peek()) {
+                (Some(_), None) => return true,
+                (Some(toml::Value::Table(inner)), Some(_)) => here = inner,
+                _ => return false,
+            }
+        }
+        false
+    }
+
     /// The effective rig description (default merged with the file) as TOML, for logs.
     pub fn effective_toml(&self) -> String {
         toml::to_string(&self.config).unwrap_or_default()
@@ -727,6 +749,15 @@ mod tests {
         let loaded = load(None).expect("default config must be valid");
         assert_eq!(loaded.source, DEFAULT_CONFIG_NAME);
         assert!(loaded.config.sensors.sample_rate_hz > 0.0);
+    }
+
+    #[test]
+    fn file_sets_tells_the_users_keys_from_the_defaults() {
+        let loaded = load_str("[calibration]\nmeasure_imu = true\n", "x.toml").unwrap();
+        assert!(loaded.file_sets("calibration.measure_imu"));
+        assert!(!loaded.file_sets("calibration.measure_load_cells"));
+        assert!(!loaded.file_sets("platform.base_radius_m"));
+        assert!(!load(None).unwrap().file_sets("calibration.measure_imu"));
     }
 
     #[test]

@@ -190,14 +190,19 @@ fn prepare(
         loaded.config.calibration.imu_file = None;
     } else if calibrating_cells {
         crate::calibration::prepare_reference_runs(loaded)?;
-    } else if loaded.config.calibration.calibrates_imu_each_run() {
+    } else if loaded.config.calibration.calibrates_imu_each_run()
+        && loaded.file_sets("calibration.measure_imu")
+    {
         operator.tell(Message::Note(
             "calibration.measure_imu calibrates the IMU in `stewart simulate` only; on a rig, \
              run `stewart rig calibrate-imu --out FILE` once and set calibration.imu = \"FILE\" \
              (the budget counts the IMU's datasheet figures until then)",
         ));
     }
-    if !calibrating_cells && loaded.config.calibration.calibrates_load_cells_each_run() {
+    if !calibrating_cells
+        && loaded.config.calibration.calibrates_load_cells_each_run()
+        && loaded.file_sets("calibration.measure_load_cells")
+    {
         operator.tell(Message::Note(
             "calibration.measure_load_cells calibrates the load cells in `stewart simulate` \
              only; on a rig, run `stewart rig calibrate-load-cells --out FILE` with the \
