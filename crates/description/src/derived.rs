@@ -33,19 +33,28 @@ pub fn geometry(loaded: &LoadedConfig) -> Result<Geometry, ConfigError> {
 
 fn geometry_issue(loaded: &LoadedConfig, e: &KinematicsError) -> ConfigIssue {
     let (key, problem) = match e {
-        KinematicsError::ArchitecturallySingular { inverse_condition } => (
-            "platform",
-            format!(
-                "the design is singular at its home pose (inverse condition number {inverse_condition:.2e}): \
-                 the plate could move with no (or too little) change of leg length. The plate's \
-                 joints must be turned against the base's (each leg reaching to a neighbouring \
-                 pair): in the radii form change platform.base_pair_separation_deg / \
-                 platform.plate_pair_separation_deg (equal joint angles on both circles, e.g. \
-                 separations adding up to 120°, are singular); and the plate's joints must not \
-                 huddle near its centre against the base's (or the reverse): rotations would \
-                 barely change the leg lengths"
-            ),
-        ),
+        KinematicsError::ArchitecturallySingular { inverse_condition } => {
+            let fix = if loaded.config.platform.base_joints_m.is_some() {
+                "The plate's joints must be turned against the base's (each leg reaching to a \
+                 neighbouring pair, not straight up), and neither body's joints may huddle near \
+                 its centre against the other's: check platform.base_joints_m and \
+                 platform.plate_joints_m"
+            } else {
+                "The plate's joint pairs must be turned against the base's: change \
+                 platform.base_pair_separation_deg / platform.plate_pair_separation_deg (equal \
+                 joint angles on both circles, e.g. separations adding up to 120°, are singular); \
+                 and platform.plate_radius_m must not be tiny against platform.base_radius_m (or \
+                 the reverse): rotations would barely change the leg lengths"
+            };
+            (
+                "platform",
+                format!(
+                    "the design is singular at its home pose (inverse condition number \
+                     {inverse_condition:.2e}): the plate could move with no (or too little) \
+                     change of leg length. {fix}"
+                ),
+            )
+        }
         KinematicsError::HomeUnreachable => (
             "platform.min_leg_length_m",
             "no level home pose has the mid-stroke mean leg length: the stroke is too short for \
