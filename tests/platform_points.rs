@@ -10,21 +10,15 @@ use support::{simulate_with, SHORT};
 fn points_toml(shift: impl Fn(usize, bool) -> [f64; 3]) -> String {
     let loaded = rig_description::load::load(None).unwrap();
     let g = rig_description::derived::geometry(&loaded).unwrap();
-    let list = |points: &[nalgebra::Vector3<f64>; 6], plate: bool| {
-        let rows: Vec<String> = points
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                let d = shift(i, plate);
-                format!("[{:?}, {:?}, {:?}]", p.x + d[0], p.y + d[1], p.z + d[2])
-            })
-            .collect();
-        format!("[{}]", rows.join(", "))
+    let moved = |points: &[nalgebra::Vector3<f64>; 6], plate: bool| -> [[f64; 3]; 6] {
+        std::array::from_fn(|i| {
+            let d = shift(i, plate);
+            [points[i].x + d[0], points[i].y + d[1], points[i].z + d[2]]
+        })
     };
-    format!(
-        "[platform]\nbase_joints_m = {}\nplate_joints_m = {}\n",
-        list(g.base_joints_m(), false),
-        list(g.plate_joints_m(), true)
+    rig_description::derived::points_table(
+        &moved(g.base_joints_m(), false),
+        &moved(g.plate_joints_m(), true),
     )
 }
 

@@ -84,29 +84,42 @@ pub fn accelerometer_position(config: &Config) -> Vector3<f64> {
     )
 }
 
+/// A `[platform]` table giving the joints as points (`base_joints_m`, `plate_joints_m`) in
+/// leg order, each coordinate at full precision so it reads back bit for bit: a rig
+/// description's radii form written out as the template a survey fills in (docs/rig.md).
+pub fn points_table(base_m: &[[f64; 3]; 6], plate_m: &[[f64; 3]; 6]) -> String {
+    let list = |points: &[[f64; 3]; 6]| {
+        let rows: Vec<String> = points
+            .iter()
+            .map(|p| format!("[{:?}, {:?}, {:?}]", p[0], p[1], p[2]))
+            .collect();
+        format!("[{}]", rows.join(", "))
+    };
+    format!(
+        "[platform]\nbase_joints_m = {}\nplate_joints_m = {}\n",
+        list(base_m),
+        list(plate_m)
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::load::{load, load_str};
 
-    /// The default rig's joints written out as points, at full precision.
+    /// The default rig's joints written out as points, each moved by `shift(leg, plate)`.
     fn default_points_toml(shift: impl Fn(usize, bool) -> [f64; 3]) -> String {
         let g = geometry(&load(None).unwrap()).unwrap();
-        let list = |points: &[Vector3<f64>; 6], plate: bool| {
-            let rows: Vec<String> = points
-                .iter()
-                .enumerate()
-                .map(|(i, p)| {
-                    let d = shift(i, plate);
-                    format!("[{:?}, {:?}, {:?}]", p.x + d[0], p.y + d[1], p.z + d[2])
-                })
-                .collect();
-            format!("[{}]", rows.join(", "))
+        let moved = |points: &[Vector3<f64>; 6], plate: bool| -> [[f64; 3]; 6] {
+            core::array::from_fn(|i| {
+                let d = shift(i, plate);
+                let p = points[i];
+                [p.x + d[0], p.y + d[1], p.z + d[2]]
+            })
         };
-        format!(
-            "[platform]\nbase_joints_m = {}\nplate_joints_m = {}\n",
-            list(g.base_joints_m(), false),
-            list(g.plate_joints_m(), true)
+        points_table(
+            &moved(g.base_joints_m(), false),
+            &moved(g.plate_joints_m(), true),
         )
     }
 
@@ -176,18 +189,8 @@ mod tests {
         // Plate joints straight above the base joints' angles: the paper's singular layout.
         let g = geometry(&load(None).unwrap()).unwrap();
         let plate = g.base_joints_m().map(|b| b * 0.8);
-        let list = |points: &[Vector3<f64>; 6]| {
-            let rows: Vec<String> = points
-                .iter()
-                .map(|p| format!("[{:?}, {:?}, {:?}]", p.x, p.y, p.z))
-                .collect();
-            format!("[{}]", rows.join(", "))
-        };
-        let text = format!(
-            "[platform]\nbase_joints_m = {}\nplate_joints_m = {}\n",
-            list(g.base_joints_m()),
-            list(&plate)
-        );
+        let points = |p: &[Vector3<f64>; 6]| p.map(|v| [v.x, v.y, v.z]);
+        let text = points_table(&points(g.base_joints_m()), &points(&plate));
         let loaded = load_str(&text, "car.toml").unwrap();
         let err = geometry(&loaded).unwrap_err();
         assert!(err.to_string().contains("singular"), "{err}");
