@@ -107,7 +107,7 @@ fn print(args: &EstimateArgs, o: &EstimateOutcome) -> anyhow::Result<()> {
         }
     }
     if let Some(dir) = &args.plot {
-        let f = ops::plot::figures_of_estimate(&args.log, o)?;
+        let f = figures::series::figures_of_estimate(&args.log, o)?;
         let figures = figures::write_figures(dir, &f)?;
         if !args.quiet {
             out(&format!(

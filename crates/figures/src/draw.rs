@@ -11,7 +11,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::{ExcitationSeries, Figures, ParameterSeries, TrackingSeries};
-use ops::plot::{band_quads, estimate_line, finite_range, padded, time_range, value_range};
+use crate::series::{band_quads, estimate_line, finite_range, padded, time_range, value_range};
 
 mod course;
 use course::sigma_course;
@@ -93,7 +93,7 @@ pub fn write_figures(dir: &Path, f: &Figures) -> Result<Vec<PathBuf>> {
             &|a| sigma_course(a, c, &f.parameters),
         )?;
         let csv = dir.join("sigma_course.csv");
-        std::fs::write(&csv, ops::plot::course_csv(c, &f.parameters))
+        std::fs::write(&csv, crate::series::course_csv(c, &f.parameters))
             .with_context(|| format!("cannot write {}", csv.display()))?;
         written.push(csv);
     }

@@ -317,7 +317,7 @@ pub fn figures_from_reestimate(
 /// metadata was lost.
 pub fn figures_of_estimate(
     log_path: &Path,
-    estimate: &crate::estimate::EstimateOutcome,
+    estimate: &ops::estimate::EstimateOutcome,
 ) -> Result<Figures, Error> {
     let mut log = LogContents::read(log_path).map_err(Error::Log)?;
     log.or_metadata_of(estimate.rig.as_ref())

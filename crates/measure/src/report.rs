@@ -181,7 +181,7 @@ pub struct DataLoss {
     pub frames_bridged: u64,
     /// Frames of the loaded run that came after a frame with a higher counter had been used
     /// (more than the reorder window late: `measure::reorder::REORDER_WINDOW` frames in the
-    /// live run, `ops::estimate::order::HOLD_FRAMES` in `stewart estimate`), dropped; frames
+    /// live run, `runlog::read::order::HOLD_FRAMES` in `stewart estimate`), dropped; frames
     /// less late are put back in sequence order.
     #[serde(default)]
     pub frames_late: u64,

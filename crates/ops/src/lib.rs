@@ -16,7 +16,6 @@ pub mod import;
 pub mod key;
 pub mod measurement;
 pub mod plan;
-pub mod plot;
 pub mod report;
 pub mod rig;
 pub mod simulate;

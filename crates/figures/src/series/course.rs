@@ -1,5 +1,5 @@
 //! The payload's predicted sigma over the excitation, beside the sigma the run achieved: what
-//! `stewart plan` predicts for the whole run ([`crate::plan::configured_prediction`]), with the
+//! `stewart plan` predicts for the whole run ([`ops::plan::configured_prediction`]), with the
 //! information accumulated only up to each time t ([`planner::Planner::predict_until`]).
 
 use planner::Planner;
@@ -26,7 +26,7 @@ pub struct PredictedCourse {
 pub fn predicted_course(loaded: &LoadedConfig, points: usize) -> Option<PredictedCourse> {
     let planner = Planner::new(loaded).ok()?;
     let duration_s = loaded.config.run.duration_s;
-    let (trajectory, tare) = crate::plan::configured_trajectories(loaded, &planner, duration_s)?;
+    let (trajectory, tare) = ops::plan::configured_trajectories(loaded, &planner, duration_s)?;
     let n = points.max(1);
     let times: Vec<f64> = (1..=n).map(|k| duration_s * k as f64 / n as f64).collect();
     let course = planner.predicted_course(&trajectory, &tare, &times);
@@ -98,7 +98,7 @@ mod tests {
             })
             .expect("8 s");
         let planner = Planner::new(&loaded).expect("planner");
-        let plan = crate::plan::configured_prediction(&loaded, &planner, 8.0).expect("predicts");
+        let plan = ops::plan::configured_prediction(&loaded, &planner, 8.0).expect("predicts");
         let course = predicted_course(&loaded, 4).expect("course");
         assert_eq!(course.time_s, vec![2.0, 4.0, 6.0, 8.0]);
         let last: [f64; 10] = core::array::from_fn(|k| course.sigma[k][3]);

@@ -15,7 +15,6 @@
 //! [`save_tare`] writes the tare of the log's tare run; a log with a tare run only (as
 //! `stewart import` writes from a tare-only table) gives that file and no report.
 
-pub mod order;
 pub mod stream;
 
 use rig_description::calibration::CalibrationDocument;
@@ -193,7 +192,7 @@ pub struct RunEstimate {
     /// The replay.
     pub replay: ReplayOutcome,
     /// What the order of its frames showed: spans put back in order, dropped or missing.
-    pub order: order::SequenceReport,
+    pub order: runlog::read::order::SequenceReport,
 }
 
 /// The rig description a log's measurement is re-estimated with: `rig` when given, else the
@@ -412,7 +411,7 @@ fn run_estimate(
     Ok(RunEstimate {
         run: run.to_string(),
         replay,
-        order: order::SequenceReport::default(),
+        order: runlog::read::order::SequenceReport::default(),
     })
 }
 
@@ -428,7 +427,8 @@ pub fn reestimate_run(
     let mut r = start_replay(config, fk, rig)?;
     // In sequence order as `estimate` streams them ([`order`]); the replay's own reordering
     // then finds nothing to do.
-    let (frames, order) = order::sequenced(run, log.sensors_of(run).map(|f| f.to_frame()));
+    let (frames, order) =
+        runlog::read::order::sequenced(run, log.sensors_of(run).map(|f| f.to_frame()));
     for frame in &frames {
         r.push(frame);
     }
@@ -743,17 +743,17 @@ pub fn describe_span(span: &measure::report::FrameSpan) -> String {
         span.to_time_s
     );
     match span.action.as_str() {
-        order::PUT_BACK => {
+        runlog::read::order::PUT_BACK => {
             format!("{what} came out of order, after later frames: put back in sequence order")
         }
-        order::DUPLICATES => {
+        runlog::read::order::DUPLICATES => {
             format!("{what} came again with the same readings: dropped as duplicates")
         }
-        order::LATE => format!(
+        runlog::read::order::LATE => format!(
             "{what} came after later frames had been used, too late to put back in order: \
              dropped"
         ),
-        order::MISSING => format!(
+        runlog::read::order::MISSING => format!(
             "{what} are missing: no frame of the log holds them (lost with a damaged or \
              removed part of the log, or never written); the estimate bridges or restarts \
              across the gap"

@@ -26,7 +26,6 @@ use measure::replay::{Replay, ReplayError, ReplayOutcome};
 use measure::{Report, TareFile};
 use rig_description::LoadedConfig;
 
-use super::order::{SequenceReport, Sequencer};
 use super::{
     build_report, logged_tare, measured_tare, no_settings, rig_description_of, run_estimate,
     settings_of, start_replay, tare_file, LogFacts, RunEstimate, SettingsOverride, TareOrigin,
@@ -34,6 +33,7 @@ use super::{
 use runlog::messages as topics;
 use runlog::metadata::{EstimatorSettings, RunMetadata, TruthMsg};
 use runlog::proto;
+use runlog::read::order::{SequenceReport, Sequencer};
 use runlog::read::{decode, no_metadata, visit, Channels, Damage, Message, Visitor};
 
 /// Frames of a measurement held while its estimator settings have not been read: two minutes

@@ -13,6 +13,7 @@
 //! caller that keeps only what it needs, so memory does not grow with the log's length;
 //! [`LogContents::read`] keeps every record of the channels it knows.
 
+pub mod order;
 pub mod records;
 /// The damage-tolerant MCAP reader under this one (crate `mcap-scan`).
 pub use mcap_scan as scan;

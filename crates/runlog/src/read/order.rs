@@ -47,7 +47,7 @@ pub const REMEMBERED: u64 = 1 << 20;
 pub const NAMED_DISPLACEMENT: u64 = measure::reorder::REORDER_WINDOW as u64;
 
 /// A gap of this many frames or more is named as missing: a whole `/sensors` message.
-pub const NAMED_GAP_FRAMES: u64 = runlog::compact::BLOCK_FRAMES as u64;
+pub const NAMED_GAP_FRAMES: u64 = crate::compact::BLOCK_FRAMES as u64;
 
 /// Spans named of each kind; beyond, they are counted ([`SequenceReport::unnamed`]).
 pub const MAX_SPANS: usize = 32;
