@@ -35,6 +35,7 @@
 
 pub mod conditioning;
 pub mod dof;
+pub mod drift;
 mod error;
 mod estimate;
 pub mod filter;
@@ -57,6 +58,7 @@ mod testkit;
 mod tests;
 
 pub use conditioning::{Conditioner, ConditioningConfig};
+pub use drift::LoadCellDrift;
 pub use error::{ErrorKind, EstimatorError};
 pub use estimate::{ConvergenceTolerances, Counts, Estimate, ParameterCovariance};
 pub use hold::AccelerometerOffset;

@@ -2,6 +2,7 @@
 //! sample stream and its configuration (re-running a log reproduces it bit for bit).
 
 use crate::conditioning::{Conditioned, Conditioner, ConditioningConfig, Step, MAX_ABS_SIGNAL};
+use crate::drift::{DriftFit, LoadCellDrift, ZeroDrift};
 use crate::error::EstimatorError;
 use crate::estimate::{Counts, Estimate, ParameterCovariance};
 use crate::gyro_error::{self, GyroError, RateErrorNormals};
@@ -78,6 +79,13 @@ pub struct EstimatorConfig {
     /// sample goes through the conditioning too (36 more filtered channels, about a third of a
     /// microsecond per sample). Off by default.
     pub leg_force_offsets: bool,
+    /// Fit each load cell's zero drift rate over the run as a nuisance of the fit
+    /// ([`crate::drift`]): θ is then that of the measurements with the cells' zeros held at
+    /// their value at the window's start, θ = θ̂ − Q S_r r̂, and its covariance counts r̂'s
+    /// uncertainty. Needs the conditioned leg map, which it turns on as
+    /// [`Self::leg_force_offsets`] does. Samples without a pose
+    /// ([`OnlineEstimator::update_with_wrench`]) carry no drift rows. Off by default.
+    pub load_cell_drift: bool,
     /// Samples per half-block of the covariance estimate's residual windows (each window spans
     /// two, [`crate::window`]); half-blocks must be long compared with the filter's memory
     /// (≈ 1/f_c), and what the windows leave of the gyro's derivative noise falls with their
@@ -124,9 +132,8 @@ impl EstimatorConfig {
             gyro_noise_rad_s: 0.0,
             accel_noise_m_s2: 0.0,
             leg_force_offsets: false,
-            covariance_half_block_samples: Self::default_covariance_half_block_samples(
-                sample_period_s,
-            ),
+            load_cell_drift: false,
+            covariance_half_block_samples: Self::default_covariance_half_block_samples(sample_period_s),
             legs: None,
             local_gravity_m_s2: 0.0,
             hold_end_s: None,
@@ -274,6 +281,11 @@ struct Solver<const N: usize, const R: usize, const NR: usize> {
     /// θ, and over the whole run, taken out of the estimate the residual windows are scored
     /// at (not out of θ: [`crate::gyro_error`]).
     gyro: GyroError<N, R>,
+    /// The load cells' drift sums, when it is fitted ([`EstimatorConfig::load_cell_drift`]).
+    drift: Option<ZeroDrift<N, R>>,
+    /// Q S_r r̂ at the last residual window's close: the drift's share of θ that
+    /// [`Self::theta_quick`] takes out.
+    drift_shift: SVector<f64, N>,
 }
 
 /// Which correction K of the normal equations (A − K) θ = b a solve applies
@@ -320,6 +332,10 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             leg: SMatrix::zeros(),
             correction_applied: None,
             gyro: GyroError::new(config.sample_period_s, config.forgetting_factor),
+            drift: config
+                .load_cell_drift
+                .then(|| ZeroDrift::new(config.forgetting_factor)),
+            drift_shift: SVector::zeros(),
         })
     }
 
@@ -332,9 +348,12 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
     }
 
     /// Weights the rows, updates, and records the residual scores. On a non-finite result the
-    /// solver is left as it was.
+    /// solver is left as it was. `time_s` places the sample on the drift's ramp.
+    // One argument per input of the sample's equations; a struct would only rename them.
+    #[allow(clippy::too_many_arguments)]
     fn update(
         &mut self,
+        time_s: f64,
         rows: &SMatrix<f64, R, N>,
         y: &SVector<f64, R>,
         leg_map: Option<&SMatrix<f64, R, 6>>,
@@ -360,22 +379,67 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
             rate,
             derivative: derivative.as_ref(),
         });
-        if self.score.add_sample(&wrows, &wy, products) {
-            let (theta, p, moment) = self.corrected_with_moment();
-            let scored = self.scored_theta(&moment).unwrap_or(theta);
-            self.score
-                .close_half_block(&scored, &p, &moment, &self.quantities.gradients(&theta));
-            self.correction_applied = Some(moment.iter().any(|v| *v != 0.0));
-        }
-        self.samples = self.samples * self.rls.forgetting() + 1.0;
-        if let Some(l) = leg_map {
+        let wl = leg_map.map(|l| {
             let mut wl = *l;
             for (mut row, s) in wl.row_iter_mut().zip(self.inv_sigma.iter()) {
                 row.scale_mut(*s);
             }
+            wl
+        });
+        let psi = match (&mut self.drift, &wl) {
+            (Some(drift), Some(wl)) => {
+                let psi = drift.rows(time_s, wl);
+                drift.add(&wrows, &wy, &psi);
+                Some(psi)
+            }
+            _ => None,
+        };
+        if self.score.add_sample(&wrows, &wy, products, psi.as_ref()) {
+            let (theta, p, moment) = self.corrected_with_moment();
+            let scored = self.scored_theta(&moment).unwrap_or(theta);
+            let fit = self.drift_fit(&theta, &p);
+            self.score.close_half_block_with_drift(
+                &scored,
+                &p,
+                &moment,
+                &self.quantities.gradients(&theta),
+                fit.as_ref().map(|f| &f.rate_n_s),
+            );
+            self.correction_applied = Some(moment.iter().any(|v| *v != 0.0));
+            self.drift_shift = self.drift_shift_of(fit.as_ref());
+        }
+        self.samples = self.samples * self.rls.forgetting() + 1.0;
+        if let Some(wl) = wl {
             self.leg = self.leg * self.rls.forgetting() + wrows.tr_mul(&wl);
         }
         Ok(())
+    }
+
+    /// The drift rates fitted over the samples so far at the fit's θ̂ and P (without the
+    /// drift, [`crate::drift`]); `None` when the drift is not fitted or not yet determined.
+    fn drift_fit(&self, theta: &SVector<f64, N>, p: &SMatrix<f64, N, N>) -> Option<DriftFit<R>> {
+        let drift = self.drift.as_ref()?;
+        drift.fit(
+            theta,
+            p,
+            &self.score.totals(),
+            &self.gyro.residual_sum(theta),
+        )
+    }
+
+    /// Q S_r r̂, the fitted drift's share of θ ([`Self::gain`]); zero without a fit.
+    fn drift_shift_of(&self, fit: Option<&DriftFit<R>>) -> SVector<f64, N> {
+        match (&self.drift, fit) {
+            (Some(drift), Some(fit)) => {
+                let shift = self.gain() * (drift.sensitivity() * fit.rate_n_s);
+                if shift.iter().all(|v| v.is_finite()) {
+                    shift
+                } else {
+                    SVector::zeros()
+                }
+            }
+            _ => SVector::zeros(),
+        }
     }
 
     /// K of the corrected normal equations (A − K) θ' = b, for `shift` with the noise
@@ -495,8 +559,14 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         }
     }
 
+    /// θ: the corrected fit ([`Self::corrected`]) less the fitted drift's share Q S_r r̂
+    /// when the load cells' drift is fitted ([`crate::drift`]).
     fn theta(&self) -> SVector<f64, N> {
-        self.corrected().0
+        let (theta, p) = self.corrected();
+        if self.drift.is_none() {
+            return theta;
+        }
+        theta - self.drift_shift_of(self.drift_fit(&theta, &p).as_ref())
     }
 
     /// θ' = (𝟙 − P (nC + Δ))⁻¹ θ, when the last half-block's full correction applied (its
@@ -508,12 +578,22 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
     /// products through P's factors, and the sum stops when a term no longer changes it
     /// ([`NEUMANN_TOLERANCE`]). A series that converges slowly (a term more than half the one
     /// before) or not within [`NEUMANN_TERMS`] gives way to one LU solve of the same system.
+    ///
+    /// With the load cells' drift fitted, the drift's share of θ is the one at the last
+    /// window's close (a fit at most one half-block old).
     fn theta_quick(&self) -> SVector<f64, N>
     where
         Const<N>: DimMin<Const<N>, Output = Const<N>>,
     {
+        self.theta_quick_without_drift() - self.drift_shift
+    }
+
+    fn theta_quick_without_drift(&self) -> SVector<f64, N>
+    where
+        Const<N>: DimMin<Const<N>, Output = Const<N>>,
+    {
         if self.correction_applied != Some(true) {
-            return self.theta();
+            return self.corrected().0;
         }
         let theta = *self.rls.theta();
         // K = n C + Δ whether or not Δ is zero yet: the series needs no inverse to skip.
@@ -525,7 +605,7 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
         let mut t = theta;
         match m.lu().solve_mut(&mut t) {
             true if t.iter().all(|v| v.is_finite()) => t,
-            _ => self.theta(),
+            _ => self.corrected().0,
         }
     }
 
@@ -547,23 +627,66 @@ impl<const N: usize, const R: usize, const NR: usize> Solver<N, R, NR> {
     /// second fit.
     fn regressor_perturbation_effect(&self, b: &SMatrix<f64, R, N>) -> SVector<f64, N> {
         let (s, y) = self.score.totals();
-        let theta = self.theta();
+        let theta = self.corrected().0;
         let bw = self.weigh(b);
         self.gain() * (bw.tr_mul(&(y - s.tr_mul(&theta))) - s * (bw * theta))
     }
 
-    /// Covariance of θ, each reported quantity with its own small-sample factor.
+    /// Covariance of θ, each reported quantity with its own small-sample factor. With the
+    /// load cells' drift fitted ([`crate::drift`]): the scores' offset fitted jointly with
+    /// the drift, and the rate's own uncertainty added, D Q S_r G⁻¹ S_rᵀ Q D with
+    /// D = diag √(C_ii / P_ii), C the residuals' covariance: G⁻¹ is the rate's covariance for
+    /// errors of the configured sigmas, and the rates' rows meet the same equation errors,
+    /// which the residuals measure entry by entry.
     fn covariance(&self) -> SMatrix<f64, N, N>
     where
         Const<N>: DimMin<Const<N>, Output = Const<N>>,
     {
         let (theta, p) = self.corrected();
-        self.score.covariance(
-            &theta,
-            &p,
-            &self.quantities.gradients(&theta),
-            &self.gyro.residual_sum(&theta),
-        )
+        let ends = self.gyro.residual_sum(&theta);
+        let fit = self.drift_fit(&theta, &p);
+        let reported = match &fit {
+            Some(f) => theta - self.drift_shift_of(Some(f)),
+            None => theta,
+        };
+        let gradients = self.quantities.gradients(&reported);
+        let drift = fit.as_ref().map(|f| (&f.offset_share, 6));
+        let c = self
+            .score
+            .covariance_with_drift(&theta, &p, &gradients, &ends, drift);
+        let (Some(drift), Some(fit)) = (&self.drift, &fit) else {
+            return c;
+        };
+        let k = self.gain() * drift.sensitivity();
+        let rate = k * fit.covariance * k.transpose();
+        // D = diag √(C_ii / P_ii): the residuals' measure of how far P misstates each entry's
+        // noise, applied to the rate's share as D (Q S_r G⁻¹ S_rᵀ Q) D.
+        let d = c.diagonal().zip_map(&p.diagonal(), |ci, pi| {
+            if ci > 0.0 && pi > 0.0 {
+                libm::sqrt(ci / pi)
+            } else {
+                1.0
+            }
+        });
+        let d = SMatrix::<f64, N, N>::from_diagonal(&d);
+        let total = c + d * rate * d;
+        if total.iter().all(|v| v.is_finite()) {
+            (total + total.transpose()) * 0.5
+        } else {
+            c
+        }
+    }
+
+    /// The load cells' drift fitted over the run ([`crate::drift`]); `None` when not fitted
+    /// or not determined.
+    fn drift(&self) -> Option<LoadCellDrift> {
+        let (theta, p) = self.corrected();
+        let fit = self.drift_fit(&theta, &p)?;
+        Some(LoadCellDrift {
+            rate_n_s: fit.rate_n_s,
+            covariance: fit.covariance,
+            start_s: self.drift.as_ref()?.start_s()?,
+        })
     }
 }
 
@@ -674,20 +797,21 @@ enum Engine {
 
 /// The bound on [`OnlineEstimator`]'s size, bytes, asserted when the crate compiles: a change
 /// that grows the state past it must say so here. 88 KiB: the residual windows' information
-/// ([`crate::dof`], 25 KB) and 59 KB of the rest, 5 KB of it the gyro's measured error kept
-/// apart in the windows and over the run ([`crate::gyro_error::integral`]).
+/// ([`crate::dof`], 25 KB) and 62 KB of the rest, 5 KB of it the gyro's measured error kept
+/// apart in the windows and over the run ([`crate::gyro_error::integral`]), 3.6 KB the load
+/// cells' drift rows over the run and in the windows ([`crate::drift`]).
 pub const ONLINE_ESTIMATOR_MAX_BYTES: usize = 88 * 1024;
 
 const _: () = assert!(core::mem::size_of::<OnlineEstimator>() <= ONLINE_ESTIMATOR_MAX_BYTES);
 
 /// The online estimator. `update` costs a few microseconds and never allocates.
 ///
-/// Its whole state lives inline: 83 728 bytes on x86-64 for the ten-parameter engine (both
+/// Its whole state lives inline: 87 344 bytes on x86-64 for the ten-parameter engine (both
 /// engines share the storage), bounded at compile time by [`ONLINE_ESTIMATOR_MAX_BYTES`]; most
 /// of it the residual windows' information for each quantity's degrees of freedom (25 KB,
 /// [`crate::dof`]), the RLS's U-D factors, the residual scores (with the gyro's measured error
 /// at the windows' slopes, in their estimate and at the stretches' ends, [`crate::gyro_error::ends`],
-/// [`crate::gyro_error::integral`]) and the conditioning's
+/// [`crate::gyro_error::integral`], and the load cells' drift rows, [`crate::drift`]) and the conditioning's
 /// filter states. A firmware gives it a static or a task stack of that size. It is not `Copy`, so that a copy
 /// of that size is always a visible `clone()`.
 #[derive(Clone, Debug, PartialEq)]
@@ -921,9 +1045,7 @@ impl OnlineEstimator {
         }
         // With the leg map at hand the wrench is its product with the forces: one Jacobian
         // per sample, not a second pass over the legs.
-        let map = self
-            .config
-            .leg_force_offsets
+        let map = (self.config.leg_force_offsets || self.config.load_cell_drift)
             .then(|| leg_map(&self.config.geometry, &sample.pose));
         let w = match &map {
             Some(m) => {
@@ -1036,14 +1158,14 @@ impl OnlineEstimator {
             c.wrench.force_n += u.force_n;
             c.wrench.torque_nm += u.torque_nm;
         }
-        if let Err(e) = self.solve(&c) {
+        if let Err(e) = self.solve(time_s, &c) {
             return self.reject(e);
         }
         self.counts.used += 1;
         Ok(Outcome::Used)
     }
 
-    fn solve(&mut self, c: &Conditioned) -> Result<(), EstimatorError> {
+    fn solve(&mut self, time_s: f64, c: &Conditioned) -> Result<(), EstimatorError> {
         let phi = from_signals(&c.signals);
         let y = to_vector(&c.wrench);
         // The regressor's part linear in ω̇ at the gyro's measured error and its change.
@@ -1062,6 +1184,7 @@ impl OnlineEstimator {
                 let psi = rate_error.map(|s| from_signals(&s));
                 let change = rate_change.map(|s| from_signals(&s));
                 solver.update(
+                    time_s,
                     &phi,
                     &y,
                     c.leg_map.as_ref(),
@@ -1077,6 +1200,7 @@ impl OnlineEstimator {
                 let psi = rate_error.map(|s| inertia_columns(&s));
                 let change = rate_change.map(|s| inertia_columns(&s));
                 solver.update(
+                    time_s,
                     &inertia_columns(&c.signals),
                     &yc,
                     lc.as_ref(),
@@ -1184,11 +1308,24 @@ impl OnlineEstimator {
     /// per N): a load cell's zero offset b on leg i moves θ by column i · b. Exact for λ = 1
     /// (θ is linear in the measurements and the offset reaches them through each sample's
     /// leg-force → wrench map, conditioned alike). Zero unless
-    /// [`EstimatorConfig::leg_force_offsets`] is set.
+    /// [`EstimatorConfig::leg_force_offsets`] or [`EstimatorConfig::load_cell_drift`] is set.
+    /// With the drift fitted, the offsets' share in the fitted rates is left out: a constant
+    /// meets the ramp's rows only through their mean, which the joint fit's offsets take.
     pub fn leg_force_offset_sensitivity(&self) -> SMatrix<f64, 10, 6> {
         match &self.engine {
             Engine::Full(s) => s.leg_sensitivity(),
             Engine::Six { solver, .. } => six_in_ten(&solver.leg_sensitivity()),
+        }
+    }
+
+    /// The load cells' zero drift fitted over the run ([`crate::drift`]): the rates, N/s,
+    /// their covariance for errors of the configured equation sigmas, and t₀; `None` unless
+    /// [`EstimatorConfig::load_cell_drift`] is set and the samples determine a rate. The
+    /// paper's six-parameter model (three torque rows) determines three combinations only.
+    pub fn load_cell_drift(&self) -> Option<LoadCellDrift> {
+        match &self.engine {
+            Engine::Full(s) => s.drift(),
+            Engine::Six { solver, .. } => solver.drift(),
         }
     }
 

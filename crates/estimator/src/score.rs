@@ -19,13 +19,15 @@ use crate::window;
 use nalgebra::{Const, DimMin, SMatrix, SVector};
 
 /// A stretch of samples' weighted sums: b = Σ w φ y, A = Σ w φ φᵀ (upper triangle only),
-/// S = Σ w φ (one column per equation), n = Σ w, and the gyro's measured error's
-/// ([`WindowSums`]: E, U and n_u), each aged by λ per sample.
+/// S = Σ w φ (one column per equation), S_r = Σ w φ Ψ (the load cells' drift rows,
+/// [`crate::drift`]), n = Σ w, and the gyro's measured error's ([`WindowSums`]: E, U and
+/// n_u), each aged by λ per sample.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Weighted<const N: usize, const R: usize> {
     b: SVector<f64, N>,
     a: SMatrix<f64, N, N>,
     s: SMatrix<f64, N, R>,
+    sr: SMatrix<f64, N, 6>,
     n: f64,
     gyro: WindowSums<N>,
 }
@@ -36,6 +38,7 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
             b: SVector::zeros(),
             a: SMatrix::zeros(),
             s: SMatrix::zeros(),
+            sr: SMatrix::zeros(),
             n: 0.0,
             gyro: WindowSums::zeros(),
         }
@@ -45,6 +48,7 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
         self.b *= factor;
         self.a *= factor;
         self.s *= factor;
+        self.sr *= factor;
         self.n *= factor;
         self.gyro.age(factor);
     }
@@ -55,6 +59,7 @@ impl<const N: usize, const R: usize> Weighted<N, R> {
             b: self.b * factor + later.b,
             a: self.a * factor + later.a,
             s: self.s * factor + later.s,
+            sr: self.sr * factor + later.sr,
             n: self.n * factor + later.n,
             gyro: self.gyro.aged_plus(factor, &later.gyro),
         }
@@ -166,6 +171,10 @@ pub struct ScoreCovariance<const N: usize, const R: usize, const NR: usize> {
     half_block_s: SMatrix<f64, N, R>,
     /// Σ λ^(age) y over the half-block in progress.
     half_block_y: SVector<f64, R>,
+    /// Σ λ^(age) φ Ψ over the half-block in progress (the drift rows, [`crate::drift`]).
+    half_block_sr: SMatrix<f64, N, 6>,
+    /// Σ λ^(age) φ Ψ over the finished half-blocks.
+    total_sr: SMatrix<f64, N, 6>,
     /// Σ λ^(age) φ over the finished half-blocks.
     total_s: SMatrix<f64, N, R>,
     /// Σ λ^(age) y over the finished half-blocks.
@@ -217,6 +226,8 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             shared: SMatrix::zeros(),
             half_block_s: SMatrix::zeros(),
             half_block_y: SVector::zeros(),
+            half_block_sr: SMatrix::zeros(),
+            total_sr: SMatrix::zeros(),
             total_s: SMatrix::zeros(),
             total_y: SVector::zeros(),
             total_samples: 0.0,
@@ -271,7 +282,7 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     /// sample completes a half-block: the caller then calls [`Self::close_half_block`] with the
     /// fit after this sample (θ and P cost a little to form, so only then).
     pub fn add(&mut self, rows: &SMatrix<f64, R, N>, y: &SVector<f64, R>) -> bool {
-        self.add_sample(rows, y, None)
+        self.add_sample(rows, y, None, None)
     }
 
     /// [`Self::add`] with the sample's gyro-error products, ψ its gyro-error rows (weighted
@@ -280,18 +291,22 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     /// without its slopes' share of the gyro's error, and the gyro's measured share is kept
     /// apart (the type's docs). The caller forms Φᵀψ once for this and for the run's ends
     /// ([`crate::gyro_error::GyroError::add`]), Φᵀψ(ṅ̂) for this and for the run's
-    /// ([`crate::gyro_error::integral::RateIntegral::add`]).
+    /// ([`crate::gyro_error::integral::RateIntegral::add`]). `drift`: the sample's drift rows
+    /// Ψ (weighted alike, [`crate::drift`]) when the load cells' drift is fitted; each
+    /// window's score then leaves out the drift [`Self::close_half_block_with_drift`] is given.
     pub fn add_sample(
         &mut self,
         rows: &SMatrix<f64, R, N>,
         y: &SVector<f64, R>,
         rate_error: Option<RateErrorNormals<'_, N>>,
+        drift: Option<&SMatrix<f64, R, 6>>,
     ) -> bool {
         if self.forgetting < 1.0 {
             self.rising.age(self.forgetting);
             self.falling.age(self.forgetting);
             self.half_block_s *= self.forgetting;
             self.half_block_y *= self.forgetting;
+            self.half_block_sr *= self.forgetting;
         }
         let (rise, fall) = window::weights(self.in_half_block, self.half_block_samples);
         let phi_y = rows.tr_mul(y);
@@ -313,6 +328,12 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         }
         self.half_block_s += phi;
         self.half_block_y += y;
+        if let Some(psi) = drift {
+            let phi_psi = rows.tr_mul(psi);
+            self.rising.sr += phi_psi * rise;
+            self.falling.sr += phi_psi * fall;
+            self.half_block_sr += phi_psi;
+        }
         // A's upper triangle: entry (i, j ≥ i) gains w rᵢ rⱼ (skipped where rᵢ = 0), row by
         // row of the sample, column by contiguous column of A.
         for row in rows.row_iter() {
@@ -363,7 +384,25 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         noise_moment: &SMatrix<f64, N, N>,
         quantities: &SMatrix<f64, N, N>,
     ) {
+        self.close_half_block_with_drift(theta, p, noise_moment, quantities, None);
+    }
+
+    /// [`Self::close_half_block`], the window's score with the load cells' drift `drift_n_s`
+    /// (N/s, fitted over the samples so far, [`crate::drift`]) taken out: the drift moves the
+    /// score by D_r r, D_r = T (S_r,k − A_k P S_r) (S_r,k the window's Σ w φ Ψ, S_r the fit's
+    /// so far, which θ has absorbed as P S_r r), so the score is g − D_r r̂. The rate is the
+    /// fit's at the window's close: its error shrinks as the run grows while the drift it
+    /// takes out grows, so the early windows' poorly known rate meets a small drift.
+    pub fn close_half_block_with_drift(
+        &mut self,
+        theta: &SVector<f64, N>,
+        p: &SMatrix<f64, N, N>,
+        noise_moment: &SMatrix<f64, N, N>,
+        quantities: &SMatrix<f64, N, N>,
+        drift_n_s: Option<&SVector<f64, 6>>,
+    ) {
         let age = libm::pow(self.forgetting, self.half_block_samples as f64);
+        self.total_sr = self.total_sr * age + self.half_block_sr;
         self.total_s = self.total_s * age + self.half_block_s;
         self.total_y = self.total_y * age + self.half_block_y;
         self.total_samples = self.total_samples * age + self.in_half_block as f64;
@@ -376,7 +415,10 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
             // The gyro's measured share apart, the rest with the own-fit correction (the
             // type's docs).
             let rate_moment = self.rate_moment(noise_moment);
-            let (g, rate) = window.gyro.scores(&window.b, &a, &t, theta, &rate_moment);
+            let (mut g, rate) = window.gyro.scores(&window.b, &a, &t, theta, &rate_moment);
+            if let Some(r) = drift_n_s {
+                g -= t * ((window.sr - a * (p * self.total_sr)) * r);
+            }
 
             let d = t * (window.s - a * (p * self.total_s));
             let decay = self.window_decay;
@@ -408,25 +450,29 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
         self.falling = Weighted::zeros();
         self.half_block_s = SMatrix::zeros();
         self.half_block_y = SVector::zeros();
+        self.half_block_sr = SMatrix::zeros();
         self.in_half_block = 0;
     }
 
     /// The augmented fit's offset c = (n𝟙 − SᵀPS)⁺(Y − Sᵀθ) over every sample so far, from the
     /// plain fit's θ and P. The Schur complement is positive semi-definite; a direction where
     /// it vanishes (below 1e-9 of n: an offset the regressors cannot be told from) gets no
-    /// offset (pseudo-inverse), as θ has absorbed it already.
+    /// offset (pseudo-inverse), as θ has absorbed it already. `share` is taken off the
+    /// right-hand side: the fitted drift's F_cr r̂ when the load cells' drift is fitted
+    /// jointly ([`crate::drift`]), c = F_cc⁺ (Y − Sᵀθ + ends − F_cr r̂); zero otherwise.
     fn offset(
         &self,
         theta: &SVector<f64, N>,
         p: &SMatrix<f64, N, N>,
         ends: &SVector<f64, R>,
+        share: &SVector<f64, R>,
     ) -> SVector<f64, R> {
         let (s, y) = self.totals();
         let n = self.total_samples * libm::pow(self.forgetting, self.in_half_block as f64)
             + self.in_half_block as f64;
         let schur = SMatrix::<f64, R, R>::identity() * n - s.tr_mul(&(p * s));
         let schur = (schur + schur.transpose()) * 0.5;
-        let rhs = y - s.tr_mul(theta) + ends;
+        let rhs = y - s.tr_mul(theta) + ends - share;
         let mut offset = SVector::<f64, R>::zeros();
         if !(n > 0.0 && schur.iter().all(|v| v.is_finite()) && rhs.iter().all(|v| v.is_finite())) {
             return offset;
@@ -530,12 +576,35 @@ impl<const N: usize, const R: usize, const NR: usize> ScoreCovariance<N, R, NR> 
     where
         Const<N>: DimMin<Const<N>, Output = Const<N>>,
     {
+        self.covariance_with_drift(theta, p, quantities, ends, None)
+    }
+
+    /// [`Self::covariance`] of a fit whose load cells' drift is fitted too ([`crate::drift`]):
+    /// `drift` its offsets' share F_cr r̂ (the offset c is then the joint fit's) and the
+    /// count of rates fitted (n rows fit N + R + that many unknowns). The scores carry the
+    /// drift taken out at each window's close ([`Self::close_half_block_with_drift`]). θ and P
+    /// are the fit's without the drift, whose right-hand side the joint fit's c solves.
+    pub fn covariance_with_drift(
+        &self,
+        theta: &SVector<f64, N>,
+        p: &SMatrix<f64, N, N>,
+        quantities: &SMatrix<f64, N, N>,
+        ends: &SVector<f64, R>,
+        drift: Option<(&SVector<f64, R>, usize)>,
+    ) -> SMatrix<f64, N, N>
+    where
+        Const<N>: DimMin<Const<N>, Output = Const<N>>,
+    {
         let n = self.rows;
-        let fitted = (N + R) as f64;
+        let (share, rates) = match drift {
+            Some((share, rates)) => (*share, rates),
+            None => (SVector::zeros(), 0),
+        };
+        let fitted = (N + R + rates) as f64;
         if !self.is_measured() || n <= fitted + 1.0 {
             return *p;
         }
-        let m = self.score_sum(&self.offset(theta, p, ends));
+        let m = self.score_sum(&self.offset(theta, p, ends, &share));
         let c = p * m * p * fitted_rows_factor(n, fitted);
         let c = (c + c.transpose()) * 0.5;
         let fallback = student_factor(self.windows - 1.0);
@@ -668,7 +737,7 @@ mod tests {
                     rate: &rate,
                     derivative: None,
                 };
-                with.add_sample(&rows, &y, Some(products));
+                with.add_sample(&rows, &y, Some(products), None);
                 if closes {
                     let zero = SMatrix::<f64, 2, 2>::zeros();
                     let one = SMatrix::<f64, 2, 2>::identity();

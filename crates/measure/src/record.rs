@@ -112,11 +112,14 @@ pub struct RunRecord {
 }
 
 impl RunRecord {
-    /// Entries kept at most: 327 s at 100 Hz before the first doubling (9 MB). The budget's
-    /// fit holds about five times the record (its regressors, motions and one perturbed copy
-    /// per thread), which this bounds for a run of any length; after a doubling, 50 Hz entries
-    /// still sample the excitation's highest line (under 2 Hz) 25 times a period.
-    pub const CAPACITY: usize = 1 << 15;
+    /// Entries kept at most: 1311 s at 100 Hz before the first doubling, an hour at 25 Hz
+    /// (35 MB). The budget's fit holds about five times the record (its regressors, motions
+    /// and one perturbed copy per thread), which this bounds for a run of any length. Its
+    /// fourth-order derivative on the entries' grid h errs by about (ωh)⁴/30 of the rate's
+    /// derivative ([`derivative::d1`]): at the excitation's highest line (under 2 Hz)
+    /// 1.6e-3 at h = 40 ms, 0.42 at 160 ms (the spacing 2¹⁵ entries give an hour's run, whose
+    /// rigid payload the rigid-body check reads at 13 times the predicted residual).
+    pub const CAPACITY: usize = 1 << 17;
 
     /// Rate of the entries before any doubling, Hz.
     pub const RATE_HZ: f64 = 100.0;
@@ -246,5 +249,31 @@ mod tests {
         assert!(e[0].gyro_rad_s.x.abs() < 1e-12);
         assert!((e[0].products[0] - 1.0).abs() < 1e-12);
         assert!((e[0].pose().position_m - pose.position_m).norm() < 1e-12);
+    }
+
+    /// The entries' spacing the record keeps for a run of `seconds` at 1 kHz, s: the first
+    /// stride doubled until the blocks fit the capacity, as [`RunRecord::push`] does.
+    fn spacing_after(seconds: f64) -> f64 {
+        let g = testkit::geometry();
+        let r = RunRecord::new(g, 1e-3, 0);
+        let mut stride = u64::from(r.stride());
+        let samples = (seconds * 1e3) as u64;
+        while samples / stride >= RunRecord::CAPACITY as u64 {
+            stride *= 2;
+        }
+        stride as f64 * 1e-3
+    }
+
+    /// The bug: an hour's record of 2¹⁵ entries merges them down to 160 ms, where the budget's
+    /// derivative of the rate errs by 42 % at the excitation's highest line (1.875 Hz) and
+    /// the rigid-body check flags a rigid payload. An hour keeps 40 ms entries (an error
+    /// of 1.6e-3), ten minutes the first 10 ms.
+    #[test]
+    fn an_hours_record_keeps_entries_close_enough_for_the_budgets_derivative() {
+        let error = |h: f64| (2.0 * core::f64::consts::PI * 1.875 * h).powi(4) / 30.0;
+        let hour = spacing_after(3600.0);
+        assert!(hour <= 0.040 + 1e-12, "{hour} s");
+        assert!(error(hour) < 2e-3, "{}", error(hour));
+        assert!((spacing_after(600.0) - 0.010).abs() < 1e-12);
     }
 }

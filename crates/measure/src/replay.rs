@@ -297,6 +297,7 @@ impl Replay {
                 self.sigmas.load_cell_n,
             ),
             accel_offset_measured: self.estimator.accelerometer_offset().is_some(),
+            load_cell_drift: self.estimator.load_cell_drift(),
         };
         let budget = self.budget.as_ref().map(|(record, figures)| {
             crate::budget::analyse(record, &config, figures, &estimate, &exact)

@@ -342,6 +342,7 @@ where
                 accel: crate::systematic::accel_bias_effect(estimator, bias_sigma),
                 load_cell: crate::systematic::load_cell_bias_effect(estimator, load_cell_sigma),
                 accel_offset_measured: estimator.accelerometer_offset().is_some(),
+                load_cell_drift: estimator.load_cell_drift(),
             };
             let budget = estimate.as_ref().map(|e| {
                 crate::budget::analyse(

@@ -271,6 +271,13 @@ pub fn load_cell_bias_sigma(config: &Config) -> f64 {
     config.sensors.load_cell.zero_offset_n
 }
 
+/// Whether the estimator fits the load cells' zero drift (`estimator::drift`): whenever their
+/// datasheet gives one (`sensors.load_cell.zero_drift_n_per_min` > 0), since over a long run
+/// the drift's mean moves the mass by more than the run's noise.
+pub fn fits_load_cell_drift(config: &Config) -> bool {
+    config.sensors.load_cell.zero_drift_n_per_min > 0.0
+}
+
 /// The tick of one `measurement` run by `controller` (checked beforehand): the frame-to-sample
 /// rule with the controller's forward-kinematics options and the IMU's mounting, and the
 /// estimator's settings, its fit window not yet open.
@@ -397,8 +404,10 @@ pub fn estimator_config(
     c.gyro_noise_rad_s = config.sensors.gyro_noise_rad_s();
     c.accel_noise_m_s2 = config.sensors.accel_noise_m_s2();
     c.accelerometer_position_m = accelerometer_position(config);
-    // The load cells' offset sensitivity is kept when their datasheet gives an offset.
+    // The load cells' offset sensitivity is kept when their datasheet gives an offset, and
+    // their zero drift is fitted when it gives a drift (`estimator::drift`).
     c.leg_force_offsets = load_cell_bias_sigma(config) > 0.0;
+    c.load_cell_drift = fits_load_cell_drift(config);
     c.window_start_s = window_start_s;
     c.window_end_s = window_end_s;
     c.legs = leg_model(config);

@@ -217,6 +217,7 @@ impl Planner {
                 equation_sigma: estimator.equation_sigma,
                 lever_m: estimator.accelerometer_position_m,
                 block_samples: estimator.covariance_half_block_samples,
+                load_cell_drift: estimator.load_cell_drift,
             },
             noise: ChannelNoise {
                 load_cell_n: cell.noise_n.hypot(cell.resolution_n / 12f64.sqrt()),

@@ -31,6 +31,21 @@
 //! low-pass both have unit gain at zero frequency), adding `A⁻¹ (σ_δ² s sᵀ) A⁻¹` with
 //! s = Σₜ Φₜᵀ W ∂(Φθ)/∂f_z (P's z: the vertical of a plate that tilts a degree or two). Near
 //! rest f ≈ g, so δ moves the mass by m δ/g.
+//!
+//! When the estimator fits the load cells' zero drift ([`estimator::drift`]), its θ is
+//! θ̂ − P S_r r̂, with r̂ the six rates fitted jointly with θ and the equations' constant
+//! offsets. r̂ is linear in the weighted measurements, r̂ = G⁻¹ Σₜ zₜᵀ yₜ with
+//!
+//! ```text
+//! zₜ = Ψₜ − Φₜ P S_r − (𝟙 − Φₜ P S) F_cc⁺ F_cr        (weighted rows, Ψₜ = W^½ Lₜ (t − t₀))
+//! ```
+//!
+//! (Ψₜ the drift's rows of the conditioned leg map L, S = Σ Φₜᵀ, S_r = Σ Φₜᵀ Ψₜ, F and G the
+//! drift's normal equations as [`estimator::drift`] writes them), so θ's error is
+//! P Σₜ (Φₜᵀ − S_r G⁻¹ zₜᵀ) W^½ eₜ: the same sandwich with each sample's Φₜᵀ W replaced by
+//! (Φₜᵀ − S_r G⁻¹ zₜᵀ) W^½, which carries the rates' price into every channel's score. The leg
+//! map is taken unfiltered (it follows the pose, far slower than the cut-off), and the gyro's
+//! ends, which the estimator keeps out of the offsets, are left out of zₜ.
 
 use estimator::conditioning::stencil_weights;
 use estimator::filter::{Biquad, LowPass};
@@ -72,6 +87,10 @@ pub struct Conditioning {
     /// The estimator's residual half-block for a long excitation, samples (a short one's is
     /// shortened alike: [`measure::quality::half_block_samples_for`]).
     pub block_samples: u32,
+    /// Whether the estimator fits the load cells' zero drift
+    /// ([`estimator::EstimatorConfig::load_cell_drift`]), whose rates the prediction then
+    /// pays for (the [module docs](self)).
+    pub load_cell_drift: bool,
 }
 
 type Cov = SMatrix<f64, 10, 10>;
@@ -98,6 +117,14 @@ pub fn covariance(
         return None;
     }
     let a_inv = a.try_inverse()?;
+    let maps: Vec<_> = points.iter().map(|p| leg_map(geometry, p.pose())).collect();
+    // Each sample's map from its equations' errors to the score: Φᵀ W, or with the drift
+    // fitted (Φᵀ − S_r G⁻¹ zᵀ) W^½ (the module docs).
+    let scores: Vec<Score> = if conditioning.load_cell_drift {
+        drift_scores(points, &phis, &maps, &w, &a_inv)?
+    } else {
+        phis.iter().map(|phi| phi.transpose() * w).collect()
+    };
     let sens = |s: RegressorSignals| -> Vector6<f64> { from_signals(&s) * theta };
     let r = conditioning.lever_m;
     let mut b = Cov::zeros();
@@ -105,10 +132,9 @@ pub fn covariance(
                        value_c: &dyn Fn(usize) -> Vector6<f64>,
                        slope_c: Option<Vector6<f64>>| {
         if variance > 0.0 {
-            b += correlated_scores(&phis, &w, &value, &slope, biquad, value_c, slope_c) * variance;
+            b += correlated_scores(&scores, &value, &slope, biquad, value_c, slope_c) * variance;
         }
     };
-    let maps: Vec<_> = points.iter().map(|p| leg_map(geometry, p.pose())).collect();
     for leg in 0..6 {
         channel(
             noise.load_cell_n.powi(2),
@@ -148,7 +174,7 @@ pub fn covariance(
             specific_force_m_s2: Vector3::z(),
             ..RegressorSignals::default()
         });
-        let score: SVector<f64, 10> = phis.iter().map(|phi| phi.transpose() * w * vertical).sum();
+        let score: SVector<f64, 10> = scores.iter().map(|s| s * vertical).sum();
         b += score * score.transpose() * noise.accel_offset_m_s2.powi(2);
     }
     let cov = a_inv * b * a_inv;
@@ -249,12 +275,84 @@ fn product_gradient(w: &Vector3<f64>, k: usize) -> Vector6<f64> {
     }
 }
 
+/// One sample's map from its six equations' errors to θ's score (10×6).
+type Score = SMatrix<f64, 10, 6>;
+
+/// Each sample's score map with the load cells' drift fitted, (Φₜᵀ − S_r G⁻¹ zₜᵀ) W^½ (the
+/// [module docs](self)); `None` when a sum is not finite.
+fn drift_scores(
+    points: &[MotionPoint],
+    phis: &[SMatrix<f64, 6, 10>],
+    maps: &[nalgebra::Matrix6<f64>],
+    w: &SMatrix<f64, 6, 6>,
+    p: &Cov,
+) -> Option<Vec<Score>> {
+    let half = w.map(f64::sqrt);
+    let start = points.first().map_or(0.0, |p| p.time_s);
+    let rows: Vec<SMatrix<f64, 6, 10>> = phis.iter().map(|phi| half * phi).collect();
+    let psis: Vec<SMatrix<f64, 6, 6>> = points
+        .iter()
+        .zip(maps)
+        .map(|(point, map)| half * map * (point.time_s - start))
+        .collect();
+    let mut s = SMatrix::<f64, 10, 6>::zeros();
+    let mut sr = SMatrix::<f64, 10, 6>::zeros();
+    let mut psi_sum = SMatrix::<f64, 6, 6>::zeros();
+    let mut psi_psi = SMatrix::<f64, 6, 6>::zeros();
+    for (phi, psi) in rows.iter().zip(&psis) {
+        s += phi.transpose();
+        sr += phi.tr_mul(psi);
+        psi_sum += psi;
+        psi_psi += psi.tr_mul(psi);
+    }
+    let n = rows.len() as f64;
+    let ps = p * s;
+    let f_cc = SMatrix::<f64, 6, 6>::identity() * n - s.tr_mul(&ps);
+    let f_cr = psi_sum - ps.tr_mul(&sr);
+    let f_rr = psi_psi - sr.tr_mul(&(p * sr));
+    let f_cc_pinv = pseudo_inverse(&f_cc, 1e-9 * n);
+    let g = f_rr - f_cr.tr_mul(&(f_cc_pinv * f_cr));
+    let largest = g.symmetric_eigenvalues().max();
+    if !(largest.is_finite() && largest > 0.0) {
+        return None;
+    }
+    let g_inv = pseudo_inverse(&g, 1e-9 * largest);
+    let offsets = f_cc_pinv * f_cr;
+    let (p_s, p_sr) = (ps, p * sr);
+    let gain = sr * g_inv;
+    let scores: Vec<Score> = rows
+        .iter()
+        .zip(&psis)
+        .map(|(phi, psi)| {
+            let z = psi - phi * p_sr - (SMatrix::<f64, 6, 6>::identity() - phi * p_s) * offsets;
+            (phi.transpose() - gain * z.transpose()) * half
+        })
+        .collect();
+    scores
+        .iter()
+        .all(|m| m.iter().all(|v| v.is_finite()))
+        .then_some(scores)
+}
+
+/// The pseudo-inverse of a symmetric matrix on its eigenvalues above `floor`: directions
+/// below it are left undetermined (zero), as [`estimator::drift`] leaves them.
+fn pseudo_inverse(m: &SMatrix<f64, 6, 6>, floor: f64) -> SMatrix<f64, 6, 6> {
+    let eigen = ((m + m.transpose()) * 0.5).symmetric_eigen();
+    let mut inverse = SMatrix::<f64, 6, 6>::zeros();
+    for (value, v) in eigen.eigenvalues.iter().zip(eigen.eigenvectors.column_iter()) {
+        if *value > floor {
+            inverse += v * v.transpose() / *value;
+        }
+    }
+    inverse
+}
+
 /// Σₛ vₛ vₛᵀ for one channel of unit variance whose sensitivity is `value_c(t)` through the
 /// value stencil plus the constant `slope_c` through the derivative stencil, both then
-/// through the low-pass: the channel's u run backwards through the conditioning.
+/// through the low-pass: the channel's u run backwards through the conditioning. `scores`:
+/// each sample's map from its equations' errors to θ's score.
 fn correlated_scores(
-    phis: &[SMatrix<f64, 6, 10>],
-    w: &SMatrix<f64, 6, 6>,
+    scores: &[Score],
     value: &[f64; 4],
     slope: &[f64; 4],
     biquad: Biquad,
@@ -267,8 +365,8 @@ fn correlated_scores(
     let mut held_value = [SVector::<f64, 10>::zeros(); 4];
     let mut held_slope = [SVector::<f64, 10>::zeros(); 4];
     let mut sum = Cov::zeros();
-    for t in (0..phis.len()).rev() {
-        let pt = phis[t].transpose() * w;
+    for t in (0..scores.len()).rev() {
+        let pt = scores[t];
         held_value.rotate_left(1);
         held_value[3] = pt * value_c(t);
         let mut x: SVector<f64, 10> = (0..4).map(|j| held_value[j] * value[j]).sum();

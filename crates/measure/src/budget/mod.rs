@@ -36,11 +36,13 @@ pub(crate) mod testkit;
 #[cfg(test)]
 mod tests;
 
+use estimator::wrench::to_vector;
 use estimator::{EstimatorConfig, ParameterVector};
 use nalgebra::Vector6;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::record::Entry;
 pub use crate::record::RunRecord;
 pub use combine::{payload_covariances, SourceCovariance};
 use rig_description::config::{Config, LegsConfig, SensorsConfig};
@@ -156,6 +158,10 @@ pub struct EstimatorEffects {
     /// `accel` is the residual of the offset measured on this run, not the datasheet bias
     /// shared by both runs.
     pub accel_offset_measured: bool,
+    /// The load cells' zero drift the estimator fitted and took out
+    /// ([`estimator::OnlineEstimator::load_cell_drift`]): the budget's fit takes it out of
+    /// the record alike.
+    pub load_cell_drift: Option<estimator::LoadCellDrift>,
 }
 
 /// One elementary error's effect on θ at one sigma.
@@ -182,11 +188,18 @@ pub fn analyse(
         mode: fit::Mode::of(&config.parameters),
     };
     let theta: ParameterVector = estimate.parameters.to_vector();
-    let mut data = fit::Data::new(record.entries(), model);
+    let mut data = fit::Data::new(without_drift(record, exact.load_cell_drift.as_ref()), model);
     // The record holds the cells' wrench; the estimator fitted it with the legs compensated
-    // when it had their model, and so does the budget's fit.
+    // when it had their model, and so does the budget's fit. An estimator that fits the
+    // cells' zero drift (`estimator::drift`) takes a linear drift out exactly, so the drift
+    // lines count zero; the fitted rate's own uncertainty is in the statistical part.
+    let mut sensors = figures.sensors.clone();
+    if config.load_cell_drift {
+        sensors.load_cell.zero_drift_n_per_min = 0.0;
+    }
     let figures = &Figures {
         legs_compensated: config.legs.is_some(),
+        sensors,
         ..figures.clone()
     };
     let times: Vec<f64> = data.entries.iter().map(|e| e.time_s).collect();
@@ -292,6 +305,22 @@ pub fn analyse(
         six,
     );
     budget
+}
+
+/// The record's entries with the estimator's fitted drift taken out: each entry's cell forces
+/// less δf = r̂ (t − t₀) at its mean time, and its wrench less that force's wrench at its mean
+/// pose (the drift changes by 0.1 mN over a 10 ms entry, beside newtons of noise).
+fn without_drift(record: &RunRecord, drift: Option<&estimator::LoadCellDrift>) -> Vec<Entry> {
+    let mut entries = record.entries();
+    if let Some(d) = drift {
+        let geometry = record.geometry();
+        for e in &mut entries {
+            let df = d.at(e.time_s);
+            e.leg_forces_n -= df;
+            e.wrench -= to_vector(&geometry.wrench_in_platform(&e.pose(), &df));
+        }
+    }
+    entries
 }
 
 /// `source`'s effects with the estimator's exact ones in place of the fit's (accelerometer

@@ -308,6 +308,7 @@ pub fn settings_of(
     c.accel_noise_m_s2 = sensors.accel_noise_m_s2();
     c.accelerometer_position_m = setup::accelerometer_position(&rig.config);
     c.leg_force_offsets = setup::load_cell_bias_sigma(&rig.config) > 0.0;
+    c.load_cell_drift = setup::fits_load_cell_drift(&rig.config);
     c.local_gravity_m_s2 = rig.config.estimator.local_gravity_m_s2.unwrap_or(0.0);
     c.legs = setup::leg_model(&rig.config);
     if let Some(p) = o.params {
