@@ -120,25 +120,26 @@ pub fn covariance(
     let maps: Vec<_> = points.iter().map(|p| leg_map(geometry, p.pose())).collect();
     // Each sample's map from its equations' errors to the score: Φᵀ W, or with the drift
     // fitted (Φᵀ − S_r G⁻¹ zᵀ) W^½ (the module docs).
-    let scores: Vec<Score> = if conditioning.load_cell_drift {
+    let (scores, end_fix) = if conditioning.load_cell_drift {
         drift_scores(points, &phis, &maps, &w, &a_inv)?
     } else {
-        phis.iter().map(|phi| phi.transpose() * w).collect()
+        let scores: Vec<Score> = phis.iter().map(|phi| phi.transpose() * w).collect();
+        (scores, Score::zeros())
     };
     let sens = |s: RegressorSignals| -> Vector6<f64> { from_signals(&s) * theta };
     let r = conditioning.lever_m;
     let mut b = Cov::zeros();
     let mut channel = |variance: f64,
-                       value_c: &dyn Fn(usize) -> Vector6<f64>,
+                       value_u: &dyn Fn(usize) -> SVector<f64, 10>,
                        slope_c: Option<Vector6<f64>>| {
         if variance > 0.0 {
-            b += correlated_scores(&scores, &value, &slope, biquad, value_c, slope_c) * variance;
+            b += correlated_scores(&scores, &value, &slope, biquad, value_u, slope_c) * variance;
         }
     };
     for leg in 0..6 {
         channel(
             noise.load_cell_n.powi(2),
-            &|t| maps[t].column(leg).into_owned(),
+            &|t| scores[t] * maps[t].column(leg),
             None,
         );
     }
@@ -148,23 +149,24 @@ pub fn covariance(
             specific_force_m_s2: e,
             ..RegressorSignals::default()
         });
-        channel(noise.accel_m_s2.powi(2), &|_| ga, None);
+        channel(noise.accel_m_s2.powi(2), &|t| scores[t] * ga, None);
         let gw = sens(RegressorSignals::angular_acceleration_error(&e, &r));
         // The estimator takes the gyro's error at the run's two ends out of its estimate
         // ([`estimator::gyro_error::ends`]): −[Φᵀ ψ(n̂)θ]/Δt, n̂ the noise through the value stencil
         // and the low-pass, i.e. ∓ψ(unit)θ/Δt on the value path at the last and first sample.
+        // The drift's rates see the ends through the offsets' equations only (`end_fix`).
         let last = points.len().saturating_sub(1);
         let end = gw / conditioning.period_s;
-        let products = |t: usize| -> Vector6<f64> {
+        let products = |t: usize| -> SVector<f64, 10> {
             let w = points[t].plate.angular_velocity_rad_s;
             let c = sens(RegressorSignals {
                 rate_products_rad2_s2: product_gradient(&w, k),
                 ..RegressorSignals::default()
             });
             match t {
-                0 if last > 0 => c + end,
-                t if t == last && last > 0 => c - end,
-                _ => c,
+                0 if last > 0 => scores[t] * (c + end),
+                t if t == last && last > 0 => scores[t] * (c - end) - end_fix * end,
+                _ => scores[t] * c,
             }
         };
         channel(noise.gyro_rad_s.powi(2), &products, Some(gw));
@@ -279,14 +281,16 @@ fn product_gradient(w: &Vector3<f64>, k: usize) -> Vector6<f64> {
 type Score = SMatrix<f64, 10, 6>;
 
 /// Each sample's score map with the load cells' drift fitted, (Φₜᵀ − S_r G⁻¹ zₜᵀ) W^½ (the
-/// [module docs](self)); `None` when a sum is not finite.
+/// [module docs](self)), and the share S_r G⁻¹ Ψᵀ W^½ of the last sample's drift rows that the
+/// gyro's end term does not meet (the estimator adds the ends to the offsets' right-hand side
+/// only, not to the rates'); `None` when a sum is not finite.
 fn drift_scores(
     points: &[MotionPoint],
     phis: &[SMatrix<f64, 6, 10>],
     maps: &[nalgebra::Matrix6<f64>],
     w: &SMatrix<f64, 6, 6>,
     p: &Cov,
-) -> Option<Vec<Score>> {
+) -> Option<(Vec<Score>, Score)> {
     let half = w.map(f64::sqrt);
     let start = points.first().map_or(0.0, |p| p.time_s);
     let rows: Vec<SMatrix<f64, 6, 10>> = phis.iter().map(|phi| half * phi).collect();
@@ -328,10 +332,12 @@ fn drift_scores(
             (phi.transpose() - gain * z.transpose()) * half
         })
         .collect();
-    scores
+    let end_fix = psis.last().map_or(Score::zeros(), |psi| gain * psi.transpose() * half);
+    (scores
         .iter()
-        .all(|m| m.iter().all(|v| v.is_finite()))
-        .then_some(scores)
+        .chain(core::iter::once(&end_fix))
+        .all(|m| m.iter().all(|v| v.is_finite())))
+    .then_some((scores, end_fix))
 }
 
 /// The pseudo-inverse of a symmetric matrix on its eigenvalues above `floor`: directions
@@ -350,13 +356,14 @@ fn pseudo_inverse(m: &SMatrix<f64, 6, 6>, floor: f64) -> SMatrix<f64, 6, 6> {
 /// Σₛ vₛ vₛᵀ for one channel of unit variance whose sensitivity is `value_c(t)` through the
 /// value stencil plus the constant `slope_c` through the derivative stencil, both then
 /// through the low-pass: the channel's u run backwards through the conditioning. `scores`:
-/// each sample's map from its equations' errors to θ's score.
+/// each sample's map from its equations' errors to θ's score; `value_u(t)`: the value path's
+/// share of uₜ (the score map times the sensitivity).
 fn correlated_scores(
     scores: &[Score],
     value: &[f64; 4],
     slope: &[f64; 4],
     biquad: Biquad,
-    value_c: &dyn Fn(usize) -> Vector6<f64>,
+    value_u: &dyn Fn(usize) -> SVector<f64, 10>,
     slope_c: Option<Vector6<f64>>,
 ) -> Cov {
     let mut filter = LowPass::<10>::new(biquad);
@@ -368,7 +375,7 @@ fn correlated_scores(
     for t in (0..scores.len()).rev() {
         let pt = scores[t];
         held_value.rotate_left(1);
-        held_value[3] = pt * value_c(t);
+        held_value[3] = value_u(t);
         let mut x: SVector<f64, 10> = (0..4).map(|j| held_value[j] * value[j]).sum();
         if let Some(c) = slope_c {
             held_slope.rotate_left(1);

@@ -84,6 +84,7 @@ fn the_predicted_covariance_matches_the_estimators_spread_over_random_noise() {
     };
     for drift in [true, false] {
         let ratios = spread_over_predicted(6.0, &noise, false, drift);
+        eprintln!("TEMP drift {drift}: {ratios:.3?}");
         assert!(
             ratios.iter().all(|r| (0.7..1.35).contains(r)),
             "load cells' drift fitted: {drift}; spread over predicted sigma, per parameter: \
