@@ -1,8 +1,10 @@
 #!/bin/bash
 # Keyed `stewart emulate` + `stewart rig` measurements in a row on loopback, both at their
 # default (real-time) priority, one line per run: the exit code, the host loop's largest period
-# per run (report `link[].timing`), the emulator's latest tick and slowest physics step, and
-# the fault if any.
+# per run (report `link[].timing`), the emulator's latest tick (over the whole run, and while
+# a session was being commanded) and slowest physics step, and the fault if any.
+#
+#   BUSY=2 scripts/stall_campaign.sh ...   runs it with that many busy loops on the host
 #
 #   scripts/stall_campaign.sh [BINARY] [RUNS] [DIR]
 #
@@ -12,6 +14,9 @@ set -u
 BIN=${1:-target/release/stewart}; N=${2:-20}; DIR=${3:-$(mktemp -d)}
 BIN=$(realpath "$BIN"); mkdir -p "$DIR"; cd "$DIR" || exit 1
 printf '[run]\ntare_duration_s = 5.0\n' > c.toml
+busy=()
+for _ in $(seq 1 "${BUSY:-0}"); do yes > /dev/null & busy+=($!); done
+trap '[ ${#busy[@]} -gt 0 ] && kill "${busy[@]}"' EXIT
 [ -f k.key ] || "$BIN" key new --out k.key > /dev/null 2>&1
 for i in $(seq 1 "$N"); do
   port=$((17000 + RANDOM % 2000))
@@ -34,10 +39,11 @@ except (OSError, ValueError, KeyError):
     host = "-"
 text = open(emu).read()
 m = re.search(r"the latest ([0-9.]+) ms late", text)
+commanded = re.search(r"([0-9.]+) ms while commanded", text)
 step = re.search(r"the slowest physics step ([0-9.]+) ms", text)
 fault = [l for l in open(err).read().splitlines() if l.startswith(("fault", "error", "repeated"))]
 print(f"run {i}: exit {code}; host largest period: {host}; emulator latest tick: "
-      f"{m.group(1) + ' ms' if m else '-'} (slowest step {step.group(1) + ' ms' if step else '-'})"
+      f"{m.group(1) + ' ms' if m else '-'}, {commanded.group(1) + ' ms' if commanded else '-'} while commanded (slowest step {step.group(1) + ' ms' if step else '-'})"
       f"{'; ' + fault[0][:160] if fault else ''}")
 PY
 done

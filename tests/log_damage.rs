@@ -884,5 +884,11 @@ fn a_log_of_two_interleaved_runs_is_refused() {
         );
         let err = format!("{:#}", estimate(&args(&path)).unwrap_err());
         assert!(err.contains("two runs"), "{err}");
+        // The reader that keeps the whole log in memory (the figures') refuses it alike.
+        let err = format!("{:#}", runlog::LogContents::read(&path).unwrap_err());
+        assert!(
+            err.contains("two runs") && err.contains(&path.display().to_string()),
+            "metadata {with_metadata}: {err}"
+        );
     }
 }

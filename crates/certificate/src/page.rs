@@ -455,6 +455,7 @@ fn data(s: &mut String, r: &Report) {
          <tr><th>samples rejected by the input checks</th>{}</tr>\
          <tr><th>rejected share</th><td>{} %</td></tr>\
          <tr><th>frames lost (bridged), restarts</th><td>{} ({}), {}</td></tr>\
+         <tr><th>frames late, duplicate (dropped)</th><td>{}, {}</td></tr>\
          <tr><th>time base</th><td>{}</td></tr>\
          <tr><th>timestamp jitter RMS (max), s</th><td>{} ({})</td></tr>\
          <tr><th>sample rate error</th><td>{}</td></tr>\
@@ -468,6 +469,8 @@ fn data(s: &mut String, r: &Report) {
         d.frames_lost,
         d.frames_bridged,
         d.restarts,
+        d.frames_late,
+        d.frames_duplicate,
         esc(&d.time_base),
         significant(d.timestamp_jitter_rms_s, 3),
         significant(d.timestamp_jitter_max_s, 3),
@@ -488,7 +491,42 @@ fn data(s: &mut String, r: &Report) {
         }
         s.push_str("</ul>");
     }
+    frame_spans(
+        s,
+        "Spans of frames out of sequence order or written twice, and what was done:",
+        &d.reordered,
+    );
+    frame_spans(s, "Spans of frames no record of the log holds:", &d.missing);
+    if !d.recovered.is_empty() {
+        s.push_str("<p>Records lost and read from another copy:</p><ul class=\"notes\">");
+        for what in &d.recovered {
+            let _ = write!(s, "<li>{}</li>", esc(what));
+        }
+        s.push_str("</ul>");
+    }
     s.push_str("</section>\n");
+}
+
+/// A list of the frame spans `spans` under `title`, nothing when there are none.
+fn frame_spans(s: &mut String, title: &str, spans: &[measure::report::FrameSpan]) {
+    if spans.is_empty() {
+        return;
+    }
+    let _ = write!(s, "<p>{}</p><ul class=\"notes\">", esc(title));
+    for span in spans {
+        let _ = write!(
+            s,
+            "<li>{}: frames {}–{} ({}), {:.3}–{:.3} s: {}</li>",
+            esc(&span.run),
+            span.first_sequence,
+            span.last_sequence,
+            span.frames,
+            span.from_time_s,
+            span.to_time_s,
+            esc(&span.action)
+        );
+    }
+    s.push_str("</ul>");
 }
 
 fn tare(s: &mut String, r: &Report) {

@@ -224,3 +224,37 @@ fn the_measurement_time_is_the_reports_not_the_pages() {
     let html = render(&parse(&r.to_json()).unwrap(), &context());
     assert!(html.contains("time not recorded in the report"));
 }
+
+/// The issue: the page left out what the JSON report says about the frames, so a measurement
+/// whose log lost or reordered a chunk printed as a clean one. The spans put back in order,
+/// dropped or missing, and the records read from another copy, are listed with their frames.
+#[test]
+fn the_frames_reordered_missing_and_recovered_are_on_the_page() {
+    let mut r = report();
+    let span = |action: &str, first: u64| measure::report::FrameSpan {
+        run: "loaded".into(),
+        first_sequence: first,
+        last_sequence: first + 99,
+        frames: 100,
+        from_time_s: first as f64 * 1e-3,
+        to_time_s: (first + 99) as f64 * 1e-3,
+        action: action.into(),
+    };
+    r.data.reordered = vec![span("put back in order", 4000)];
+    r.data.missing = vec![span("missing", 9000)];
+    r.data.recovered = vec!["the loaded measurement's estimator settings".into()];
+    r.data.frames_late = 3;
+    r.data.frames_duplicate = 100;
+    let html = render(&parse(&r.to_json()).unwrap(), &context());
+    assert!(
+        html.contains("<li>loaded: frames 4000–4099 (100), 4.000–4.099 s: put back in order</li>"),
+        "reordered span"
+    );
+    assert!(html.contains("frames 9000–9099 (100), 9.000–9.099 s: missing"));
+    assert!(html.contains("<li>the loaded measurement&#39;s estimator settings</li>"));
+    assert!(html.contains("<th>frames late, duplicate (dropped)</th><td>3, 100</td>"));
+    // A clean report lists none of them.
+    let clean = render(&parse(&report().to_json()).unwrap(), &context());
+    assert!(!clean.contains("Spans of frames"));
+    assert!(!clean.contains("read from another copy"));
+}

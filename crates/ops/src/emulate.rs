@@ -444,12 +444,13 @@ pub fn event_line(event: &EmulatorEvent) -> String {
 /// The emulator's counters in one line.
 pub fn summary(s: &EmulatorStats) -> String {
     format!(
-        "{} ticks ({} overruns, the latest {:.1} ms late; the slowest physics step {:.1} ms), {} sessions, {} sensor frames sent ({} dropped, {} corrupted, \
+        "{} ticks ({} overruns, the latest {:.1} ms late, {:.1} ms while commanded; the slowest physics step {:.1} ms), {} sessions, {} sensor frames sent ({} dropped, {} corrupted, \
          {} delayed by injection; {} refused by the link), {} commands accepted ({} lost, {} duplicate, {} out of \
          sequence), {} foreign, {} auth failed, {} corrupt, {} faults reported",
         s.ticks,
         s.overruns,
         s.latest_tick_us as f64 * 1e-3,
+        s.latest_commanded_tick_us as f64 * 1e-3,
         s.slowest_step_us as f64 * 1e-3,
         s.core.sessions,
         s.sent,

@@ -18,7 +18,7 @@
 //! The result is the one [`super::reestimate`] gives on the same log read whole.
 
 use std::collections::VecDeque;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use anyhow::{anyhow, bail, Context, Result};
 use control::io::SensorFrame;
@@ -40,25 +40,7 @@ use runlog::read::{decode, no_metadata, visit, Channels, Damage, Message, Visito
 /// at 1 kHz (about 20 MB). Beyond, the oldest are dropped (they only warm the conditioning).
 pub const WAITING_FRAMES: usize = 120_000;
 
-/// A log that holds two runs written into one file (two processes logging to one path): its
-/// frames mix two measurements, so it is refused rather than estimated.
-#[derive(Debug, thiserror::Error)]
-#[error(
-    "{} holds two runs written into one file ({evidence}): neither run's record is whole, so \
-     it is not estimated; estimate each run from a log of its own, or measure again",
-    path.display()
-)]
-pub struct TwoRuns {
-    /// The log.
-    pub path: PathBuf,
-    /// What shows it.
-    pub evidence: String,
-}
-
-/// Whether `e` is, or was caused by, [`TwoRuns`].
-pub fn is_two_runs(e: &anyhow::Error) -> bool {
-    e.chain().any(|cause| cause.is::<TwoRuns>())
-}
+pub use runlog::read::{is_two_runs, TwoRuns};
 
 /// A copy of the settings read this much backend time after the excitation's start, or later,
 /// is not the first one (written at the start): the first was lost, s.

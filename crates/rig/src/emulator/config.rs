@@ -106,6 +106,11 @@ pub struct EmulatorStats {
     /// The latest a tick started, µs past its time: the emulator's own stall, to compare with
     /// the host's loop period.
     pub latest_tick_us: u64,
+    /// The latest a tick started while a session was being commanded (open, no fault, the
+    /// host's commands arriving), µs past its time: the only lateness that can starve the
+    /// host of frames. A tick between sessions (the payload changed, a new Hello) may run late
+    /// with nothing waiting on it.
+    pub latest_commanded_tick_us: u64,
     /// The slowest step of the served backend (the simulator's physics), µs: whether a late
     /// tick was the emulator's own work or its pacing.
     pub slowest_step_us: u64,

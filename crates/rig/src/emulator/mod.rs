@@ -280,10 +280,14 @@ where
         self.config.fast_forward
             && self.config.lockstep.is_some()
             && !self.silent
-            && self
-                .core
-                .session()
-                .is_some_and(|s| s.fault.is_none() && s.latest.is_some())
+            && self.commanded()
+    }
+
+    /// Whether a session is open, without a fault, and its host has commanded.
+    fn commanded(&self) -> bool {
+        self.core
+            .session()
+            .is_some_and(|s| s.fault.is_none() && s.latest.is_some())
     }
 
     /// Runs in real time (or faster, [`EmulatorConfig::fast_forward`]) until `stop` is set,
@@ -311,6 +315,10 @@ where
             let behind = now.saturating_duration_since(next);
             let behind_us = u64::try_from(behind.as_micros()).unwrap_or(u64::MAX);
             self.stats.latest_tick_us = self.stats.latest_tick_us.max(behind_us);
+            if self.commanded() {
+                self.stats.latest_commanded_tick_us =
+                    self.stats.latest_commanded_tick_us.max(behind_us);
+            }
             if behind > self.period {
                 self.stats.overruns += 1;
                 if behind > self.period * 50 {

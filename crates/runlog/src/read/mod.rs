@@ -33,6 +33,26 @@ pub use records::{
 };
 pub use scan::{Event, Gap, Message};
 
+/// A log that holds two runs written into one file (two processes logging to one path): its
+/// frames mix two measurements, so it is refused rather than estimated or drawn.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "{} holds two runs written into one file ({evidence}): neither run's record is whole, so \
+     it is not estimated; estimate each run from a log of its own, or measure again",
+    path.display()
+)]
+pub struct TwoRuns {
+    /// The log.
+    pub path: PathBuf,
+    /// What shows it.
+    pub evidence: String,
+}
+
+/// Whether `e` is, or was caused by, [`TwoRuns`].
+pub fn is_two_runs(e: &anyhow::Error) -> bool {
+    e.chain().any(|cause| cause.is::<TwoRuns>())
+}
+
 /// What the log holds on one channel.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ChannelInfo {
@@ -342,6 +362,63 @@ struct Collect<'a> {
     log: &'a mut LogContents,
     scratch: crate::proto::SensorBlock,
     sensor: Option<(u64, u64)>,
+    /// The first `/run/metadata` record as written: a different one is another run's.
+    metadata_bytes: Option<Vec<u8>>,
+    /// The log's path, for [`TwoRuns`].
+    path: &'a Path,
+}
+
+impl Collect<'_> {
+    /// Keeps the first `/run/metadata` record; a second that differs is another run's.
+    fn metadata(&mut self, data: &[u8]) -> Result<Option<String>> {
+        let meta: RunMetadata = match decode(data) {
+            Ok(v) => v,
+            Err(e) => return Ok(Some(e)),
+        };
+        match (&self.metadata_bytes, &self.log.metadata) {
+            (Some(first), Some(known)) if first[..] != *data => Err(TwoRuns {
+                path: self.path.to_path_buf(),
+                evidence: format!(
+                    "two different {} records, of runs started at Unix time {} and {} ns",
+                    topics::METADATA,
+                    known.start_unix_ns,
+                    meta.start_unix_ns
+                ),
+            }
+            .into()),
+            (None, _) => {
+                self.metadata_bytes = Some(data.to_vec());
+                self.log.metadata = Some(meta);
+                Ok(None)
+            }
+            _ => Ok(None),
+        }
+    }
+
+    /// Keeps a run's estimator settings (repeated through the run); a copy that differs from
+    /// the run's first is another run's.
+    fn settings(&mut self, data: &[u8]) -> Result<Option<String>> {
+        let s: EstimatorSettings = match decode(data) {
+            Ok(v) => v,
+            Err(e) => return Ok(Some(e)),
+        };
+        match self.log.settings.iter().find(|k| k.run == s.run) {
+            Some(known) if *known != s => Err(TwoRuns {
+                path: self.path.to_path_buf(),
+                evidence: format!(
+                    "two different {} records of the {} measurement",
+                    topics::ESTIMATOR_SETTINGS,
+                    s.run
+                ),
+            }
+            .into()),
+            Some(_) => Ok(None),
+            None => {
+                self.log.settings.push(s);
+                Ok(None)
+            }
+        }
+    }
 }
 
 /// The sensor frames of a `/sensors` message and its measurement; a message that does not fit
@@ -375,6 +452,21 @@ pub fn sensor_block(
 
 /// The schema of `/sensors` this version reads.
 pub const SENSOR_SCHEMA: &str = "stewart.SensorBlock";
+
+/// Whether two frames read the same (NaN equal to NaN: a missing reading is one too).
+fn same_readings(a: &SensorRecord, b: &SensorRecord) -> bool {
+    let same = |x: &[f64], y: &[f64]| {
+        x.iter()
+            .zip(y)
+            .all(|(p, q)| p.to_bits() == q.to_bits() || (p.is_nan() && q.is_nan()))
+    };
+    a.time_s.to_bits() == b.time_s.to_bits()
+        && same(&a.leg_lengths_m, &b.leg_lengths_m)
+        && same(&a.leg_forces_n, &b.leg_forces_n)
+        && same(&a.gyro_rad_s, &b.gyro_rad_s)
+        && same(&a.accel_m_s2, &b.accel_m_s2)
+        && a.status == b.status
+}
 
 fn keep<T: for<'de> Deserialize<'de>>(into: &mut Vec<T>, data: &[u8]) -> Option<String> {
     decode(data).map(|r| into.push(r)).err()
@@ -412,10 +504,11 @@ impl Visitor for Collect<'_> {
             topics::ESTIMATE => keep(&mut log.estimates, data),
             topics::LEGS => keep_record(&mut log.legs, m),
             topics::POSE => keep_record(&mut log.poses, m),
-            // The first copy that decodes (a log holds two, see `RunLog::write_metadata`).
-            topics::METADATA if log.metadata.is_some() => None,
-            topics::METADATA => set(&mut log.metadata, data),
-            topics::ESTIMATOR_SETTINGS => keep(&mut log.settings, data),
+            // A log holds two copies of its metadata (`RunLog::write_metadata`) and repeats
+            // each run's settings: the first that decodes is kept, and one that differs is
+            // another run's.
+            topics::METADATA => return self.metadata(data),
+            topics::ESTIMATOR_SETTINGS => return self.settings(data),
             topics::TARE => set(&mut log.tare, data),
             topics::TRUTH => set(&mut log.truth, data),
             _ => None,
@@ -444,18 +537,25 @@ impl LogContents {
     /// Reads `path`; a damaged or cut log gives what is intact (see [`Self::damaged`]).
     pub fn read(path: &Path) -> Result<Self> {
         let file = open_log(path)?;
-        let mut log = Self::from_source(BufReader::with_capacity(1 << 16, file))
-            .with_context(|| format!("{} is not a readable MCAP log", path.display()))?;
+        let mut log =
+            Self::from_source(BufReader::with_capacity(1 << 16, file), path).map_err(|e| {
+                // A log of two runs is readable, and refused for what it holds.
+                if is_two_runs(&e) {
+                    e
+                } else {
+                    e.context(format!("{} is not a readable MCAP log", path.display()))
+                }
+            })?;
         log.path = path.to_path_buf();
         Ok(log)
     }
 
     /// Reads a log held in memory.
     pub fn from_bytes(bytes: &[u8]) -> Result<Self> {
-        Self::from_source(std::io::Cursor::new(bytes))
+        Self::from_source(std::io::Cursor::new(bytes), Path::new("the log in memory"))
     }
 
-    fn from_source<R: Read + Seek>(src: R) -> Result<Self> {
+    fn from_source<R: Read + Seek>(src: R, path: &Path) -> Result<Self> {
         let mut log = Self::default();
         let (channels, damage) = visit(
             src,
@@ -463,12 +563,47 @@ impl LogContents {
                 log: &mut log,
                 sensor: None,
                 scratch: crate::proto::SensorBlock::default(),
+                metadata_bytes: None,
+                path,
             },
         )?;
         log.channels = channels;
         log.truncated = damage.truncated.clone();
         log.damaged = damage;
+        log.refuse_conflicting_frames(path)?;
         Ok(log)
+    }
+
+    /// Refuses the log as [`TwoRuns`] when two frames of one measurement carry one sequence
+    /// number with different readings (frames written twice, identical, are one frame read
+    /// twice: [`order`] drops them).
+    fn refuse_conflicting_frames(&self, path: &Path) -> Result<()> {
+        let mut index: Vec<usize> = (0..self.sensors.len()).collect();
+        index.sort_by(|&a, &b| {
+            let (a, b) = (&self.sensors[a], &self.sensors[b]);
+            (&a.run, a.sequence).cmp(&(&b.run, b.sequence))
+        });
+        let conflicting: Vec<&SensorRecord> = index
+            .windows(2)
+            .map(|w| (&self.sensors[w[0]], &self.sensors[w[1]]))
+            .filter(|(a, b)| a.run == b.run && a.sequence == b.sequence && !same_readings(a, b))
+            .map(|(a, _)| a)
+            .collect();
+        let Some(first) = conflicting.first() else {
+            return Ok(());
+        };
+        let (conflicts, first) = (
+            conflicting.len(),
+            format!("{} frame {}", first.run, first.sequence),
+        );
+        Err(TwoRuns {
+            path: path.to_path_buf(),
+            evidence: format!(
+                "{conflicts} sensor frame(s) whose sequence number another frame carries with \
+                 other readings, the first {first}"
+            ),
+        }
+        .into())
     }
 
     /// The run metadata, or an error naming its channel.

@@ -398,9 +398,26 @@ fn estimator_settings_are_repeated_while_a_measurement_runs_and_at_its_end() {
         log.write_sensor("loaded", &frame(i)).unwrap();
     }
     log.finish().unwrap();
-    let read = LogContents::read(&path).unwrap();
-    let copies = |run: &str| read.settings.iter().filter(|s| s.run == run).count();
+    // Every copy as written (the in-memory reader keeps one per measurement).
+    struct Copies(Vec<crate::metadata::EstimatorSettings>);
+    impl Visitor for Copies {
+        fn message(&mut self, m: &Message<'_>) -> Result<Option<String>> {
+            if m.channel.topic == topics::ESTIMATOR_SETTINGS {
+                self.0.push(decode(m.data).unwrap());
+            }
+            Ok(None)
+        }
+    }
+    let mut all = Copies(Vec::new());
+    visit(std::fs::File::open(&path).unwrap(), &mut all).unwrap();
+    let copies = |run: &str| all.0.iter().filter(|s| s.run == run).count();
     assert_eq!(copies("tare"), 4);
     assert_eq!(copies("loaded"), 2);
-    assert!(read.settings.iter().all(|s| *s == settings(&s.run)));
+    assert!(all.0.iter().all(|s| *s == settings(&s.run)));
+    let read = LogContents::read(&path).unwrap();
+    assert_eq!(
+        read.settings.len(),
+        2,
+        "one copy of each measurement's kept"
+    );
 }
