@@ -133,7 +133,9 @@ impl EstimatorConfig {
             accel_noise_m_s2: 0.0,
             leg_force_offsets: false,
             load_cell_drift: false,
-            covariance_half_block_samples: Self::default_covariance_half_block_samples(sample_period_s),
+            covariance_half_block_samples: Self::default_covariance_half_block_samples(
+                sample_period_s,
+            ),
             legs: None,
             local_gravity_m_s2: 0.0,
             hold_end_s: None,

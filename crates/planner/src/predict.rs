@@ -332,7 +332,9 @@ fn drift_scores(
             (phi.transpose() - gain * z.transpose()) * half
         })
         .collect();
-    let end_fix = psis.last().map_or(Score::zeros(), |psi| gain * psi.transpose() * half);
+    let end_fix = psis
+        .last()
+        .map_or(Score::zeros(), |psi| gain * psi.transpose() * half);
     (scores
         .iter()
         .chain(core::iter::once(&end_fix))
@@ -345,7 +347,11 @@ fn drift_scores(
 fn pseudo_inverse(m: &SMatrix<f64, 6, 6>, floor: f64) -> SMatrix<f64, 6, 6> {
     let eigen = ((m + m.transpose()) * 0.5).symmetric_eigen();
     let mut inverse = SMatrix::<f64, 6, 6>::zeros();
-    for (value, v) in eigen.eigenvalues.iter().zip(eigen.eigenvectors.column_iter()) {
+    for (value, v) in eigen
+        .eigenvalues
+        .iter()
+        .zip(eigen.eigenvectors.column_iter())
+    {
         if *value > floor {
             inverse += v * v.transpose() / *value;
         }

@@ -120,10 +120,17 @@ fn the_drift_fit_costs_a_short_run_what_its_rates_take() {
     };
     let (with, without) = (sigma(true), sigma(false));
     assert!(
-        with.iter().zip(without.iter()).all(|(w, o)| *w >= *o * (1.0 - 1e-9)),
+        with.iter()
+            .zip(without.iter())
+            .all(|(w, o)| *w >= *o * (1.0 - 1e-9)),
         "{with:.3e} against {without:.3e}"
     );
-    assert!(with[0] > 1.1 * without[0], "{} against {}", with[0], without[0]);
+    assert!(
+        with[0] > 1.1 * without[0],
+        "{} against {}",
+        with[0],
+        without[0]
+    );
 }
 
 /// The gyro's noise alone on a 3 s run: the estimator takes the gyro's error at the run's two
@@ -156,7 +163,12 @@ fn the_gyros_ends_taken_out_shrink_the_first_moments_spread_on_a_planned_motion(
 /// parameter, on the brisk motion of `duration` s; `blind`: the wrench handed to the estimator
 /// directly, without the pose the gyro's error is measured against; `drift`: the load cells'
 /// zero drift fitted (by the estimator, and paid for in the prediction).
-fn spread_over_predicted(duration: f64, noise: &ChannelNoise, blind: bool, drift: bool) -> Vec<f64> {
+fn spread_over_predicted(
+    duration: f64,
+    noise: &ChannelNoise,
+    blind: bool,
+    drift: bool,
+) -> Vec<f64> {
     let (loaded, mut planner) = default_planner();
     planner.conditioning.load_cell_drift = drift;
     let trajectory = brisk(&planner, duration);
