@@ -199,8 +199,15 @@ fn a_simulate_log_reads_back_as_documented() {
     assert_eq!(n("/run/truth"), 1.0);
     // At each excitation's start, every `SETTINGS_REPEAT_S` of its frames and at its end
     // (`RunLog::write_settings`), every copy the same record.
+    // Every copy as written, read by the mcap crate (the log's reader keeps the first of each
+    // measurement).
+    let written: Vec<runlog::metadata::EstimatorSettings> = support::read_messages(&run.log)
+        .into_iter()
+        .filter(|m| m.topic == "/run/estimator")
+        .map(|m| serde_json::from_value(m.value).unwrap())
+        .collect();
     for run_name in log.runs() {
-        let copies: Vec<_> = log.settings.iter().filter(|s| s.run == run_name).collect();
+        let copies: Vec<_> = written.iter().filter(|s| s.run == run_name).collect();
         let frames: Vec<_> = log.sensors_of(&run_name).collect();
         let start_s = copies[0].window_start_s.unwrap();
         let after_s = frames.last().unwrap().time_s - start_s;
