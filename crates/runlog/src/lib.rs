@@ -2,7 +2,7 @@
 //! `stewart estimate` re-reads.
 //!
 //! - [`schema`]: the JSON-schema builder and checker of the log's JSON messages, and the schemas
-//!   of measure's saved records ([`schema::tare`]).
+//!   of measure's saved records ([`schema::tare`]); crate `record-schema`, re-exported.
 //! - [`messages`]: the channel catalogue and the `stewart.*` message types with their JSON
 //!   schemas; [`metadata`] the run's metadata, estimator settings and (simulation) truth;
 //!   [`link`] the rig link's records.
@@ -30,7 +30,7 @@ pub mod proto;
 pub mod read;
 pub mod rig_record;
 pub mod run_log;
-pub mod schema;
+pub use record_schema as schema;
 pub mod tap;
 
 pub use observer::LogObserver;

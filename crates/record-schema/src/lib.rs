@@ -4,9 +4,9 @@
 //! Only the JSON-schema subset the log needs: objects with required properties, fixed or free
 //! length arrays, numbers, integers, strings, booleans, and nullable values.
 //!
-//! Each message type's schema is beside its type ([`crate::messages`], [`crate::metadata`],
-//! [`crate::rig_record`], [`crate::foxglove`]); the schemas of measure's saved records the log carries
-//! are in [`tare`].
+//! Each log message type's schema is beside its type (crate `runlog`: `messages`, `metadata`,
+//! `rig_record`, `foxglove`); the schemas of measure's saved records the log carries are in
+//! [`tare`], here because `measure` is below the log and needs no JSON schema of its own.
 
 pub mod tare;
 
