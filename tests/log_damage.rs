@@ -362,8 +362,11 @@ fn reordered_and_duplicated_frames_are_put_back_in_order() {
 /// A lost chunk (about a second of frames) is a gap too long to bridge: it restarts the
 /// conditioning, whose stencil (three samples) and low-pass warm-up are withheld again, and
 /// nothing else. The RLS state carries across the gap, so the estimate loses the gap's and
-/// the warm-up's samples only: its sigmas grow by a few per cent (an RLS restarted after the
-/// gap would have lost everything before it), and it moves by a fraction of a sigma.
+/// the warm-up's samples only (an RLS restarted after the gap would have lost everything
+/// before it): its sigmas grow by about what the lost share costs, √(N/N′) − 1 (12 % for the
+/// fifth of this short run one chunk holds), at most twice that for the entry whose window
+/// covariance is the least steady (c_z: 19 % without the zero-drift fit, 20 % with it), and it
+/// moves by a fraction of a sigma.
 #[test]
 fn a_lost_chunk_restarts_the_filters_and_keeps_the_fit() {
     let (run, bytes) = run();
@@ -399,13 +402,15 @@ fn a_lost_chunk_restarts_the_filters_and_keeps_the_fit() {
     };
     let (a, b) = (flat(&clean.estimate), flat(&damaged.estimate));
     let (sa, sb) = (flat(&clean.sigma), flat(&damaged.sigma));
+    let counted = (clean.samples as f64 / damaged.samples as f64).sqrt() - 1.0;
     for k in 0..a.len() {
         let growth = sb[k] / sa[k] - 1.0;
         let shift = (b[k] - a[k]) / sa[k];
         assert!(
-            growth < 0.2 && shift.abs() < 0.5,
-            "entry {k}: sigma {:+.1} %, shift {shift:+.2} sigma",
-            100.0 * growth
+            growth < 2.0 * counted && shift.abs() < 0.5,
+            "entry {k}: sigma {:+.1} % (the lost share costs {:.1} %), shift {shift:+.2} sigma",
+            100.0 * growth,
+            100.0 * counted
         );
     }
 }
