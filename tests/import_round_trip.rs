@@ -22,6 +22,9 @@ use support::close;
 struct Export {
     sequence: bool,
     window: bool,
+    /// Seconds of rest kept before each run's excitation, the rows before left out (a table
+    /// whose rest before the motion is shorter than the brake hold); all rows with `None`.
+    rest_s: Option<f64>,
 }
 
 /// The sensor frames of `runs` in `log` as a CSV table. Numbers in Rust's shortest form that
@@ -39,7 +42,8 @@ fn export(log: &LogContents, runs: &[&str], e: Export, to: &Path) {
         let settings = log.settings_of(run).expect("the run's settings");
         let start = settings.window_start_s.unwrap_or(f64::NEG_INFINITY);
         let end = settings.window_end_s.unwrap_or(f64::INFINITY);
-        for f in log.sensors_of(run) {
+        let from_s = e.rest_s.map_or(f64::NEG_INFINITY, |r| start - r);
+        for f in log.sensors_of(run).filter(|f| f.time_s >= from_s) {
             let _ = write!(text, "{},{run}", f.time_s);
             let values = f.leg_lengths_m.iter().chain(&f.leg_forces_n);
             for v in values.chain(&f.gyro_rad_s).chain(&f.accel_m_s2) {
@@ -124,6 +128,7 @@ fn an_imported_simulate_run_gives_the_same_estimate() {
     let all = Export {
         sequence: true,
         window: true,
+        rest_s: None,
     };
     export(&log, &["tare", "loaded"], all, &csv);
     let imported_log = dir.join("all.mcap");
@@ -189,5 +194,54 @@ fn an_imported_simulate_run_gives_the_same_estimate() {
                 "{name}: original {a:e}, with the tare file {b:e}"
             );
         }
+    }
+}
+
+/// A table whose motion starts 1 s in, sooner than the rig description's brake hold (2 s):
+/// the static weighing takes the rest the data holds, not the hold's length of rows, with a
+/// `window` column and without one (the rows before the first motion are then the rest), and
+/// agrees with the dynamic fit and with the simulated world's payload.
+#[test]
+fn a_table_with_one_second_of_rest_weighs_its_rest_only() {
+    let sim = support::simulate();
+    let dir = sim.dir.path();
+    let log = LogContents::read(&sim.log).unwrap();
+    let meta = log.require_metadata().unwrap();
+    let rig = dir.join("rig.toml");
+    std::fs::write(&rig, &meta.config_toml).unwrap();
+    let truth = sim.report.truth.as_ref().expect("a simulation's truth");
+    for window in [true, false] {
+        let e = Export {
+            sequence: true,
+            window,
+            rest_s: Some(1.0),
+        };
+        let csv = dir.join(format!("rest-{window}.csv"));
+        export(&log, &["tare", "loaded"], e, &csv);
+        let imported = dir.join(format!("rest-{window}.mcap"));
+        import(&csv, &rig, None, &imported);
+        let report = estimate(&imported);
+        let w = report
+            .static_weighing
+            .as_ref()
+            .unwrap_or_else(|| panic!("window column {window}: no static weighing"));
+        let p = &w.payload;
+        let rows = [
+            ("mass", p.mass_kg, p.sigma_mass_kg, truth.mass),
+            ("c_x", p.com_xy_m[0], p.sigma_com_xy_m[0], truth.com[0]),
+            ("c_y", p.com_xy_m[1], p.sigma_com_xy_m[1], truth.com[1]),
+        ];
+        for (name, got, sigma, want) in rows {
+            assert!(
+                (got - want).abs() <= 3.0 * sigma,
+                "window column {window}, {name}: static {got} ± {sigma}, world {want} ({:.1} σ)",
+                (got - want) / sigma
+            );
+        }
+        assert!(
+            w.check.is_some_and(|c| c.agrees),
+            "window column {window}: static and dynamic disagree: {:?}",
+            w.check
+        );
     }
 }

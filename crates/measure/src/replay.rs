@@ -147,7 +147,8 @@ impl Replay {
     }
 
     /// Also weighs the load statically over the measurement's first frames, its brake hold
-    /// (`run.brake_hold_s` of `config`), as the online measurement does ([`crate::weigh`]).
+    /// (`run.brake_hold_s` of `config`) or the rest before the plate first moves if that is
+    /// shorter ([`crate::weigh::RestWatch`]), as the online measurement does ([`crate::weigh`]).
     pub fn with_weighing(mut self, config: &rig_description::Config) -> Self {
         let hold =
             ((config.run.brake_hold_s * config.sensors.sample_rate_hz).round() as u64).max(1);
@@ -155,7 +156,8 @@ impl Replay {
             self.config.geometry,
             self.config.legs,
             crate::weigh::gravity_of(config),
-        );
+        )
+        .watching(crate::weigh::RestWatch::of(config));
         self.weighing = Some((weigher, hold, crate::budget::Figures::of(config)));
         self
     }

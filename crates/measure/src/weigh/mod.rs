@@ -30,6 +30,15 @@
 //! a load just put on is not at rest at the start: the load must have settled before the hold
 //! (a rig's operator loads it well before; the simulator's station waits two seconds).
 //!
+//! **The rest's end.** The hold is what comes before the plate first moves: a sample whose
+//! leg lengths differ from the first sample's by more than two readings' noise allows
+//! ([`RestWatch`]) ends it, and the 0.1 s before that sample are dropped, so the stretch ends
+//! at rest, not in the motion's first tenth of a second (a motion that takes longer than that
+//! to move a leg by the threshold δ leaves at most m √(2 δ a) / T in the mean: 0.02 kg for
+//! δ = 6 µm, a = 1.2 mm/s², T = 1 s, 1,500 kg). On a rig the brake hold ends before anything
+//! moves; a foreign lab's table may start its motion sooner than `run.brake_hold_s`, and
+//! its rest is then what is weighed.
+//!
 //! **Uncertainty.** The noise of the mean is σ²/n per wrench component, σ² from the second
 //! differences of the samples, E[(x_{k+1} − 2x_k + x_{k−1})²] = 6σ² for white noise: a slow
 //! drift or swing of the load hardly enters them, where it would dominate the scatter of block
@@ -137,6 +146,43 @@ pub fn gravity_of(config: &rig_description::Config) -> f64 {
         .unwrap_or(STANDARD_GRAVITY_M_S2)
 }
 
+/// Where the rest at a run's start ends: the first sample whose leg lengths differ from the
+/// first sample's by more than `threshold_m` on any leg; the `guard_samples` before it are
+/// dropped too (see the [module docs](self), "The rest's end").
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RestWatch {
+    /// The largest change of a leg's length from the first sample that is still rest, m.
+    pub threshold_m: f64,
+    /// Samples before the first moving one that are not weighed.
+    pub guard_samples: usize,
+}
+
+impl RestWatch {
+    /// Seconds before the first moving sample that are not weighed.
+    pub const GUARD_S: f64 = 0.1;
+
+    /// The watch for `config`'s encoders and sample rate: a leg moved when its length changed
+    /// by more than 6 √2 σ (two readings' noise) plus two quantisation steps.
+    pub fn of(config: &rig_description::Config) -> Self {
+        let encoder = &config.sensors.encoder;
+        Self {
+            threshold_m: 6.0 * std::f64::consts::SQRT_2 * encoder.noise_m
+                + 2.0 * encoder.resolution_m,
+            guard_samples: (Self::GUARD_S * config.sensors.sample_rate_hz).round() as usize,
+        }
+    }
+}
+
+/// One sample held back until the rest is known to have lasted past it.
+#[derive(Clone, Copy, Debug)]
+struct Pending {
+    time_s: f64,
+    wrench: Vector6<f64>,
+    forces: Vector6<f64>,
+    lengths: Vector6<f64>,
+    pose: Pose,
+}
+
 /// Accumulates one hold's samples; [`Weigher::finish`] gives the weighing. Reserved up front:
 /// [`Weigher::push`] never allocates.
 #[derive(Clone, Debug)]
@@ -144,6 +190,13 @@ pub struct Weigher {
     geometry: Geometry,
     legs: Option<LegModel>,
     gravity_m_s2: f64,
+    watch: Option<RestWatch>,
+    /// The first sample's leg lengths, the rest's reference.
+    first_lengths: Option<Vector6<f64>>,
+    /// The plate moved: nothing more is weighed.
+    moved: bool,
+    /// The last `guard_samples` samples, weighed once the rest outlasts them.
+    pending: std::collections::VecDeque<Pending>,
     n: u64,
     sum_w: Vector6<f64>,
     sum_f: Vector6<f64>,
@@ -165,6 +218,10 @@ impl Weigher {
             geometry,
             legs,
             gravity_m_s2,
+            watch: None,
+            first_lengths: None,
+            moved: false,
+            pending: std::collections::VecDeque::new(),
             n: 0,
             sum_w: Vector6::zeros(),
             sum_f: Vector6::zeros(),
@@ -178,48 +235,101 @@ impl Weigher {
         }
     }
 
-    /// The weigher of `config`'s rig.
+    /// The weigher of `config`'s rig, weighing the rest only ([`RestWatch::of`]).
     pub fn of(config: &rig_description::Config, geometry: Geometry) -> Self {
         Self::new(
             geometry,
             crate::setup::leg_model(config),
             gravity_of(config),
         )
+        .watching(RestWatch::of(config))
+    }
+
+    /// Weighs only the samples before the plate first moves, by `watch`.
+    pub fn watching(mut self, watch: RestWatch) -> Self {
+        self.pending = std::collections::VecDeque::with_capacity(watch.guard_samples + 1);
+        self.watch = Some(watch);
+        self
     }
 
     /// One hold sample: its time, pose and (gain-corrected) leg forces. Non-finite samples
-    /// are skipped.
+    /// are skipped; with a [`RestWatch`], so is every sample from the guard before the plate's
+    /// first motion on.
     pub fn push(&mut self, time_s: f64, pose: &Pose, leg_forces_n: &Vector6<f64>) {
         let w = static_wrench(&self.geometry, self.legs.as_ref(), pose, leg_forces_n);
-        if !(w.iter().all(|v| v.is_finite()) && time_s.is_finite()) {
+        if self.moved || !(w.iter().all(|v| v.is_finite()) && time_s.is_finite()) {
             return;
         }
-
-        if self.n == 0 {
-            self.first_s = time_s;
+        let lengths = self.geometry.leg_lengths(pose);
+        let sample = Pending {
+            time_s,
+            wrench: w,
+            forces: *leg_forces_n,
+            lengths,
+            pose: *pose,
+        };
+        let Some(watch) = self.watch else {
+            self.add(&sample);
+            return;
+        };
+        let first = *self.first_lengths.get_or_insert(lengths);
+        if (lengths - first).amax() > watch.threshold_m {
+            self.moved = true;
+            self.pending.clear();
+            return;
         }
-        self.last_s = time_s;
+        if self.pending.len() == watch.guard_samples {
+            if let Some(oldest) = self.pending.pop_front() {
+                self.add(&oldest);
+            }
+        }
+        if watch.guard_samples == 0 {
+            self.add(&sample);
+        } else {
+            self.pending.push_back(sample);
+        }
+    }
+
+    /// Adds a sample at rest to the sums.
+    fn add(&mut self, s: &Pending) {
+        if self.n == 0 {
+            self.first_s = s.time_s;
+        }
+        self.last_s = s.time_s;
         self.n += 1;
-        self.sum_w += w;
-        self.sum_f += leg_forces_n;
-        self.sum_len += self.geometry.leg_lengths(pose);
-        self.last_pose = Some(*pose);
+        self.sum_w += s.wrench;
+        self.sum_f += s.forces;
+        self.sum_len += s.lengths;
+        self.last_pose = Some(s.pose);
         if let [Some(a), Some(b)] = self.previous {
-            let d = w - b * 2.0 + a;
+            let d = s.wrench - b * 2.0 + a;
             self.second += d * d.transpose();
             self.second_n += 1;
         }
-        self.previous = [self.previous[1], Some(w)];
+        self.previous = [self.previous[1], Some(s.wrench)];
     }
 
-    /// Samples pushed.
+    /// Samples weighed: those at rest, the guard's included while the plate has not moved.
     pub fn samples(&self) -> u64 {
-        self.n
+        self.n + self.pending.len() as u64
+    }
+
+    /// Whether the plate moved (by the [`RestWatch`]) since the first sample.
+    pub fn moved(&self) -> bool {
+        self.moved
     }
 
     /// The weighing with the rig description's `figures`; `None` with fewer than
     /// [`MIN_SAMPLES`] samples or a plate not carried upright (u_z ≤ 0.5).
     pub fn finish(&self, figures: &Figures) -> Option<StaticWeighing> {
+        if !self.pending.is_empty() {
+            // The hold ended at rest: the guard's samples are rest too.
+            let mut all = self.clone();
+            while let Some(s) = all.pending.pop_front() {
+                all.add(&s);
+            }
+            return all.finish(figures);
+        }
         if self.n < MIN_SAMPLES || self.second_n == 0 {
             return None;
         }

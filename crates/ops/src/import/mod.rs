@@ -59,8 +59,10 @@ pub struct RunSummary {
     pub lines: [u64; 2],
     /// Time of its first and last row, s.
     pub time_s: [f64; 2],
-    /// The fit window's first and last row's time, s (the whole run without a `window`
-    /// column).
+    /// The fit window's first and last row's time, s. Without a `window` column, from the
+    /// first row where the plate moved ([`measure::weigh::RestWatch`]: a leg's length
+    /// changed from the run's first row by more than its threshold) to the run's end; the
+    /// rows before it are the run's rest.
     pub window_s: [f64; 2],
     /// Time steps of about one sample period (within half a period, per counter step when
     /// the table has a `sequence` column), of `rows − 1`.
@@ -134,11 +136,18 @@ fn open(path: &Path) -> Result<Table<impl Read>> {
     .with_context(|| format!("{} is refused", path.display()))
 }
 
-/// The first pass: every row checked, each run's rows, times and window.
-pub fn scan(path: &Path, sample_period_s: f64) -> Result<Vec<RunSummary>> {
+/// The first pass: every row checked, each run's rows, times and window; `rest` tells the
+/// rest from the motion in a table without a `window` column.
+pub fn scan(
+    path: &Path,
+    sample_period_s: f64,
+    rest: &measure::weigh::RestWatch,
+) -> Result<Vec<RunSummary>> {
     let mut t = open(path)?;
     let mut runs: Vec<RunSummary> = Vec::new();
     let mut window_seen = false;
+    // The run's first leg lengths, until the plate moved (tables without a window column).
+    let mut resting: Option<[f64; 6]> = None;
     let mut previous: Option<Row> = None;
     while let Some(row) = t
         .next_row()
@@ -164,6 +173,7 @@ pub fn scan(path: &Path, sample_period_s: f64) -> Result<Vec<RunSummary>> {
             }
             _ => {
                 window_seen = false;
+                resting = Some(f.leg_lengths_m);
                 runs.push(RunSummary {
                     run: row.run,
                     rows: 1,
@@ -180,6 +190,17 @@ pub fn scan(path: &Path, sample_period_s: f64) -> Result<Vec<RunSummary>> {
                 window_seen = true;
             }
             r.window_s[1] = time_s;
+        }
+        if let (Some(r), None, Some(first)) = (runs.last_mut(), row.window, resting) {
+            let moved = f
+                .leg_lengths_m
+                .iter()
+                .zip(first)
+                .any(|(l, l0)| (l - l0).abs() > rest.threshold_m);
+            if moved {
+                r.window_s[0] = time_s;
+                resting = None;
+            }
         }
         if row.window == Some(false) && !window_seen {
             if let Some(r) = runs.last_mut() {
@@ -242,7 +263,7 @@ pub fn import(plan: &ImportPlan<'_>) -> Result<Imported> {
     let config = &plan.rig.config;
     let geometry = setup::geometry(plan.rig).map_err(|e| anyhow::anyhow!("{e}"))?;
     let period_s = 1.0 / config.sensors.sample_rate_hz;
-    let runs = scan(plan.csv, period_s)?;
+    let runs = scan(plan.csv, period_s, &measure::weigh::RestWatch::of(config))?;
     let has = |m: Measurement| runs.iter().any(|r| r.run == m);
     let csv = plan.csv.display();
     let tare = match plan.tare {
@@ -353,7 +374,10 @@ pub enum Error {
 
 /// Runs `import`: writes the log of `options`.
 pub fn run(options: &ImportOptions) -> Result<Imported, Error> {
-    let rig = rig_description::load::load(Some(&options.rig))?;
+    let rig = rig_description::load::load_scoped(
+        Some(&options.rig),
+        rig_description::validate::Scope::Estimation,
+    )?;
     let out = options
         .out
         .clone()
