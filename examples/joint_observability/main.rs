@@ -212,8 +212,8 @@ fn main() -> anyhow::Result<()> {
     let d = Datasheet {
         joint_m: sigma,
         rate_hz: sensors.sample_rate_hz,
-        gyro_density: sensors.gyro.noise_density_rad_s_sqrt_hz,
-        accel_density: sensors.accelerometer.noise_density_m_s2_sqrt_hz,
+        gyro_density: sensors.gyro_density_rad_s_sqrt_hz(),
+        accel_density: sensors.accel_density_m_s2_sqrt_hz(),
         accel_scale: sensors.accelerometer.scale_error,
         gain: sensors.load_cell.gain_error,
         cell_noise_n: sensors.load_cell.noise_n,

@@ -607,16 +607,25 @@ fn rig(s: &mut String, input: &Input, cx: &Context<'_>) {
                 s,
                 "gyro (datasheet)",
                 &format!(
-                    "noise density {} rad/s/√Hz, scale error {}",
-                    c.sensors.gyro.noise_density_rad_s_sqrt_hz, c.sensors.gyro.scale_error
+                    "{}, scale error {}",
+                    imu_noise(
+                        c.sensors.gyro.noise_density_rad_s_sqrt_hz,
+                        c.sensors.gyro.noise_rms_rad_s,
+                        "rad/s"
+                    ),
+                    c.sensors.gyro.scale_error
                 ),
             );
             kv(
                 s,
                 "accelerometer (datasheet)",
                 &format!(
-                    "noise density {} m/s²/√Hz, bias {} m/s², scale error {}",
-                    c.sensors.accelerometer.noise_density_m_s2_sqrt_hz,
+                    "{}, bias {} m/s², scale error {}",
+                    imu_noise(
+                        c.sensors.accelerometer.noise_density_m_s2_sqrt_hz,
+                        c.sensors.accelerometer.noise_rms_m_s2,
+                        "m/s²"
+                    ),
                     c.sensors.accelerometer.bias_m_s2,
                     c.sensors.accelerometer.scale_error
                 ),
@@ -691,4 +700,13 @@ fn provenance(s: &mut String, r: &Report, cx: &Context<'_>) {
     }
     kv(s, "parameters estimated", &r.run.params.to_string());
     s.push_str("</table></section>\n");
+}
+
+/// An IMU channel's noise as the rig description gives it: a density or one sample's rms.
+fn imu_noise(density: Option<f64>, rms: Option<f64>, unit: &str) -> String {
+    match (density, rms) {
+        (_, Some(r)) => format!("noise {r} {unit} per sample"),
+        (Some(d), None) => format!("noise density {d} {unit}/√Hz"),
+        (None, None) => "noise not given".into(),
+    }
 }

@@ -13,6 +13,7 @@ use std::fmt;
 use std::path::Path;
 
 use crate::config::Config;
+use crate::validate::Scope;
 
 /// The default scenario, compiled in so that `stewart simulate` needs no arguments.
 pub const DEFAULT_CONFIG_TOML: &str = include_str!("../../../configs/default.toml");
@@ -257,8 +258,13 @@ impl LoadedConfig {
 
 /// Loads the embedded default, or `path` laid over it, and validates the ranges.
 pub fn load(path: Option<&Path>) -> Result<LoadedConfig, ConfigError> {
+    load_scoped(path, Scope::Everything)
+}
+
+/// As [`load`], validating only the keys `scope` covers.
+pub fn load_scoped(path: Option<&Path>, scope: Scope) -> Result<LoadedConfig, ConfigError> {
     match path {
-        None => load_str(DEFAULT_CONFIG_TOML, DEFAULT_CONFIG_NAME),
+        None => load_str_scoped(DEFAULT_CONFIG_TOML, DEFAULT_CONFIG_NAME, scope),
         Some(path) => {
             let (text, name) = read_text(
                 path,
@@ -266,7 +272,7 @@ pub fn load(path: Option<&Path>) -> Result<LoadedConfig, ConfigError> {
                 crate::bounded::DESCRIPTION_CAP_BYTES,
                 "a rig description",
             )?;
-            load_str(&text, &name)
+            load_str_scoped(&text, &name, scope)
         }
     }
 }
@@ -294,6 +300,15 @@ fn read_text(
 
 /// Loads scenario `text` (named `source` in messages) laid over the embedded default.
 pub fn load_str(text: &str, source: &str) -> Result<LoadedConfig, ConfigError> {
+    load_str_scoped(text, source, Scope::Everything)
+}
+
+/// As [`load_str`], validating only the keys `scope` covers.
+pub fn load_str_scoped(
+    text: &str,
+    source: &str,
+    scope: Scope,
+) -> Result<LoadedConfig, ConfigError> {
     let issue = |line: Option<usize>, key: String, problem: String| ConfigIssue {
         file: source.to_string(),
         line,
@@ -328,8 +343,9 @@ pub fn load_str(text: &str, source: &str) -> Result<LoadedConfig, ConfigError> {
     platform_form(&user, &mut merged).map_err(|(key, problem)| {
         ConfigError::single(issue(locate_key(text, &key), key, problem))
     })?;
+    noise_forms(&user, &mut merged);
     merge(&mut merged, user);
-    let mut config = describe(&merged, text, source)?;
+    let mut config = describe(&merged, text, source, scope)?;
     read_calibrations(&mut config, text, source)?;
     Ok(LoadedConfig {
         config,
@@ -362,7 +378,7 @@ pub fn load_recorded(
         }
         Err(_) => text.to_string(),
     };
-    let mut loaded = load_str(&stripped, source)?;
+    let mut loaded = load_str_scoped(&stripped, source, Scope::Estimation)?;
     if let Some(file) = imu {
         loaded.config.calibration.imu = Some("<IMU calibration in the log>".into());
         loaded.config.calibration.imu_file = Some(file);
@@ -409,7 +425,12 @@ fn read_calibrations(config: &mut Config, text: &str, source: &str) -> Result<()
 
 /// The rig description of a merged document (the world left out, the tare's excitation
 /// completed), validated; problems are located in `text`, named `source`.
-fn describe(merged: &toml::Table, text: &str, source: &str) -> Result<Config, ConfigError> {
+fn describe(
+    merged: &toml::Table,
+    text: &str,
+    source: &str,
+    scope: Scope,
+) -> Result<Config, ConfigError> {
     let issue = |line: Option<usize>, key: String, problem: String| ConfigIssue {
         file: source.to_string(),
         line,
@@ -426,7 +447,8 @@ fn describe(merged: &toml::Table, text: &str, source: &str) -> Result<Config, Co
         let (key, problem) = explain_serde_error(&key, &message);
         ConfigError::single(issue(locate_key(text, &key), key, problem))
     })?;
-    let problems = crate::validate::validate(&config);
+    let mut problems = crate::validate::validate(&config);
+    problems.retain(|(key, _)| scope.covers(key));
     if !problems.is_empty() {
         return Err(ConfigError {
             issues: problems
@@ -489,7 +511,7 @@ impl LoadedConfig {
         let mut over = toml::Table::new();
         over.insert("excitation".into(), toml::Value::Table(excitation));
         merge(&mut merged, over);
-        self.config = describe(&merged, text, source)?;
+        self.config = describe(&merged, text, source, Scope::Everything)?;
         self.merged = merged;
         Ok(self)
     }
@@ -571,6 +593,44 @@ fn platform_form(user: &toml::Table, merged: &mut toml::Table) -> Result<(), (St
         }
     }
     Ok(())
+}
+
+/// An IMU channel's noise the user's file gives in one form (density or per-sample rms)
+/// replaces the embedded default's, given in the other; a file that gives both is refused by
+/// validation at the key.
+fn noise_forms(user: &toml::Table, merged: &mut toml::Table) {
+    let pairs = [
+        ("gyro", "noise_density_rad_s_sqrt_hz", "noise_rms_rad_s"),
+        (
+            "accelerometer",
+            "noise_density_m_s2_sqrt_hz",
+            "noise_rms_m_s2",
+        ),
+    ];
+    let table = |t: &toml::Table, name: &str| -> Option<toml::Table> {
+        match t.get("sensors") {
+            Some(toml::Value::Table(s)) => match s.get(name) {
+                Some(toml::Value::Table(c)) => Some(c.clone()),
+                _ => None,
+            },
+            _ => None,
+        }
+    };
+    for (name, density, rms) in pairs {
+        let Some(given) = table(user, name) else {
+            continue;
+        };
+        let drop = match (given.contains_key(density), given.contains_key(rms)) {
+            (true, false) => rms,
+            (false, true) => density,
+            _ => continue,
+        };
+        if let Some(toml::Value::Table(s)) = merged.get_mut("sensors") {
+            if let Some(toml::Value::Table(c)) = s.get_mut(name) {
+                c.remove(drop);
+            }
+        }
+    }
 }
 
 /// Lays `over` onto `base`: tables merge recursively, anything else replaces.
@@ -758,6 +818,60 @@ mod tests {
         assert!(!loaded.file_sets("calibration.measure_load_cells"));
         assert!(!loaded.file_sets("platform.base_radius_m"));
         assert!(!load(None).unwrap().file_sets("calibration.measure_imu"));
+    }
+
+    #[test]
+    fn an_estimate_checks_only_the_keys_that_act_on_it() {
+        // A lab's description with a park the tool would refuse to run: an estimate from its
+        // data does not park.
+        let text = "[run]\npark_s = 0.0\n[control]\nsettle_ramp_s = 0.0\n";
+        let everything = load_str(text, "lab.toml").unwrap_err();
+        let keys: Vec<&str> = everything.issues.iter().map(|i| i.key.as_str()).collect();
+        assert_eq!(
+            keys,
+            ["control.settle_ramp_s", "run.park_s"],
+            "{everything}"
+        );
+        assert!(load_str_scoped(text, "lab.toml", Scope::Estimation).is_ok());
+        // What the estimate reads is still checked, the brake hold (the weighing's rest) too.
+        for (text, key) in [
+            ("[run]\nbrake_hold_s = -1.0\n", "run.brake_hold_s"),
+            (
+                "[sensors]\nsample_rate_hz = -1.0\n",
+                "sensors.sample_rate_hz",
+            ),
+        ] {
+            let e = load_str_scoped(text, "lab.toml", Scope::Estimation).unwrap_err();
+            assert_eq!(e.issues[0].key, key, "{e}");
+        }
+    }
+
+    #[test]
+    fn an_imus_noise_is_a_density_or_a_per_sample_rms() {
+        let default = load(None).unwrap().config.sensors;
+        let d = default.gyro.noise_density_rad_s_sqrt_hz.unwrap();
+        assert_eq!(
+            default.gyro_noise_rad_s(),
+            d * default.sample_rate_hz.sqrt()
+        );
+        // The rms replaces the default's density; the recorded description reads back.
+        let text = "[sensors.gyro]\nnoise_rms_rad_s = 2.0e-3\n[sensors.accelerometer]\nnoise_rms_m_s2 = 0.02\n";
+        let loaded = load_str(text, "lab.toml").unwrap();
+        let s = loaded.config.sensors.clone();
+        assert_eq!(s.gyro.noise_density_rad_s_sqrt_hz, None);
+        assert_eq!((s.gyro_noise_rad_s(), s.accel_noise_m_s2()), (2.0e-3, 0.02));
+        assert_eq!(
+            s.gyro_density_rad_s_sqrt_hz(),
+            2.0e-3 / s.sample_rate_hz.sqrt()
+        );
+        let again = load_str(&loaded.effective_toml(), "log").unwrap();
+        assert_eq!(again.config.sensors, s);
+        // Both in one file: refused at the key, with the way out.
+        let both = "[sensors.gyro]\nnoise_rms_rad_s = 2.0e-3\nnoise_density_rad_s_sqrt_hz = 5e-5\n";
+        let e = load_str(both, "lab.toml").unwrap_err();
+        assert_eq!(e.issues[0].key, "sensors.gyro.noise_rms_rad_s", "{e}");
+        assert_eq!(e.issues[0].line, Some(2), "{e}");
+        assert!(e.issues[0].problem.contains("give one"), "{e}");
     }
 
     #[test]

@@ -6,6 +6,39 @@
 use crate::config::{Config, ExcitationKind, MultisineConfig, ParamCount, SineConfig};
 use crate::range::{ranges, Range};
 
+/// Which keys of a rig description a command checks: those that act on what it does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Scope {
+    /// Every key: a command that moves the platform or plans a motion.
+    Everything,
+    /// The keys an estimate from recorded data reads (`import`, `estimate`, `report`): the
+    /// platform, the sensors, the legs, the estimator, the calibrations and the brake hold's
+    /// length (the static weighing's longest rest). Not the controller, the excitation, the
+    /// plan or the run's other phases: they act only on a rig or a simulation, and a foreign
+    /// lab's description need not hold values for them that this tool would accept.
+    Estimation,
+}
+
+impl Scope {
+    /// Whether a problem at `key` (dotted) counts for this scope.
+    pub fn covers(self, key: &str) -> bool {
+        match self {
+            Scope::Everything => true,
+            Scope::Estimation => {
+                let ignored = [
+                    "control.",
+                    "excitation.",
+                    "tare_excitation.",
+                    "plan.",
+                    "run.",
+                ];
+                key == "run.brake_hold_s" || !ignored.iter().any(|p| key.starts_with(p))
+            }
+        }
+    }
+}
+
 /// Collects problems as (dotted key, message); other layers (the simulated world) check their
 /// own tables with it.
 #[derive(Default)]
@@ -60,6 +93,40 @@ impl Problems {
                     format!("must be finite and within ±{limit}, got {x}"),
                 );
             }
+        }
+    }
+}
+
+/// An IMU channel's noise: exactly one of its density and its per-sample rms, each given as
+/// (key, value, largest, unit), within [0, largest].
+fn noise_form(
+    p: &mut Problems,
+    table: &str,
+    density: (&str, Option<f64>, f64, &str),
+    rms: (&str, Option<f64>, f64, &str),
+) {
+    match (density.1, rms.1) {
+        (Some(_), Some(_)) => p.push(
+            format!("{table}.{}", rms.0),
+            format!(
+                "the noise is given twice: as a density ({table}.{}) and per sample \
+                 ({table}.{}); give one",
+                density.0, rms.0
+            ),
+        ),
+        (None, None) => p.push(
+            format!("{table}.{}", density.0),
+            format!(
+                "missing: give the noise as a density ({table}.{}, Allan-deviation convention: \
+                 one sample's sigma is it × √(sample rate)) or per sample ({table}.{})",
+                density.0, rms.0
+            ),
+        ),
+        _ => {}
+    }
+    for (key, value, largest, unit) in [density, rms] {
+        if let Some(v) = value {
+            p.within(&format!("{table}.{key}"), v, 0.0, largest, unit);
         }
     }
 }
@@ -150,12 +217,16 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
     p.non_negative("sensors.load_cell.noise_n", s.load_cell.noise_n);
     p.non_negative("sensors.load_cell.zero_offset_n", s.load_cell.zero_offset_n);
     p.non_negative("sensors.load_cell.resolution_n", s.load_cell.resolution_n);
-    p.within(
-        "sensors.gyro.noise_density_rad_s_sqrt_hz",
-        s.gyro.noise_density_rad_s_sqrt_hz,
-        0.0,
-        0.1,
-        "rad/s/√Hz",
+    noise_form(
+        &mut p,
+        "sensors.gyro",
+        (
+            "noise_density_rad_s_sqrt_hz",
+            s.gyro.noise_density_rad_s_sqrt_hz,
+            0.1,
+            "rad/s/√Hz",
+        ),
+        ("noise_rms_rad_s", s.gyro.noise_rms_rad_s, 10.0, "rad/s"),
     );
     p.within(
         "sensors.gyro.bias_rad_s",
@@ -164,12 +235,21 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
         1.0,
         "rad/s",
     );
-    p.within(
-        "sensors.accelerometer.noise_density_m_s2_sqrt_hz",
-        s.accelerometer.noise_density_m_s2_sqrt_hz,
-        0.0,
-        10.0,
-        "m/s²/√Hz",
+    noise_form(
+        &mut p,
+        "sensors.accelerometer",
+        (
+            "noise_density_m_s2_sqrt_hz",
+            s.accelerometer.noise_density_m_s2_sqrt_hz,
+            10.0,
+            "m/s²/√Hz",
+        ),
+        (
+            "noise_rms_m_s2",
+            s.accelerometer.noise_rms_m_s2,
+            100.0,
+            "m/s²",
+        ),
     );
     p.within(
         "sensors.accelerometer.bias_m_s2",

@@ -180,12 +180,12 @@ impl Scenario {
                 ),
             },
             gyro: crate::GyroConfig {
-                noise_density_rad_s_sqrt_hz: noise(s.gyro.noise_density_rad_s_sqrt_hz),
+                noise_density_rad_s_sqrt_hz: noise(s.gyro_density_rad_s_sqrt_hz()),
                 bias_sigma_rad_s: noise(s.gyro.bias_rad_s),
                 scale_sigma: on(ErrorSource::ImuMisalignment, s.gyro.scale_error),
             },
             accelerometer: crate::AccelerometerConfig {
-                noise_density_m_s2_sqrt_hz: noise(s.accelerometer.noise_density_m_s2_sqrt_hz),
+                noise_density_m_s2_sqrt_hz: noise(s.accel_density_m_s2_sqrt_hz()),
                 bias_sigma_m_s2: on(ErrorSource::AccelBias, s.accelerometer.bias_m_s2),
                 scale_sigma: on(ErrorSource::ImuMisalignment, s.accelerometer.scale_error),
                 mount_m: s.imu.position_m,

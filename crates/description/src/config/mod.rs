@@ -406,9 +406,16 @@ pub struct LoadCellDatasheet {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct GyroDatasheet {
-    /// Rate noise density (angle random walk), rad/s/√Hz. The per-sample sigma the estimator's
-    /// errors-in-variables correction assumes is this times √(sample rate).
-    pub noise_density_rad_s_sqrt_hz: f64,
+    /// Rate noise density (angle random walk N), rad/s/√Hz, in the Allan-deviation convention
+    /// (IEEE Std 952): the rate averaged over τ has deviation N/√τ, so one sample's is
+    /// N √(sample rate). A datasheet density meant over a Nyquist-limited band (σ = N √(fs/2))
+    /// is given as [`Self::noise_rms_rad_s`] instead. One of the two.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_density_rad_s_sqrt_hz: Option<f64>,
+    /// The noise of one sample, one standard deviation, rad/s (a datasheet's rms noise at this
+    /// sample rate, or the readings' spread at rest). One of this and the density.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_rms_rad_s: Option<f64>,
     /// One standard deviation of each axis' constant bias (bias stability), rad/s.
     pub bias_rad_s: f64,
     /// One standard deviation of each axis' scale-factor error, relative.
@@ -420,8 +427,14 @@ pub struct GyroDatasheet {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct AccelerometerDatasheet {
-    /// Noise density (velocity random walk), m/s²/√Hz; per sample × √(sample rate).
-    pub noise_density_m_s2_sqrt_hz: f64,
+    /// Noise density (velocity random walk), m/s²/√Hz, in the Allan-deviation convention as
+    /// the gyro's ([`GyroDatasheet::noise_density_rad_s_sqrt_hz`]): one sample's deviation is
+    /// this × √(sample rate). One of this and [`Self::noise_rms_m_s2`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_density_m_s2_sqrt_hz: Option<f64>,
+    /// The noise of one sample, one standard deviation, m/s². One of this and the density.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_rms_m_s2: Option<f64>,
     /// One standard deviation of each axis' constant bias, m/s². Its effect does not cancel
     /// with the tare (it is proportional to the mass on the plate) and enters the reported
     /// sigma as a systematic part (measure's `systematic`).
@@ -479,12 +492,17 @@ impl SensorsConfig {
                 zero_drift_n_per_min: k * self.load_cell.zero_drift_n_per_min,
             },
             gyro: GyroDatasheet {
-                noise_density_rad_s_sqrt_hz: k * self.gyro.noise_density_rad_s_sqrt_hz,
+                noise_density_rad_s_sqrt_hz: self.gyro.noise_density_rad_s_sqrt_hz.map(|d| k * d),
+                noise_rms_rad_s: self.gyro.noise_rms_rad_s.map(|r| k * r),
                 bias_rad_s: k * self.gyro.bias_rad_s,
                 scale_error: k * self.gyro.scale_error,
             },
             accelerometer: AccelerometerDatasheet {
-                noise_density_m_s2_sqrt_hz: k * self.accelerometer.noise_density_m_s2_sqrt_hz,
+                noise_density_m_s2_sqrt_hz: self
+                    .accelerometer
+                    .noise_density_m_s2_sqrt_hz
+                    .map(|d| k * d),
+                noise_rms_m_s2: self.accelerometer.noise_rms_m_s2.map(|r| k * r),
                 bias_m_s2: k * self.accelerometer.bias_m_s2,
                 scale_error: k * self.accelerometer.scale_error,
             },
@@ -501,14 +519,41 @@ impl SensorsConfig {
         }
     }
 
-    /// Per-sample gyro noise, rad/s: density × √(sample rate).
+    /// Per-sample gyro noise, rad/s: the rms given, else density × √(sample rate).
     pub fn gyro_noise_rad_s(&self) -> f64 {
-        self.gyro.noise_density_rad_s_sqrt_hz * self.sample_rate_hz.sqrt()
+        per_sample(
+            self.gyro.noise_rms_rad_s,
+            self.gyro.noise_density_rad_s_sqrt_hz,
+            self.sample_rate_hz,
+        )
     }
 
-    /// Per-sample accelerometer noise, m/s²: density × √(sample rate).
+    /// Per-sample accelerometer noise, m/s²: the rms given, else density × √(sample rate).
     pub fn accel_noise_m_s2(&self) -> f64 {
-        self.accelerometer.noise_density_m_s2_sqrt_hz * self.sample_rate_hz.sqrt()
+        per_sample(
+            self.accelerometer.noise_rms_m_s2,
+            self.accelerometer.noise_density_m_s2_sqrt_hz,
+            self.sample_rate_hz,
+        )
+    }
+
+    /// The gyro's noise density, rad/s/√Hz: the density given, else the rms ÷ √(sample rate)
+    /// (what a simulated gyro sampled at this rate must have for that rms).
+    pub fn gyro_density_rad_s_sqrt_hz(&self) -> f64 {
+        density(
+            self.gyro.noise_rms_rad_s,
+            self.gyro.noise_density_rad_s_sqrt_hz,
+            self.sample_rate_hz,
+        )
+    }
+
+    /// The accelerometer's noise density, m/s²/√Hz, as [`Self::gyro_density_rad_s_sqrt_hz`].
+    pub fn accel_density_m_s2_sqrt_hz(&self) -> f64 {
+        density(
+            self.accelerometer.noise_rms_m_s2,
+            self.accelerometer.noise_density_m_s2_sqrt_hz,
+            self.sample_rate_hz,
+        )
     }
 
     /// Whether the description leaves anything of the IMU's alignment for a calibration to
@@ -774,4 +819,22 @@ pub struct RunConfig {
     pub tare_duration_s: f64,
     /// Ramp back home after the excitation, s.
     pub park_s: f64,
+}
+
+/// One sample's noise from an rms (taken as it is) or a density (× √rate); 0 with neither.
+fn per_sample(rms: Option<f64>, density: Option<f64>, rate_hz: f64) -> f64 {
+    match (rms, density) {
+        (Some(r), _) => r,
+        (None, Some(d)) => d * rate_hz.sqrt(),
+        (None, None) => 0.0,
+    }
+}
+
+/// A density from an rms (÷ √rate) or as it is; 0 with neither.
+fn density(rms: Option<f64>, density: Option<f64>, rate_hz: f64) -> f64 {
+    match (rms, density) {
+        (_, Some(d)) => d,
+        (Some(r), None) => r / rate_hz.sqrt(),
+        (None, None) => 0.0,
+    }
 }

@@ -785,7 +785,10 @@ fn log_error(e: anyhow::Error) -> Error {
 /// The rig description of `--rig FILE`, when given.
 fn rig_of(options: &EstimateOptions) -> Result<Option<LoadedConfig>, Error> {
     Ok(match &options.rig {
-        Some(path) => Some(rig_description::load::load(Some(path))?),
+        Some(path) => Some(rig_description::load::load_scoped(
+            Some(path),
+            rig_description::validate::Scope::Estimation,
+        )?),
         None => None,
     })
 }
