@@ -47,6 +47,12 @@ fn a_foxglove_client_watches_a_simulation_live() {
         runlog::messages::METADATA,
     ];
     let mut client = LiveClient::connect(addr, deadline, &run, Some(&wanted));
+    // docs/live.md's first lines: a client offering only the older subprotocol is refused.
+    assert_eq!(
+        support::live::handshake_status(addr, "foxglove.websocket.v1"),
+        400,
+        "docs/live.md says the SDK's server refuses foxglove.websocket.v1"
+    );
     let catalogue = runlog::messages::channels();
     let mut received: HashMap<String, Vec<LiveMessage>> = HashMap::new();
     let finite_mass = |r: &Vec<LiveMessage>| {

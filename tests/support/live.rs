@@ -45,6 +45,26 @@ pub struct LiveClient {
     pub server_name: Option<String>,
 }
 
+/// The HTTP status the live view at `addr` answers a WebSocket handshake offering only
+/// `subprotocol` with (101: switched; 400: refused).
+pub fn handshake_status(addr: SocketAddr, subprotocol: &str) -> u16 {
+    let stream = TcpStream::connect(addr).unwrap();
+    stream
+        .set_read_timeout(Some(Duration::from_secs(20)))
+        .unwrap();
+    let mut request = format!("ws://{addr}").into_client_request().unwrap();
+    request
+        .headers_mut()
+        .insert("Sec-WebSocket-Protocol", subprotocol.parse().unwrap());
+    match tungstenite::client(request, stream) {
+        Ok((_, response)) => response.status().as_u16(),
+        Err(tungstenite::HandshakeError::Failure(tungstenite::Error::Http(response))) => {
+            response.status().as_u16()
+        }
+        Err(e) => panic!("WebSocket handshake with {addr}: {e}"),
+    }
+}
+
 impl LiveClient {
     /// Connects to the live view at `addr`, retrying until the run has bound it (panics at
     /// `deadline` or when `run` ended first); subscribes to `wanted` (every channel with
