@@ -206,7 +206,7 @@ pub fn main(args: &EmulateArgs, stop: &AtomicBool) -> u8 {
     match emulate(args, stop) {
         Ok(stats) => {
             if !args.quiet {
-                println!("stopped: {}", summary(&stats));
+                println!("stopped: {}", summary(&stats, !args.lockstep));
             }
             0
         }

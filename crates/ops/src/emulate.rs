@@ -441,16 +441,25 @@ pub fn event_line(event: &EmulatorEvent) -> String {
     }
 }
 
-/// The emulator's counters in one line.
-pub fn summary(s: &EmulatorStats) -> String {
+/// The emulator's counters in one line; `paced`: its ticks keep to the wall clock (not
+/// `--lockstep`), so how late they came means something.
+pub fn summary(s: &EmulatorStats, paced: bool) -> String {
+    let timing = if paced {
+        format!(
+            "{} overruns, the latest {:.1} ms late, {:.1} ms while commanded",
+            s.overruns,
+            s.latest_tick_us as f64 * 1e-3,
+            s.latest_commanded_tick_us as f64 * 1e-3
+        )
+    } else {
+        // In lockstep a tick waits for the host's answer: its lateness is the host's pace.
+        "in lockstep: paced by the host's answers, not the wall clock".to_string()
+    };
     format!(
-        "{} ticks ({} overruns, the latest {:.1} ms late, {:.1} ms while commanded; the slowest physics step {:.1} ms), {} sessions, {} sensor frames sent ({} dropped, {} corrupted, \
+        "{} ticks ({timing}; the slowest physics step {:.1} ms), {} sessions, {} sensor frames sent ({} dropped, {} corrupted, \
          {} delayed by injection; {} refused by the link), {} commands accepted ({} lost, {} duplicate, {} out of \
          sequence), {} foreign, {} auth failed, {} corrupt, {} faults reported",
         s.ticks,
-        s.overruns,
-        s.latest_tick_us as f64 * 1e-3,
-        s.latest_commanded_tick_us as f64 * 1e-3,
         s.slowest_step_us as f64 * 1e-3,
         s.core.sessions,
         s.sent,
