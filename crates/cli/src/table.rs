@@ -81,48 +81,24 @@ fn decimals_for(sigma: f64, value: f64) -> usize {
     d.clamp(1.0, 6.0) as usize
 }
 
-/// The table as text, one quantity per line.
+/// The table as text, one quantity per line: in the vehicle frame first when the rig
+/// description places the vehicle, then in the plate frame P.
 pub fn render(report: &Report) -> String {
     let mut out = String::new();
-    let with_truth = report.truth.is_some();
-    let _ = write!(
-        out,
-        "{:<8} {:<6} {:>28}",
-        "quantity", "unit", "estimate ± 1σ"
+    if let Some(v) = &report.vehicle {
+        let _ = writeln!(out, "in the {}:", v.frame);
+        out += &quantity_rows(&v.estimate, &v.sigma, v.truth.as_ref(), &|k| {
+            report.is_given(k)
+        });
+        out += &vehicle_lines(v);
+        let _ = writeln!(out, "in the plate frame P:");
+    }
+    out += &quantity_rows(
+        &report.estimate,
+        &report.sigma,
+        report.truth.as_ref(),
+        &|k| report.is_given(k),
     );
-    if with_truth {
-        let _ = write!(out, " {:>13} {:>12} {:>7}", "truth", "error", "err/σ");
-    }
-    out.push('\n');
-    for (k, row) in ROWS.iter().enumerate() {
-        let est = (row.get)(&report.estimate);
-        let sig = (row.get)(&report.sigma);
-        let d = decimals_for(sig, est);
-        let is_given = report.is_given(k);
-        let cell = if is_given {
-            format!("{} (given)", fixed(est, d))
-        } else {
-            format!("{} ± {}", fixed(est, d), fixed(sig, d))
-        };
-        let _ = write!(out, "{:<8} {:<6} {:>28}", row.name, row.unit, cell);
-        if let Some(truth) = &report.truth {
-            let t = (row.get)(truth);
-            let err = est - t;
-            let z = if sig > 0.0 && !is_given {
-                format!("{:.2}", err / sig)
-            } else {
-                "-".into()
-            };
-            let _ = write!(
-                out,
-                " {:>13} {:>12} {:>7}",
-                fixed(t, d),
-                fixed(err, d + 1),
-                z
-            );
-        }
-        out.push('\n');
-    }
     let p = &report.principal;
     let _ = writeln!(
         out,
@@ -199,6 +175,104 @@ pub fn render(report: &Report) -> String {
             let _ = writeln!(out, "warning: {warning}");
         }
     }
+    out
+}
+
+/// One row per quantity: estimate ± sigma, and the truth, error and error in sigmas when the
+/// truth is known; `is_given(k)`: quantity k is the rig description's, not measured.
+fn quantity_rows(
+    estimate: &Quantities,
+    sigma: &Quantities,
+    truth: Option<&Quantities>,
+    is_given: &dyn Fn(usize) -> bool,
+) -> String {
+    let mut out = String::new();
+    let _ = write!(
+        out,
+        "{:<8} {:<6} {:>28}",
+        "quantity", "unit", "estimate ± 1σ"
+    );
+    if truth.is_some() {
+        let _ = write!(out, " {:>13} {:>12} {:>7}", "truth", "error", "err/σ");
+    }
+    out.push('\n');
+    for (k, row) in ROWS.iter().enumerate() {
+        let est = (row.get)(estimate);
+        let sig = (row.get)(sigma);
+        let d = decimals_for(sig, est);
+        let given = is_given(k);
+        let cell = if given {
+            format!("{} (given)", fixed(est, d))
+        } else {
+            format!("{} ± {}", fixed(est, d), fixed(sig, d))
+        };
+        let _ = write!(out, "{:<8} {:<6} {:>28}", row.name, row.unit, cell);
+        if let Some(truth) = truth {
+            let t = (row.get)(truth);
+            let err = est - t;
+            let z = if sig > 0.0 && !given {
+                format!("{:.2}", err / sig)
+            } else {
+                "-".into()
+            };
+            let _ = write!(
+                out,
+                " {:>13} {:>12} {:>7}",
+                fixed(t, d),
+                fixed(err, d + 1),
+                z
+            );
+        }
+        out.push('\n');
+    }
+    out
+}
+
+/// The vehicle's centre of gravity against the car, the static load split and what the
+/// placement's tolerance adds.
+fn vehicle_lines(v: &measure::vehicle::VehicleResults) -> String {
+    let mut out = String::new();
+    let (c, s) = (v.estimate.com, v.sigma.com);
+    // y points left in ISO 8855, right in SAE J670.
+    let side = c[1] * v.convention.axis_signs()[1];
+    let _ = writeln!(
+        out,
+        "centre of gravity: {:.1} ± {:.1} mm above the ground, {:.1} ± {:.1} mm behind the \
+         front axle, {:.1} ± {:.1} mm {} of the centreline",
+        v.cg_height_m[0] * 1e3,
+        v.cg_height_m[1] * 1e3,
+        -c[0] * 1e3,
+        s[0] * 1e3,
+        side.abs() * 1e3,
+        s[1] * 1e3,
+        if side >= 0.0 { "left" } else { "right" }
+    );
+    for (name, split, ends) in [
+        ("axle", &v.axle_loads, ["front", "rear"]),
+        ("side", &v.side_loads, ["left", "right"]),
+    ] {
+        if let Some(l) = split {
+            let _ = writeln!(
+                out,
+                "static {name} loads: {} {:.1} ± {:.1} kg ({:.2} %), {} {:.1} ± {:.1} kg",
+                ends[0],
+                l.loads_kg[0],
+                l.sigma_kg[0],
+                100.0 * l.share,
+                ends[1],
+                l.loads_kg[1],
+                l.sigma_kg[1]
+            );
+        }
+    }
+    let p = v.placement_sigma.com;
+    let _ = writeln!(
+        out,
+        "the placement's tolerance in these sigmas: com {:.2}/{:.2}/{:.2} mm",
+        p[0] * 1e3,
+        p[1] * 1e3,
+        p[2] * 1e3
+    );
     out
 }
 

@@ -97,6 +97,34 @@ impl Problems {
     }
 }
 
+/// `[vehicle]`: a placement within the rig's reach, tolerances and wheel distances physical.
+fn vehicle(p: &mut Problems, v: &crate::config::VehicleConfig) {
+    p.finite3("vehicle.origin_m", &v.origin_m, 10.0);
+    p.finite3("vehicle.orientation_deg", &v.orientation_deg, 180.0);
+    p.within(
+        "vehicle.origin_tolerance_m",
+        v.origin_tolerance_m,
+        0.0,
+        1.0,
+        "m",
+    );
+    p.within(
+        "vehicle.orientation_tolerance_deg",
+        v.orientation_tolerance_deg,
+        0.0,
+        10.0,
+        "degrees",
+    );
+    for (key, value) in [
+        ("vehicle.wheelbase_m", v.wheelbase_m),
+        ("vehicle.track_m", v.track_m),
+    ] {
+        if let Some(d) = value {
+            p.within(key, d, 0.1, 20.0, "m");
+        }
+    }
+}
+
 /// An IMU channel's noise: exactly one of its density and its per-sample rms, each given as
 /// (key, value, largest, unit), within [0, largest].
 fn noise_form(
@@ -260,6 +288,9 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
     );
     p.finite3("sensors.imu.position_m", &s.imu.position_m, 10.0);
     p.finite3("sensors.imu.orientation_deg", &s.imu.orientation_deg, 180.0);
+    if let Some(v) = &config.vehicle {
+        vehicle(&mut p, v);
+    }
     datasheet_tolerances(&mut p, config);
     legs(&mut p, &config.legs);
     plan(&mut p, &config.plan);

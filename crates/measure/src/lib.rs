@@ -43,6 +43,7 @@ pub mod tare;
 #[cfg(any(test, feature = "testkit"))]
 pub mod testkit;
 pub mod tick;
+pub mod vehicle;
 pub mod weigh;
 
 pub use observer::{Observer, TickEvent};

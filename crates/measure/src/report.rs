@@ -294,6 +294,10 @@ pub struct Report {
     /// one, a log without its hold).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub static_weighing: Option<StaticWeighingReport>,
+    /// The payload in the vehicle's frame ([`crate::vehicle`]), when the rig description
+    /// places it (`[vehicle]`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vehicle: Option<crate::vehicle::VehicleResults>,
 }
 
 impl Report {
@@ -431,6 +435,9 @@ pub struct ReportInputs<'a> {
     pub run: RunInfo,
     /// The loaded run's static weighing ([`crate::weigh`]), when it has one.
     pub loaded_weighing: Option<&'a crate::weigh::StaticWeighing>,
+    /// Where the payload, a vehicle, stands on the plate (`[vehicle]`), for the results in its
+    /// frame ([`crate::vehicle`]).
+    pub vehicle: Option<&'a rig_description::config::VehicleConfig>,
 }
 
 /// The tare's budget inputs when the sequence gave none: the tare file's own, else a partial
@@ -529,7 +536,15 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
         let own: estimator::ParameterCovariance = alone.iter().map(|c| c.covariance).sum();
         sigmas(&Estimate::from_parameters(tare_params.0, own))
     });
+    let vehicle = i.vehicle.map(|v| {
+        let mut r = crate::vehicle::results(v, &reported.parameters, &total);
+        r.truth = i
+            .truth
+            .map(|t| crate::vehicle::Placement::of(v).quantities(&t));
+        r
+    });
     Report {
+        vehicle,
         estimate: quantities(&reported),
         sigma: sigmas(&payload),
         truth: i.truth,
@@ -832,6 +847,7 @@ mod tests {
             truth: None,
             run: RunInfo::default(),
             loaded_weighing: None,
+            vehicle: None,
         });
         assert!((r.estimate.mass - 1500.0).abs() < 1e-9);
         assert!((r.estimate.com[2] - 0.5).abs() < 1e-12);
@@ -915,6 +931,7 @@ mod tests {
                 truth: None,
                 run: RunInfo::default(),
                 loaded_weighing: None,
+                vehicle: None,
             })
             .systematic
             .sigma
@@ -1010,6 +1027,7 @@ mod tests {
             truth: None,
             run: RunInfo::default(),
             loaded_weighing: None,
+            vehicle: None,
         });
         assert!(r.budget_notes.is_empty(), "{:?}", r.budget_notes);
         assert!(r

@@ -15,8 +15,10 @@
 use serde::{Deserialize, Serialize};
 
 mod calibration;
+mod vehicle;
 
 pub use calibration::CalibrationConfig;
+pub use vehicle::{VehicleConfig, VehicleConvention};
 
 /// The rig description: the machine, its sensors' datasheets, the controller, the excitation,
 /// the estimator, the run's phases and the link.
@@ -56,6 +58,10 @@ pub struct Config {
     /// described).
     #[serde(default)]
     pub calibration: CalibrationConfig,
+    /// Where the payload, a vehicle, stands on the plate; optional (omitted: results in P
+    /// only).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vehicle: Option<VehicleConfig>,
 }
 
 /// A body as known before it is measured (a CAD model, a previous measurement, a weighing):

@@ -524,6 +524,7 @@ pub fn build_report(
             calibrations: rig.config.calibration.applied(),
         },
         loaded_weighing: r.static_weighing.as_ref(),
+        vehicle: rig.config.vehicle.as_ref(),
     });
     report.data.frames_late = r.reordered.late;
     report.data.frames_duplicate = r.reordered.duplicates;

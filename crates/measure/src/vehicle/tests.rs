@@ -1,0 +1,138 @@
+use super::*;
+use rig_description::config::VehicleConvention;
+
+/// θ of point masses (mass, position in some frame) about that frame's origin, from the
+/// definition: h = Σ mᵢ rᵢ, I = Σ mᵢ (|rᵢ|² 𝟙 − rᵢ rᵢᵀ).
+fn of_points(points: &[(f64, Vector3<f64>)]) -> InertialParameters {
+    let mut p = InertialParameters {
+        mass_kg: 0.0,
+        first_moment_kg_m: Vector3::zeros(),
+        inertia_origin_kg_m2: Matrix3::zeros(),
+    };
+    for (m, r) in points {
+        p.mass_kg += m;
+        p.first_moment_kg_m += r * *m;
+        p.inertia_origin_kg_m2 += (Matrix3::identity() * r.norm_squared() - r * r.transpose()) * *m;
+    }
+    p
+}
+
+fn placement(convention: VehicleConvention) -> VehicleConfig {
+    VehicleConfig {
+        origin_m: [0.85, -0.12, 0.21],
+        orientation_deg: [1.5, -2.0, 20.0],
+        origin_tolerance_m: 0.0,
+        orientation_tolerance_deg: 0.0,
+        convention,
+        wheelbase_m: Some(2.6),
+        track_m: Some(1.5),
+    }
+}
+
+/// A car-like cloud of masses in V (ISO axes): body, engine, four wheels.
+fn car() -> Vec<(f64, Vector3<f64>)> {
+    vec![
+        (900.0, Vector3::new(-1.2, 0.02, 0.55)),
+        (250.0, Vector3::new(-0.2, -0.05, 0.45)),
+        (40.0, Vector3::new(0.0, 0.75, 0.3)),
+        (40.0, Vector3::new(0.0, -0.75, 0.3)),
+        (40.0, Vector3::new(-2.6, 0.75, 0.3)),
+        (40.0, Vector3::new(-2.6, -0.75, 0.3)),
+        (130.0, Vector3::new(-1.9, 0.3, 0.8)),
+    ]
+}
+
+#[test]
+fn the_change_of_frame_is_the_points_own_in_either_convention() {
+    for convention in [VehicleConvention::Iso8855, VehicleConvention::SaeJ670] {
+        let v = placement(convention);
+        let at = Placement::of(&v);
+        // The same masses placed on the plate: r_P = o + R_iso r_V.
+        let iso = Placement::of(&VehicleConfig {
+            convention: VehicleConvention::Iso8855,
+            ..v.clone()
+        });
+        let in_p: Vec<_> = car()
+            .iter()
+            .map(|(m, r)| (*m, iso.origin_m + iso.rotation * r))
+            .collect();
+        // And written in the convention's axes directly.
+        let signs = Vector3::from(convention.axis_signs());
+        let in_v: Vec<_> = car()
+            .iter()
+            .map(|(m, r)| (*m, r.component_mul(&signs)))
+            .collect();
+        let got = at.express(&of_points(&in_p)).to_vector();
+        let want = of_points(&in_v).to_vector();
+        for k in 0..10 {
+            assert!(
+                (got[k] - want[k]).abs() < 1e-9 * want.amax(),
+                "{convention:?} θ[{k}]: {} vs {}",
+                got[k],
+                want[k]
+            );
+        }
+    }
+}
+
+#[test]
+fn the_load_split_is_what_the_wheels_carry() {
+    // Four masses at the contact points: each axle and side carries its own two.
+    let wheels = [
+        (300.0, Vector3::new(0.0, 0.75, 0.0)),
+        (320.0, Vector3::new(0.0, -0.75, 0.0)),
+        (260.0, Vector3::new(-2.6, 0.75, 0.0)),
+        (250.0, Vector3::new(-2.6, -0.75, 0.0)),
+    ];
+    for convention in [VehicleConvention::Iso8855, VehicleConvention::SaeJ670] {
+        let v = VehicleConfig {
+            convention,
+            ..placement(VehicleConvention::Iso8855)
+        };
+        let iso = Placement::of(&placement(VehicleConvention::Iso8855));
+        let in_p: Vec<_> = wheels
+            .iter()
+            .map(|(m, r)| (*m, iso.origin_m + iso.rotation * r))
+            .collect();
+        let r = results(&v, &of_points(&in_p), &ParameterCovariance::zeros());
+        let axle = r.axle_loads.expect("a wheelbase");
+        let side = r.side_loads.expect("a track");
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-9;
+        assert!(
+            close(axle.loads_kg[0], 620.0) && close(axle.loads_kg[1], 510.0),
+            "{axle:?}"
+        );
+        assert!(
+            close(side.loads_kg[0], 560.0) && close(side.loads_kg[1], 570.0),
+            "{side:?}"
+        );
+        assert!(close(r.cg_height_m[0], 0.0), "{:?}", r.cg_height_m);
+    }
+}
+
+#[test]
+fn the_placements_tolerance_is_a_line_of_the_budget() {
+    let iso = Placement::of(&placement(VehicleConvention::Iso8855));
+    let in_p: Vec<_> = car()
+        .iter()
+        .map(|(m, r)| (*m, iso.origin_m + iso.rotation * r))
+        .collect();
+    let theta = of_points(&in_p);
+    let noise = ParameterCovariance::from_diagonal(&ParameterVector::from_element(1e-2));
+    let exact = results(&placement(VehicleConvention::Iso8855), &theta, &noise);
+    assert_eq!(exact.placement_sigma.com, [0.0; 3]);
+    let tolerant = VehicleConfig {
+        origin_tolerance_m: 0.002,
+        orientation_tolerance_deg: 0.2,
+        ..placement(VehicleConvention::Iso8855)
+    };
+    let r = results(&tolerant, &theta, &noise);
+    // 2 mm of origin moves the centre of mass by 2 mm along each axis, and 0.2° of turn about
+    // the other two axes by 0.2° × its lever arm: c_z's line at least the origin's 2 mm.
+    for k in 0..3 {
+        assert!(r.placement_sigma.com[k] >= 0.002, "{:?}", r.placement_sigma);
+        let combined = (exact.sigma.com[k].powi(2) + r.placement_sigma.com[k].powi(2)).sqrt();
+        assert!((r.sigma.com[k] - combined).abs() < 1e-12, "c[{k}]");
+    }
+    assert_eq!(r.placement_sigma.mass, 0.0);
+}

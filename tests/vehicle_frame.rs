@@ -1,0 +1,90 @@
+//! Results in the vehicle's frame against the simulated world: a vehicle (the default payload,
+//! its properties written in its own frame V) moved 10 cm across the plate and turned 20°
+//! about the vertical, with a `[vehicle]` placement that says so. The world is given the
+//! vehicle's properties in P, computed here from V's by the rigid-body rules (independently of
+//! `measure::vehicle`); the report's vehicle-frame results must be V's own within their sigmas,
+//! and the placement's tolerance must show in them.
+
+mod support;
+
+use nalgebra::{Matrix3, Rotation3, Vector3};
+
+/// The vehicle in its own frame: the default world's payload.
+const MASS_KG: f64 = 1500.0;
+const COM_V_M: [f64; 3] = [0.15, -0.08, 0.5];
+const INERTIA_V: [[f64; 3]; 3] = [
+    [600.0, -25.0, 60.0],
+    [-25.0, 2500.0, -15.0],
+    [60.0, -15.0, 2700.0],
+];
+
+fn toml_matrix(m: &Matrix3<f64>) -> String {
+    let row = |i: usize| format!("[{}, {}, {}]", m[(i, 0)], m[(i, 1)], m[(i, 2)]);
+    format!("[{}, {}, {}]", row(0), row(1), row(2))
+}
+
+#[test]
+fn a_moved_and_turned_vehicle_is_measured_in_its_own_frame() {
+    let origin = Vector3::new(0.10, 0.0, 0.0);
+    let yaw_deg: f64 = 20.0;
+    let r = *Rotation3::from_axis_angle(&Vector3::z_axis(), yaw_deg.to_radians()).matrix();
+    let com_p = origin + r * Vector3::from(COM_V_M);
+    let j_v = Matrix3::from_fn(|i, k| INERTIA_V[i][k]);
+    let j_p = r * j_v * r.transpose();
+    let scenario = format!(
+        "{}\n[world.payload]\nmass_kg = {MASS_KG}\ncom_m = [{}, {}, {}]\ninertia_com_kg_m2 = {}\n\n\
+         [vehicle]\norigin_m = [{}, {}, {}]\norientation_deg = [0.0, 0.0, {yaw_deg}]\n\
+         origin_tolerance_m = 0.002\norientation_tolerance_deg = 0.2\nwheelbase_m = 2.6\n",
+        support::SHORT,
+        com_p.x,
+        com_p.y,
+        com_p.z,
+        toml_matrix(&j_p),
+        origin.x,
+        origin.y,
+        origin.z
+    );
+    let sim = support::simulate_with(&scenario, |a, _| a.seed = Some(7));
+    let v = sim
+        .report
+        .vehicle
+        .as_ref()
+        .expect("a placed vehicle has vehicle-frame results");
+    assert!(v.frame.contains("ISO 8855"), "{}", v.frame);
+    let (e, s) = (&v.estimate, &v.sigma);
+    let mut checks = vec![("mass", e.mass, s.mass, MASS_KG)];
+    for k in 0..3 {
+        checks.push(("com", e.com[k], s.com[k], COM_V_M[k]));
+        for l in k..3 {
+            checks.push((
+                "J_C",
+                e.inertia_com[k][l],
+                s.inertia_com[k][l],
+                INERTIA_V[k][l],
+            ));
+        }
+    }
+    for (name, got, sigma, want) in checks {
+        assert!(
+            (got - want).abs() <= 4.0 * sigma,
+            "{name}: {got} ± {sigma} in V, the vehicle's {want} ({:.1} σ)",
+            (got - want) / sigma
+        );
+    }
+    // The placement's 2 mm and 0.2° are in the sigmas: at least 2 mm on each coordinate, and
+    // the vehicle-frame centre of mass is known less well than the plate-frame one.
+    for k in 0..3 {
+        assert!(v.placement_sigma.com[k] >= 0.002, "{:?}", v.placement_sigma);
+        assert!(s.com[k] > sim.report.sigma.com[k], "com[{k}]");
+    }
+    // Front axle above V's origin, the rear 2.6 m behind: the load split follows c_x alone.
+    let axle = v.axle_loads.expect("a wheelbase gives the axle loads");
+    let front = MASS_KG * (2.6 + COM_V_M[0]) / 2.6;
+    assert!(
+        (axle.loads_kg[0] - front).abs() <= 4.0 * axle.sigma_kg[0],
+        "front axle {} ± {} kg, the vehicle's {front}",
+        axle.loads_kg[0],
+        axle.sigma_kg[0]
+    );
+    assert!(v.side_loads.is_none(), "no track, no side loads");
+}
