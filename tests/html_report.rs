@@ -176,6 +176,14 @@ fn expected_numbers(report: &Value) -> BTreeMap<String, f64> {
     if !report["truth"].is_null() {
         quantities("truth", &report["truth"]);
     }
+    let vehicle = &report["vehicle"];
+    if vehicle.is_object() {
+        quantities("vehicle.estimate", &vehicle["estimate"]);
+        quantities("vehicle.sigma", &vehicle["sigma"]);
+        if !vehicle["truth"].is_null() {
+            quantities("vehicle.truth", &vehicle["truth"]);
+        }
+    }
     for line in report["error_budget"].as_array().unwrap() {
         quantities(
             &format!("budget.{}", line["source"].as_str().unwrap()),
@@ -184,6 +192,14 @@ fn expected_numbers(report: &Value) -> BTreeMap<String, f64> {
     }
     for (key, path) in keys {
         out.insert(format!("U.{key}"), 2.0 * num(&report["sigma"], path));
+    }
+    if vehicle.is_object() {
+        for (key, path) in keys {
+            out.insert(
+                format!("vehicle.U.{key}"),
+                2.0 * num(&vehicle["sigma"], path),
+            );
+        }
     }
     for k in 0..3 {
         out.insert(
@@ -254,13 +270,18 @@ fn the_browser_checks_catch_an_error_and_a_request() {
     assert_eq!(r.requests, ["http://example.invalid/x.png"]);
 }
 
-/// The page of a real simulated run, written by `simulate --html` and by `stewart report`.
+/// The page of a real simulated run, written by `simulate --html` and by `stewart report`,
+/// its payload placed as a vehicle (the vehicle-frame table first).
 #[test]
 fn a_simulated_reports_page_renders_clean_with_the_reports_numbers() {
     let Some(browser) = browser_or_skip() else {
         return;
     };
-    let scratch = support::Scratch::new(support::SHORT);
+    let scratch = support::Scratch::new(&format!(
+        "{}[vehicle]\norigin_m = [0.3, 0.0, 0.2]\norigin_tolerance_m = 0.002\n\
+         orientation_tolerance_deg = 0.2\nwheelbase_m = 2.6\ntrack_m = 1.5\n",
+        support::SHORT
+    ));
     let (json, html, again) = (
         scratch.path("r.json"),
         scratch.path("r.html"),
@@ -309,6 +330,10 @@ fn a_simulated_reports_page_renders_clean_with_the_reports_numbers() {
             "the ellipsoid views draw ellipses"
         );
         assert!(r.dom.contains("k = 2"));
+        assert!(
+            r.dom.contains("In the vehicle frame") && r.dom.contains("Static axle loads"),
+            "the vehicle frame's results are on the page"
+        );
         let shown = page_numbers(&r.dom);
         for (name, want) in &expected {
             let got = shown

@@ -134,53 +134,18 @@ fn header(s: &mut String, input: &Input, cx: &Context<'_>) {
 }
 
 fn results(s: &mut String, r: &Report) {
-    let (e, u) = (r.estimate.flat(), r.sigma.flat());
-    let truth = r.truth.map(|t| t.flat());
-    let _ = write!(
-        s,
-        "<section id=\"results\"><h2>1. Results</h2><table class=\"results\"><thead><tr>\
-         <th>quantity</th><th>value</th><th>expanded uncertainty U (k = {k})</th><th>unit</th>\
-         <th>standard uncertainty u</th>{}</tr></thead><tbody>",
-        if truth.is_some() {
-            "<th>simulated truth</th><th>|value − truth| / U</th>"
-        } else {
-            ""
-        },
-        k = COVERAGE_FACTOR
-    );
-    for q in 0..10 {
-        let big_u = expanded(u[q]);
-        let (vt, ut) = rounded(e[q], big_u);
-        let uncertainty = if r.is_given(q) {
-            "given".to_string()
-        } else {
-            format!("± {ut}")
-        };
+    s.push_str("<section id=\"results\"><h2>1. Results</h2>");
+    if let Some(v) = &r.vehicle {
         let _ = write!(
             s,
-            "<tr><th>{}</th>{}{}<td>{}</td>{}",
-            LABELS[q],
-            cell(&format!("estimate.{}", KEYS[q]), e[q], &vt),
-            cell(&format!("U.{}", KEYS[q]), big_u, &uncertainty),
-            UNITS[q],
-            cell(&format!("sigma.{}", KEYS[q]), u[q], &significant(u[q], 2)),
+            "<h3>In the vehicle frame</h3><p>{}.</p>",
+            esc(&capitalised(&v.frame))
         );
-        if let Some(t) = &truth {
-            let ratio = (e[q] - t[q]).abs() / big_u;
-            let _ = write!(
-                s,
-                "{}<td class=\"num\">{}</td>",
-                cell(&format!("truth.{}", KEYS[q]), t[q], &significant(t[q], 6)),
-                if ratio.is_finite() && !r.is_given(q) {
-                    format!("{ratio:.2}")
-                } else {
-                    "—".into()
-                }
-            );
-        }
-        s.push_str("</tr>");
+        quantity_table(s, "vehicle.", r, &v.estimate, &v.sigma, v.truth.as_ref());
+        vehicle_lines(s, v);
+        s.push_str("<h3>In the plate frame P</h3>");
     }
-    s.push_str("</tbody></table>");
+    quantity_table(s, "", r, &r.estimate, &r.sigma, r.truth.as_ref());
     let _ = write!(
         s,
         "<p class=\"statement\">The expanded uncertainty U is the standard uncertainty u \
@@ -222,6 +187,121 @@ fn results(s: &mut String, r: &Report) {
         String::new()
     };
     let _ = writeln!(s, "<p>{verdict}{projected}</p></section>");
+}
+
+/// `text` with its first letter in capitals.
+fn capitalised(text: &str) -> String {
+    let mut c = text.chars();
+    c.next()
+        .map_or(String::new(), |f| f.to_uppercase().chain(c).collect())
+}
+
+/// One table of the ten quantities (value, U, unit, u, the truth where known); each cell's
+/// data key is the report's path under `prefix`.
+fn quantity_table(
+    s: &mut String,
+    prefix: &str,
+    r: &Report,
+    estimate: &measure::report::Quantities,
+    sigma: &measure::report::Quantities,
+    truth: Option<&measure::report::Quantities>,
+) {
+    let (e, u) = (estimate.flat(), sigma.flat());
+    let truth = truth.map(|t| t.flat());
+    let _ = write!(
+        s,
+        "<table class=\"results\"><thead><tr>\
+         <th>quantity</th><th>value</th><th>expanded uncertainty U (k = {k})</th><th>unit</th>\
+         <th>standard uncertainty u</th>{}</tr></thead><tbody>",
+        if truth.is_some() {
+            "<th>simulated truth</th><th>|value − truth| / U</th>"
+        } else {
+            ""
+        },
+        k = COVERAGE_FACTOR
+    );
+    for q in 0..10 {
+        let big_u = expanded(u[q]);
+        let (vt, ut) = rounded(e[q], big_u);
+        let uncertainty = if r.is_given(q) {
+            "given".to_string()
+        } else {
+            format!("± {ut}")
+        };
+        let _ = write!(
+            s,
+            "<tr><th>{}</th>{}{}<td>{}</td>{}",
+            LABELS[q],
+            cell(&format!("{prefix}estimate.{}", KEYS[q]), e[q], &vt),
+            cell(&format!("{prefix}U.{}", KEYS[q]), big_u, &uncertainty),
+            UNITS[q],
+            cell(
+                &format!("{prefix}sigma.{}", KEYS[q]),
+                u[q],
+                &significant(u[q], 2)
+            ),
+        );
+        if let Some(t) = &truth {
+            let ratio = (e[q] - t[q]).abs() / big_u;
+            let _ = write!(
+                s,
+                "{}<td class=\"num\">{}</td>",
+                cell(
+                    &format!("{prefix}truth.{}", KEYS[q]),
+                    t[q],
+                    &significant(t[q], 6)
+                ),
+                if ratio.is_finite() && !r.is_given(q) {
+                    format!("{ratio:.2}")
+                } else {
+                    "—".into()
+                }
+            );
+        }
+        s.push_str("</tr>");
+    }
+    s.push_str("</tbody></table>");
+}
+
+/// The centre of gravity against the car and the static load split, with U (k = 2).
+fn vehicle_lines(s: &mut String, v: &measure::vehicle::VehicleResults) {
+    let (c, u) = (v.estimate.com, v.sigma.com);
+    let mm = |x: f64, sigma: f64| {
+        let (value, big_u) = rounded(x * 1e3, expanded(sigma * 1e3));
+        format!("{value} ± {big_u} mm")
+    };
+    let side = c[1] * v.convention.axis_signs()[1];
+    let _ = write!(
+        s,
+        "<p>Centre of gravity: {} above the ground plane, {} behind the front axle, {} {} of \
+         the centreline (expanded uncertainties, k = {COVERAGE_FACTOR}, the placement's \
+         tolerance included).",
+        mm(v.cg_height_m[0], v.cg_height_m[1]),
+        mm(-c[0], u[0]),
+        mm(side.abs(), u[1]),
+        if side >= 0.0 { "left" } else { "right" }
+    );
+    for (name, split, ends) in [
+        ("axle", &v.axle_loads, ["front", "rear"]),
+        ("side", &v.side_loads, ["left", "right"]),
+    ] {
+        if let Some(l) = split {
+            let kg = |i: usize| {
+                let (value, big_u) = rounded(l.loads_kg[i], expanded(l.sigma_kg[i]));
+                format!("{value} ± {big_u} kg")
+            };
+            let _ = write!(
+                s,
+                " Static {name} loads: {} {} ({:.2} %), {} {}.",
+                ends[0],
+                kg(0),
+                100.0 * l.share,
+                ends[1],
+                kg(1)
+            );
+        }
+    }
+    s.push_str("</p>");
 }
 
 fn principal(s: &mut String, r: &Report, cx: &Context<'_>) {
