@@ -70,7 +70,23 @@ struct ReportView {
     sigma: Quantities,
     #[serde(default)]
     run: RunView,
+    /// The vehicle-frame results, when the report has them: exported instead of P's.
+    #[serde(default)]
+    vehicle: Option<VehicleView>,
 }
+
+/// The report's `vehicle` section as the export reads it.
+#[derive(Debug, Deserialize)]
+struct VehicleView {
+    frame: String,
+    estimate: Quantities,
+    sigma: Quantities,
+}
+
+/// The plate frame P in words, for a file without a vehicle frame.
+pub const PLATE_FRAME: &str = "the plate frame P of the rig measured on: origin at the centre \
+    of the plate's joint circle, in the joints' plane (or the frame the rig description's plate \
+    joints are given in), z along the plate's normal, up at the home pose";
 
 /// The part of the report's `run` the provenance comment names; any of it may be absent.
 #[derive(Debug, Default, Deserialize)]
@@ -95,6 +111,9 @@ pub struct Payload {
     pub principal: PrincipalFrame,
     /// Where the numbers came from (the report's file and run), for the documents' comments.
     pub provenance: String,
+    /// The frame of `estimate`, in words: the vehicle's when the report places the payload
+    /// as a vehicle, else [`PLATE_FRAME`].
+    pub frame: String,
 }
 
 /// Relative asymmetry of J_C tolerated (JSON keeps every f64, so a report's tensor is
@@ -132,7 +151,14 @@ pub fn parse(text: &str, source: &str) -> Result<Payload, ExportError> {
     if let Some(l) = &view.run.log {
         provenance.push_str(&format!(", log {l}"));
     }
-    checked(view.estimate, view.sigma, provenance)
+    match view.vehicle {
+        Some(v) => {
+            let mut p = checked(v.estimate, v.sigma, provenance)?;
+            p.frame = format!("the {}", v.frame);
+            Ok(p)
+        }
+        None => checked(view.estimate, view.sigma, provenance),
+    }
 }
 
 /// Every number of `q` with its JSON path under `prefix`.
@@ -230,5 +256,6 @@ pub fn checked(
         sigma,
         principal,
         provenance,
+        frame: PLATE_FRAME.into(),
     })
 }

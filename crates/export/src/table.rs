@@ -2,7 +2,8 @@
 //! mass in P, J_C's six entries in P axes (the tensor's, ixy = J_xy = −∫xy dm about the centre
 //! of mass), then `sigma_` + each of those (one standard deviation); with `principal_axes`
 //! also the principal moments of the frame's x, y, z axes and the frame's rotation as
-//! roll-pitch-yaw (R = Rz·Ry·Rx) and as a unit quaternion w x y z.
+//! roll-pitch-yaw (R = Rz·Ry·Rx) and as a unit quaternion w x y z; last, `frame`: the frame
+//! in words (the vehicle's when the report has one, else P; commas written as semicolons).
 
 use crate::{num, Payload};
 
@@ -56,6 +57,9 @@ pub fn csv(p: &Payload, principal_axes: bool) -> String {
         row.extend(p.principal.rpy);
         row.extend(p.principal.quat_wxyz);
     }
-    let row: Vec<String> = row.into_iter().map(num).collect();
+    let mut row: Vec<String> = row.into_iter().map(num).collect();
+    // The frame in words, its commas turned to semicolons (no field needs quoting).
+    header.push("frame".into());
+    row.push(p.frame.replace(',', ";").replace('"', "'"));
     format!("{}\n{}\n", header.join(","), row.join(","))
 }

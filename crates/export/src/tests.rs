@@ -389,3 +389,44 @@ fn format_names_round_trip() {
     }
     assert_eq!(Format::from_name("obj"), None);
 }
+
+#[test]
+fn every_file_states_its_frame_in_words_and_a_vehicle_report_exports_in_the_vehicle_frame() {
+    let mut report = report_with(car());
+    let plain = parse(&report.to_json(), "r.json").unwrap();
+    for format in [Format::Urdf, Format::Sdf, Format::Mjcf] {
+        let text = render(&plain, options(format, false));
+        assert!(text.contains("plate frame P"), "{format:?}: {text}");
+    }
+    // A vehicle section: its numbers are exported, its frame named.
+    let mut in_v = car();
+    in_v.com = [-1.25, 0.02, 0.55];
+    report.vehicle = Some(measure::vehicle::VehicleResults {
+        frame: "vehicle frame V, ISO 8855 (x forward, y left, z up): origin here".into(),
+        estimate: in_v,
+        sigma: report.sigma,
+        ..Default::default()
+    });
+    let p = parse(&report.to_json(), "r.json").unwrap();
+    assert_eq!(p.estimate.com, in_v.com);
+    for format in [Format::Urdf, Format::Sdf, Format::Mjcf] {
+        let text = render(&p, options(format, false));
+        assert!(
+            text.contains("in the vehicle frame V, ISO 8855"),
+            "{format:?}: {text}"
+        );
+    }
+    let csv = render(&p, options(Format::Csv, false));
+    let mut reader = csv::Reader::from_reader(csv.as_bytes());
+    let header = reader.headers().unwrap().clone();
+    let row = reader.records().next().unwrap().unwrap();
+    let k = header
+        .iter()
+        .position(|h| h == "frame")
+        .expect("a frame column");
+    assert!(
+        row[k].starts_with("the vehicle frame V; ISO 8855"),
+        "{}",
+        &row[k]
+    );
+}

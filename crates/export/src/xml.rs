@@ -2,9 +2,10 @@
 //! accept (a robot with one link, a model with one link, a world body), with the sigmas and
 //! the provenance as comments.
 //!
-//! In all three the link (body) frame is the platform frame P, the inertial frame's origin is
-//! the centre of mass c, units are SI (kg, m, kg·m², rad), and the inertia is J_C about c: in
-//! P's axes, or (`principal_axes`) diagonal in the principal frame R with
+//! In all three the link (body) frame is the report's frame, stated in words in a comment: the
+//! vehicle frame V when the report places the payload as a vehicle (docs/vehicle.md), else the
+//! platform frame P. The inertial frame's origin is the centre of mass c, units are SI (kg, m,
+//! kg·m², rad), and the inertia is J_C about c: in that frame's axes, or (`principal_axes`) diagonal in the principal frame R with
 //! J_C = R·diag(I₁, I₂, I₃)·Rᵀ. The off-diagonal entries are the tensor's, with the minus
 //! sign: ixy = J_xy = −∫(x − cx)(y − cy) dm, as URDF, SDF and MuJoCo's `fullinertia` define them.
 
@@ -43,9 +44,10 @@ fn comments(indent: &str, p: &Payload, principal_axes: bool) -> String {
     let mut out = comment(
         indent,
         &format!(
-            "payload inertial measured by stewart ({}): frame P, SI units; products of inertia \
-             are the tensor's entries, ixy = Jxy = -integral of x y dm about the centre of mass",
-            p.provenance
+            "payload inertial measured by stewart ({}): in {}; SI units; products of \
+             inertia are the tensor's entries, ixy = Jxy = -integral of x y dm about the centre \
+             of mass",
+            p.provenance, p.frame
         ),
     );
     out += &comment(indent, &sigma_text(s, principal_axes));
