@@ -137,6 +137,9 @@ pub struct Context<'a> {
     pub rig_source: Option<&'a str>,
     /// When the page was written, s since the Unix epoch (UTC); `None` leaves the date out.
     pub issued_unix_s: Option<u64>,
+    /// SHA-256 of the log file the report names, as read when the page was written (lower-case
+    /// hex); `None` when it could not be read.
+    pub log_sha256: Option<String>,
 }
 
 /// The page of `input`: one HTML document, nothing loaded from elsewhere.

@@ -69,6 +69,13 @@ pub fn render(input: &Input, cx: &Context<'_>) -> String {
     });
     s.push_str("</title>\n<style>\n");
     s.push_str(STYLE);
+    if r.run.backend == "sim" {
+        // In the page's margin box too: printed on every page, the last included.
+        s.push_str(
+            "@page { @top-center { content: \"SIMULATED: computed by stewart simulate, not \
+             measured\"; color: #8a1c1c; font-weight: bold; font-size: 9pt; } }\n",
+        );
+    }
     s.push_str("</style>\n</head>\n<body>\n");
     if r.run.backend == "sim" {
         // Fixed, so a printer repeats it on every page: no page of a simulation passes for a
@@ -123,7 +130,32 @@ fn header(s: &mut String, input: &Input, cx: &Context<'_>) {
         other => other.to_string(),
     };
     kv(s, "measured on", &backend);
+    for (_, label, value) in r.run.certificate.fields() {
+        kv(s, label, value.unwrap_or("not given"));
+    }
+    kv(
+        s,
+        "local gravity",
+        &r.run
+            .local_gravity_m_s2
+            .map_or("not recorded".to_string(), |g| format!("{g} m/s²")),
+    );
     kv(s, "log", r.run.log.as_deref().unwrap_or("none recorded"));
+    kv(
+        s,
+        "log SHA-256",
+        cx.log_sha256
+            .as_deref()
+            .unwrap_or("not computed (the log could not be read when this page was written)"),
+    );
+    kv(
+        s,
+        "rig description SHA-256",
+        r.run
+            .description_sha256
+            .as_deref()
+            .unwrap_or("not recorded in the report"),
+    );
     kv(s, "report", cx.report_source);
     kv(s, "tool", cx.tool);
     s.push_str(

@@ -98,7 +98,7 @@ fn the_page_references_nothing_on_the_network() {
             "{figure}"
         );
     }
-    assert!(html.contains("@page { size: A4"));
+    assert!(html.contains("size: A4"));
 }
 
 #[test]
@@ -257,4 +257,46 @@ fn the_frames_reordered_missing_and_recovered_are_on_the_page() {
     let clean = render(&parse(&report().to_json()).unwrap(), &context());
     assert!(!clean.contains("Spans of frames"));
     assert!(!clean.contains("read from another copy"));
+}
+
+/// What identifies the measurement (ISO/IEC 17025 §7.8.2) is on the page: the certificate's
+/// number, the customer, the item, the operator, the rig and its serial, the site's gravity,
+/// the log's and the rig description's SHA-256; a missing one says so.
+#[test]
+fn the_page_identifies_the_measurement_the_rig_and_the_files() {
+    let mut r = report();
+    r.run.certificate = rig_description::config::CertificateConfig {
+        number: Some("IM-2026-0117".into()),
+        customer: Some("Acme <Motors>".into()),
+        item: Some("VIN WVWZZZ1KZ6W000001".into()),
+        operator: Some("J. Doe".into()),
+        rig_id: Some("hexapod 2".into()),
+        rig_serial: None,
+    };
+    r.run.local_gravity_m_s2 = Some(9.80912);
+    r.run.description_sha256 = Some("ab".repeat(32));
+    let cx = Context {
+        log_sha256: Some("cd".repeat(32)),
+        ..context()
+    };
+    let html = render(&parse(&r.to_json()).unwrap(), &cx);
+    for text in [
+        "IM-2026-0117",
+        "Acme &lt;Motors&gt;",
+        "VIN WVWZZZ1KZ6W000001",
+        "J. Doe",
+        "hexapod 2",
+        "9.80912 m/s²",
+        &"ab".repeat(32),
+        &"cd".repeat(32),
+        "counter(pages)",
+    ] {
+        assert!(html.contains(text), "{text} not on the page");
+    }
+    let serial = html.find("rig serial number").expect("the serial's row");
+    assert!(
+        html[serial..].starts_with("rig serial number</th><td>not given"),
+        "{}",
+        &html[serial..serial + 80]
+    );
 }

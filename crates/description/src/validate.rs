@@ -291,6 +291,16 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
     if let Some(v) = &config.vehicle {
         vehicle(&mut p, v);
     }
+    for (key, _, value) in config.certificate.fields() {
+        if let Some(text) = value {
+            if text.chars().count() > 200 || text.chars().any(char::is_control) {
+                p.push(
+                    format!("certificate.{key}"),
+                    "must be one line of at most 200 characters",
+                );
+            }
+        }
+    }
     datasheet_tolerances(&mut p, config);
     legs(&mut p, &config.legs);
     plan(&mut p, &config.plan);

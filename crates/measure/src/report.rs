@@ -97,6 +97,21 @@ pub struct Systematic {
     pub sigma: Quantities,
 }
 
+/// SHA-256 of a rig description as the log records it ([`rig_description::LoadedConfig::effective_toml`]'s
+/// text), lower-case hex: what the certificate names the description by.
+pub fn description_sha256(config: &rig_description::Config) -> String {
+    sha256_hex(&toml::to_string(config).unwrap_or_default())
+}
+
+/// SHA-256 of `text`'s UTF-8 bytes, lower-case hex.
+pub fn sha256_hex(text: &str) -> String {
+    use sha2::Digest as _;
+    sha2::Sha256::digest(text.as_bytes())
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
 /// How the run was made (enough to repeat it).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct RunInfo {
@@ -127,6 +142,16 @@ pub struct RunInfo {
     /// The calibrations the measurement applied, with their dates.
     #[serde(default)]
     pub calibrations: Vec<rig_description::calibration::AppliedCalibration>,
+    /// The measurement's and the rig's identification (`[certificate]`).
+    #[serde(default)]
+    pub certificate: rig_description::config::CertificateConfig,
+    /// SHA-256 of the rig description the run used, as the log records it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub description_sha256: Option<String>,
+    /// The site's gravity the estimate used, m/s² (`estimator.local_gravity_m_s2`, else
+    /// standard gravity).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub local_gravity_m_s2: Option<f64>,
 }
 
 /// A span of the log lost to damage.
@@ -435,9 +460,10 @@ pub struct ReportInputs<'a> {
     pub run: RunInfo,
     /// The loaded run's static weighing ([`crate::weigh`]), when it has one.
     pub loaded_weighing: Option<&'a crate::weigh::StaticWeighing>,
-    /// Where the payload, a vehicle, stands on the plate (`[vehicle]`), for the results in its
-    /// frame ([`crate::vehicle`]).
-    pub vehicle: Option<&'a rig_description::config::VehicleConfig>,
+    /// The rig description the run was measured with: the vehicle's placement (`[vehicle]`,
+    /// [`crate::vehicle`]), the certificate's identification, the site's gravity and the
+    /// description's SHA-256 for the report's `run`.
+    pub description: Option<&'a rig_description::Config>,
 }
 
 /// The tare's budget inputs when the sequence gave none: the tare file's own, else a partial
@@ -536,7 +562,7 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
         let own: estimator::ParameterCovariance = alone.iter().map(|c| c.covariance).sum();
         sigmas(&Estimate::from_parameters(tare_params.0, own))
     });
-    let vehicle = i.vehicle.map(|v| {
+    let vehicle = i.description.and_then(|d| d.vehicle.as_ref()).map(|v| {
         let mut r = crate::vehicle::results(v, &reported.parameters, &total);
         r.truth = i
             .truth
@@ -599,7 +625,15 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
             load_cell_bias_sigma_n: i.load_cell_bias_sigma_n,
             sigma: sigmas(&systematic_only),
         },
-        run: i.run.clone(),
+        run: RunInfo {
+            certificate: i
+                .description
+                .map(|d| d.certificate.clone())
+                .unwrap_or_default(),
+            description_sha256: i.description.map(description_sha256),
+            local_gravity_m_s2: i.description.map(crate::weigh::gravity_of),
+            ..i.run.clone()
+        },
         covariance_basis: CovarianceBasis {
             loaded_windows: i.loaded.counts.covariance_windows,
             tare_windows: i.tare.covariance_windows,
@@ -847,7 +881,7 @@ mod tests {
             truth: None,
             run: RunInfo::default(),
             loaded_weighing: None,
-            vehicle: None,
+            description: None,
         });
         assert!((r.estimate.mass - 1500.0).abs() < 1e-9);
         assert!((r.estimate.com[2] - 0.5).abs() < 1e-12);
@@ -931,7 +965,7 @@ mod tests {
                 truth: None,
                 run: RunInfo::default(),
                 loaded_weighing: None,
-                vehicle: None,
+                description: None,
             })
             .systematic
             .sigma
@@ -1027,7 +1061,7 @@ mod tests {
             truth: None,
             run: RunInfo::default(),
             loaded_weighing: None,
-            vehicle: None,
+            description: None,
         });
         assert!(r.budget_notes.is_empty(), "{:?}", r.budget_notes);
         assert!(r

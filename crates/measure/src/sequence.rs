@@ -181,7 +181,7 @@ impl SequenceOutcome {
             truth,
             run,
             loaded_weighing: loaded.static_weighing.as_ref(),
-            vehicle: config.vehicle.as_ref(),
+            description: Some(config),
         }))
     }
 }

@@ -518,6 +518,8 @@ pub(crate) fn run<S: Station>(
                     .ok()
                     .map(|d| d.as_secs()),
                 calibrations: config.calibration.applied(),
+                // The description's identification, hash and gravity: `report::build`'s.
+                ..RunInfo::default()
             },
             spec.truth,
         )

@@ -76,9 +76,35 @@ pub fn write_page(
             rig: rig.map(|r| &r.config),
             rig_source: rig.map(|r| r.source.as_str()),
             issued_unix_s: Some(inertial_certificate::now_unix_s()),
+            log_sha256: input.report.run.log.as_deref().and_then(file_sha256),
         },
     );
     inertial_export::file::write_atomically(path, &html).map_err(|e| e.to_string())
+}
+
+/// SHA-256 of the file at `path`, read in blocks (a log of any size), lower-case hex; `None`
+/// when it cannot be read.
+pub fn file_sha256(path: &str) -> Option<String> {
+    use sha2::Digest as _;
+    use std::io::Read as _;
+    let mut file = std::fs::File::open(path).ok()?;
+    let mut hasher = sha2::Sha256::new();
+    let mut block = vec![0u8; 1 << 16];
+    loop {
+        match file.read(&mut block) {
+            Ok(0) => break,
+            Ok(n) => hasher.update(&block[..n]),
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(_) => return None,
+        }
+    }
+    Some(
+        hasher
+            .finalize()
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect(),
+    )
 }
 
 /// Runs `report`: reads the report (and the rig description), writes the page.

@@ -15,9 +15,11 @@
 use serde::{Deserialize, Serialize};
 
 mod calibration;
+mod certificate;
 mod vehicle;
 
 pub use calibration::CalibrationConfig;
+pub use certificate::CertificateConfig;
 pub use vehicle::{VehicleConfig, VehicleConvention};
 
 /// The rig description: the machine, its sensors' datasheets, the controller, the excitation,
@@ -62,6 +64,9 @@ pub struct Config {
     /// only).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub vehicle: Option<VehicleConfig>,
+    /// The measurement's and the rig's identification for the certificate; optional.
+    #[serde(default)]
+    pub certificate: CertificateConfig,
 }
 
 /// A body as known before it is measured (a CAD model, a previous measurement, a weighing):

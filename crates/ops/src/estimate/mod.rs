@@ -227,7 +227,7 @@ pub fn rig_description_of(meta: &RunMetadata, rig: Option<&LoadedConfig>) -> Res
         .map_err(|e| anyhow!("{e}"))?;
     let loaded = rig_description::load::load_recorded(
         &meta.config_toml,
-        "<rig description in the log>",
+        RECORDED_DESCRIPTION,
         imu,
         load_cells,
     )
@@ -522,10 +522,16 @@ pub fn build_report(
             // The log does not say when the run's session closed; the start is its stamp.
             ended_unix_s: None,
             calibrations: rig.config.calibration.applied(),
+            // The description's identification, hash and gravity: `report::build`'s.
+            ..RunInfo::default()
         },
         loaded_weighing: r.static_weighing.as_ref(),
-        vehicle: rig.config.vehicle.as_ref(),
+        description: Some(&rig.config),
     });
+    if rig.source == RECORDED_DESCRIPTION {
+        // The description as the log holds it, not as read back (its calibrations inlined).
+        report.run.description_sha256 = Some(measure::report::sha256_hex(&meta.config_toml));
+    }
     report.data.frames_late = r.reordered.late;
     report.data.frames_duplicate = r.reordered.duplicates;
     // The tare's spans too: its estimate is subtracted.
@@ -782,6 +788,9 @@ fn log_error(e: anyhow::Error) -> Error {
         Error::Log(e)
     }
 }
+
+/// The name of the rig description a log records, as messages give it.
+const RECORDED_DESCRIPTION: &str = "<rig description in the log>";
 
 /// The rig description of `--rig FILE`, when given.
 fn rig_of(options: &EstimateOptions) -> Result<Option<LoadedConfig>, Error> {
