@@ -1,6 +1,7 @@
 //! The ten quantities a measurement reports, in the order every table, report and plan target
 //! uses: mass, centre of mass, J_C (the inertia tensor about the centre of mass).
 
+use estimator::Estimate;
 use serde::{Deserialize, Serialize};
 
 /// Mass, centre of mass and inertia about the centre of mass.
@@ -37,5 +38,45 @@ impl Quantities {
             com: [q[1], q[2], q[3]],
             inertia_com: [[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]],
         }
+    }
+}
+
+/// Principal moments (ascending) and axes (row k is the unit axis of moment k, in P).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Principal {
+    /// kg·m², ascending.
+    pub moments: [f64; 3],
+    /// Row k: the unit axis (in P) of `moments[k]`.
+    pub axes: [[f64; 3]; 3],
+}
+
+fn rows(m: &nalgebra::Matrix3<f64>) -> [[f64; 3]; 3] {
+    core::array::from_fn(|r| core::array::from_fn(|c| m[(r, c)]))
+}
+
+/// Mass, centre of mass and J_C of an estimate.
+pub fn quantities(e: &Estimate) -> Quantities {
+    Quantities {
+        mass: e.parameters.mass_kg,
+        com: e.com_m.into(),
+        inertia_com: rows(&e.inertia_com_kg_m2),
+    }
+}
+
+/// One sigma of each entry of [`quantities`].
+pub fn sigmas(e: &Estimate) -> Quantities {
+    Quantities {
+        mass: e.mass_sigma_kg,
+        com: e.com_sigma_m.into(),
+        inertia_com: rows(&e.inertia_com_sigma_kg_m2),
+    }
+}
+
+/// Principal moments and axes of an estimate, as the report gives them.
+pub fn principal_of(e: &Estimate) -> Principal {
+    let axes = e.principal_axes;
+    Principal {
+        moments: e.principal_moments_kg_m2.into(),
+        axes: core::array::from_fn(|k| core::array::from_fn(|r| axes[(r, k)])),
     }
 }

@@ -43,7 +43,8 @@ pub mod tare;
 #[cfg(any(test, feature = "testkit"))]
 pub mod testkit;
 pub mod tick;
-pub mod vehicle;
+/// The vehicle-frame results (crate `vehicle-frame`).
+pub use vehicle_frame as vehicle;
 pub mod weigh;
 
 pub use observer::{Observer, TickEvent};

@@ -15,16 +15,7 @@ use crate::tare::TareFile;
 use rig_description::config::ParamCount;
 use rig_description::sources::ErrorSource;
 
-pub use rig_description::quantities::Quantities;
-
-/// Principal moments (ascending) and axes (row k is the unit axis of moment k, in P).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
-pub struct Principal {
-    /// kg·m², ascending.
-    pub moments: [f64; 3],
-    /// Row k: the unit axis (in P) of `moments[k]`.
-    pub axes: [[f64; 3]; 3],
-}
+pub use rig_description::quantities::{principal_of, quantities, sigmas, Principal, Quantities};
 
 /// How fast the estimate settled.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -391,28 +382,6 @@ pub fn one_measurement(text: &str) -> Result<serde_json::Value, ReportTextError>
     Ok(value)
 }
 
-fn rows(m: &nalgebra::Matrix3<f64>) -> [[f64; 3]; 3] {
-    core::array::from_fn(|r| core::array::from_fn(|c| m[(r, c)]))
-}
-
-/// Mass, centre of mass and J_C of an estimate.
-pub fn quantities(e: &Estimate) -> Quantities {
-    Quantities {
-        mass: e.parameters.mass_kg,
-        com: e.com_m.into(),
-        inertia_com: rows(&e.inertia_com_kg_m2),
-    }
-}
-
-/// One sigma of each entry of [`quantities`].
-pub fn sigmas(e: &Estimate) -> Quantities {
-    Quantities {
-        mass: e.mass_sigma_kg,
-        com: e.com_sigma_m.into(),
-        inertia_com: rows(&e.inertia_com_sigma_kg_m2),
-    }
-}
-
 /// Where the subtracted tare came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TareKind {
@@ -658,15 +627,6 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
                 )
             },
         ),
-    }
-}
-
-/// Principal moments and axes of an estimate, as the report gives them.
-pub fn principal_of(e: &Estimate) -> Principal {
-    let axes = e.principal_axes;
-    Principal {
-        moments: e.principal_moments_kg_m2.into(),
-        axes: core::array::from_fn(|k| core::array::from_fn(|r| axes[(r, k)])),
     }
 }
 

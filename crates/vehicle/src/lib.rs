@@ -17,7 +17,8 @@
 //! **The placement's uncertainty** is one more line of the budget: each coordinate of o off by
 //! `origin_tolerance_m` along P's axes, and V turned by `orientation_tolerance_deg` about each
 //! of its own axes, each moving θ_V by δₖ = θ_V(placement + errorₖ) − θ_V; their Σ δₖ δₖᵀ is
-//! added to A Σ Aᵀ (the budget's rule, [`crate::budget`]).
+//! added to A Σ Aᵀ (the error budget's rule: one sigma of each elementary error, its effects'
+//! outer products summed).
 //!
 //! **The static load split.** With the front axle above V's origin and the rear axle
 //! `wheelbase_m` behind it, the wheels `track_m` apart about V's x axis, the loads at rest on
@@ -29,7 +30,7 @@ use nalgebra::{Matrix3, Rotation3, SMatrix, Vector3};
 use rig_description::config::{VehicleConfig, VehicleConvention};
 use serde::{Deserialize, Serialize};
 
-use crate::report::{principal_of, quantities, sigmas, Principal, Quantities};
+use rig_description::quantities::{principal_of, quantities, sigmas, Principal, Quantities};
 
 /// Where V is in P: its origin and its axes (the convention's).
 #[derive(Clone, Copy, Debug, PartialEq)]
