@@ -45,9 +45,8 @@ impl Placement {
     /// The placement `v` describes.
     pub fn of(v: &VehicleConfig) -> Self {
         let [r, p, y] = v.orientation_deg.map(f64::to_radians);
-        let iso = Rotation3::from_axis_angle(&Vector3::x_axis(), r)
-            * Rotation3::from_axis_angle(&Vector3::y_axis(), p)
-            * Rotation3::from_axis_angle(&Vector3::z_axis(), y);
+        // The pose convention's roll, pitch, yaw: R = Rx Ry Rz.
+        let iso = kinematics::Pose::from_rpy(Vector3::zeros(), r, p, y).rotation;
         let signs = Matrix3::from_diagonal(&Vector3::from(v.convention.axis_signs()));
         Self {
             origin_m: Vector3::from(v.origin_m),
