@@ -11,7 +11,7 @@ use support::stewart_limited as stewart;
 
 #[test]
 fn a_billion_runs_are_refused_instead_of_aborting_on_the_allocation() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     let (code, err) = stewart(dir.path(), &["simulate", "--quiet", "--runs", "1000000000"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--runs") && err.contains("100000"), "{err}");
@@ -25,7 +25,7 @@ fn a_billion_runs_are_refused_instead_of_aborting_on_the_allocation() {
 
 #[test]
 fn a_billion_physics_substeps_are_refused_instead_of_running_until_killed() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     std::fs::write(
         dir.path().join("rig.toml"),
         "[world]\nphysics_substeps = 1000000000\n",
@@ -45,7 +45,7 @@ fn a_billion_physics_substeps_are_refused_instead_of_running_until_killed() {
 
 #[test]
 fn a_bench_of_a_trillion_seconds_is_refused_instead_of_recording_every_tick() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     let (code, err) = stewart(dir.path(), &["bench", "--duration", "1e12"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--duration") && err.contains("36000"), "{err}");

@@ -41,7 +41,7 @@ const SIMULATE: [&str; 5] = ["simulate", "--quiet", "--log", "run.mcap", "--conf
 
 #[test]
 fn a_calibration_file_naming_dev_zero_is_refused_not_read_until_killed() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     std::fs::write(
         dir.path().join("rig.toml"),
         "[calibration]\nimu = \"/dev/zero\"\n",
@@ -54,7 +54,7 @@ fn a_calibration_file_naming_dev_zero_is_refused_not_read_until_killed() {
 
 #[test]
 fn a_rig_description_one_byte_over_its_cap_is_refused_with_its_size() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     let cap = rig_description::bounded::DESCRIPTION_CAP_BYTES;
     let file = oversized(dir.path(), "rig.toml", cap + 1);
     let (code, err) = stewart(dir.path(), &[&SIMULATE[..], &[file.as_str()]].concat());
@@ -64,7 +64,7 @@ fn a_rig_description_one_byte_over_its_cap_is_refused_with_its_size() {
 
 #[test]
 fn a_rig_description_that_is_dev_zero_or_a_directory_is_refused() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     let (code, err) = stewart(dir.path(), &[&SIMULATE[..], &["/dev/zero"]].concat());
     assert_refused(dir.path(), code, &err, "/dev/zero", "1 MiB");
     std::fs::create_dir(dir.path().join("configs")).unwrap();
@@ -75,7 +75,7 @@ fn a_rig_description_that_is_dev_zero_or_a_directory_is_refused() {
 
 #[test]
 fn an_excitation_or_tare_file_naming_dev_zero_is_refused() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     for flag in ["--excitation", "--tare"] {
         let (code, err) = stewart(
             dir.path(),
@@ -94,7 +94,7 @@ fn an_excitation_or_tare_file_naming_dev_zero_is_refused() {
 
 #[test]
 fn a_key_file_one_byte_over_its_cap_is_refused() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     let file = oversized(
         dir.path(),
         "rig.key",
@@ -132,7 +132,7 @@ fn a_key_file_one_byte_over_its_cap_is_refused() {
 
 #[test]
 fn a_report_or_rig_description_naming_dev_zero_is_refused_by_export_report_and_import() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     let (code, err) = stewart(dir.path(), &["export", "/dev/zero", "--format", "urdf"]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("/dev/zero") && err.contains("64 MiB"), "{err}");
@@ -149,7 +149,7 @@ fn a_report_or_rig_description_naming_dev_zero_is_refused_by_export_report_and_i
 
 #[test]
 fn a_directory_given_as_a_log_or_a_table_is_called_a_directory() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     std::fs::create_dir(dir.path().join("runs")).unwrap();
     let (code, err) = stewart(dir.path(), &["estimate", "runs"]);
     assert_eq!(code, 2, "{err}");
@@ -169,7 +169,7 @@ fn a_directory_given_as_a_log_or_a_table_is_called_a_directory() {
 
 #[test]
 fn an_import_table_that_is_dev_zero_is_refused_not_read_into_one_endless_row() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     std::fs::write(dir.path().join("rig.toml"), "").unwrap();
     let (code, err) = stewart(
         dir.path(),

@@ -50,7 +50,7 @@ fn report(dir: &std::path::Path, log: &std::path::Path, name: &str) -> serde_jso
 
 #[test]
 fn frames_lost_from_a_log_are_bridged_and_reported() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     let whole = dir.path().join("whole.mcap");
     // A simulated rig that loses no frame of its own: every gap is the one made below.
     let config = dir.path().join("no_loss.toml");

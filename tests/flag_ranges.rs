@@ -42,7 +42,7 @@ fn estimate(dir: &Path, args: &[&str]) -> (i32, String) {
 
 #[test]
 fn estimate_cutoff_and_forgetting_factor_out_of_their_keys_range_are_refused() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     short_log(dir.path());
     let (code, err) = estimate(dir.path(), &["--cutoff-hz", "1e-300"]);
     assert_eq!(code, 2, "{err}");
@@ -75,7 +75,7 @@ fn estimate_cutoff_and_forgetting_factor_out_of_their_keys_range_are_refused() {
 
 #[test]
 fn estimate_window_the_run_cannot_take_blames_the_flag_not_the_log() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     short_log(dir.path());
     for window in ["--window=100:", "--window=:-10"] {
         let (code, err) = estimate(dir.path(), &[window]);
@@ -88,7 +88,7 @@ fn estimate_window_the_run_cannot_take_blames_the_flag_not_the_log() {
 
 #[test]
 fn emulate_fault_injection_out_of_range_is_refused_naming_each_flag() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     let (code, err) = stewart(
         dir.path(),
         &[
@@ -123,7 +123,7 @@ fn emulate_fault_injection_out_of_range_is_refused_naming_each_flag() {
 
 #[test]
 fn simulate_refuses_a_rig_table_that_rig_refuses() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     std::fs::write(
         dir.path().join("rig.toml"),
         "[rig]\nlink_silence_ms = 0.0\nhandshake_timeout_s = 1e9\n",
@@ -146,7 +146,7 @@ fn simulate_refuses_a_rig_table_that_rig_refuses() {
 
 #[test]
 fn a_bad_key_file_is_named_as_a_key_file_not_as_a_rig_address() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     std::fs::write(dir.path().join("bad.key"), "0123456789abcdef0").unwrap();
     let (code, err) = stewart(
         dir.path(),

@@ -247,7 +247,7 @@ fn the_browser_checks_catch_an_error_and_a_request() {
     let Some(browser) = browser_or_skip() else {
         return;
     };
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     let page = dir.path().join("bad.html");
     std::fs::write(
         &page,

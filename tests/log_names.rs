@@ -22,7 +22,7 @@ fn scenario(dir: &Path, imu_pass: bool) {
 
 #[test]
 fn a_second_run_in_the_same_second_gets_its_own_log_and_the_first_is_kept() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     scenario(dir.path(), false);
     let runs = dir.path().join("runs");
     std::fs::create_dir(&runs).unwrap();
@@ -61,7 +61,7 @@ fn a_second_run_in_the_same_second_gets_its_own_log_and_the_first_is_kept() {
 
 #[test]
 fn an_existing_log_given_as_log_is_refused_before_anything_moves() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     scenario(dir.path(), true);
     std::fs::write(dir.path().join("run.mcap"), "an earlier run's log").unwrap();
     let (code, err) = stewart(

@@ -85,7 +85,7 @@ fn stewart(args: &[&std::ffi::OsStr]) -> String {
 /// Through the binary: `simulate --plot DIR`, then `estimate LOG --plot DIR`.
 #[test]
 fn simulate_and_estimate_plot_valid_svg_and_png() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     let d = dir.path();
     let config = d.join("short.toml");
     std::fs::write(&config, support::SHORT).unwrap();

@@ -8,7 +8,7 @@
 use std::process::Command;
 
 fn simulate(config_text: &str) -> (i32, String, tempfile::TempDir) {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempfile::tempdir_in(env!("CARGO_TARGET_TMPDIR")).unwrap();
     let config = dir.path().join("rig.toml");
     std::fs::write(&config, config_text).unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_stewart"))

@@ -114,7 +114,7 @@ fn keyless_scenario(scratch: &Scratch) -> std::path::PathBuf {
 
 #[test]
 fn key_new_writes_an_owner_only_key_and_refuses_to_overwrite_it() {
-    let xdg = tempfile::tempdir().unwrap();
+    let xdg = support::scratch_dir();
     let out = stewart(xdg.path()).args(["key", "new"]).output().unwrap();
     assert!(out.status.success(), "{}", text(&out));
     let path = xdg.path().join("stewart").join("rig.key");
@@ -148,7 +148,7 @@ fn emulate_makes_the_key_rig_uses_it_and_a_keyless_host_is_told_how_to_pair() {
     let _lock = real_time();
     let scratch = Scratch::new(&quick());
     let config = keyless_scenario(&scratch);
-    let xdg = tempfile::tempdir().unwrap();
+    let xdg = support::scratch_dir();
     let key_file = xdg.path().join("stewart").join("rig.key");
 
     // A host with no key file refuses before contacting anything, saying how to pair.
@@ -235,7 +235,7 @@ fn a_keyless_rig_is_warned_about_and_refuses_a_keyed_host() {
     let _lock = real_time();
     let scratch = Scratch::new(&quick());
     let config = keyless_scenario(&scratch);
-    let xdg = tempfile::tempdir().unwrap();
+    let xdg = support::scratch_dir();
     let keyed = stewart(xdg.path()).args(["key", "new"]).output().unwrap();
     assert!(keyed.status.success(), "{}", text(&keyed));
     let emulator = Emulator::start(xdg.path(), &config, &["--insecure"]);

@@ -279,7 +279,7 @@ fn tare_is_subtracted_saved_and_reused() {
 
 #[test]
 fn interrupt_parks_and_finishes_the_log() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = support::scratch_dir();
     let log = dir.path().join("run.mcap");
     let mut args = simulate_args(None, log.clone());
     args.measure.duration_s = Some(30.0);

@@ -8,7 +8,7 @@ use std::process::Command;
 
 /// Runs `stewart simulate --config <file with text>` and returns (exit code, stderr, dir).
 fn refuse(text: &str, extra: &[&str]) -> (i32, String, tempfile::TempDir) {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempfile::tempdir_in(env!("CARGO_TARGET_TMPDIR")).unwrap();
     let config = dir.path().join("bad.toml");
     std::fs::write(&config, text).unwrap();
     let log = dir.path().join("run.mcap");

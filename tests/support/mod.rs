@@ -158,6 +158,12 @@ pub fn close(a: f64, b: f64, tol: f64) -> bool {
     (a - b).abs() <= tol * a.abs().max(b.abs())
 }
 
+/// A scratch directory under cargo's per-target temporary directory, so that what a shared
+/// fixture (a `static`, never dropped) leaves behind goes with `cargo clean`, not into `/tmp`.
+pub fn scratch_dir() -> tempfile::TempDir {
+    tempfile::tempdir_in(env!("CARGO_TARGET_TMPDIR")).unwrap()
+}
+
 /// A scratch directory with a scenario file.
 pub struct Scratch {
     pub dir: tempfile::TempDir,
@@ -166,7 +172,7 @@ pub struct Scratch {
 
 impl Scratch {
     pub fn new(scenario: &str) -> Self {
-        let dir = tempfile::tempdir().unwrap();
+        let dir = scratch_dir();
         let config = dir.path().join("scenario.toml");
         std::fs::write(&config, scenario).unwrap();
         std::fs::write(dir.path().join("rig.key"), format!("{TEST_KEY_HEX}\n")).unwrap();
