@@ -415,6 +415,39 @@ fn a_lost_chunk_restarts_the_filters_and_keeps_the_fit() {
     }
 }
 
+/// A damaged chunk of the loaded run was said twice on the terminal: once as damage, once as
+/// a span of missing frames. It is said once, by the damage's line, which names the frames'
+/// sequence numbers as the report's missing span does.
+#[test]
+fn a_damaged_chunk_is_said_once_with_its_frames() {
+    let (_, bytes) = run();
+    let c = chunks(bytes);
+    let (at, len) = c[c.len() * 13 / 16];
+    let mut d = bytes.clone();
+    for b in &mut d[at + 9 + len / 2..at + 9 + len / 2 + 4] {
+        *b ^= 0x5a;
+    }
+    let path = write("damaged_once.mcap", &d);
+    let (code, stderr, report) = estimate_cli(&path);
+    assert_eq!(code, Some(0), "{stderr}");
+    let report = report.expect("a report");
+    let missing = report["data"]["missing"].as_array().expect("data.missing");
+    assert_eq!(missing.len(), 1, "{missing:?}");
+    let (first, last) = (
+        missing[0]["first_sequence"].as_u64().unwrap(),
+        missing[0]["last_sequence"].as_u64().unwrap(),
+    );
+    let lines: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("warning"))
+        .collect();
+    assert_eq!(lines.len(), 1, "{stderr}");
+    assert!(
+        lines[0].contains("damaged") && lines[0].contains(&format!("sequence {first} to {last}")),
+        "{stderr}"
+    );
+}
+
 /// Copies the log at `from` to `to` without its `/run/metadata` and without every message of
 /// its loaded run (`/sensors` blocks and `/run/estimator` settings): a tare-only log whose
 /// metadata was lost.

@@ -713,12 +713,24 @@ pub struct EstimateOutcome {
 impl EstimateOutcome {
     /// Warnings for the terminal, one a line, each naming the log at `path`: what its damage
     /// took ([`Damage::warnings`]), the spans of frames put back in order, dropped or missing,
-    /// and the records read from another copy (none for a clean log).
+    /// and the records read from another copy (none for a clean log). A missing span that a
+    /// damaged region of the log lost is said once, by the damage's line (which names its
+    /// sequence numbers).
     pub fn warnings(&self, path: &Path) -> Vec<String> {
         let mut w = self.damage.warnings(path);
         let data = &self.report.data;
+        let lost_to_damage = |span: &measure::report::FrameSpan| {
+            span.action == runlog::read::order::MISSING
+                && self.damage.damaged.iter().any(|l| {
+                    l.lost_sequences().is_some_and(|(first, last)| {
+                        first <= span.first_sequence && span.last_sequence <= last
+                    })
+                })
+        };
         for span in data.reordered.iter().chain(&data.missing) {
-            w.push(format!("{}: {}", path.display(), describe_span(span)));
+            if !lost_to_damage(span) {
+                w.push(format!("{}: {}", path.display(), describe_span(span)));
+            }
         }
         let measured_tare = match &self.tare_origin {
             TareOrigin::Measured(t) => t.order.unnamed,

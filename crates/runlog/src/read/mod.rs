@@ -84,6 +84,9 @@ pub struct Loss {
     /// `/sensors` frames lost in it, from the sequence numbers of the frames either side
     /// (`None`: no frame follows it to count from).
     pub sensor_frames: Option<u64>,
+    /// The sequence number of the first of those frames (`None` when none was lost or none
+    /// follows): the loss holds frames `first ..= first + sensor_frames − 1`.
+    pub first_lost_sequence: Option<u64>,
 }
 
 impl Loss {
@@ -91,6 +94,13 @@ impl Loss {
     pub fn span_s(&self, origin_ns: u64) -> (Option<f64>, Option<f64>) {
         let s = |ns: u64| ns.saturating_sub(origin_ns) as f64 * 1e-9;
         (self.gap.after_ns.map(s), self.gap.before_ns.map(s))
+    }
+
+    /// The sequence numbers of the `/sensors` frames it lost, first and last, when known.
+    pub fn lost_sequences(&self) -> Option<(u64, u64)> {
+        let first = self.first_lost_sequence?;
+        let n = self.sensor_frames.filter(|&n| n > 0)?;
+        Some((first, first.saturating_add(n - 1)))
     }
 
     /// In words, times in s from `origin_ns`.
@@ -105,8 +115,14 @@ impl Loss {
         } else {
             format!("{} bytes at byte {}", self.gap.bytes, self.gap.offset)
         };
+        let which = self
+            .lost_sequences()
+            .map_or(String::new(), |(first, last)| {
+                format!(" (sequence {first} to {last})")
+            });
         format!(
-            "{what} lost ({}): messages between {} and {} of the log, {frames} /sensors frames",
+            "{what} lost ({}): messages between {} and {} of the log, {frames} /sensors \
+             frames{which}",
             self.gap.reason,
             t(a),
             t(b)
@@ -129,6 +145,7 @@ impl LossCounter {
         self.losses.push(Loss {
             gap: gap.clone(),
             sensor_frames: None,
+            first_lost_sequence: None,
         });
         self.open += 1;
     }
@@ -139,10 +156,12 @@ impl LossCounter {
             let lost = self
                 .last_sequence
                 .map_or(sequence, |l| sequence.saturating_sub(l.saturating_add(1)));
+            let first = self.last_sequence.map_or(0, |l| l.saturating_add(1));
             let n = self.losses.len();
             for (k, loss) in self.losses[n - self.open..].iter_mut().enumerate() {
                 // A frame that was never there is not lost: the whole count goes to the first.
                 loss.sensor_frames = Some(if k == 0 { lost } else { 0 });
+                loss.first_lost_sequence = (k == 0 && lost > 0).then_some(first);
             }
             self.open = 0;
         }
@@ -156,15 +175,16 @@ impl LossCounter {
         let mut out = Vec::with_capacity(gaps.len());
         let mut mine = std::mem::take(&mut self.losses).into_iter().peekable();
         for g in gaps {
-            let frames = match mine.peek() {
-                Some(l) if l.gap.offset == g.offset && l.gap.reason == g.reason => {
-                    mine.next().and_then(|l| l.sensor_frames)
-                }
-                _ => None,
+            let (frames, first) = match mine.peek() {
+                Some(l) if l.gap.offset == g.offset && l.gap.reason == g.reason => mine
+                    .next()
+                    .map_or((None, None), |l| (l.sensor_frames, l.first_lost_sequence)),
+                _ => (None, None),
             };
             out.push(Loss {
                 gap: g.clone(),
                 sensor_frames: frames,
+                first_lost_sequence: first,
             });
         }
         out
