@@ -97,24 +97,124 @@ impl Problems {
     }
 }
 
-/// `[vehicle]`: a placement within the rig's reach, tolerances and wheel distances physical.
+/// `[vehicle]`: one placement (the frame's origin and axes, or the wheels' contact points)
+/// within the rig's reach, its tolerances and the wheel distances physical.
 fn vehicle(p: &mut Problems, v: &crate::config::VehicleConfig) {
-    p.finite3("vehicle.origin_m", &v.origin_m, 10.0);
-    p.finite3("vehicle.orientation_deg", &v.orientation_deg, 180.0);
-    p.within(
-        "vehicle.origin_tolerance_m",
-        v.origin_tolerance_m,
-        0.0,
-        1.0,
-        "m",
-    );
-    p.within(
-        "vehicle.orientation_tolerance_deg",
-        v.orientation_tolerance_deg,
-        0.0,
-        10.0,
-        "degrees",
-    );
+    let tolerance =
+        |p: &mut Problems, key: &str, value: Option<f64>, hi: f64, unit: &str| match value {
+            Some(t) => p.within(key, t, 0.0, hi, unit),
+            None => p.push(key, format!("missing: one standard deviation, {unit}")),
+        };
+    // Keys the wheels' form derives, refused beside it.
+    let derived = |p: &mut Problems, key: &str, given: bool| {
+        if given {
+            p.push(
+                format!("vehicle.{key}"),
+                "follows from vehicle.wheels_m: give the wheels' contact points or the frame's \
+                 origin and orientation, not both",
+            );
+        }
+    };
+    match (&v.origin_m, &v.wheels_m) {
+        (Some(_), Some(_)) => p.push(
+            "vehicle.wheels_m",
+            "the placement is given twice: as the frame's origin (vehicle.origin_m) and as the \
+             wheels' contact points (vehicle.wheels_m); give one",
+        ),
+        (None, None) => p.push(
+            "vehicle.origin_m",
+            "missing: give V's origin in P (vehicle.origin_m, with orientation_deg) or the four \
+             wheels' contact points (vehicle.wheels_m)",
+        ),
+        (Some(origin), None) => {
+            p.finite3("vehicle.origin_m", origin, 10.0);
+            p.finite3(
+                "vehicle.orientation_deg",
+                &v.orientation_deg.unwrap_or_default(),
+                180.0,
+            );
+            tolerance(
+                p,
+                "vehicle.origin_tolerance_m",
+                v.origin_tolerance_m,
+                1.0,
+                "m",
+            );
+            tolerance(
+                p,
+                "vehicle.orientation_tolerance_deg",
+                v.orientation_tolerance_deg,
+                10.0,
+                "degrees",
+            );
+            if v.wheel_tolerance_m.is_some() {
+                p.push(
+                    "vehicle.wheel_tolerance_m",
+                    "is the tolerance of vehicle.wheels_m, which is not given: give \
+                     vehicle.origin_tolerance_m and vehicle.orientation_tolerance_deg",
+                );
+            }
+        }
+        (None, Some(wheels)) => {
+            let names = ["front_left", "front_right", "rear_left", "rear_right"];
+            let mut finite = true;
+            for (name, point) in names.iter().zip(wheels.points()) {
+                let before = p.0.len();
+                p.finite3(&format!("vehicle.wheels_m.{name}"), &point, 10.0);
+                finite &= p.0.len() == before;
+            }
+            tolerance(
+                p,
+                "vehicle.wheel_tolerance_m",
+                v.wheel_tolerance_m,
+                0.1,
+                "m",
+            );
+            derived(p, "orientation_deg", v.orientation_deg.is_some());
+            derived(p, "origin_tolerance_m", v.origin_tolerance_m.is_some());
+            derived(
+                p,
+                "orientation_tolerance_deg",
+                v.orientation_tolerance_deg.is_some(),
+            );
+            derived(p, "wheelbase_m", v.wheelbase_m.is_some());
+            derived(p, "track_m", v.track_m.is_some());
+            if finite {
+                match wheels.frame() {
+                    Err(problem) => p.push("vehicle.wheels_m", problem.describe()),
+                    Ok(f) => {
+                        for (key, d) in [("wheelbase", f.wheelbase_m), ("track", f.track_m)] {
+                            if !(0.1..=20.0).contains(&d) {
+                                p.push(
+                                    "vehicle.wheels_m",
+                                    format!(
+                                        "the contact points give a {key} of {d:.4} m, outside \
+                                         0.1 to 20 m: check the points' units (m) and labels"
+                                    ),
+                                );
+                            }
+                        }
+                        // A car's four contact patches lie on one surface: a point far off
+                        // the plane through the others is a typing or survey error.
+                        let allowed = 0.01 + 3.0 * v.wheel_tolerance_m.unwrap_or(0.0);
+                        if f.out_of_plane_m > allowed {
+                            p.push(
+                                "vehicle.wheels_m",
+                                format!(
+                                    "the four contact points are {:.1} mm off one plane (each, \
+                                     alternately above and below it), more than the {:.1} mm a \
+                                     surface and the survey's tolerance allow: check the \
+                                     points' heights",
+                                    1e3 * f.out_of_plane_m,
+                                    1e3 * allowed
+                                ),
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
     for (key, value) in [
         ("vehicle.wheelbase_m", v.wheelbase_m),
         ("vehicle.track_m", v.track_m),

@@ -531,13 +531,17 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
         let own: estimator::ParameterCovariance = alone.iter().map(|c| c.covariance).sum();
         sigmas(&Estimate::from_parameters(tare_params.0, own))
     });
-    let vehicle = i.description.and_then(|d| d.vehicle.as_ref()).map(|v| {
-        let mut r = crate::vehicle::results(v, &reported.parameters, &total);
-        r.truth = i
-            .truth
-            .map(|t| crate::vehicle::Placement::of(v).quantities(&t));
-        r
-    });
+    let vehicle = i
+        .description
+        .and_then(|d| d.vehicle.as_ref())
+        .and_then(|v| {
+            let mut r = crate::vehicle::results(v, &reported.parameters, &total)?;
+            r.truth = i
+                .truth
+                .zip(crate::vehicle::Placement::of(v))
+                .map(|(t, at)| at.quantities(&t));
+            Some(r)
+        });
     Report {
         vehicle,
         estimate: quantities(&reported),

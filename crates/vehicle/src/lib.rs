@@ -27,7 +27,7 @@
 
 use estimator::{Estimate, InertialParameters, ParameterCovariance, ParameterVector};
 use nalgebra::{Matrix3, Rotation3, SMatrix, Vector3};
-use rig_description::config::{VehicleConfig, VehicleConvention};
+use rig_description::config::{VehicleConfig, VehicleConvention, WheelContacts};
 use serde::{Deserialize, Serialize};
 
 use rig_description::quantities::{principal_of, quantities, sigmas, Principal, Quantities};
@@ -42,16 +42,27 @@ pub struct Placement {
 }
 
 impl Placement {
-    /// The placement `v` describes.
-    pub fn of(v: &VehicleConfig) -> Self {
-        let [r, p, y] = v.orientation_deg.map(f64::to_radians);
-        // The pose convention's roll, pitch, yaw: R = Rx Ry Rz.
-        let iso = kinematics::Pose::from_rpy(Vector3::zeros(), r, p, y).rotation;
+    /// The placement `v` describes: its origin and orientation, or the frame its wheels'
+    /// contact points give ([`WheelContacts::frame`]). `None` when the wheels give no frame
+    /// (validation refuses such a description).
+    pub fn of(v: &VehicleConfig) -> Option<Self> {
         let signs = Matrix3::from_diagonal(&Vector3::from(v.convention.axis_signs()));
-        Self {
-            origin_m: Vector3::from(v.origin_m),
-            rotation: iso.matrix() * signs,
-        }
+        let (origin_m, iso) = match (&v.wheels_m, v.origin_m) {
+            (Some(w), _) => {
+                let f = w.frame().ok()?;
+                (f.origin_m, f.axes)
+            }
+            (None, origin) => {
+                let [r, p, y] = v.orientation_deg.unwrap_or_default().map(f64::to_radians);
+                // The pose convention's roll, pitch, yaw: R = Rx Ry Rz.
+                let iso = kinematics::Pose::from_rpy(Vector3::zeros(), r, p, y).rotation;
+                (Vector3::from(origin?), *iso.matrix())
+            }
+        };
+        Some(Self {
+            origin_m,
+            rotation: iso * signs,
+        })
     }
 
     /// θ in V: the parameters about V's origin in V's axes (see the module docs).
@@ -126,11 +137,16 @@ pub struct VehicleResults {
     pub frame: String,
     /// The axes' convention.
     pub convention: VehicleConvention,
-    /// The placement as given: V's origin in P, m, and V's ISO 8855 axes in P (roll, pitch,
-    /// yaw, degrees).
+    /// V's origin in P, as given or as the wheels' contact points give it, m.
     pub origin_in_p_m: [f64; 3],
     /// V's axes (ISO 8855) in P, roll, pitch, yaw, degrees.
     pub orientation_in_p_deg: [f64; 3],
+    /// The wheelbase the axle loads use (given, or from the contact points), m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wheelbase_m: Option<f64>,
+    /// The track the side loads use (given, or from the contact points), m.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub track_m: Option<f64>,
     /// Mass, centre of mass in V (m) and J_C in V's axes (kg·m²).
     pub estimate: Quantities,
     /// One sigma of each entry, the placement's tolerance included.
@@ -152,83 +168,192 @@ pub struct VehicleResults {
     pub side_loads: Option<LoadSplit>,
 }
 
-/// The results of the payload `theta` (P) with covariance `covariance` in the frame `v`
-/// describes (see the module docs).
-pub fn results(
-    v: &VehicleConfig,
-    theta: &InertialParameters,
-    covariance: &ParameterCovariance,
-) -> VehicleResults {
-    let placement = Placement::of(v);
-    let a = placement.jacobian();
-    let theta_v = placement.express(theta);
-    let base = theta_v.to_vector();
-    let mut errors = ParameterCovariance::zeros();
-    let mut add = |moved: &Placement| {
-        let d = moved.express(theta).to_vector() - base;
-        errors += d * d.transpose();
-    };
-    for axis in 0..3 {
-        let mut shifted = placement;
-        shifted.origin_m[axis] += v.origin_tolerance_m;
-        add(&shifted);
-        add(&placement.turned(axis, v.orientation_tolerance_deg.to_radians()));
+/// A placement with the wheel distances the load split takes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Frame {
+    placement: Placement,
+    wheelbase_m: Option<f64>,
+    track_m: Option<f64>,
+}
+
+impl Frame {
+    /// The frame `v` gives: the wheels' distances as given, or as their contact points give.
+    fn of(v: &VehicleConfig) -> Option<Self> {
+        let placement = Placement::of(v)?;
+        let (wheelbase_m, track_m) = match &v.wheels_m {
+            Some(w) => {
+                let f = w.frame().ok()?;
+                (Some(f.wheelbase_m), Some(f.track_m))
+            }
+            None => (v.wheelbase_m, v.track_m),
+        };
+        Some(Self {
+            placement,
+            wheelbase_m,
+            track_m,
+        })
     }
-    let total = a * covariance * a.transpose() + errors;
-    let estimate = Estimate::from_parameters(theta_v, total);
-    let placement_only = Estimate::from_parameters(theta_v, errors);
-    let q = quantities(&estimate);
-    let s = sigmas(&estimate);
-    // Up is +z in ISO 8855, −z in SAE J670.
-    let up = v.convention.axis_signs()[2];
-    let split = |first: ParameterVector, second: ParameterVector| {
-        let value = |w: &ParameterVector| w.dot(&base);
-        let sigma = |w: &ParameterVector| (w.transpose() * total * w)[0].max(0.0).sqrt();
-        LoadSplit {
-            loads_kg: [value(&first), value(&second)],
-            sigma_kg: [sigma(&first), sigma(&second)],
-            share: value(&first) / theta_v.mass_kg,
+
+    /// The frames one sigma of each measured coordinate away: each coordinate of the origin
+    /// along P's axes and a turn about each of V's axes, or each coordinate of each contact
+    /// point.
+    fn tolerance_cases(&self, v: &VehicleConfig) -> Vec<Self> {
+        let mut out = Vec::new();
+        match &v.wheels_m {
+            Some(w) => {
+                let t = v.wheel_tolerance_m.unwrap_or(0.0);
+                for wheel in 0..4 {
+                    for axis in 0..3 {
+                        let mut points = w.points();
+                        points[wheel][axis] += t;
+                        let moved = VehicleConfig {
+                            wheels_m: Some(WheelContacts::from_points(points)),
+                            ..v.clone()
+                        };
+                        out.extend(Self::of(&moved));
+                    }
+                }
+            }
+            None => {
+                let turn = v.orientation_tolerance_deg.unwrap_or(0.0).to_radians();
+                for axis in 0..3 {
+                    let mut shifted = *self;
+                    shifted.placement.origin_m[axis] += v.origin_tolerance_m.unwrap_or(0.0);
+                    out.push(shifted);
+                    out.push(Self {
+                        placement: self.placement.turned(axis, turn),
+                        ..*self
+                    });
+                }
+            }
         }
-    };
+        out
+    }
+}
+
+/// The static load split's weights: F = w · θ_V for the front axle, rear axle, left side,
+/// right side (see the module docs), when the wheelbase and track are known.
+fn split_weights(frame: &Frame, convention: VehicleConvention) -> [Option<ParameterVector>; 4] {
     let unit = |k: usize| {
         let mut e = ParameterVector::zeros();
         e[k] = 1.0;
         e
     };
     // In SAE axes y points right: the left side's load takes −h_y.
-    let left = v.convention.axis_signs()[1];
-    VehicleResults {
+    let left = convention.axis_signs()[1];
+    let axle = frame
+        .wheelbase_m
+        .map(|l| (unit(0) + unit(1) / l, -unit(1) / l));
+    let side = frame.track_m.map(|b| {
+        (
+            unit(0) * 0.5 + unit(2) * (left / b),
+            unit(0) * 0.5 - unit(2) * (left / b),
+        )
+    });
+    [
+        axle.map(|a| a.0),
+        axle.map(|a| a.1),
+        side.map(|s| s.0),
+        side.map(|s| s.1),
+    ]
+}
+
+/// The results of the payload `theta` (P) with covariance `covariance` in the frame `v`
+/// describes (see the module docs); `None` when `v` gives no frame (four wheels that span
+/// none: validation refuses such a description).
+pub fn results(
+    v: &VehicleConfig,
+    theta: &InertialParameters,
+    covariance: &ParameterCovariance,
+) -> Option<VehicleResults> {
+    let frame = Frame::of(v)?;
+    let placement = frame.placement;
+    let a = placement.jacobian();
+    let theta_v = placement.express(theta);
+    let base = theta_v.to_vector();
+    let weights = split_weights(&frame, v.convention);
+    let mut errors = ParameterCovariance::zeros();
+    let mut split_errors = [0.0; 4];
+    for moved in frame.tolerance_cases(v) {
+        let theta_moved = moved.placement.express(theta).to_vector();
+        let d = theta_moved - base;
+        errors += d * d.transpose();
+        for (k, (w, w_moved)) in weights
+            .iter()
+            .zip(split_weights(&moved, v.convention))
+            .enumerate()
+        {
+            if let (Some(w), Some(w_moved)) = (w, w_moved) {
+                split_errors[k] += (w_moved.dot(&theta_moved) - w.dot(&base)).powi(2);
+            }
+        }
+    }
+    let statistical = a * covariance * a.transpose();
+    let total = statistical + errors;
+    let estimate = Estimate::from_parameters(theta_v, total);
+    let placement_only = Estimate::from_parameters(theta_v, errors);
+    let q = quantities(&estimate);
+    let s = sigmas(&estimate);
+    // Up is +z in ISO 8855, −z in SAE J670.
+    let up = v.convention.axis_signs()[2];
+    let load = |k: usize| {
+        let w = weights[k]?;
+        let variance = (w.transpose() * statistical * w)[0].max(0.0) + split_errors[k];
+        Some((w.dot(&base), variance.sqrt()))
+    };
+    let split = |first: usize, second: usize| {
+        let ((f, sf), (r, sr)) = (load(first)?, load(second)?);
+        Some(LoadSplit {
+            loads_kg: [f, r],
+            sigma_kg: [sf, sr],
+            share: f / theta_v.mass_kg,
+        })
+    };
+    // The placement as the results give it: V's origin and its ISO axes in P.
+    let iso =
+        placement.rotation * Matrix3::from_diagonal(&Vector3::from(v.convention.axis_signs()));
+    let (roll, pitch, yaw) = kinematics::Pose {
+        position_m: Vector3::zeros(),
+        rotation: Rotation3::from_matrix_unchecked(iso),
+    }
+    .rpy();
+    let orientation_deg = [roll, pitch, yaw].map(f64::to_degrees);
+    let origin = placement.origin_m;
+    let measured_as = match &v.wheels_m {
+        Some(_) => format!(
+            " (from the four wheels' contact points: wheelbase {:.4} m, track {:.4} m)",
+            frame.wheelbase_m.unwrap_or(f64::NAN),
+            frame.track_m.unwrap_or(f64::NAN)
+        ),
+        None => String::new(),
+    };
+    Some(VehicleResults {
         frame: format!(
             "vehicle frame V, {}: origin on the ground plane below the front axle's centre, at \
-             ({:.4}, {:.4}, {:.4}) m in the plate frame P, axes turned by roll {}°, pitch {}°, \
-             yaw {}° from P's",
+             ({:.4}, {:.4}, {:.4}) m in the plate frame P, axes turned by roll {:.3}°, pitch \
+             {:.3}°, yaw {:.3}° from P's{measured_as}",
             v.convention.describe(),
-            v.origin_m[0],
-            v.origin_m[1],
-            v.origin_m[2],
-            v.orientation_deg[0],
-            v.orientation_deg[1],
-            v.orientation_deg[2]
+            origin[0],
+            origin[1],
+            origin[2],
+            orientation_deg[0],
+            orientation_deg[1],
+            orientation_deg[2]
         ),
         convention: v.convention,
-        origin_in_p_m: v.origin_m,
-        orientation_in_p_deg: v.orientation_deg,
+        origin_in_p_m: origin.into(),
+        orientation_in_p_deg: orientation_deg,
+        wheelbase_m: frame.wheelbase_m,
+        track_m: frame.track_m,
         estimate: q,
         sigma: s,
         placement_sigma: sigmas(&placement_only),
         truth: None,
         principal: principal_of(&estimate),
         cg_height_m: [up * q.com[2], s.com[2]],
-        axle_loads: v
-            .wheelbase_m
-            .map(|l| split(unit(0) + unit(1) / l, -unit(1) / l)),
-        side_loads: v.track_m.map(|b| {
-            split(
-                unit(0) * 0.5 + unit(2) * (left / b),
-                unit(0) * 0.5 - unit(2) * (left / b),
-            )
-        }),
-    }
+        axle_loads: split(0, 1),
+        side_loads: split(2, 3),
+    })
 }
 
 #[cfg(test)]

@@ -20,7 +20,7 @@ mod vehicle;
 
 pub use calibration::CalibrationConfig;
 pub use certificate::CertificateConfig;
-pub use vehicle::{VehicleConfig, VehicleConvention};
+pub use vehicle::{VehicleConfig, VehicleConvention, WheelContacts, WheelFrame, WheelProblem};
 
 /// The rig description: the machine, its sensors' datasheets, the controller, the excitation,
 /// the estimator, the run's phases and the link.
