@@ -5,7 +5,7 @@
 //! kept). The binary runs under a 2 GiB address-space limit and for a minute at most, so that
 //! an unbounded allocation or run fails the test instead of the machine.
 
-mod support;
+use crate::support;
 
 use support::stewart_limited as stewart;
 

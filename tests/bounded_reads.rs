@@ -4,7 +4,7 @@
 //! The binary runs under a 2 GiB address-space limit, so that a read without a cap fails the
 //! test (the allocation fails) instead of growing until the kernel kills it.
 
-mod support;
+use crate::support;
 
 use std::path::Path;
 

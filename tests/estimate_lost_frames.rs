@@ -2,7 +2,7 @@
 //! frame taken out says how many sample periods had no frame, that each was bridged, and which
 //! time base placed the samples; its figures stay within their sigmas of the whole log's.
 
-mod support;
+use crate::support;
 
 use std::process::Command;
 

@@ -4,7 +4,7 @@
 //! `/sensors` in JSON is refused clearly, other settings change the estimate, and a log without
 //! a needed channel is refused with the channel's name.
 
-mod support;
+use crate::support;
 
 use measure::report::{Quantities, Report};
 use ops::estimate::{reestimate, EstimateOptions, SettingsOverride, Window};

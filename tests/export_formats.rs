@@ -2,7 +2,7 @@
 //! written, and read back by a parser of its format, gives the report's mass, centre of mass
 //! and J_C (the round trips of each format in detail are `inertial-export`'s tests).
 
-mod support;
+use crate::support;
 
 use inertial_export::Format;
 use ops::export::{run, ExportOptions};

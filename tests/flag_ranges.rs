@@ -5,7 +5,7 @@
 //! log's measurement (blamed on the flag, not on the log), `emulate`'s fault injection; and
 //! `simulate` refuses a `[rig]` table that `rig` refuses. A bad key file is named as such.
 
-mod support;
+use crate::support;
 
 use std::path::Path;
 

@@ -11,7 +11,7 @@
 //! Without Chromium (`/usr/bin/chromium` or `chromium` on PATH) the tests fail saying to install
 //! it, unless `STEWART_SKIP_BROWSER_TESTS=1`.
 
-mod support;
+use crate::support;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -4,7 +4,7 @@
 //! table, `estimate --save-tare` and a loaded-only table with `import --tare`; a NaN cell is
 //! one rejected sample.
 
-mod support;
+use crate::support;
 
 use std::fmt::Write as _;
 use std::path::Path;

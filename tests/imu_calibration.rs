@@ -3,7 +3,7 @@
 //! the estimator never reads) within the calibration's reported sigmas, on the full world
 //! (every imperfection on) and on a world with only the IMU's own errors.
 
-mod support;
+use crate::support;
 
 use rig_description::calibration::{CalibrationDocument, CalibrationFile};
 use rig_description::sources::ErrorSource;

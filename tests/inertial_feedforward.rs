@@ -7,7 +7,7 @@
 //! largest leg tracking error over 8 s of the default excitation, the default world without
 //! sensor noise: 0.28 mm with the feed-forward against 6.3 mm without (docs/plan.md).
 
-mod support;
+use crate::support;
 
 use control::supervisor::Phase;
 use measure::observer::{Observer, TickEvent};

@@ -5,7 +5,7 @@
 //! as the JSON its channel says it is. Every message received is also in the log, byte for
 //! byte, at the same log time: the live view and the log are two sinks of one message.
 
-mod support;
+use crate::support;
 
 use std::collections::HashMap;
 use std::net::TcpListener;

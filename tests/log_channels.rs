@@ -2,7 +2,7 @@
 //! `docs/log-schema.md` documents is present with its schema name and encodings, the counts
 //! fit the run's duration and the documented rates, and the times never go backwards.
 
-mod support;
+use crate::support;
 
 use std::collections::BTreeMap;
 

@@ -2,7 +2,7 @@
 //! `stewart estimate` uses what is there: the estimate it makes at the last logged `/estimate`
 //! instant is the one the run logged there.
 
-mod support;
+use crate::support;
 
 use ops::estimate::{reestimate_run, rig_description, EstimateOptions, SettingsOverride};
 use runlog::LogContents;

@@ -1,7 +1,7 @@
 //! `stewart estimate` on damaged, cut and broken logs of a real run: it never crashes, loses
 //! only what is damaged and says so, and refuses to report on a run that measured nothing.
 
-mod support;
+use crate::support;
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;

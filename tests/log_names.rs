@@ -2,7 +2,7 @@
 //! log already gets `-2`, `-3`, …, and a `--log FILE` that exists is refused before anything
 //! moves (exit 2, no calibration pass, the file untouched).
 
-mod support;
+use crate::support;
 
 use std::path::Path;
 

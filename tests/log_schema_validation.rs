@@ -4,7 +4,7 @@
 //! catalogue (`runlog::messages::channels()`); each schema document is itself a valid JSON
 //! schema; and a broken message is refused, so the check can fail.
 
-mod support;
+use crate::support;
 
 use std::collections::BTreeMap;
 

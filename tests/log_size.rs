@@ -3,7 +3,7 @@
 //! whole file per minute of log time. The file's fixed part (metadata, schemas, summary) counts
 //! against the short run, so the bound holds with room for the default run's longer one.
 
-mod support;
+use crate::support;
 
 /// The requirement, with a tenth kept in hand: MB (10⁶ bytes) per minute of data.
 const MAX_MB_PER_MIN: f64 = 0.9 * 10.0;

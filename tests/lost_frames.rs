@@ -7,7 +7,7 @@
 //! conditioning bridged gaps on its grid, 1 % lost multiplied σ(J_C) by 3–5 and 10 % by 13–18,
 //! and 10 µs of jitter by 1.4–2.2; with it, at most 1.04, 1.18 and 1.0 (docs/accuracy.md).
 
-mod support;
+use crate::support;
 
 use control::io::SensorFrame;
 use estimator::{Estimate, EstimatorConfig};

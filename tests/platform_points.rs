@@ -2,7 +2,7 @@
 //! survey gives them: the radii form's own points measure the same to every digit, and a layout
 //! off the symmetric one measures its payload.
 
-mod support;
+use crate::support;
 
 use support::{simulate_with, SHORT};
 

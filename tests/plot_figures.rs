@@ -1,7 +1,7 @@
 //! `--plot DIR` writes non-empty, valid SVG and PNG figures: from a `simulate` log (what
 //! `simulate --plot` and `rig --plot` call) and from `estimate --plot`.
 
-mod support;
+use crate::support;
 
 use std::path::Path;
 

@@ -4,7 +4,7 @@
 //! (`--calibrate-load-cells`) on the same simulated world within their sigmas (the emulated rig
 //! is that world behind the wire protocol).
 
-mod support;
+use crate::support;
 
 use measure::End;
 use rig_description::calibration::{CalibrationDocument, CalibrationFile, LoadCellFile};

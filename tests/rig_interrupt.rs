@@ -1,7 +1,7 @@
 //! Ctrl-C during a rig run: the platform parks (the controller's park ramp, then the brakes),
 //! the log is finished, the exit code is 130, and no tare is saved.
 
-mod support;
+use crate::support;
 
 use std::net::{SocketAddr, UdpSocket};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};

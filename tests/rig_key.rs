@@ -4,7 +4,7 @@
 //! pair, and keyless runs need `--insecure` (warned). The binary runs as a child process with
 //! `XDG_CONFIG_HOME` in a temporary directory: the user's real configuration is never touched.
 
-mod support;
+use crate::support;
 
 use std::io::{BufRead, BufReader};
 use std::path::Path;

@@ -6,7 +6,7 @@
 //! (no message dropped, every sequence number), and the view kept up with the run instead of
 //! arriving at its end.
 
-mod support;
+use crate::support;
 
 use std::time::{Duration, Instant};
 

@@ -2,7 +2,7 @@
 //! (and well-formed frames from a stranger) sprayed at both sockets. The run completes, the
 //! damage is counted and reported, nothing panics.
 
-mod support;
+use crate::support;
 
 use std::net::{SocketAddr, UdpSocket};
 use std::time::{Duration, Instant};

@@ -2,7 +2,7 @@
 //! `stewart emulate` on loopback UDP, compared with `stewart simulate` on the same scenario:
 //! the rig's estimate must agree with the emulator's truth as well as the simulation's does.
 
-mod support;
+use crate::support;
 
 use measure::End;
 use runlog::rig_record::LINK;

@@ -3,7 +3,7 @@
 //! second sender cannot move the platform while a session runs; with a key, unkeyed and
 //! wrongly keyed frames from the session's own address are dropped.
 
-mod support;
+use crate::support;
 
 use std::net::{SocketAddr, UdpSocket};
 use std::time::{Duration, Instant};

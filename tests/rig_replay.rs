@@ -4,7 +4,7 @@
 //! untagged refusal during the loaded run's handshake aborted it with "key mismatch" although
 //! the keys matched.
 
-mod support;
+use crate::support;
 
 use std::net::{SocketAddr, UdpSocket};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};

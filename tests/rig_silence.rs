@@ -2,7 +2,7 @@
 //! been silent for its limit (50 ms, the default), commands a safe stop, ends with a fault naming
 //! the cause and exit code 3, and its MCAP log is finished and readable to the last frame.
 
-mod support;
+use crate::support;
 
 use std::time::Duration;
 

@@ -3,7 +3,7 @@
 //! session and repeats the run, a completed tare kept (`rig.stall_retries`); the stalled run's
 //! log stays as its record. With no retries left the stall ends the run as a fault.
 
-mod support;
+use crate::support;
 
 use measure::End;
 use support::*;

@@ -3,7 +3,7 @@
 //! computes on the run's log, both with the tare measured in the same invocation and with a
 //! saved tare (`rig measure --tare FILE`, whose file keeps the tare run's sensitivities).
 
-mod support;
+use crate::support;
 
 use measure::report::{Quantities, Report};
 use measure::End;

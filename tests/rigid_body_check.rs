@@ -1,7 +1,7 @@
 //! The rigid-body check end to end: a car body bouncing on its suspension is flagged in the
 //! report, naming the frequency of the residual's peak, and a rigid payload passes.
 
-mod support;
+use crate::support;
 
 use support::{simulate_with, SHORT};
 

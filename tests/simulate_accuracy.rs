@@ -5,7 +5,7 @@
 //!
 //! Every figure is checked against the simulator's truth, which only the report carries.
 
-mod support;
+use crate::support;
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;

@@ -5,7 +5,7 @@
 //! sigma of `[world.payload]`; and `stewart estimate` recomputes the weighing from the log's
 //! brake-hold frames exactly.
 
-mod support;
+use crate::support;
 
 use ops::estimate::EstimateOptions;
 use rig_description::sources::ErrorSource;

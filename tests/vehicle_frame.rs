@@ -5,7 +5,7 @@
 //! `measure::vehicle`); the report's vehicle-frame results must be V's own within their sigmas,
 //! and the placement's tolerance must show in them.
 
-mod support;
+use crate::support;
 
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
