@@ -245,3 +245,26 @@ fn a_table_with_one_second_of_rest_weighs_its_rest_only() {
         );
     }
 }
+
+/// A surveyed rig off the symmetric layout (configs/surveyed-noise-only.toml) imports as the
+/// default does: its run's table and its rig description, as the lab that surveyed it would
+/// write them, give the same estimate as the log.
+#[test]
+fn a_surveyed_irregular_rigs_table_gives_the_same_estimate() {
+    let surveyed = include_str!("../configs/surveyed-noise-only.toml");
+    let sim = support::simulate_with(&format!("{surveyed}\n{}", support::SHORT), |_, _| {});
+    let dir = sim.dir.path();
+    let log = LogContents::read(&sim.log).unwrap();
+    let rig = dir.join("surveyed.toml");
+    std::fs::write(&rig, &log.require_metadata().unwrap().config_toml).unwrap();
+    let csv = dir.join("surveyed.csv");
+    let all = Export {
+        sequence: true,
+        window: true,
+        rest_s: None,
+    };
+    export(&log, &["tare", "loaded"], all, &csv);
+    let imported_log = dir.join("surveyed.mcap");
+    import(&csv, &rig, None, &imported_log);
+    assert_same(&estimate(&sim.log), &estimate(&imported_log), 1e-9);
+}

@@ -930,3 +930,48 @@ fn a_log_of_two_interleaved_runs_is_refused() {
         );
     }
 }
+
+/// Two chunks swapped where the tare run ends and the loaded run begins: the chunk of the
+/// loaded run's first `/sensors` block before the chunk of the tare's last. Each run's frames
+/// are its own (every block names its run), so both are whole and the estimate is the clean
+/// log's.
+#[test]
+fn two_chunks_swapped_across_the_runs_boundary_are_put_back_in_order() {
+    use prost::Message as _;
+    let (_, bytes) = run();
+    // The log times of the tare's last block and of the loaded run's first.
+    let (mut last_tare, mut first_loaded) = (0, u64::MAX);
+    for m in mcap::MessageStream::new(bytes).unwrap() {
+        let m = m.unwrap();
+        if m.channel.topic == runlog::messages::SENSORS {
+            let p = runlog::proto::SensorBlock::decode(&m.data[..]).unwrap();
+            if p.run == "tare" {
+                last_tare = last_tare.max(m.log_time);
+            } else {
+                first_loaded = first_loaded.min(m.log_time);
+            }
+        }
+    }
+    let summary = mcap::Summary::read(bytes).unwrap().expect("a summary");
+    let holding = |t: u64| {
+        summary
+            .chunk_indexes
+            .iter()
+            .filter(|c| c.message_start_time <= t && t <= c.message_end_time)
+            .map(|c| c.chunk_start_offset as usize)
+            .max()
+            .unwrap()
+    };
+    let all = units(bytes).0;
+    let at = |offset: usize| all.iter().position(|u| u.0 == offset).unwrap();
+    let (a, b) = (at(holding(last_tare)), at(holding(first_loaded)));
+    // When one chunk holds both, the loaded run's next chunk goes before it.
+    let (a, b) = if a == b { (a, a + 1) } else { (a, b) };
+    let mut order = all.clone();
+    order.swap(a, b);
+    let path = write("swapped_at_boundary.mcap", &rebuilt(bytes, &order));
+    let (code, stderr, report) = estimate_cli(&path);
+    assert_eq!(code, Some(0), "{stderr}");
+    let report = report.expect("a report");
+    assert_eq!(quantities(&report), quantities(clean_report()));
+}
