@@ -72,3 +72,34 @@ fn surveyed_joints_off_the_symmetric_layout_measure_the_payload() {
         );
     }
 }
+
+/// A rig whose home is not the mid-stroke one (`platform.home_height_m`, as the owner
+/// measures it, 3 cm higher): the simulated world and the estimator both start from it, the
+/// plate's first recorded pose is there, and the payload is measured.
+#[test]
+fn a_measured_home_height_is_where_the_rig_starts_and_measures() {
+    let mid = support::geometry().home_pose().position_m.z;
+    let z = mid + 0.03;
+    let run = simulate_with(
+        &format!("{SHORT}[platform]\nhome_height_m = {z}\n"),
+        |_, _| {},
+    );
+    let log = runlog::LogContents::read(&run.log).unwrap();
+    let first = log.poses.first().expect("the log records the plate's pose");
+    assert!(
+        (first.desired.position_m[2] - z).abs() < 1e-4,
+        "the plate is commanded at z = {} m first, its home is {z} m",
+        first.desired.position_m[2]
+    );
+    let (e, s) = (&run.report.estimate, &run.report.sigma);
+    let truth = run.report.truth.as_ref().expect("a simulation's truth");
+    assert!(
+        (e.mass - truth.mass).abs() < 4.0 * s.mass,
+        "{} vs {}",
+        e.mass,
+        truth.mass
+    );
+    for k in 0..3 {
+        assert!((e.com[k] - truth.com[k]).abs() < 4.0 * s.com[k], "c[{k}]");
+    }
+}

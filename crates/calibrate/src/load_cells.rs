@@ -346,7 +346,7 @@ pub fn fit(
                     let mut p = *setup.geometry.plate_joints_m();
                     let joint = if plate { &mut p[leg] } else { &mut b[leg] };
                     joint[coord] += setup.joint_tolerance_m;
-                    let Ok(built) = Geometry::from_points(b, p, setup.geometry.stroke()) else {
+                    let Ok(built) = setup.geometry.with_joints(b, p) else {
                         continue;
                     };
                     if let Some((xm, _, _)) =

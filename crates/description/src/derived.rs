@@ -28,7 +28,23 @@ pub fn geometry(loaded: &LoadedConfig) -> Result<Geometry, ConfigError> {
             stroke,
         ),
     };
-    built.map_err(|e| ConfigError::single(geometry_issue(loaded, &e)))
+    let built = built.map_err(|e| ConfigError::single(geometry_issue(loaded, &e)))?;
+    match p.home_height_m {
+        None => Ok(built),
+        Some(z) => built.with_home_height_m(z).map_err(|e| {
+            let why = match e {
+                KinematicsError::LegTooShort { .. } | KinematicsError::LegTooLong { .. } => {
+                    format!(
+                        "no leg may leave its stroke at home: {e} (the mid-stroke home is at \
+                         {:.4} m)",
+                        built.home_pose().position_m.z
+                    )
+                }
+                other => format!("the design cannot be moved from a home at {z} m: {other}"),
+            };
+            ConfigError::single(loaded.issue("platform.home_height_m", why))
+        }),
+    }
 }
 
 fn geometry_issue(loaded: &LoadedConfig, e: &KinematicsError) -> ConfigIssue {
@@ -156,6 +172,24 @@ mod tests {
                 "base joint {i} moved {moved} m"
             );
         }
+    }
+
+    #[test]
+    fn a_measured_home_height_is_the_home_and_one_out_of_stroke_is_refused_by_key() {
+        let mid = geometry(&load(None).unwrap()).unwrap();
+        let z = mid.home_pose().position_m.z - 0.05;
+        let text = format!("[platform]\nhome_height_m = {z}\n");
+        let g = geometry(&load_str(&text, "rig.toml").unwrap()).unwrap();
+        assert_eq!(g.home_pose().position_m.z, z);
+        assert!(g.home_is_given());
+        let err = geometry(&load_str("[platform]\nhome_height_m = 3.0\n", "rig.toml").unwrap())
+            .unwrap_err();
+        let issue = &err.issues[0];
+        assert_eq!(issue.key, "platform.home_height_m");
+        assert!(
+            issue.problem.contains("longer") && issue.problem.contains("mid-stroke home"),
+            "{issue}"
+        );
     }
 
     #[test]

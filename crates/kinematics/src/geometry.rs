@@ -40,6 +40,8 @@ pub struct Geometry<T = f64> {
     /// Length that makes torque columns of the Jacobian comparable with force columns.
     characteristic_length_m: T,
     home_height_m: T,
+    /// The home height was given ([`Geometry::with_home_height_m`]), not solved for.
+    home_given: bool,
 }
 
 /// Joints closer than this are treated as coincident, m (8 units in the last place of a
@@ -152,6 +154,7 @@ impl<T: Real> Geometry<T> {
             stroke,
             characteristic_length_m,
             home_height_m: T::zero(),
+            home_given: false,
         };
         geometry.home_height_m = geometry.solve_home_height()?;
         let inverse_condition = geometry
@@ -184,7 +187,49 @@ impl<T: Real> Geometry<T> {
         self.characteristic_length_m
     }
 
-    /// The level, centred pose whose mean leg length is mid-stroke.
+    /// The same design with its home at height `z_m` above B (level and centred), as a rig's
+    /// owner measures it, instead of the pose whose mean leg length is mid-stroke. Refused when
+    /// a leg cannot reach it ([`KinematicsError::LegTooShort`], [`KinematicsError::LegTooLong`])
+    /// or the design is singular there.
+    pub fn with_home_height_m(mut self, z_m: T) -> Result<Self, KinematicsError> {
+        if !z_m.is_finite() {
+            return Err(KinematicsError::NonFinite {
+                what: "home height",
+            });
+        }
+        self.home_height_m = z_m;
+        self.home_given = true;
+        self.check_reachable(&self.home_pose())?;
+        let inverse_condition = self.inverse_condition_number(&self.home_pose()).to_f64();
+        if inverse_condition.is_nan() || inverse_condition < SINGULARITY_THRESHOLD {
+            return Err(KinematicsError::ArchitecturallySingular { inverse_condition });
+        }
+        Ok(self)
+    }
+
+    /// The same design with its joints at `base_joints_m` and `plate_joints_m` (a survey's,
+    /// or the built rig's): the stroke kept, and the home height when it was given, else
+    /// solved again.
+    pub fn with_joints(
+        &self,
+        base_joints_m: [Vector3<T>; LEG_COUNT],
+        plate_joints_m: [Vector3<T>; LEG_COUNT],
+    ) -> Result<Self, KinematicsError> {
+        let g = Self::from_points(base_joints_m, plate_joints_m, self.stroke)?;
+        if self.home_given {
+            g.with_home_height_m(self.home_height_m)
+        } else {
+            Ok(g)
+        }
+    }
+
+    /// Whether the home height was given ([`Geometry::with_home_height_m`]).
+    pub fn home_is_given(&self) -> bool {
+        self.home_given
+    }
+
+    /// The home pose: level and centred, at the given height ([`Geometry::with_home_height_m`])
+    /// or else at the one whose mean leg length is mid-stroke.
     pub fn home_pose(&self) -> Pose<T> {
         Pose::new(
             Vector3::new(T::zero(), T::zero(), self.home_height_m),
@@ -228,15 +273,20 @@ impl<T: Real> Geometry<T> {
     }
 
     /// The same design in another precision: the joints and the stroke converted (rounded to
-    /// nearest into f32), the home height and the conditioning recomputed in `U`.
+    /// nearest into f32), the home height (unless given) and the conditioning recomputed in `U`.
     pub fn cast<U: Real>(&self) -> Result<Geometry<U>, KinematicsError> {
         let convert =
             |joints: &[Vector3<T>; LEG_COUNT]| joints.map(|p| p.map(|v| U::lit(v.to_f64())));
-        Geometry::from_points(
+        let g = Geometry::from_points(
             convert(&self.base_joints_m),
             convert(&self.plate_joints_m),
             self.stroke.cast(),
-        )
+        )?;
+        if self.home_given {
+            g.with_home_height_m(U::lit(self.home_height_m.to_f64()))
+        } else {
+            Ok(g)
+        }
     }
 }
 
@@ -304,6 +354,34 @@ mod tests {
         for l in lengths.iter() {
             assert!((l - 1.9).abs() < 1e-12, "leg length {l}");
         }
+    }
+
+    #[test]
+    fn a_given_home_height_is_the_home_and_one_out_of_stroke_is_refused() {
+        let solved = Geometry::from_radii(1.5, 1.2, 0.35, 0.35, stroke()).unwrap();
+        let z = solved.home_pose().position_m.z + 0.1;
+        let given = solved.with_home_height_m(z).unwrap();
+        assert!(given.home_is_given() && !solved.home_is_given());
+        assert_eq!(given.home_pose().position_m, Vector3::new(0.0, 0.0, z));
+        // 10 cm higher: every leg longer than mid-stroke, within the stroke.
+        for l in given.leg_lengths(&given.home_pose()).iter() {
+            assert!(*l > 1.9 && *l < 2.3, "leg length {l}");
+        }
+        // The f32 design keeps the given home.
+        let single = given.cast::<f32>().unwrap();
+        assert!((f64::from(single.home_pose().position_m.z) - z).abs() < 1e-6);
+        assert!(matches!(
+            solved.with_home_height_m(z + 1.0),
+            Err(KinematicsError::LegTooLong { .. })
+        ));
+        assert!(matches!(
+            solved.with_home_height_m(0.2),
+            Err(KinematicsError::LegTooShort { .. })
+        ));
+        assert!(matches!(
+            solved.with_home_height_m(f64::NAN),
+            Err(KinematicsError::NonFinite { .. })
+        ));
     }
 
     #[test]

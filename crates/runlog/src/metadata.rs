@@ -47,6 +47,10 @@ pub struct RunMetadata {
     pub plate_joints_m: [[f64; 3]; 6],
     /// Shortest and longest leg, m.
     pub stroke_m: [f64; 2],
+    /// The home pose's height when the rig description gives it (`platform.home_height_m`),
+    /// m; `null`: the height whose mean leg length is mid-stroke.
+    #[serde(default)]
+    pub home_height_m: Option<f64>,
     /// The IMU calibration the measurement applied, as its file's TOML (`null`: none), so that
     /// `stewart estimate` re-runs it without the file.
     #[serde(default)]
@@ -88,6 +92,9 @@ impl RunMetadata {
             base_joints_m,
             plate_joints_m,
             stroke_m: [stroke.min_length_m, stroke.max_length_m],
+            home_height_m: geometry
+                .home_is_given()
+                .then_some(geometry.home_pose().position_m.z),
             imu_calibration_toml: config.calibration.imu_file.as_ref().map(|f| f.to_toml()),
             load_cell_calibration_toml: config
                 .calibration
@@ -157,6 +164,10 @@ impl RunMetadata {
                 ("base_joints_m", joints("base joints in B, m")),
                 ("plate_joints_m", joints("plate joints in P, m")),
                 ("stroke_m", numbers(2, "shortest and longest leg, m")),
+                (
+                    "home_height_m",
+                    nullable(num("the home height given, m (null: mid-stroke)")),
+                ),
                 (
                     "imu_calibration_toml",
                     nullable(string("the IMU calibration applied, as its file's TOML")),

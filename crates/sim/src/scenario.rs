@@ -276,7 +276,7 @@ impl Scenario {
         };
         let base = moved(described.base_joints_m());
         let plate = moved(described.plate_joints_m());
-        kinematics::Geometry::from_points(base, plate, described.stroke()).map_err(|e| {
+        described.with_joints(base, plate).map_err(|e| {
             ConfigError::single(self.loaded.issue(
                 "platform.joint_position_tolerance_m",
                 format!(

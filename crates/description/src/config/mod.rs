@@ -19,7 +19,7 @@ mod certificate;
 mod vehicle;
 
 pub use calibration::CalibrationConfig;
-pub use certificate::CertificateConfig;
+pub use certificate::{CertificateConfig, Nominal};
 pub use vehicle::{VehicleConfig, VehicleConvention, WheelContacts, WheelFrame, WheelProblem};
 
 /// The rig description: the machine, its sensors' datasheets, the controller, the excitation,
@@ -305,6 +305,10 @@ pub struct PlatformConfig {
     pub min_leg_length_m: f64,
     /// Longest leg, metres.
     pub max_leg_length_m: f64,
+    /// The home pose's height: P's origin above B's, metres, the plate level and centred, as
+    /// the rig's owner measures it (omitted: the height whose mean leg length is mid-stroke).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub home_height_m: Option<f64>,
     /// How far each built joint centre may lie from where this table puts it, one standard
     /// deviation per coordinate, metres (0: built exactly).
     #[serde(default)]

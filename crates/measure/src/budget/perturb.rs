@@ -481,7 +481,7 @@ fn joint_change(
     } else {
         b[leg][coord] += sigma;
     }
-    let Ok(built) = Geometry::from_points(b, p, g.stroke()) else {
+    let Ok(built) = g.with_joints(b, p) else {
         return zero;
     };
     let gain_change = ctx
@@ -527,7 +527,7 @@ pub fn moved_poses(
         b.get_mut(leg)?
     };
     *joint.get_mut(coord)? += delta_m;
-    let built = Geometry::from_points(b, p, geometry.stroke()).ok()?;
+    let built = geometry.with_joints(b, p).ok()?;
     poses
         .iter()
         .map(|pose| {

@@ -486,7 +486,7 @@ impl Weigher {
             let mut p = *self.geometry.plate_joints_m();
             let joints = if plate { &mut p } else { &mut b };
             joints[leg][coord] += tol;
-            Geometry::from_points(b, p, self.geometry.stroke()).ok()
+            self.geometry.with_joints(b, p).ok()
         };
         let (Some(moved), Some(built)) = (moved, built) else {
             return [0.0; 3];

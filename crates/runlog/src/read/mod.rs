@@ -683,14 +683,18 @@ impl LogContents {
 /// The platform design recorded in a log's metadata.
 pub fn geometry_of(m: &RunMetadata) -> Result<kinematics::Geometry> {
     let v = |p: &[f64; 3]| nalgebra::Vector3::new(p[0], p[1], p[2]);
-    kinematics::Geometry::from_points(
+    let g = kinematics::Geometry::from_points(
         m.base_joints_m.each_ref().map(v),
         m.plate_joints_m.each_ref().map(v),
         kinematics::StrokeLimits {
             min_length_m: m.stroke_m[0],
             max_length_m: m.stroke_m[1],
         },
-    )
+    );
+    match m.home_height_m {
+        Some(z) => g.and_then(|g| g.with_home_height_m(z)),
+        None => g,
+    }
     .map_err(|e| anyhow::anyhow!("the log's platform design is refused: {e}"))
 }
 
