@@ -18,6 +18,11 @@ const INERTIA_V: [[f64; 3]; 3] = [
     [60.0, -15.0, 2700.0],
 ];
 
+/// Nominal values for the statements of conformity, in V.
+const NOMINAL: &str = "[[certificate.nominal]]\nquantity = \"com x\"\nvalue = 0.15\n\
+    tolerance = 0.01\n[[certificate.nominal]]\nquantity = \"com z\"\nvalue = 0.45\n\
+    tolerance = 0.01\n";
+
 fn toml_matrix(m: &Matrix3<f64>) -> String {
     let row = |i: usize| format!("[{}, {}, {}]", m[(i, 0)], m[(i, 1)], m[(i, 2)]);
     format!("[{}, {}, {}]", row(0), row(1), row(2))
@@ -111,7 +116,7 @@ fn a_vehicle_placed_by_its_wheels_contact_points_is_measured_in_its_own_frame() 
     };
     let scenario = format!(
         "{world}\n[vehicle]\nwheel_tolerance_m = 0.001\n[vehicle.wheels_m]\n\
-         front_left = {}\nfront_right = {}\nrear_left = {}\nrear_right = {}\n",
+         front_left = {}\nfront_right = {}\nrear_left = {}\nrear_right = {}\n{NOMINAL}",
         contact(0.0, 0.78),
         contact(0.0, -0.78),
         contact(-2.6, 0.76),
@@ -135,6 +140,24 @@ fn a_vehicle_placed_by_its_wheels_contact_points_is_measured_in_its_own_frame() 
         let line = v.placement_sigma.com[k];
         assert!((2e-4..2e-3).contains(&line), "{:?}", v.placement_sigma);
     }
+    // The statements of conformity are made in V: c_x 0.15 m is within 0.15 ± 0.01 m, c_z
+    // 0.5 m is not within 0.45 ± 0.01 m.
+    let verdicts: Vec<_> = sim
+        .report
+        .conformity
+        .iter()
+        .map(|c| (c.quantity.as_str(), c.verdict))
+        .collect();
+    use rig_description::quantities::Verdict;
+    assert_eq!(
+        verdicts,
+        [
+            ("com x", Verdict::Conforms),
+            ("com z", Verdict::DoesNotConform)
+        ],
+        "{:?}",
+        sim.report.conformity
+    );
     let (axle, side) = (v.axle_loads.unwrap(), v.side_loads.unwrap());
     let front = MASS_KG * (2.6 + COM_V_M[0]) / 2.6;
     let left = MASS_KG * (0.5 + COM_V_M[1] / 1.54);

@@ -218,7 +218,43 @@ fn results(s: &mut String, r: &Report) {
     } else {
         String::new()
     };
-    let _ = writeln!(s, "<p>{verdict}{projected}</p></section>");
+    let _ = write!(s, "<p>{verdict}{projected}</p>");
+    conformity(s, r);
+    s.push_str("</section>\n");
+}
+
+/// The statements of conformity with the rig description's nominal values, with the decision
+/// rule (ISO/IEC 17025 §7.8.6), when it gives any.
+fn conformity(s: &mut String, r: &Report) {
+    if r.conformity.is_empty() {
+        return;
+    }
+    let frame = if r.vehicle.is_some() {
+        "the vehicle frame"
+    } else {
+        "the plate frame P"
+    };
+    let _ = write!(
+        s,
+        "<h3>Statement of conformity</h3><p class=\"statement\">Against the nominal values \
+         the customer gave, in {frame}. Decision rule: {}.</p><table class=\"conformity\">\
+         <tr><th>quantity</th><th>nominal</th><th>tolerance ±</th><th>measured</th><th>U</th>\
+         <th>statement</th></tr>",
+        esc(rig_description::quantities::DECISION_RULE)
+    );
+    for c in &r.conformity {
+        let (measured, u) = crate::format::rounded(c.measured, c.expanded_uncertainty);
+        let _ = write!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{measured}</td><td>{u}</td>\
+             <td class=\"verdict\">{}</td></tr>",
+            esc(&c.quantity),
+            crate::format::significant(c.nominal, 6),
+            crate::format::significant(c.tolerance, 3),
+            esc(c.verdict.describe())
+        );
+    }
+    s.push_str("</table>");
 }
 
 /// `text` with its first letter in capitals.
@@ -765,7 +801,7 @@ fn rig(s: &mut String, input: &Input, cx: &Context<'_>) {
     } else {
         s.push_str(
             "<table class=\"calibrations\"><tr><th>calibration</th><th>taken</th><th>from</th>\
-             <th>fitted by</th></tr>",
+             <th>fitted by</th><th>SHA-256 (as applied)</th></tr>",
         );
         for c in calibrations {
             let kind = match c.kind.as_str() {
@@ -773,12 +809,18 @@ fn rig(s: &mut String, input: &Input, cx: &Context<'_>) {
                 "load_cells" => "load-cell gains (reference mass)",
                 other => other,
             };
+            let digest = if c.sha256.is_empty() {
+                "not recorded in the report"
+            } else {
+                c.sha256.as_str()
+            };
             s.push_str(&format!(
-                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td class=\"digest\">{}</td></tr>",
                 esc(kind),
                 esc(&c.calibrated_utc),
                 esc(&c.source),
-                esc(&c.tool)
+                esc(&c.tool),
+                esc(digest)
             ));
         }
         s.push_str(

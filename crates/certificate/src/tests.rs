@@ -138,6 +138,7 @@ fn the_page_lists_the_applied_calibrations_with_their_dates() {
         source: "cal/<imu>.toml".into(),
         calibrated_utc: "2026-11-18T11:06:40Z".into(),
         tool: "stewart 9.9.8".into(),
+        sha256: "5e".repeat(32),
     }];
     let html = render(&parse(&r.to_json()).unwrap(), &context());
     assert!(!html.contains("None applied"));
@@ -147,6 +148,7 @@ fn the_page_lists_the_applied_calibrations_with_their_dates() {
         "cal/&lt;imu&gt;.toml",
         "stewart 9.9.8",
         "stewart 9.9.9",
+        &"5e".repeat(32),
     ] {
         assert!(html.contains(text), "{text} not on the page");
     }
@@ -272,6 +274,7 @@ fn the_page_identifies_the_measurement_the_rig_and_the_files() {
         operator: Some("J. Doe".into()),
         rig_id: Some("hexapod 2".into()),
         rig_serial: None,
+        nominal: Vec::new(),
     };
     r.run.local_gravity_m_s2 = Some(9.80912);
     r.run.description_sha256 = Some("ab".repeat(32));
@@ -299,4 +302,41 @@ fn the_page_identifies_the_measurement_the_rig_and_the_files() {
         "{}",
         &html[serial..serial + 80]
     );
+}
+
+#[test]
+fn nominal_values_get_a_statement_of_conformity_with_its_rule() {
+    use rig_description::quantities::{Conformity, Verdict};
+    let mut r = report();
+    let plain = render(&parse(&r.to_json()).unwrap(), &context());
+    assert!(!plain.contains("Statement of conformity"));
+    r.conformity = vec![
+        Conformity {
+            quantity: "mass".into(),
+            nominal: 1500.0,
+            tolerance: 5.0,
+            measured: 1498.86,
+            expanded_uncertainty: 0.64,
+            verdict: Verdict::Conforms,
+        },
+        Conformity {
+            quantity: "com z".into(),
+            nominal: 0.45,
+            tolerance: 0.01,
+            measured: 0.5013,
+            expanded_uncertainty: 0.0004,
+            verdict: Verdict::DoesNotConform,
+        },
+    ];
+    let html = render(&parse(&r.to_json()).unwrap(), &context());
+    for text in [
+        "Statement of conformity",
+        "guarded acceptance",
+        "conforms",
+        "does not conform",
+        "com z",
+        "the plate frame P",
+    ] {
+        assert!(html.contains(text), "{text} not on the page");
+    }
 }

@@ -139,6 +139,18 @@ pub fn render(report: &Report) -> String {
     if let Some(line) = projection_line(&report.consistency) {
         let _ = writeln!(out, "{line}");
     }
+    for c in &report.conformity {
+        let _ = writeln!(
+            out,
+            "conformity: {} {:.6} ± U {:.3e} against {} ± {}: {} (guarded acceptance, U = 2σ)",
+            c.quantity,
+            c.measured,
+            c.expanded_uncertainty,
+            c.nominal,
+            c.tolerance,
+            c.verdict.describe()
+        );
+    }
     if let Some((name, nu)) = measure::quality::heavy_tailed(
         &Quantities::NAMES,
         &report.covariance_basis.loaded_degrees_of_freedom,

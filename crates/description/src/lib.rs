@@ -11,6 +11,7 @@
 //! - [`link`]: the `[rig]` table and the rig address syntax.
 //! - [`calibration`]: the dated calibration files a description applies.
 //! - [`derived`]: what follows from it: the platform's geometry, the accelerometer's position.
+//! - [`digest`]: the SHA-256 a report gives of the description and its calibrations.
 //! - [`sources`]: a real rig's error sources, named once; [`quantities`]: the ten reported
 //!   quantities; [`calendar`]: the UTC date of a Unix time, for stamps.
 #![warn(missing_docs)]
@@ -20,6 +21,7 @@ pub mod calendar;
 pub mod calibration;
 pub mod config;
 pub mod derived;
+pub mod digest;
 pub mod link;
 pub mod load;
 pub mod quantities;

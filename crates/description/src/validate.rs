@@ -388,6 +388,23 @@ pub fn validate(config: &Config) -> Vec<(String, String)> {
     );
     p.finite3("sensors.imu.position_m", &s.imu.position_m, 10.0);
     p.finite3("sensors.imu.orientation_deg", &s.imu.orientation_deg, 180.0);
+    for (k, n) in config.certificate.nominal.iter().enumerate() {
+        let key = |field: &str| format!("certificate.nominal[{k}].{field}");
+        if !crate::quantities::Quantities::NAMES.contains(&n.quantity.as_str()) {
+            p.push(
+                key("quantity"),
+                format!(
+                    "unknown quantity {:?}: one of {}",
+                    n.quantity,
+                    crate::quantities::Quantities::NAMES.join(", ")
+                ),
+            );
+        }
+        if !n.value.is_finite() {
+            p.push(key("value"), format!("must be finite, got {}", n.value));
+        }
+        p.positive(&key("tolerance"), n.tolerance);
+    }
     if let Some(v) = &config.vehicle {
         vehicle(&mut p, v);
     }

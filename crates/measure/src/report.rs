@@ -94,14 +94,7 @@ pub fn description_sha256(config: &rig_description::Config) -> String {
     sha256_hex(&toml::to_string(config).unwrap_or_default())
 }
 
-/// SHA-256 of `text`'s UTF-8 bytes, lower-case hex.
-pub fn sha256_hex(text: &str) -> String {
-    use sha2::Digest as _;
-    sha2::Sha256::digest(text.as_bytes())
-        .iter()
-        .map(|b| format!("{b:02x}"))
-        .collect()
-}
+pub use rig_description::digest::sha256_hex;
 
 /// How the run was made (enough to repeat it).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -314,6 +307,11 @@ pub struct Report {
     /// places it (`[vehicle]`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub vehicle: Option<crate::vehicle::VehicleResults>,
+    /// Conformity with each `[[certificate.nominal]]` value of the rig description, in the
+    /// frame the results lead with (the vehicle's when given), by
+    /// [`rig_description::quantities::DECISION_RULE`].
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub conformity: Vec<rig_description::quantities::Conformity>,
 }
 
 impl Report {
@@ -542,10 +540,19 @@ pub fn build(i: &ReportInputs<'_>) -> Report {
                 .map(|(t, at)| at.quantities(&t));
             Some(r)
         });
+    let estimate = quantities(&reported);
+    let sigma = sigmas(&payload);
+    let conformity = i.description.map_or(Vec::new(), |d| {
+        let (e, s) = vehicle
+            .as_ref()
+            .map_or((&estimate, &sigma), |v| (&v.estimate, &v.sigma));
+        rig_description::quantities::conformity(&d.certificate.nominal, e, s)
+    });
     Report {
         vehicle,
-        estimate: quantities(&reported),
-        sigma: sigmas(&payload),
+        conformity,
+        estimate,
+        sigma,
         truth: i.truth,
         principal: principal_of(&reported),
         samples: i.loaded.counts.used,

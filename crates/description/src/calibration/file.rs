@@ -242,6 +242,27 @@ mod tests {
         assert!((back.provenance.age_days(1_795_000_000 + 10 * 86_400) - 10.0).abs() < 1e-12);
     }
 
+    /// The report's hash of an applied calibration is the SHA-256 of the TOML the log
+    /// records, and the same after the log's copy is read back (a re-estimate hashes what
+    /// the online run hashed).
+    #[test]
+    fn an_applied_calibrations_hash_is_its_logged_texts_and_survives_the_log() {
+        let file = CalibrationFile::new(alignment(), 1_795_000_000, "car.toml", "sim");
+        let mut c = crate::load::load(None).unwrap().config.calibration;
+        c.imu = Some("imu.toml".into());
+        c.imu_file = Some(file.clone());
+        let applied = c.applied();
+        assert_eq!(applied.len(), 1);
+        assert_eq!(
+            applied[0].sha256,
+            crate::digest::sha256_hex(&file.to_toml())
+        );
+        assert_eq!(applied[0].calibrated_utc, "2026-11-18T11:06:40Z");
+        let back = CalibrationFile::parse(&file.to_toml(), "the log's IMU calibration").unwrap();
+        c.imu_file = Some(back);
+        assert_eq!(c.applied()[0].sha256, applied[0].sha256);
+    }
+
     #[test]
     fn a_damaged_or_foreign_file_is_refused_with_the_reason() {
         let dir = tempfile::tempdir().unwrap();

@@ -28,6 +28,10 @@ pub struct AppliedCalibration {
     pub calibrated_utc: String,
     /// The tool that fitted it.
     pub tool: String,
+    /// SHA-256 of the calibration as applied: its file's TOML as the log records it
+    /// (`run_metadata.imu_calibration_toml`, `load_cell_calibration_toml`).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub sha256: String,
 }
 
 /// This tool and its version, as reports and calibration files name it.

@@ -93,14 +93,26 @@ impl CalibrationConfig {
     /// The calibrations applied, for the report: what each calibrates, its source, when its
     /// data were taken and what fitted it.
     pub fn applied(&self) -> Vec<crate::calibration::AppliedCalibration> {
+        use crate::calibration::CalibrationDocument as _;
+        // The texts the log records, in the order of `files`.
+        let texts = [
+            self.imu
+                .as_ref()
+                .and(self.imu_file.as_ref().map(|f| f.to_toml())),
+            self.load_cells
+                .as_ref()
+                .and(self.load_cells_file.as_ref().map(|f| f.to_toml())),
+        ];
         self.files()
             .into_iter()
+            .zip(texts.into_iter().flatten())
             .map(
-                |(kind, source, p, _)| crate::calibration::AppliedCalibration {
+                |((kind, source, p, _), text)| crate::calibration::AppliedCalibration {
                     kind: kind.into(),
                     source: source.clone(),
                     calibrated_utc: p.calibrated_utc.clone(),
                     tool: p.tool.clone(),
+                    sha256: crate::digest::sha256_hex(&text),
                 },
             )
             .collect()

@@ -2,11 +2,15 @@
 //! certificate of measurement states them (ISO/IEC 17025 §7.8.2: the customer, the item, the
 //! certificate's unique identification, the person authorising it, the equipment). Every key
 //! is optional; the page says "not given" for a missing one.
+//!
+//! `[[certificate.nominal]]` entries give values the item should have, each with its
+//! tolerance; the report then states conformity with each (ISO/IEC 17025 §7.8.6), by the
+//! guarded-acceptance decision rule of [`crate::quantities::conformity`].
 
 use serde::{Deserialize, Serialize};
 
 /// `[certificate]`: the measurement's and the rig's identification.
-#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CertificateConfig {
     /// The certificate's number (unique in the lab's register).
@@ -27,6 +31,23 @@ pub struct CertificateConfig {
     /// The rig's serial number.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rig_serial: Option<String>,
+    /// Values the item should have, each with its tolerance.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub nominal: Vec<Nominal>,
+}
+
+/// `[[certificate.nominal]]`: a value the item should have and the tolerance around it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Nominal {
+    /// The quantity as the report names it ([`crate::quantities::Quantities::NAMES`]: `mass`,
+    /// `com x` … `com z`, `J_C xx` … `J_C yz`), in the frame the results lead with: the
+    /// vehicle's when `[vehicle]` is given, else P.
+    pub quantity: String,
+    /// The nominal value, SI (kg, m, kg·m²).
+    pub value: f64,
+    /// The tolerance: the item conforms when its value lies within value ± tolerance.
+    pub tolerance: f64,
 }
 
 impl CertificateConfig {
