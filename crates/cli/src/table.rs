@@ -140,12 +140,12 @@ pub fn render(report: &Report) -> String {
         let _ = writeln!(out, "{line}");
     }
     for c in &report.conformity {
+        let (measured, u) =
+            inertial_certificate::format::rounded(c.measured, c.expanded_uncertainty);
         let _ = writeln!(
             out,
-            "conformity: {} {:.6} ± U {:.3e} against {} ± {}: {} (guarded acceptance, U = 2σ)",
+            "conformity: {} {measured} (U {u}) against {} ± {}: {} (guarded acceptance, U = 2σ)",
             c.quantity,
-            c.measured,
-            c.expanded_uncertainty,
             c.nominal,
             c.tolerance,
             c.verdict.describe()

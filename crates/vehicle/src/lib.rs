@@ -317,7 +317,15 @@ pub fn results(
         rotation: Rotation3::from_matrix_unchecked(iso),
     }
     .rpy();
-    let orientation_deg = [roll, pitch, yaw].map(f64::to_degrees);
+    // Angles below the printed precision are zero, not −0.000°.
+    let orientation_deg = [roll, pitch, yaw].map(|a| {
+        let d = a.to_degrees();
+        if d.abs() < 5e-10 {
+            0.0
+        } else {
+            d
+        }
+    });
     let origin = placement.origin_m;
     let measured_as = match &v.wheels_m {
         Some(_) => format!(

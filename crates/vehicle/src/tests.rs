@@ -226,3 +226,29 @@ fn the_wheels_contact_points_place_the_car_as_its_frame_does() {
     let axle = one.axle_loads.unwrap();
     assert!(axle.sigma_kg[0] > sb.sigma_kg[0], "{axle:?} vs {sb:?}");
 }
+
+/// Four level wheels along P's axes give a frame turned by nothing: the frame in words says
+/// 0.000°, not the −0.000° the rounding noise of the axes printed.
+#[test]
+fn level_wheels_along_p_print_no_negative_zero() {
+    let v = VehicleConfig {
+        origin_m: None,
+        orientation_deg: None,
+        origin_tolerance_m: None,
+        orientation_tolerance_deg: None,
+        wheels_m: Some(WheelContacts {
+            front_left: [0.3, 0.75, 0.2],
+            front_right: [0.3, -0.75, 0.2],
+            rear_left: [-2.3, 0.75, 0.2],
+            rear_right: [-2.3, -0.75, 0.2],
+        }),
+        wheel_tolerance_m: Some(0.001),
+        wheelbase_m: None,
+        track_m: None,
+        ..placement(VehicleConvention::Iso8855)
+    };
+    let theta = of_points(&car());
+    let r = results(&v, &theta, &ParameterCovariance::zeros()).unwrap();
+    assert!(!r.frame.contains("-0.000"), "{}", r.frame);
+    assert_eq!(r.orientation_in_p_deg, [0.0; 3]);
+}
